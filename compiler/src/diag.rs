@@ -1,0 +1,293 @@
+//! Diagnostics: values with a stable code, a primary span, labels and notes.
+//!
+//! Every pass reports through a [`Diagnostics`] sink; nothing is printed until the driver
+//! decides how (codespan-reporting for people, one JSON object per line for tools).
+
+use crate::source::{SourceMap, Span};
+use codespan_reporting::diagnostic as cs;
+use serde::Serialize;
+
+macro_rules! codes {
+    ($($variant:ident = $code:literal, $severity:ident, $title:literal;)*) => {
+        /// Stable diagnostic codes. The catalogue in `docs/reference.md` lists each one.
+        #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+        pub enum Code { $($variant),* }
+
+        impl Code {
+            /// Every code, in catalogue order.
+            pub const ALL: &'static [Code] = &[$(Code::$variant),*];
+
+            /// The code as printed: `E0104`, `W0001`.
+            pub fn as_str(self) -> &'static str {
+                match self { $(Code::$variant => $code),* }
+            }
+
+            /// A one-line meaning.
+            pub fn title(self) -> &'static str {
+                match self { $(Code::$variant => $title),* }
+            }
+
+            /// The severity diagnostics with this code have.
+            pub fn severity(self) -> Severity {
+                match self { $(Code::$variant => Severity::$severity),* }
+            }
+        }
+    };
+}
+
+codes! {
+    // Lexical and syntax.
+    InvalidCharacter = "E0101", Error, "a character that is not part of VRS";
+    UnterminatedComment = "E0102", Error, "a block comment is never closed";
+    InvalidLiteral = "E0103", Error, "a malformed or out-of-range number literal";
+    Syntax = "E0104", Error, "the parser expected something else here";
+    TooDeep = "E0105", Error, "brackets or expressions nested deeper than the compiler allows";
+    DeclarationAfterStatement = "E0106", Error, "a declaration after the first statement of a pipeline function";
+    UnknownAttribute = "E0107", Error, "an attribute other than `@ray`";
+    // Modules and names.
+    ImportNotFound = "E0201", Error, "an imported file cannot be read, or a standard module does not exist";
+    ImportCycle = "E0202", Error, "modules import each other in a cycle";
+    Duplicate = "E0203", Error, "a name is defined twice in one scope";
+    UnknownName = "E0204", Error, "a name that is not a local, parameter, constant or declared uniform";
+    UnknownFunction = "E0205", Error, "a call to a function that is neither built in nor defined";
+    UnknownType = "E0206", Error, "a type name that VRS does not know";
+    // Types.
+    TypeMismatch = "E0301", Error, "a value of one type where another is required";
+    InvalidOperands = "E0302", Error, "an operator applied to types it does not accept";
+    ArgumentCount = "E0303", Error, "a call with the wrong number of arguments";
+    NoOverload = "E0304", Error, "no overload of a built-in accepts these argument types";
+    InvalidMember = "E0305", Error, "a swizzle or member that the type does not have";
+    InvalidIndex = "E0306", Error, "indexing a value that cannot be indexed, or with a non-integer";
+    ResourceMisuse = "E0307", Error, "a `volume` or `tf` where only plain values may go";
+    NotAssignable = "E0308", Error, "an assignment to something that cannot change";
+    LiteralOutOfRange = "E0309", Error, "a literal that does not fit the type its context gives it";
+    ConditionNotBool = "E0310", Error, "a condition that is not `bool`";
+    RangeNotInteger = "E0311", Error, "a `for` range whose bounds are not both i32 or both u32";
+    InvalidConstructor = "E0312", Error, "a type constructor with arguments it does not accept";
+    // Functions.
+    MissingReturn = "E0401", Error, "a library function can end without returning a value";
+    Recursion = "E0402", Error, "a library function calls itself, directly or through others";
+    ReturnMismatch = "E0403", Error, "`return e;` in a pipeline function, or `return;` in a library function";
+    BreakOutsideLoop = "E0404", Error, "`break` or `continue` outside a `for` loop";
+    ImpureLibrary = "E0405", Error, "a library function reads state or uniforms";
+    // Declarations of pipeline functions.
+    UndeclaredState = "E0501", Error, "`state.F` without a `state F` declaration";
+    UndeclaredUniform = "E0502", Error, "a pipeline function reads a name it has not declared as a uniform";
+    UndeclaredLibrary = "E0503", Error, "a call to a library function missing from the `use` list";
+    StateConflict = "E0504", Error, "declarations of one state field disagree on type or lifetime";
+    DefaultConflict = "E0505", Error, "declarations of one field or uniform give different defaults";
+    UniformConflict = "E0506", Error, "declarations of one uniform disagree on type";
+    NotConstant = "E0507", Error, "a default, range or `const` that is not a constant expression";
+    ConstEvalFailed = "E0508", Error, "constant evaluation overflows or divides by zero";
+    UnknownLibrary = "E0509", Error, "`use` names a library function that is not in scope";
+    // Placement and composition.
+    UnknownStep = "E0601", Error, "a step path that names no pipeline step";
+    GroupNotAllowed = "E0602", Error, "a group name alone with `in`, `replace` or `remove`";
+    UnknownSubstep = "E0603", Error, "a placement on a substep that does not exist";
+    DoubleReplace = "E0604", Error, "a second `replace` of a substep that was already replaced";
+    NoDefault = "E0605", Error, "a state field that no declaration gives a default";
+    UninstantiatedTemplate = "E0606", Error, "a template module used without instances";
+    InvalidInstance = "E0607", Error, "an instance name that is not an identifier";
+    // Internal.
+    Internal = "E0901", Error, "a compiler bug: the generated IR did not validate";
+    // Warnings.
+    UnusedUse = "W0001", Warning, "a `use` of a library function the body never calls";
+    UnusedUniform = "W0002", Warning, "a uniform declared but never read";
+    UnusedState = "W0003", Warning, "a state field declared but never used";
+    ReadBeforeWrite = "W0004", Warning, "a field read before any active function writes it (it sees its default)";
+    WrittenNeverRead = "W0005", Warning, "a field written that no active function reads";
+    UnreachableCode = "W0006", Warning, "statements after `return`, `break` or `continue`";
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Severity {
+    Error,
+    Warning,
+}
+
+/// One diagnostic. Build with [`Diagnostic::new`] and the `with_*` methods.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Diagnostic {
+    pub code: Code,
+    pub severity: Severity,
+    pub message: String,
+    pub span: Span,
+    /// Text under the primary span.
+    pub label: String,
+    /// Secondary spans with their labels (an earlier declaration, the instance, ...).
+    pub secondary: Vec<(Span, String)>,
+    /// Plain notes and help lines, shown after the snippet.
+    pub notes: Vec<String>,
+}
+
+impl Diagnostic {
+    pub fn new(code: Code, span: Span, message: impl Into<String>) -> Diagnostic {
+        Diagnostic {
+            code,
+            severity: code.severity(),
+            message: message.into(),
+            span,
+            label: String::new(),
+            secondary: Vec::new(),
+            notes: Vec::new(),
+        }
+    }
+
+    pub fn with_label(mut self, label: impl Into<String>) -> Self {
+        self.label = label.into();
+        self
+    }
+
+    pub fn with_secondary(mut self, span: Span, label: impl Into<String>) -> Self {
+        self.secondary.push((span, label.into()));
+        self
+    }
+
+    pub fn with_note(mut self, note: impl Into<String>) -> Self {
+        self.notes.push(note.into());
+        self
+    }
+
+    /// A `help:` note proposing a fix.
+    pub fn with_help(mut self, help: impl Into<String>) -> Self {
+        self.notes.push(format!("help: {}", help.into()));
+        self
+    }
+
+    pub fn is_error(&self) -> bool {
+        self.severity == Severity::Error
+    }
+}
+
+/// Collects diagnostics from every pass.
+#[derive(Debug, Default)]
+pub struct Diagnostics {
+    list: Vec<Diagnostic>,
+}
+
+impl Diagnostics {
+    pub fn new() -> Diagnostics {
+        Diagnostics::default()
+    }
+
+    pub fn push(&mut self, d: Diagnostic) {
+        self.list.push(d);
+    }
+
+    /// Shorthand for `push(Diagnostic::new(...))`, returning the diagnostic for chaining.
+    pub fn report(&mut self, code: Code, span: Span, message: impl Into<String>) -> &mut Diagnostic {
+        self.list.push(Diagnostic::new(code, span, message));
+        self.list.last_mut().expect("just pushed")
+    }
+
+    pub fn has_errors(&self) -> bool {
+        self.list.iter().any(Diagnostic::is_error)
+    }
+
+    pub fn error_count(&self) -> usize {
+        self.list.iter().filter(|d| d.is_error()).count()
+    }
+
+    pub fn iter(&self) -> impl Iterator<Item = &Diagnostic> {
+        self.list.iter()
+    }
+
+    pub fn len(&self) -> usize {
+        self.list.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.list.is_empty()
+    }
+
+    pub fn extend(&mut self, other: Diagnostics) {
+        self.list.extend(other.list);
+    }
+
+    /// Sorted by file position, then code, so output is stable whatever order passes ran in.
+    pub fn into_sorted(mut self) -> Vec<Diagnostic> {
+        self.list.sort_by(|a, b| (a.span.start, a.code, &a.message).cmp(&(b.span.start, b.code, &b.message)));
+        self.list.dedup();
+        self.list
+    }
+}
+
+/// The JSON shape of section 10 of the language spec.
+#[derive(Serialize)]
+pub struct JsonDiagnostic<'a> {
+    pub severity: Severity,
+    pub code: &'a str,
+    pub message: &'a str,
+    pub file: String,
+    pub line: usize,
+    pub column: usize,
+    pub end_line: usize,
+    pub end_column: usize,
+    pub notes: Vec<String>,
+}
+
+impl Diagnostic {
+    /// The JSON object for `--message-format json` (1-based lines and columns).
+    pub fn to_json(&self, sources: &SourceMap) -> JsonDiagnostic<'_> {
+        let start = sources.position(self.span.start);
+        let end = sources.position(self.span.end);
+        let file = start.map(|(id, _)| sources.file(id).name.clone()).unwrap_or_default();
+        let (line, column) = start.map_or((0, 0), |(_, p)| (p.line, p.column));
+        let (end_line, end_column) = end.map_or((line, column), |(_, p)| (p.line, p.column));
+        let mut notes = Vec::new();
+        if !self.label.is_empty() {
+            notes.push(self.label.clone());
+        }
+        for (span, label) in &self.secondary {
+            match sources.position(span.start) {
+                Some((id, p)) => notes.push(format!("{}:{}:{}: {}", sources.file(id).name, p.line, p.column, label)),
+                None => notes.push(label.clone()),
+            }
+        }
+        notes.extend(self.notes.iter().cloned());
+        JsonDiagnostic {
+            severity: self.severity,
+            code: self.code.as_str(),
+            message: &self.message,
+            file,
+            line,
+            column,
+            end_line,
+            end_column,
+            notes,
+        }
+    }
+
+    /// The codespan-reporting form, for terminals and snapshots.
+    pub fn to_codespan(&self, sources: &SourceMap) -> cs::Diagnostic<usize> {
+        let base = match self.severity {
+            Severity::Error => cs::Diagnostic::error(),
+            Severity::Warning => cs::Diagnostic::warning(),
+        };
+        let mut labels = Vec::new();
+        if let Some((file, range)) = sources.locate(self.span) {
+            labels.push(cs::Label::primary(file, range).with_message(&self.label));
+        }
+        for (span, label) in &self.secondary {
+            if let Some((file, range)) = sources.locate(*span) {
+                labels.push(cs::Label::secondary(file, range).with_message(label));
+            }
+        }
+        base.with_code(self.code.as_str())
+            .with_message(&self.message)
+            .with_labels(labels)
+            .with_notes(self.notes.clone())
+    }
+}
+
+/// Renders diagnostics as codespan-reporting text (no colour): for snapshots and non-terminals.
+pub fn render_plain(diags: &[Diagnostic], sources: &SourceMap) -> String {
+    let config = codespan_reporting::term::Config::default();
+    let mut out = String::new();
+    for d in diags {
+        // Rendering into a String only fails on a span outside its file, which `locate` rules out.
+        let _ = codespan_reporting::term::emit_to_string(&mut out, &config, sources, &d.to_codespan(sources));
+    }
+    out
+}

@@ -1,0 +1,326 @@
+//! The checked program: names resolved, every expression typed, constants folded.
+//!
+//! The checker builds it from the AST; lowering (and the composer) consume it. Pipeline-function
+//! names, state fields and uniforms keep their `$` here: a template is instantiated by the
+//! composer, which substitutes names, never by re-checking.
+
+use crate::ast::{AssignOp, BinaryOp, PlacementKind, UnaryOp};
+use crate::source::Span;
+use crate::types::{Scalar, Type};
+
+/// Index into [`Program::lib_fns`].
+pub type LibFnId = usize;
+/// Index into a function's `locals`.
+pub type LocalId = usize;
+
+/// Every checked function of the modules given to the checker (and of the modules they import).
+#[derive(Clone, Debug, Default)]
+pub struct Program {
+    /// In dependency order: a function's callees come before it.
+    pub lib_fns: Vec<LibFn>,
+    /// In module order, then source order.
+    pub pipelines: Vec<PipelineFn>,
+    /// `remove` items, in the same order.
+    pub removes: Vec<Remove>,
+}
+
+#[derive(Clone, Debug)]
+pub struct LibFn {
+    pub name: String,
+    /// Index of the module (in the loader's graph) that defines it.
+    pub module: usize,
+    pub doc: Option<String>,
+    pub params: Vec<Param>,
+    /// `Type::Void` when it returns nothing.
+    pub ret: Type,
+    pub locals: Vec<Local>,
+    pub body: Block,
+    /// Library functions this one calls directly.
+    pub calls: Vec<LibFnId>,
+    pub span: Span,
+}
+
+#[derive(Clone, Debug)]
+pub struct Param {
+    pub name: String,
+    pub ty: Type,
+    pub span: Span,
+}
+
+/// A `let`, `var` or `for` variable.
+#[derive(Clone, Debug)]
+pub struct Local {
+    pub name: String,
+    pub ty: Type,
+    /// `var` and loop variables are mutable... loop variables only by the loop itself.
+    pub mutable: bool,
+    pub span: Span,
+}
+
+#[derive(Clone, Debug)]
+pub struct PipelineFn {
+    pub name: String,
+    /// Index of the module (in the loader's graph) that defines it.
+    pub module: usize,
+    pub doc: Option<String>,
+    pub placement: Placement,
+    /// The declared state fields, in declaration order; `Expr::State` indexes this list.
+    pub state: Vec<StateDecl>,
+    /// The declared uniforms, in declaration order; `Expr::Uniform` indexes this list.
+    pub uniforms: Vec<UniformDecl>,
+    /// The declared library functions.
+    pub uses: Vec<LibFnId>,
+    pub locals: Vec<Local>,
+    pub body: Block,
+    pub span: Span,
+}
+
+/// A checked step path.
+#[derive(Clone, Debug)]
+pub struct Placement {
+    pub kind: PlacementKind,
+    /// A known step, resolved from a group name for `before`/`after` (see `steps`).
+    pub step: crate::steps::Step,
+    /// The substep name, possibly with `$`.
+    pub substep: Option<String>,
+    pub when_active: bool,
+    pub span: Span,
+}
+
+#[derive(Clone, Debug)]
+pub struct Remove {
+    /// Index of the module (in the loader's graph) that holds it.
+    pub module: usize,
+    pub step: crate::steps::Step,
+    pub substep: Option<String>,
+    pub when_active: bool,
+    pub span: Span,
+}
+
+#[derive(Clone, Debug)]
+pub struct StateDecl {
+    pub name: String,
+    pub ty: Type,
+    /// `@ray`: lives for the whole ray instead of one sample.
+    pub ray: bool,
+    pub default: Option<ConstValue>,
+    /// Whether the body reads / writes `state.name`.
+    pub read: bool,
+    pub written: bool,
+    pub span: Span,
+}
+
+#[derive(Clone, Debug)]
+pub struct UniformDecl {
+    pub name: String,
+    pub ty: Type,
+    pub default: Option<ConstValue>,
+    /// Slider bounds, per component for vectors and matrices.
+    pub range: Option<(ConstValue, ConstValue)>,
+    pub doc: Option<String>,
+    pub span: Span,
+}
+
+/// A compile-time value: a scalar, vector or matrix, components flattened column-major.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ConstValue {
+    pub ty: Type,
+    pub components: Vec<ScalarValue>,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ScalarValue {
+    Bool(bool),
+    I32(i32),
+    U32(u32),
+    F32(f32),
+}
+
+impl ScalarValue {
+    pub fn scalar(self) -> Scalar {
+        match self {
+            ScalarValue::Bool(_) => Scalar::Bool,
+            ScalarValue::I32(_) => Scalar::I32,
+            ScalarValue::U32(_) => Scalar::U32,
+            ScalarValue::F32(_) => Scalar::F32,
+        }
+    }
+}
+
+#[derive(Clone, Debug)]
+pub struct Block {
+    pub stmts: Vec<Stmt>,
+    pub span: Span,
+}
+
+#[derive(Clone, Debug)]
+pub struct Stmt {
+    pub kind: StmtKind,
+    pub span: Span,
+}
+
+#[derive(Clone, Debug)]
+pub enum StmtKind {
+    /// Initialises a local; `None` for `var x: T;` (zero value).
+    Let {
+        local: LocalId,
+        value: Option<Expr>,
+    },
+    /// `place op= value`; for compound ops the value has the place's type (or a scalar that
+    /// WGSL's vector-scalar rules accept).
+    Assign {
+        place: Place,
+        op: AssignOp,
+        value: Expr,
+    },
+    If {
+        cond: Expr,
+        then: Block,
+        otherwise: Option<Block>,
+    },
+    /// `for var in start .. end` over i32 or u32.
+    For {
+        var: LocalId,
+        start: Expr,
+        end: Expr,
+        body: Block,
+    },
+    Break,
+    Continue,
+    Return(Option<Expr>),
+    /// A call whose value (if any) is dropped.
+    Expr(Expr),
+    Block(Block),
+}
+
+/// Something assignable: a local or state field, then component/swizzle/index accesses.
+#[derive(Clone, Debug)]
+pub struct Place {
+    pub root: PlaceRoot,
+    pub path: Vec<Access>,
+    /// The type of the whole place.
+    pub ty: Type,
+    pub span: Span,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PlaceRoot {
+    Local(LocalId),
+    /// Index into the pipeline function's `state`.
+    State(usize),
+}
+
+#[derive(Clone, Debug)]
+pub enum Access {
+    /// `.x`, `.g`: one vector component.
+    Component(u8),
+    /// `.xz`: several distinct components, in order (only at the end of a path).
+    Swizzle(Vec<u8>),
+    /// `[i]` of a vector or matrix column.
+    Index(Box<Expr>),
+}
+
+#[derive(Clone, Debug)]
+pub struct Expr {
+    pub kind: ExprKind,
+    pub ty: Type,
+    pub span: Span,
+}
+
+#[derive(Clone, Debug)]
+pub enum ExprKind {
+    /// A literal or a folded constant.
+    Const(ConstValue),
+    Local(LocalId),
+    Param(usize),
+    /// Index into the pipeline function's `uniforms`.
+    Uniform(usize),
+    /// Index into the pipeline function's `state`.
+    State(usize),
+    CallLib {
+        func: LibFnId,
+        args: Vec<Expr>,
+    },
+    CallBuiltin {
+        builtin: Builtin,
+        args: Vec<Expr>,
+    },
+    /// A type constructor: `vec4f(rgb, 1.0)`, `vec3f(0.5)` (splat), `mat3x3f(...)`, `f32()`.
+    Construct {
+        args: Vec<Expr>,
+    },
+    /// `f32(i)`, `vec3f(v_int)`: a conversion of a value of the same shape.
+    Convert {
+        arg: Box<Expr>,
+    },
+    Unary {
+        op: UnaryOp,
+        operand: Box<Expr>,
+    },
+    /// Operand types follow WGSL: equal types, or vector-scalar mixing, or matrix products.
+    Binary {
+        op: BinaryOp,
+        lhs: Box<Expr>,
+        rhs: Box<Expr>,
+    },
+    /// `.xyz`: components of a vector (one component gives a scalar).
+    Swizzle {
+        base: Box<Expr>,
+        components: Vec<u8>,
+    },
+    /// `v[i]`, `m[i]`.
+    Index {
+        base: Box<Expr>,
+        index: Box<Expr>,
+    },
+}
+
+/// The built-in functions of section 3 of the language spec.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Builtin {
+    Abs,
+    Min,
+    Max,
+    Clamp,
+    Mix,
+    Step,
+    Smoothstep,
+    Sign,
+    Floor,
+    Ceil,
+    Fract,
+    Round,
+    Trunc,
+    Sqrt,
+    InverseSqrt,
+    Pow,
+    Exp,
+    Exp2,
+    Log,
+    Log2,
+    Sin,
+    Cos,
+    Tan,
+    Asin,
+    Acos,
+    Atan,
+    Atan2,
+    Dot,
+    Cross,
+    Length,
+    Distance,
+    Normalize,
+    Reflect,
+    FaceForward,
+    Transpose,
+    Determinant,
+    Select,
+    Any,
+    All,
+    /// `sample(v: volume, p: vec3f) -> f32`
+    Sample,
+    /// `lookup(t: tf, x: f32) -> vec4f`
+    Lookup,
+    /// `dims(v: volume) -> vec3u`
+    Dims,
+}

@@ -1,0 +1,202 @@
+//! Source files and spans.
+//!
+//! Every file gets a disjoint range of one global byte-offset space, so a [`Span`] is two `u32`
+//! offsets and needs no file id. That is exactly the shape of `naga::Span`, which lets lowering
+//! carry VRS spans straight into naga's span table and map validation errors back to VRS files.
+
+use std::ops::Range;
+use std::path::PathBuf;
+
+/// A byte range in the global offset space of a [`SourceMap`].
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct Span {
+    pub start: u32,
+    pub end: u32,
+}
+
+impl Span {
+    pub const DUMMY: Span = Span { start: 0, end: 0 };
+
+    pub fn new(start: u32, end: u32) -> Span {
+        Span { start, end }
+    }
+
+    /// The smallest span covering both.
+    pub fn to(self, other: Span) -> Span {
+        Span::new(self.start.min(other.start), self.end.max(other.end))
+    }
+
+    pub fn is_dummy(self) -> bool {
+        self == Span::DUMMY
+    }
+}
+
+impl From<Range<usize>> for Span {
+    fn from(r: Range<usize>) -> Span {
+        Span::new(r.start as u32, r.end as u32)
+    }
+}
+
+impl From<Span> for naga::Span {
+    fn from(s: Span) -> naga::Span {
+        naga::Span::new(s.start, s.end)
+    }
+}
+
+/// Index of a file in a [`SourceMap`].
+pub type FileId = usize;
+
+/// One source file: its display name, where it came from and its text.
+#[derive(Debug)]
+pub struct SourceFile {
+    /// The name diagnostics print (a path as the user gave it, or `std::name`).
+    pub name: String,
+    /// The canonical path on disk, for files read from disk (imports resolve relative to it).
+    pub path: Option<PathBuf>,
+    pub text: String,
+    /// Global offset of the file's first byte.
+    pub base: u32,
+    line_starts: Vec<u32>,
+}
+
+impl SourceFile {
+    /// 0-based line and 0-based byte column of a local offset.
+    fn line_col(&self, local: u32) -> (usize, usize) {
+        let line = match self.line_starts.binary_search(&local) {
+            Ok(l) => l,
+            Err(l) => l - 1,
+        };
+        (line, (local - self.line_starts[line]) as usize)
+    }
+
+    pub fn line_count(&self) -> usize {
+        self.line_starts.len()
+    }
+}
+
+/// All files of one compilation. Files are only ever added, so spans stay valid.
+#[derive(Debug, Default)]
+pub struct SourceMap {
+    files: Vec<SourceFile>,
+    next_base: u32,
+}
+
+/// A resolved position: 1-based line, 1-based column in characters.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Position {
+    pub line: usize,
+    pub column: usize,
+}
+
+impl SourceMap {
+    pub fn new() -> SourceMap {
+        // Offset 0 is reserved so that `Span::DUMMY` never points into a real file.
+        SourceMap { files: Vec::new(), next_base: 1 }
+    }
+
+    pub fn add(&mut self, name: impl Into<String>, path: Option<PathBuf>, text: String) -> FileId {
+        let base = self.next_base;
+        let line_starts = std::iter::once(0).chain(text.match_indices('\n').map(|(i, _)| i as u32 + 1)).collect();
+        // One spare byte after each file, so an end-of-file span still maps to this file.
+        self.next_base = base.saturating_add(text.len() as u32 + 1);
+        self.files.push(SourceFile { name: name.into(), path, text, base, line_starts });
+        self.files.len() - 1
+    }
+
+    pub fn file(&self, id: FileId) -> &SourceFile {
+        &self.files[id]
+    }
+
+    pub fn files(&self) -> impl Iterator<Item = (FileId, &SourceFile)> {
+        self.files.iter().enumerate()
+    }
+
+    /// The file that holds a global offset.
+    pub fn file_of(&self, offset: u32) -> Option<FileId> {
+        let idx = self.files.partition_point(|f| f.base <= offset);
+        let id = idx.checked_sub(1)?;
+        let f = &self.files[id];
+        (offset <= f.base + f.text.len() as u32).then_some(id)
+    }
+
+    /// The file of a span and the span's range local to that file.
+    pub fn locate(&self, span: Span) -> Option<(FileId, Range<usize>)> {
+        let id = self.file_of(span.start)?;
+        let f = &self.files[id];
+        let len = f.text.len() as u32;
+        let start = (span.start - f.base).min(len);
+        let end = span.end.saturating_sub(f.base).clamp(start, len);
+        Some((id, start as usize..end as usize))
+    }
+
+    /// Line and column (both 1-based; columns count characters) of a global offset.
+    pub fn position(&self, offset: u32) -> Option<(FileId, Position)> {
+        let id = self.file_of(offset)?;
+        let f = &self.files[id];
+        let local = (offset - f.base).min(f.text.len() as u32);
+        let (line, byte_col) = f.line_col(local);
+        let line_start = f.line_starts[line] as usize;
+        let mut end = line_start + byte_col;
+        while !f.text.is_char_boundary(end) {
+            end -= 1;
+        }
+        let column = f.text[line_start..end].chars().count() + 1;
+        Some((id, Position { line: line + 1, column }))
+    }
+
+    /// The text a span covers.
+    pub fn snippet(&self, span: Span) -> &str {
+        match self.locate(span) {
+            Some((id, r)) => self.files[id].text.get(r).unwrap_or(""),
+            None => "",
+        }
+    }
+}
+
+impl<'a> codespan_reporting::files::Files<'a> for SourceMap {
+    type FileId = FileId;
+    type Name = &'a str;
+    type Source = &'a str;
+
+    fn name(&'a self, id: FileId) -> Result<&'a str, codespan_reporting::files::Error> {
+        self.files.get(id).map(|f| f.name.as_str()).ok_or(codespan_reporting::files::Error::FileMissing)
+    }
+
+    fn source(&'a self, id: FileId) -> Result<&'a str, codespan_reporting::files::Error> {
+        self.files.get(id).map(|f| f.text.as_str()).ok_or(codespan_reporting::files::Error::FileMissing)
+    }
+
+    fn line_index(&'a self, id: FileId, byte_index: usize) -> Result<usize, codespan_reporting::files::Error> {
+        let f = self.files.get(id).ok_or(codespan_reporting::files::Error::FileMissing)?;
+        Ok(f.line_col(byte_index.min(f.text.len()) as u32).0)
+    }
+
+    fn line_range(&'a self, id: FileId, line_index: usize) -> Result<Range<usize>, codespan_reporting::files::Error> {
+        let f = self.files.get(id).ok_or(codespan_reporting::files::Error::FileMissing)?;
+        let start = *f
+            .line_starts
+            .get(line_index)
+            .ok_or(codespan_reporting::files::Error::LineTooLarge { given: line_index, max: f.line_starts.len() - 1 })?
+            as usize;
+        let end = f.line_starts.get(line_index + 1).map_or(f.text.len(), |&e| e as usize);
+        Ok(start..end)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn spans_map_back_to_files_lines_and_columns() {
+        let mut map = SourceMap::new();
+        let a = map.add("a.vrs", None, "ab\ncd".into());
+        let b = map.add("b.vrs", None, "é\nxyz".into());
+        let fb = map.file(b).base;
+        assert_eq!(map.file_of(map.file(a).base + 4), Some(a));
+        assert_eq!(map.position(fb + 5).unwrap(), (b, Position { line: 2, column: 3 }));
+        assert_eq!(map.position(fb + 2).unwrap(), (b, Position { line: 1, column: 2 }));
+        assert_eq!(map.snippet(Span::new(fb + 3, fb + 6)), "xyz");
+        assert_eq!(map.file_of(0), None);
+    }
+}

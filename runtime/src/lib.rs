@@ -1,0 +1,1 @@
+//! Runtime for shaders composed by `vrsc` (see issue: the runtime is built on top of the composer).
