@@ -80,23 +80,30 @@ codes! {
     NotConstant = "E0507", Error, "a default, range or `const` that is not a constant expression";
     ConstEvalFailed = "E0508", Error, "constant evaluation overflows or divides by zero";
     UnknownLibrary = "E0509", Error, "`use` names a library function that is not in scope";
-    // Placement and composition.
+    // Placement.
     UnknownStep = "E0601", Error, "a step path that names no pipeline step";
     GroupNotAllowed = "E0602", Error, "a group name alone with `in`, `replace` or `remove`";
-    UnknownSubstep = "E0603", Error, "a placement on a substep that does not exist";
-    DoubleReplace = "E0604", Error, "a second `replace` of a substep that was already replaced";
-    NoDefault = "E0605", Error, "a state field that no declaration gives a default";
+    // Composition.
+    UnknownSubstep = "E0603", Error, "a placement on a substep that the step does not hold";
+    DoubleReplace = "E0604", Error, "a second `replace` of a substep that an earlier `replace` already took";
+    NoDefault = "E0605", Error, "a state field that no declaration in the composed pipeline gives a default";
     UninstantiatedTemplate = "E0606", Error, "a template module used without instances";
-    InvalidInstance = "E0607", Error, "an instance name that is not an identifier";
+    InvalidInstance = "E0607", Error, "an instance name that is not an identifier, or is listed twice";
+    // Scenes.
+    SceneSyntax = "E0701", Error, "a scene file that is not valid TOML";
+    SceneInvalid = "E0702", Error, "a scene value that is missing, of the wrong type, out of range or in conflict with another";
+    SceneUnknownKey = "E0703", Error, "a key the scene format does not know";
     // Internal.
     Internal = "E0901", Error, "a compiler bug: the generated IR did not validate";
     // Warnings.
     UnusedUse = "W0001", Warning, "a `use` of a library function the body never calls";
     UnusedUniform = "W0002", Warning, "a uniform declared but never read";
     UnusedState = "W0003", Warning, "a state field declared but never used";
-    ReadBeforeWrite = "W0004", Warning, "a field read before any active function writes it (it sees its default)";
-    WrittenNeverRead = "W0005", Warning, "a field written that no active function reads";
-    UnreachableCode = "W0006", Warning, "statements after `return`, `break` or `continue`";
+    UnreachableCode = "W0004", Warning, "statements after `return`, `break` or `continue`";
+    // Composition warnings.
+    ReadBeforeWrite = "W0005", Warning, "a field read before any active function writes it (it sees its default)";
+    WrittenNeverRead = "W0006", Warning, "a field written that no active function reads";
+    SceneIgnored = "W0701", Warning, "a scene key that has no effect where it is";
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Serialize)]
@@ -205,11 +212,13 @@ impl Diagnostics {
         self.list.extend(other.list);
     }
 
-    /// Sorted by file position, then code, so output is stable whatever order passes ran in.
-    pub fn into_sorted(mut self) -> Vec<Diagnostic> {
-        self.list.sort_by(|a, b| (a.span.start, a.code, &a.message).cmp(&(b.span.start, b.code, &b.message)));
-        self.list.dedup();
-        self.list
+    /// Sorted by file position, then code, without duplicates, so output is stable whatever
+    /// order the passes ran in.
+    pub fn sorted(&self) -> Vec<Diagnostic> {
+        let mut list = self.list.clone();
+        list.sort_by(|a, b| (a.span.start, a.code, &a.message).cmp(&(b.span.start, b.code, &b.message)));
+        list.dedup();
+        list
     }
 }
 

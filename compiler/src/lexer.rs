@@ -34,6 +34,9 @@ pub enum Token {
     Float(FloatLit),
     #[regex(r"@[A-Za-z_][A-Za-z0-9_]*", |lex| lex.slice()[1..].to_string())]
     Attribute(String),
+    /// A string literal (only `import "path";` uses one): its unescaped contents.
+    #[regex(r#""([^"\\\n]|\\.)*""#, string_literal)]
+    Str(String),
 
     #[token("import")]
     Import,
@@ -219,6 +222,34 @@ fn float_literal(lex: &mut logos::Lexer<Token>) -> FloatLit {
     FloatLit { value: digits.parse().unwrap_or(f64::NAN), suffixed }
 }
 
+/// The contents of a string literal without its quotes, with `\"`, `\\`, `\n`, `\t` and `\0`
+/// unescaped; any other escape is kept as written (so a Windows path survives).
+fn string_literal(lex: &mut logos::Lexer<Token>) -> String {
+    let text = lex.slice();
+    let inner = text.get(1..text.len().saturating_sub(1)).unwrap_or("");
+    let mut out = String::with_capacity(inner.len());
+    let mut chars = inner.chars();
+    while let Some(c) = chars.next() {
+        if c != '\\' {
+            out.push(c);
+            continue;
+        }
+        match chars.next() {
+            Some('n') => out.push('\n'),
+            Some('t') => out.push('\t'),
+            Some('0') => out.push('\0'),
+            Some('"') => out.push('"'),
+            Some('\\') => out.push('\\'),
+            Some(other) => {
+                out.push('\\');
+                out.push(other);
+            }
+            None => out.push('\\'),
+        }
+    }
+    out
+}
+
 /// Skips a block comment; an unterminated one is an error token spanning to the end of input.
 fn block_comment(lex: &mut logos::Lexer<Token>) -> logos::FilterResult<(), ()> {
     match lex.remainder().find("*/") {
@@ -240,6 +271,7 @@ impl fmt::Display for Token {
             Token::Int(_) | Token::IntDotDot(_) => "integer literal",
             Token::Float(_) => "float literal",
             Token::Attribute(name) => return write!(f, "`@{name}`"),
+            Token::Str(_) => "string literal",
             Token::DocComment(_) => "doc comment",
             Token::Comment => "comment",
             Token::Error => "invalid input",
@@ -315,7 +347,9 @@ impl Token {
             AndAnd => "&&",
             OrOr => "||",
             Bang => "!",
-            Ident(_) | Int(_) | IntDotDot(_) | Float(_) | Attribute(_) | DocComment(_) | Comment | Error => "?",
+            Ident(_) | Int(_) | IntDotDot(_) | Float(_) | Attribute(_) | Str(_) | DocComment(_) | Comment | Error => {
+                "?"
+            }
         }
     }
 }

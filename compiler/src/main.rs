@@ -1,1 +1,170 @@
-fn main() {}
+//! The `vrsc` command line. Exit codes: 0 success (warnings allowed), 1 the input has errors,
+//! 2 usage or I/O problems.
+
+use clap::{Parser, Subcommand, ValueEnum};
+use codespan_reporting::term::{self, termcolor};
+use std::io::Write;
+use std::path::PathBuf;
+use std::process::ExitCode;
+use vrsc::diag::Diagnostic;
+use vrsc::driver::{self, Checked};
+use vrsc::source::SourceMap;
+
+#[derive(Parser)]
+#[command(name = "vrsc", version, about = "Compiler for VRS volume-rendering pipeline functions")]
+struct Cli {
+    /// How diagnostics are printed: `human` (codespan style) or `json` (one object per line on stdout).
+    #[arg(long, value_enum, default_value_t = MessageFormat::Human, global = true)]
+    message_format: MessageFormat,
+    /// Colour in human diagnostics.
+    #[arg(long, value_enum, default_value_t = ColorMode::Auto, global = true)]
+    color: ColorMode,
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Parse and check modules on their own (imports followed).
+    Check {
+        #[arg(required = true)]
+        files: Vec<PathBuf>,
+    },
+    /// Print the WGSL of a module's functions, each pipeline function lowered on its own.
+    Emit {
+        file: PathBuf,
+        /// Write the WGSL here instead of standard output.
+        #[arg(short, long)]
+        output: Option<PathBuf>,
+    },
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum MessageFormat {
+    Human,
+    Json,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum ColorMode {
+    Auto,
+    Always,
+    Never,
+}
+
+/// Exit status of a command.
+enum Outcome {
+    Ok,
+    InputErrors,
+    Failure,
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    // Deeply nested input recurses in the passes; a large stack keeps such input an error
+    // rather than a crash. The limits in the lexer and checker bound the depth itself.
+    let worker = std::thread::Builder::new().stack_size(256 << 20).spawn(move || run(&cli));
+    let outcome = match worker.map(|h| h.join()) {
+        Ok(Ok(outcome)) => outcome,
+        _ => {
+            eprintln!("error: internal compiler error (a panic); please report it with the input");
+            Outcome::Failure
+        }
+    };
+    match outcome {
+        Outcome::Ok => ExitCode::SUCCESS,
+        Outcome::InputErrors => ExitCode::from(1),
+        Outcome::Failure => ExitCode::from(2),
+    }
+}
+
+fn run(cli: &Cli) -> Outcome {
+    let printer = Printer { format: cli.message_format, color: cli.color };
+    match &cli.command {
+        Command::Check { files } => match driver::check_files(files) {
+            Ok(checked) => printer.finish(&checked),
+            Err(e) => io_failure(&e),
+        },
+        Command::Emit { file, output } => {
+            let mut checked = match driver::check_files(std::slice::from_ref(file)) {
+                Ok(c) => c,
+                Err(e) => return io_failure(&e),
+            };
+            let wgsl = checked.emit_standalone_wgsl();
+            let outcome = printer.finish(&checked);
+            let Some(wgsl) = wgsl else { return outcome };
+            let written = match output {
+                Some(path) => std::fs::write(path, wgsl).map_err(|e| format!("cannot write `{}`: {e}", path.display())),
+                None => std::io::stdout().write_all(wgsl.as_bytes()).map_err(|e| format!("cannot write WGSL: {e}")),
+            };
+            match written {
+                Ok(()) => outcome,
+                Err(message) => {
+                    eprintln!("error: {message}");
+                    Outcome::Failure
+                }
+            }
+        }
+    }
+}
+
+fn io_failure(e: &dyn std::fmt::Display) -> Outcome {
+    eprintln!("error: {e}");
+    Outcome::Failure
+}
+
+struct Printer {
+    format: MessageFormat,
+    color: ColorMode,
+}
+
+impl Printer {
+    /// Prints every diagnostic and says whether the input had errors.
+    fn finish(&self, checked: &Checked) -> Outcome {
+        let sorted = checked.diags.sorted();
+        self.print(&sorted, &checked.sources);
+        if sorted.iter().any(Diagnostic::is_error) { Outcome::InputErrors } else { Outcome::Ok }
+    }
+
+    fn print(&self, diags: &[Diagnostic], sources: &SourceMap) {
+        match self.format {
+            MessageFormat::Json => {
+                let stdout = std::io::stdout();
+                let mut out = stdout.lock();
+                for d in diags {
+                    if let Ok(line) = serde_json::to_string(&d.to_json(sources)) {
+                        let _ = writeln!(out, "{line}");
+                    }
+                }
+            }
+            MessageFormat::Human => {
+                let choice = match self.color {
+                    ColorMode::Always => termcolor::ColorChoice::Always,
+                    ColorMode::Never => termcolor::ColorChoice::Never,
+                    ColorMode::Auto if std::io::IsTerminal::is_terminal(&std::io::stderr()) => {
+                        termcolor::ColorChoice::Auto
+                    }
+                    ColorMode::Auto => termcolor::ColorChoice::Never,
+                };
+                let stream = termcolor::StandardStream::stderr(choice);
+                let mut lock = stream.lock();
+                let config = term::Config::default();
+                for d in diags {
+                    let _ = term::emit_to_write_style(&mut lock, &config, sources, &d.to_codespan(sources));
+                }
+                summarize(diags);
+            }
+        }
+    }
+}
+
+fn summarize(diags: &[Diagnostic]) {
+    let errors = diags.iter().filter(|d| d.is_error()).count();
+    let warnings = diags.len() - errors;
+    let plural = |n: usize, word: &str| format!("{n} {word}{}", if n == 1 { "" } else { "s" });
+    if errors > 0 {
+        eprintln!("{} and {} emitted", plural(errors, "error"), plural(warnings, "warning"));
+    } else if warnings > 0 {
+        eprintln!("{} emitted", plural(warnings, "warning"));
+    }
+}

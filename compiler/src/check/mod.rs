@@ -1,0 +1,234 @@
+//! The checker: names, types, declarations and function rules; builds the [`crate::hir`].
+//!
+//! [`check_program`] runs these passes over every module of the graph:
+//! 1. [`scope`]: collect the items of each module and build its item scope (its own consts and
+//!    lib fns plus those of the modules it imports directly); duplicates are reported here.
+//! 2. [`func`]: resolve lib-fn signatures, then check every lib fn and pipeline function body
+//!    ([`expr`], [`call`] and [`stmt`]; constants through [`consts`]; pipeline headers and
+//!    placements through [`decls`]).
+//! 3. [`decls`]: conflicts between the declarations of different pipeline functions.
+//! 4. [`callgraph`]: recursion, then the [`hir::Program`] in callee-before-caller order, holding
+//!    only functions that checked cleanly (and whose callees did).
+//!
+//! Every error inside a function marks that function failed ([`scope::FnCx::failed`]); an
+//! expression that failed has [`Type::Error`], which every later rule accepts silently, so one
+//! mistake gives one diagnostic.
+
+pub mod consteval;
+pub mod rules;
+
+mod call;
+mod callgraph;
+mod consts;
+mod decls;
+mod expr;
+mod func;
+mod scope;
+mod stmt;
+
+#[cfg(test)]
+mod tests;
+
+use crate::diag::{Diagnostic, Diagnostics};
+use crate::hir;
+use crate::loader::ModuleGraph;
+use crate::source::{SourceMap, Span};
+use crate::types::Type;
+use scope::{ConstInfo, FnCx, ItemRef, LibInfo, ModuleScope};
+use std::collections::{HashMap, HashSet};
+
+/// Checks every module of the graph and builds the typed program. Errors and warnings go to
+/// `diags`; the returned program holds every function that checked cleanly (functions with
+/// errors are left out, so lowering only ever sees valid HIR).
+pub fn check_program(graph: &ModuleGraph, sources: &SourceMap, diags: &mut Diagnostics) -> hir::Program {
+    let mut cx = Checker::new(graph, sources, diags);
+    cx.collect_items();
+    cx.build_scopes();
+    cx.collect_declared_names();
+    cx.resolve_signatures();
+    cx.eval_all_consts();
+    let mut libs = cx.check_lib_fns();
+    let (mut pipes, removes) = cx.check_pipelines();
+    cx.check_conflicts(&mut pipes);
+    cx.check_recursion(&mut libs);
+    callgraph::assemble(libs, pipes, removes)
+}
+
+/// The state of one run of the checker, shared by every function it checks.
+struct Checker<'a> {
+    graph: &'a ModuleGraph,
+    sources: &'a SourceMap,
+    diags: &'a mut Diagnostics,
+    /// Item scope of each module, by module index.
+    scopes: Vec<ModuleScope>,
+    /// Every lib fn of every module; the index is its provisional id until the program is built.
+    libs: Vec<LibInfo>,
+    /// Every `const` item of every module.
+    consts: Vec<ConstInfo>,
+    /// Constants being evaluated, innermost last (for cycle messages).
+    const_stack: Vec<usize>,
+    /// Pipeline functions that are duplicates in their module: (module, item).
+    dup_pipelines: HashSet<(usize, usize)>,
+    /// The written type (and `@ray`) of each state field declared anywhere in the graph, to
+    /// offer the missing declaration in E0501.
+    state_hints: HashMap<String, (String, bool)>,
+    /// Every uniform name declared anywhere, to explain why a lib fn cannot see one.
+    uniform_names: HashSet<String>,
+    /// Current nesting of expressions and blocks, across constant evaluation too.
+    depth: u32,
+}
+
+/// Deepest nesting of expressions (and blocks) the checker follows before reporting E0105.
+const MAX_DEPTH: u32 = 256;
+
+impl<'a> Checker<'a> {
+    fn new(graph: &'a ModuleGraph, sources: &'a SourceMap, diags: &'a mut Diagnostics) -> Checker<'a> {
+        Checker {
+            graph,
+            sources,
+            diags,
+            scopes: Vec::new(),
+            libs: Vec::new(),
+            consts: Vec::new(),
+            const_stack: Vec::new(),
+            dup_pipelines: HashSet::new(),
+            state_hints: HashMap::new(),
+            uniform_names: HashSet::new(),
+            depth: 0,
+        }
+    }
+
+    /// Reports a diagnostic that belongs to the function being checked: an error marks it failed.
+    fn emit(&mut self, f: &mut FnCx, d: Diagnostic) {
+        if d.is_error() {
+            f.failed = true;
+        }
+        self.diags.push(d);
+    }
+
+    /// The item `name` in the scope of `module`.
+    fn item(&self, module: usize, name: &str) -> Option<ItemRef> {
+        self.scopes.get(module)?.names.get(name).copied()
+    }
+
+    /// The source text of a span for a message, shortened when long.
+    fn show(&self, span: Span) -> String {
+        let text = self.sources.snippet(span);
+        let one_line = text.split_whitespace().collect::<Vec<_>>().join(" ");
+        if one_line.chars().count() > 40 {
+            let head: String = one_line.chars().take(37).collect();
+            format!("{head}...")
+        } else {
+            one_line
+        }
+    }
+
+    /// The display name of a module's file.
+    fn module_name(&self, module: usize) -> String {
+        match self.graph.modules.get(module) {
+            Some(m) => self.sources.file(m.file).name.clone(),
+            None => String::from("?"),
+        }
+    }
+}
+
+/// A type for the help text of a missing declaration: `TYPE` when nothing better is known.
+fn type_or_placeholder(ty: Option<Type>) -> String {
+    match ty {
+        Some(t) if t.is_plain() && !t.is_error() => t.to_string(),
+        _ => String::from("TYPE"),
+    }
+}
+
+#[cfg(test)]
+mod conformance {
+    //! Every case of the shared conformance suite: the lines of errors and warnings must be
+    //! exactly those the case's `// expect:` lines give.
+
+    use super::check_program;
+    use crate::diag::{Diagnostics, Severity};
+    use crate::loader::Loader;
+    use crate::source::SourceMap;
+    use std::path::{Path, PathBuf};
+
+    /// (kind, first line, last line) of each `// expect:` line.
+    fn expectations(text: &str) -> Vec<(String, Option<(usize, usize)>)> {
+        let mut out = Vec::new();
+        for line in text.lines() {
+            let Some(rest) = line.trim().strip_prefix("//") else { continue };
+            let Some(rest) = rest.trim().strip_prefix("expect:") else { continue };
+            let mut words = rest.split_whitespace();
+            let kind = words.next().unwrap_or("").to_string();
+            let range = match (words.next(), words.next()) {
+                (Some("at"), Some(r)) => {
+                    let (lo, hi) = r.split_once('-').unwrap_or((r, r));
+                    Some((lo.parse().unwrap(), hi.parse().unwrap()))
+                }
+                _ => None,
+            };
+            out.push((kind, range));
+        }
+        out
+    }
+
+    fn run_case(entry: &Path) -> Result<(), String> {
+        let text = std::fs::read_to_string(entry).map_err(|e| e.to_string())?;
+        let expect = expectations(&text);
+        if expect.iter().any(|(k, _)| k == "nocrash") {
+            return Ok(());
+        }
+        let mut sources = SourceMap::new();
+        let mut diags = Diagnostics::new();
+        let graph = {
+            let mut loader = Loader::new(&mut sources, &mut diags);
+            loader.load_root_file(entry).map_err(|e| e.to_string())?;
+            loader.finish()
+        };
+        check_program(&graph, &sources, &mut diags);
+        let found: Vec<(Severity, usize, String)> = diags
+            .iter()
+            .map(|d| {
+                let line = sources.position(d.span.start).map_or(0, |(_, p)| p.line);
+                (d.severity, line, format!("{} {}", d.code.as_str(), d.message))
+            })
+            .collect();
+        for (severity, kind) in [(Severity::Error, "error"), (Severity::Warning, "warning")] {
+            let ranges: Vec<(usize, usize)> =
+                expect.iter().filter(|(k, _)| k == kind).filter_map(|(_, r)| *r).collect();
+            let got: Vec<&(Severity, usize, String)> = found.iter().filter(|d| d.0 == severity).collect();
+            for (lo, hi) in &ranges {
+                if !got.iter().any(|d| (*lo..=*hi).contains(&d.1)) {
+                    return Err(format!("no {kind} at {lo}-{hi}; got {found:?}"));
+                }
+            }
+            for d in &got {
+                if !ranges.iter().any(|(lo, hi)| (*lo..=*hi).contains(&d.1)) {
+                    return Err(format!("unexpected {kind} at line {}: {}", d.1, d.2));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    #[test]
+    fn conformance_cases() {
+        let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/conformance/cases");
+        let Ok(entries) = std::fs::read_dir(&dir) else {
+            println!("skipped: no conformance cases at {}", dir.display());
+            return;
+        };
+        let mut paths: Vec<PathBuf> = entries.filter_map(Result::ok).map(|e| e.path()).collect();
+        paths.sort();
+        let mut failures = Vec::new();
+        for path in paths {
+            let entry = if path.is_dir() { path.join("main.vrs") } else { path.clone() };
+            if entry.extension().is_none_or(|x| x != "vrs") {
+                continue;
+            }
+            if let Err(why) = run_case(&entry) {
+                failures.push(format!("{}: {why}", path.display()));
+            }
+        }
+        assert!(failures.is_empty(), "conformance failures:\n{}", failures.join("\n"));
+    }
+}

@@ -1,0 +1,228 @@
+//! The compute entry point of a composed view: one invocation per pixel runs ray setup, the
+//! sample loop and ray finish, and stores the pixel's colour.
+//!
+//! ```wgsl
+//! @compute @workgroup_size(8, 8, 1)
+//! fn main(@builtin(global_invocation_id) id: vec3<u32>) {
+//!     let size = textureDimensions(output);
+//!     if id.x >= size.x || id.y >= size.y { return; }
+//!     var state: State;                 // zero, then `init_state` writes every default
+//!     init_state(&state);
+//!     state.pixel = (vec2f(id.xy) + 0.5) / vec2f(size);
+//!     /* ray.setup functions */
+//!     var i = 0u;
+//!     loop {
+//!         if i >= uniforms.max_samples || state.terminate { break; }
+//!         reset_sample(&state);         // sample-lifetime fields back to their defaults
+//!         /* start .. end functions */
+//!         continuing { i = i + 1u; }
+//!     }
+//!     /* ray.finish functions */
+//!     textureStore(output, id.xy, state.out_color);
+//! }
+//! ```
+//! The defaults are written by two synthetic pipeline functions lowered like any other, so the
+//! entry point itself needs no constants.
+
+use naga::{Expression as E, Handle, Statement as S};
+
+/// What the entry point calls and touches.
+pub struct EntryPlan {
+    pub state_type: Handle<naga::Type>,
+    /// Member indices in `State`; a missing field is simply not touched.
+    pub pixel: Option<u32>,
+    pub terminate: Option<u32>,
+    pub out_color: Option<u32>,
+    /// Writes every field's default.
+    pub init_state: Handle<naga::Function>,
+    /// Writes the defaults of the sample-lifetime fields.
+    pub reset_sample: Handle<naga::Function>,
+    pub ray_setup: Vec<Handle<naga::Function>>,
+    pub samples: Vec<Handle<naga::Function>>,
+    pub ray_finish: Vec<Handle<naga::Function>>,
+    /// The uniform block and the member index of `max_samples: u32` in it.
+    pub uniforms: Handle<naga::GlobalVariable>,
+    pub max_samples: u32,
+    /// `texture_storage_2d<rgba8unorm, write>`.
+    pub output: Handle<naga::GlobalVariable>,
+}
+
+pub const WORKGROUP_SIZE: [u32; 3] = [8, 8, 1];
+
+/// Appends expressions and turns runs of them into `Emit` statements before each statement.
+struct Body {
+    func: naga::Function,
+    /// Start of the run of expressions that still needs an `Emit`.
+    open: Option<u32>,
+    /// Closed runs waiting for the next statement.
+    pending: Vec<std::ops::Range<u32>>,
+}
+
+impl Body {
+    fn expr(&mut self, expr: E) -> Handle<E> {
+        let len = self.func.expressions.len() as u32;
+        if expr.needs_pre_emit() {
+            self.close(len);
+        } else if self.open.is_none() {
+            self.open = Some(len);
+        }
+        self.func.expressions.append(expr, naga::Span::UNDEFINED)
+    }
+
+    fn close(&mut self, end: u32) {
+        if let Some(start) = self.open.take()
+            && start < end
+        {
+            self.pending.push(start..end);
+        }
+    }
+
+    fn push(&mut self, block: &mut naga::Block, stmt: S) {
+        self.close(self.func.expressions.len() as u32);
+        for range in self.pending.drain(..) {
+            block.push(S::Emit(naga::Range::from_index_range(range, &self.func.expressions)), naga::Span::UNDEFINED);
+        }
+        block.push(stmt, naga::Span::UNDEFINED);
+    }
+
+    fn call(&mut self, block: &mut naga::Block, function: Handle<naga::Function>, state: Handle<E>) {
+        self.push(block, S::Call { function, arguments: vec![state], result: None });
+    }
+
+    fn literal(&mut self, literal: naga::Literal) -> Handle<E> {
+        self.expr(E::Literal(literal))
+    }
+
+    fn binary(&mut self, op: naga::BinaryOperator, left: Handle<E>, right: Handle<E>) -> Handle<E> {
+        self.expr(E::Binary { op, left, right })
+    }
+
+    fn component(&mut self, base: Handle<E>, index: u32) -> Handle<E> {
+        self.expr(E::AccessIndex { base, index })
+    }
+
+    /// `if cond { break; }` (or `return`).
+    fn exit_if(&mut self, block: &mut naga::Block, cond: Handle<E>, exit: S) {
+        let mut accept = naga::Block::new();
+        accept.push(exit, naga::Span::UNDEFINED);
+        self.push(block, S::If { condition: cond, accept, reject: naga::Block::new() });
+    }
+}
+
+/// Builds the entry point `main`; its types are added to `module`.
+pub fn build(module: &mut naga::Module, plan: &EntryPlan) -> naga::EntryPoint {
+    let ty = |module: &mut naga::Module, inner| module.types.insert(naga::Type { name: None, inner }, naga::Span::UNDEFINED);
+    let vec3u = ty(module, naga::TypeInner::Vector { size: naga::VectorSize::Tri, scalar: naga::Scalar::U32 });
+    let u32_ty = ty(module, naga::TypeInner::Scalar(naga::Scalar::U32));
+    let mut func = naga::Function {
+        name: Some("main".into()),
+        arguments: vec![naga::FunctionArgument {
+            name: Some("id".into()),
+            ty: vec3u,
+            binding: Some(naga::Binding::BuiltIn(naga::BuiltIn::GlobalInvocationId)),
+        }],
+        ..Default::default()
+    };
+    let state_var = func.local_variables.append(
+        naga::LocalVariable { name: Some("state".into()), ty: plan.state_type, init: None },
+        naga::Span::UNDEFINED,
+    );
+    let counter_var = func
+        .local_variables
+        .append(naga::LocalVariable { name: Some("i".into()), ty: u32_ty, init: None }, naga::Span::UNDEFINED);
+    let mut b = Body { func, open: None, pending: Vec::new() };
+    let mut body = naga::Block::new();
+    use naga::BinaryOperator as Bo;
+
+    // Pixels outside the image (the last workgroups overhang it) do nothing.
+    let id = b.expr(E::FunctionArgument(0));
+    let output = b.expr(E::GlobalVariable(plan.output));
+    let size = b.expr(E::ImageQuery { image: output, query: naga::ImageQuery::Size { level: None } });
+    let (x, y) = (b.component(id, 0), b.component(id, 1));
+    let (w, h) = (b.component(size, 0), b.component(size, 1));
+    let outside_x = b.binary(Bo::GreaterEqual, x, w);
+    let outside_y = b.binary(Bo::GreaterEqual, y, h);
+    let outside = b.binary(Bo::LogicalOr, outside_x, outside_y);
+    b.exit_if(&mut body, outside, S::Return { value: None });
+
+    let state = b.expr(E::LocalVariable(state_var));
+    b.call(&mut body, plan.init_state, state);
+    if let Some(member) = plan.pixel {
+        let xy = b.expr(E::Swizzle {
+            size: naga::VectorSize::Bi,
+            vector: id,
+            pattern: [naga::SwizzleComponent::X, naga::SwizzleComponent::Y, naga::SwizzleComponent::X, naga::SwizzleComponent::X],
+        });
+        let xy_f = b.expr(E::As { expr: xy, kind: naga::ScalarKind::Float, convert: Some(4) });
+        let half = b.literal(naga::Literal::F32(0.5));
+        let centre = b.binary(Bo::Add, xy_f, half);
+        let size_f = b.expr(E::As { expr: size, kind: naga::ScalarKind::Float, convert: Some(4) });
+        let pixel = b.binary(Bo::Divide, centre, size_f);
+        let pointer = b.component(state, member);
+        b.push(&mut body, S::Store { pointer, value: pixel });
+    }
+    for &f in &plan.ray_setup {
+        b.call(&mut body, f, state);
+    }
+
+    let counter = b.expr(E::LocalVariable(counter_var));
+    let zero = b.literal(naga::Literal::U32(0));
+    b.push(&mut body, S::Store { pointer: counter, value: zero });
+    let mut loop_body = naga::Block::new();
+    let i = b.expr(E::Load { pointer: counter });
+    let block = b.expr(E::GlobalVariable(plan.uniforms));
+    let max_pointer = b.component(block, plan.max_samples);
+    let max = b.expr(E::Load { pointer: max_pointer });
+    let mut done = b.binary(Bo::GreaterEqual, i, max);
+    if let Some(member) = plan.terminate {
+        let pointer = b.component(state, member);
+        let terminate = b.expr(E::Load { pointer });
+        done = b.binary(Bo::LogicalOr, done, terminate);
+    }
+    b.exit_if(&mut loop_body, done, S::Break);
+    b.call(&mut loop_body, plan.reset_sample, state);
+    for &f in &plan.samples {
+        b.call(&mut loop_body, f, state);
+    }
+    let mut continuing = naga::Block::new();
+    let i = b.expr(E::Load { pointer: counter });
+    let one = b.literal(naga::Literal::U32(1));
+    let next = b.binary(Bo::Add, i, one);
+    b.push(&mut continuing, S::Store { pointer: counter, value: next });
+    b.push(&mut body, S::Loop { body: loop_body, continuing, break_if: None });
+
+    for &f in &plan.ray_finish {
+        b.call(&mut body, f, state);
+    }
+    let color = match plan.out_color {
+        Some(member) => {
+            let pointer = b.component(state, member);
+            b.expr(E::Load { pointer })
+        }
+        None => {
+            let vec4f = ty(module, naga::TypeInner::Vector { size: naga::VectorSize::Quad, scalar: naga::Scalar::F32 });
+            b.expr(E::ZeroValue(vec4f))
+        }
+    };
+    let xy = b.expr(E::Swizzle {
+        size: naga::VectorSize::Bi,
+        vector: id,
+        pattern: [naga::SwizzleComponent::X, naga::SwizzleComponent::Y, naga::SwizzleComponent::X, naga::SwizzleComponent::X],
+    });
+    b.push(&mut body, S::ImageStore { image: output, coordinate: xy, array_index: None, value: color });
+    b.push(&mut body, S::Return { value: None });
+
+    let mut func = b.func;
+    func.body = body;
+    naga::EntryPoint {
+        name: "main".into(),
+        stage: naga::ShaderStage::Compute,
+        early_depth_test: None,
+        workgroup_size: WORKGROUP_SIZE,
+        workgroup_size_overrides: None,
+        function: func,
+        mesh_info: None,
+        task_payload: None,
+        incoming_ray_payload: None,
+    }
+}

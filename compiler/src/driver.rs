@@ -1,0 +1,84 @@
+//! The library's front door: runs the passes over files and returns what they produced,
+//! together with the source map and every diagnostic.
+
+use crate::check;
+use crate::diag::{Code, Diagnostic, Diagnostics};
+use crate::hir::Program;
+use crate::loader::{Loader, ModuleGraph};
+use crate::lower;
+use crate::source::{SourceMap, Span};
+use std::path::{Path, PathBuf};
+
+/// The result of checking a set of modules.
+pub struct Checked {
+    pub sources: SourceMap,
+    pub diags: Diagnostics,
+    pub graph: ModuleGraph,
+    pub program: Program,
+}
+
+/// An input file that could not be read (an I/O problem, not a diagnostic).
+#[derive(Debug)]
+pub struct InputError {
+    pub path: PathBuf,
+    pub error: std::io::Error,
+}
+
+impl std::fmt::Display for InputError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "cannot read `{}`: {}", self.path.display(), self.error)
+    }
+}
+
+impl std::error::Error for InputError {}
+
+/// Loads, parses and checks the given files (and everything they import).
+pub fn check_files(paths: &[PathBuf]) -> Result<Checked, InputError> {
+    let mut sources = SourceMap::new();
+    let mut diags = Diagnostics::new();
+    let mut loader = Loader::new(&mut sources, &mut diags);
+    for path in paths {
+        loader.load_root_file(path).map_err(|error| InputError { path: path.clone(), error })?;
+    }
+    let graph = loader.finish();
+    Ok(finish_check(sources, diags, graph))
+}
+
+/// Checks one module given as text (tests, fuzzing, editors). Imports resolve relative to `dir`.
+pub fn check_source(name: &str, text: &str, dir: Option<&Path>) -> Checked {
+    let mut sources = SourceMap::new();
+    let mut diags = Diagnostics::new();
+    let mut loader = Loader::new(&mut sources, &mut diags);
+    loader.load_root_source(name, text.to_string(), dir);
+    let graph = loader.finish();
+    finish_check(sources, diags, graph)
+}
+
+fn finish_check(sources: SourceMap, mut diags: Diagnostics, graph: ModuleGraph) -> Checked {
+    let program = check::check_program(&graph, &sources, &mut diags);
+    Checked { sources, diags, graph, program }
+}
+
+impl Checked {
+    /// WGSL of every checked function, each pipeline function lowered on its own
+    /// (`vrsc emit`). Errors when the modules have errors or the IR fails validation.
+    pub fn emit_standalone_wgsl(&mut self) -> Option<String> {
+        if self.diags.has_errors() {
+            return None;
+        }
+        let result = lower::lower_standalone(&self.program, &self.sources)
+            .and_then(|(module, info)| lower::write_wgsl(&module, &info));
+        match result {
+            Ok(wgsl) => Some(wgsl),
+            Err(d) => {
+                self.diags.push(d);
+                None
+            }
+        }
+    }
+}
+
+/// An internal error not tied to any source position.
+pub fn internal_error(message: impl Into<String>) -> Diagnostic {
+    Diagnostic::new(Code::Internal, Span::DUMMY, message)
+}

@@ -1,0 +1,211 @@
+//! Loader: reads the root files, lexes and parses them, and follows their imports into a module
+//! graph. Missing files and import cycles are diagnostics at the `import` item.
+
+use crate::ast::{self, ItemKind};
+use crate::diag::{Code, Diagnostic, Diagnostics};
+use crate::source::{FileId, SourceMap, Span};
+use crate::{lexer, parser, stdlib};
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
+/// One loaded file.
+#[derive(Debug)]
+pub struct LoadedModule {
+    pub file: FileId,
+    pub ast: ast::Module,
+    /// Indices (into [`ModuleGraph::modules`]) of the modules this one imports directly,
+    /// in source order; an import that failed to load is left out.
+    pub imports: Vec<usize>,
+    /// `Some("shading")` for the standard module `std::shading`.
+    pub std_name: Option<String>,
+}
+
+/// Every module reachable from the roots. A file imported from several places is loaded once.
+#[derive(Debug, Default)]
+pub struct ModuleGraph {
+    pub modules: Vec<LoadedModule>,
+    /// The modules the user named, in the order given.
+    pub roots: Vec<usize>,
+}
+
+/// Builds a [`ModuleGraph`], adding every file it reads to the source map.
+pub struct Loader<'a> {
+    sources: &'a mut SourceMap,
+    diags: &'a mut Diagnostics,
+    graph: ModuleGraph,
+    /// Canonical path or `std::name` → module index.
+    loaded: HashMap<String, usize>,
+    /// Modules whose imports are being followed (for cycle detection).
+    in_progress: Vec<usize>,
+}
+
+impl<'a> Loader<'a> {
+    pub fn new(sources: &'a mut SourceMap, diags: &'a mut Diagnostics) -> Loader<'a> {
+        Loader { sources, diags, graph: ModuleGraph::default(), loaded: HashMap::new(), in_progress: Vec::new() }
+    }
+
+    /// Loads a root file from disk. An unreadable root is an `Err` (an I/O problem, exit code 2).
+    pub fn load_root_file(&mut self, path: &Path) -> Result<usize, std::io::Error> {
+        let key = canonical_key(path);
+        if let Some(&index) = self.loaded.get(&key) {
+            self.graph.roots.push(index);
+            return Ok(index);
+        }
+        let text = std::fs::read_to_string(path)?;
+        let index = self.add_module(path.display().to_string(), Some(path), None, text, key);
+        self.graph.roots.push(index);
+        Ok(index)
+    }
+
+    /// Loads a root module from text (tests, fuzzing, embedded sources). Imports resolve
+    /// relative to `dir` when given.
+    pub fn load_root_source(&mut self, name: &str, text: String, dir: Option<&Path>) -> usize {
+        let path = dir.map(|d| d.join(name));
+        let key = format!("<source {}>:{name}", self.graph.modules.len());
+        let index = self.add_module(name.to_string(), path.as_deref(), None, text, key);
+        self.graph.roots.push(index);
+        index
+    }
+
+    /// Loads a standard module (`std::name`) as a root.
+    pub fn load_root_std(&mut self, name: &str) -> Option<usize> {
+        let index = self.load_std(name)?;
+        self.graph.roots.push(index);
+        Some(index)
+    }
+
+    pub fn finish(self) -> ModuleGraph {
+        self.graph
+    }
+
+    fn load_std(&mut self, name: &str) -> Option<usize> {
+        let key = format!("std::{name}");
+        if let Some(&index) = self.loaded.get(&key) {
+            return Some(index);
+        }
+        let text = stdlib::source(name)?;
+        Some(self.add_module(key.clone(), None, Some(name), text.to_string(), key))
+    }
+
+    fn add_module(&mut self, name: String, path: Option<&Path>, std_name: Option<&str>, text: String, key: String) -> usize {
+        let canonical = path.map(|p| p.canonicalize().unwrap_or_else(|_| p.to_path_buf()));
+        let file = self.sources.add(name, canonical, text);
+        let source = self.sources.file(file);
+        let eof = source.base + source.text.len() as u32;
+        let lexed = lexer::lex(&source.text, source.base, self.diags);
+        let ast = parser::parse_module(&lexed, file, eof, self.diags);
+        let index = self.graph.modules.len();
+        self.graph.modules.push(LoadedModule { file, ast, imports: Vec::new(), std_name: std_name.map(String::from) });
+        self.loaded.insert(key, index);
+        self.in_progress.push(index);
+        let imports = self.follow_imports(index);
+        self.in_progress.pop();
+        self.graph.modules[index].imports = imports;
+        index
+    }
+
+    fn follow_imports(&mut self, index: usize) -> Vec<usize> {
+        let module = &self.graph.modules[index];
+        let dir = self.sources.file(module.file).path.as_deref().and_then(Path::parent).map(Path::to_path_buf);
+        let requests: Vec<(ImportRequest, Span)> = module
+            .ast
+            .items
+            .iter()
+            .filter_map(|item| match &item.kind {
+                ItemKind::Import(ast::Import::Path { path, span }) => Some((ImportRequest::Path(path.clone()), *span)),
+                ItemKind::Import(ast::Import::Std { path }) => {
+                    let name = path.iter().map(|p| p.name.as_str()).collect::<Vec<_>>().join("::");
+                    let span = path.first().map(|p| p.span).unwrap_or(item.span).to(path.last().map_or(item.span, |p| p.span));
+                    Some((ImportRequest::Std(name), span))
+                }
+                _ => None,
+            })
+            .collect();
+        let mut imports = Vec::new();
+        for (request, span) in requests {
+            if let Some(target) = self.import(request, dir.as_deref(), span) {
+                if !imports.contains(&target) {
+                    imports.push(target);
+                }
+            }
+        }
+        imports
+    }
+
+    fn import(&mut self, request: ImportRequest, dir: Option<&Path>, span: Span) -> Option<usize> {
+        match request {
+            ImportRequest::Path(path) => self.import_path(&path, dir, span),
+            ImportRequest::Std(name) => self.import_std(&name, span),
+        }
+    }
+
+    fn import_path(&mut self, path: &str, dir: Option<&Path>, span: Span) -> Option<usize> {
+        let full = dir.map_or_else(|| PathBuf::from(path), |d| d.join(path));
+        let key = canonical_key(&full);
+        if let Some(&target) = self.loaded.get(&key) {
+            return self.check_cycle(target, span);
+        }
+        match std::fs::read_to_string(&full) {
+            Ok(text) => Some(self.add_module(display_path(&full), Some(&full), None, text, key)),
+            Err(err) => {
+                self.diags.push(
+                    Diagnostic::new(Code::ImportNotFound, span, format!("cannot read `{}`: {err}", full.display()))
+                        .with_label("imported here")
+                        .with_note("import paths are relative to the importing file"),
+                );
+                None
+            }
+        }
+    }
+
+    fn import_std(&mut self, name: &str, span: Span) -> Option<usize> {
+        if let Some(&target) = self.loaded.get(&format!("std::{name}")) {
+            return self.check_cycle(target, span);
+        }
+        if let Some(target) = self.load_std(name) {
+            return Some(target);
+        }
+        let known = stdlib::names().collect::<Vec<_>>();
+        let mut d = Diagnostic::new(Code::ImportNotFound, span, format!("no standard module `std::{name}`"))
+            .with_label("not in the standard library");
+        d = match crate::steps::did_you_mean(name, known.iter().copied()) {
+            Some(best) => d.with_help(format!("did you mean `std::{best}`?")),
+            None => d.with_note(format!("standard modules: {}", known.join(", "))),
+        };
+        self.diags.push(d);
+        None
+    }
+
+    /// An import of a module that is still being loaded closes a cycle.
+    fn check_cycle(&mut self, target: usize, span: Span) -> Option<usize> {
+        let Some(pos) = self.in_progress.iter().position(|&m| m == target) else { return Some(target) };
+        let chain: Vec<String> = self.in_progress[pos..]
+            .iter()
+            .chain(std::iter::once(&target))
+            .map(|&m| self.sources.file(self.graph.modules[m].file).name.clone())
+            .collect();
+        self.diags.push(
+            Diagnostic::new(Code::ImportCycle, span, "import cycle")
+                .with_label("this import closes the cycle")
+                .with_note(format!("cycle: {}", chain.join(" -> ")))
+                .with_help("move the shared functions into a module that both import"),
+        );
+        None
+    }
+}
+
+enum ImportRequest {
+    Path(String),
+    Std(String),
+}
+
+fn canonical_key(path: &Path) -> String {
+    path.canonicalize().unwrap_or_else(|_| path.to_path_buf()).display().to_string()
+}
+
+/// Paths are shown relative to the working directory when they are below it.
+fn display_path(path: &Path) -> String {
+    let cwd = std::env::current_dir().ok();
+    let shown = cwd.as_deref().and_then(|c| path.strip_prefix(c).ok()).unwrap_or(path);
+    shown.display().to_string()
+}

@@ -1,0 +1,939 @@
+//! Lowering of one function body: expressions, statements and the emit discipline.
+
+use std::collections::HashMap;
+
+use naga::{Expression as E, Handle, MathFunction as Mf, Statement as S};
+
+use super::{ModuleBuilder, PipelineEnv, UniformAccess, emitted_name, internal, naga_scalar, vector_size};
+use crate::ast::{AssignOp, BinaryOp, UnaryOp};
+use crate::diag::Diagnostic;
+use crate::hir::{self, Access, Builtin, ExprKind, PlaceRoot, ScalarValue, StmtKind};
+use crate::source::Span;
+use crate::types::{Scalar, Type};
+
+type R<T> = Result<T, Diagnostic>;
+type Ex = Handle<naga::Expression>;
+
+pub(super) fn lower_lib_fn(b: &mut ModuleBuilder, program: &hir::Program, lf: &hir::LibFn) -> R<naga::Function> {
+    let mut func = naga::Function { name: Some(b.claim_function_name(&lf.name)), ..Default::default() };
+    let mut params = Vec::with_capacity(lf.params.len());
+    for p in &lf.params {
+        let name = emitted_name(&p.name);
+        let mut arg = |func: &mut naga::Function, name: String, ty| {
+            let index = func.arguments.len() as u32;
+            func.arguments.push(naga::FunctionArgument { name: Some(name), ty, binding: None });
+            func.expressions.append(E::FunctionArgument(index), p.span.into())
+        };
+        params.push(match p.ty {
+            Type::Volume | Type::Tf => {
+                let dim = if p.ty == Type::Volume { naga::ImageDimension::D3 } else { naga::ImageDimension::D2 };
+                let (tex_ty, samp_ty) = (b.texture_type(dim), b.sampler_type());
+                let texture = arg(&mut func, name.clone(), tex_ty);
+                let sampler = arg(&mut func, format!("{name}_sampler"), samp_ty);
+                ParamSlot::Resource { texture, sampler }
+            }
+            t => {
+                let ty = b.ty(t, p.span)?;
+                ParamSlot::Plain(arg(&mut func, name, ty))
+            }
+        });
+    }
+    if lf.ret != Type::Void {
+        func.result = Some(naga::FunctionResult { ty: b.ty(lf.ret, lf.span)?, binding: None });
+    }
+    let mut cx = FnCtx::new(b, program, func, &lf.locals, Kind::Lib { ret: lf.ret });
+    cx.params = params;
+    let body = cx.block(&lf.body)?;
+    if lf.ret != Type::Void && !block_returns(&lf.body) {
+        return Err(internal(
+            lf.span,
+            format!("library function `{}` can end without returning a value (the checker reports E0401)", lf.name),
+        ));
+    }
+    cx.func.body = body;
+    Ok(cx.func)
+}
+
+pub(super) fn lower_pipeline_fn(
+    b: &mut ModuleBuilder,
+    program: &hir::Program,
+    pf: &hir::PipelineFn,
+    name: &str,
+    env: &PipelineEnv,
+) -> R<naga::Function> {
+    if env.state_members.len() != pf.state.len() || env.uniforms.len() != pf.uniforms.len() {
+        return Err(internal(pf.span, format!("the environment of pipeline function `{}` does not fit it", pf.name)));
+    }
+    let ptr_ty = b.function_pointer_type(env.state_type);
+    let mut func = naga::Function { name: Some(b.claim_function_name(name)), ..Default::default() };
+    func.arguments.push(naga::FunctionArgument { name: Some("state".into()), ty: ptr_ty, binding: None });
+    let state_ptr = func.expressions.append(E::FunctionArgument(0), pf.span.into());
+    let kind = Kind::Pipeline { env, state_ptr, state: &pf.state, uniforms: &pf.uniforms };
+    let mut cx = FnCtx::new(b, program, func, &pf.locals, kind);
+    cx.func.body = cx.block(&pf.body)?;
+    Ok(cx.func)
+}
+
+/// Whether control never reaches the end of the block (WGSL's behaviour analysis, restricted to
+/// what VRS has: a `for` loop may run zero times).
+fn block_returns(b: &hir::Block) -> bool {
+    b.stmts.iter().any(|s| match &s.kind {
+        StmtKind::Return(_) => true,
+        StmtKind::If { then, otherwise: Some(otherwise), .. } => block_returns(then) && block_returns(otherwise),
+        StmtKind::Block(b) => block_returns(b),
+        _ => false,
+    })
+}
+
+enum Kind<'a> {
+    Lib {
+        ret: Type,
+    },
+    Pipeline {
+        env: &'a PipelineEnv,
+        state_ptr: Ex,
+        state: &'a [hir::StateDecl],
+        uniforms: &'a [hir::UniformDecl],
+    },
+}
+
+#[derive(Clone, Copy)]
+enum LocalSlot {
+    /// A `let`: the value.
+    Value(Ex),
+    /// A `var` or loop variable: the pointer to its local variable.
+    Var(Ex),
+}
+
+#[derive(Clone, Copy)]
+enum ParamSlot {
+    Plain(Ex),
+    Resource { texture: Ex, sampler: Ex },
+}
+
+struct FnCtx<'a> {
+    b: &'a mut ModuleBuilder,
+    program: &'a hir::Program,
+    func: naga::Function,
+    kind: Kind<'a>,
+    locals: &'a [hir::Local],
+    slots: Vec<Option<LocalSlot>>,
+    params: Vec<ParamSlot>,
+    globals: HashMap<Handle<naga::GlobalVariable>, Ex>,
+    /// Start of the run of expressions appended since the last pre-emitted one, not yet in a
+    /// pending range.
+    open: Option<u32>,
+    /// Ranges of appended expressions that need an `Emit` before the next statement.
+    pending: Vec<std::ops::Range<u32>>,
+    loop_depth: u32,
+}
+
+impl<'a> FnCtx<'a> {
+    fn new(
+        b: &'a mut ModuleBuilder,
+        program: &'a hir::Program,
+        func: naga::Function,
+        locals: &'a [hir::Local],
+        kind: Kind<'a>,
+    ) -> Self {
+        FnCtx {
+            b,
+            program,
+            func,
+            kind,
+            locals,
+            slots: vec![None; locals.len()],
+            params: Vec::new(),
+            globals: HashMap::new(),
+            open: None,
+            pending: Vec::new(),
+            loop_depth: 0,
+        }
+    }
+
+    // ---- The emit discipline -------------------------------------------------------------
+
+    /// Appends an expression. Pre-emitted expressions (literals, arguments, variable pointers,
+    /// ...) and call results end the current run; every other expression joins one, which
+    /// [`Self::flush`] turns into an `Emit` before the next statement.
+    fn append(&mut self, expr: naga::Expression, span: Span) -> Ex {
+        let len = self.func.expressions.len() as u32;
+        if expr.needs_pre_emit() || matches!(expr, E::CallResult(_)) {
+            self.close_run(len);
+        } else if self.open.is_none() {
+            self.open = Some(len);
+        }
+        self.func.expressions.append(expr, span.into())
+    }
+
+    fn close_run(&mut self, end: u32) {
+        if let Some(start) = self.open.take()
+            && start < end
+        {
+            self.pending.push(start..end);
+        }
+    }
+
+    /// Pushes `Emit`s for every expression appended since the last flush.
+    fn flush(&mut self, block: &mut naga::Block) {
+        self.close_run(self.func.expressions.len() as u32);
+        for range in self.pending.drain(..) {
+            let range = naga::Range::from_index_range(range, &self.func.expressions);
+            let span = naga::Span::total_span(range.clone().map(|h| self.func.expressions.get_span(h)));
+            block.push(S::Emit(range), span);
+        }
+    }
+
+    fn push(&mut self, block: &mut naga::Block, stmt: naga::Statement, span: Span) {
+        self.flush(block);
+        block.push(stmt, span.into());
+    }
+
+    /// Names an expression for the WGSL writer (which then binds it with `let`), unless it is
+    /// written inline anyway or already has a name.
+    fn name(&mut self, h: Ex, name: &str) {
+        let expr = &self.func.expressions[h];
+        if !expr.needs_pre_emit()
+            && !matches!(expr, E::CallResult(_))
+            && !self.func.named_expressions.contains_key(&h)
+        {
+            self.func.named_expressions.insert(h, emitted_name(name));
+        }
+    }
+
+    fn global(&mut self, gv: Handle<naga::GlobalVariable>, span: Span) -> Ex {
+        if let Some(&h) = self.globals.get(&gv) {
+            return h;
+        }
+        let h = self.append(E::GlobalVariable(gv), span);
+        self.globals.insert(gv, h);
+        h
+    }
+
+    fn local(&self, id: hir::LocalId, span: Span) -> R<&'a hir::Local> {
+        self.locals.get(id).ok_or_else(|| internal(span, format!("local #{id} does not exist")))
+    }
+
+    // ---- Statements ----------------------------------------------------------------------
+
+    fn block(&mut self, b: &hir::Block) -> R<naga::Block> {
+        let mut out = naga::Block::new();
+        for s in &b.stmts {
+            self.stmt(s, &mut out)?;
+        }
+        self.flush(&mut out);
+        Ok(out)
+    }
+
+    fn stmt(&mut self, s: &hir::Stmt, block: &mut naga::Block) -> R<()> {
+        let span = s.span;
+        match &s.kind {
+            StmtKind::Let { local, value } => {
+                let l = self.local(*local, span)?;
+                let slot = if l.mutable {
+                    let v = match value {
+                        Some(v) => Some(self.expr(v, block)?),
+                        None => None,
+                    };
+                    LocalSlot::Var(self.declare_var(l, v, block, span)?)
+                } else {
+                    let Some(v) = value else {
+                        return Err(internal(span, format!("`let {}` without a value", l.name)));
+                    };
+                    let h = self.expr(v, block)?;
+                    self.name(h, &l.name);
+                    LocalSlot::Value(h)
+                };
+                self.slots[*local] = Some(slot);
+            }
+            StmtKind::Assign { place, op, value } => self.assign(place, *op, value, span, block)?,
+            StmtKind::If { cond, then, otherwise } => {
+                let condition = self.expr(cond, block)?;
+                self.flush(block);
+                let accept = self.block(then)?;
+                let reject = match otherwise {
+                    Some(b) => self.block(b)?,
+                    None => naga::Block::new(),
+                };
+                self.push(block, S::If { condition, accept, reject }, span);
+            }
+            StmtKind::For { var, start, end, body } => self.for_loop(*var, start, end, body, span, block)?,
+            StmtKind::Break | StmtKind::Continue => {
+                if self.loop_depth == 0 {
+                    return Err(internal(span, "`break` or `continue` outside a loop"));
+                }
+                let stmt = if matches!(s.kind, StmtKind::Break) { S::Break } else { S::Continue };
+                self.push(block, stmt, span);
+            }
+            StmtKind::Return(value) => {
+                let value = match (value, &self.kind) {
+                    (Some(v), Kind::Lib { ret }) if *ret != Type::Void => Some(self.expr(v, block)?),
+                    (None, Kind::Pipeline { .. }) | (None, Kind::Lib { ret: Type::Void }) => None,
+                    _ => return Err(internal(span, "a `return` that does not fit the function's return type")),
+                };
+                self.push(block, S::Return { value }, span);
+            }
+            StmtKind::Expr(e) => {
+                match &e.kind {
+                    ExprKind::CallLib { func, args } => {
+                        self.call_lib(*func, args, e.span, block)?;
+                    }
+                    // Anything else is pure: lower it for its checks; the writer drops it.
+                    _ => {
+                        self.expr(e, block)?;
+                    }
+                }
+            }
+            StmtKind::Block(b) => {
+                self.flush(block);
+                let inner = self.block(b)?;
+                self.push(block, S::Block(inner), span);
+            }
+        }
+        Ok(())
+    }
+
+    /// Declares the local variable of a `var` or loop variable, initialised with `value` (or its
+    /// zero value). A literal initialiser outside loops becomes the variable's `init`; anything
+    /// else is stored where the declaration stands, so a `var` in a loop body starts afresh.
+    fn declare_var(&mut self, l: &hir::Local, value: Option<Ex>, block: &mut naga::Block, span: Span) -> R<Ex> {
+        let ty = self.b.ty(l.ty, l.span)?;
+        let constant = |h: Ex| matches!(self.func.expressions[h], E::Literal(_) | E::ZeroValue(_));
+        let init = value.filter(|&h| self.loop_depth == 0 && constant(h));
+        let var = naga::LocalVariable { name: Some(emitted_name(&l.name)), ty, init };
+        let lv = self.func.local_variables.append(var, l.span.into());
+        let ptr = self.append(E::LocalVariable(lv), l.span);
+        match (value, init) {
+            (Some(v), None) => self.push(block, S::Store { pointer: ptr, value: v }, span),
+            (None, _) if self.loop_depth > 0 => {
+                let zero = self.append(E::ZeroValue(ty), span);
+                self.push(block, S::Store { pointer: ptr, value: zero }, span);
+            }
+            _ => {}
+        }
+        Ok(ptr)
+    }
+
+    fn for_loop(
+        &mut self,
+        var: hir::LocalId,
+        start: &hir::Expr,
+        end: &hir::Expr,
+        body: &hir::Block,
+        span: Span,
+        block: &mut naga::Block,
+    ) -> R<()> {
+        let l = self.local(var, span)?;
+        let one = match l.ty {
+            Type::Scalar(Scalar::I32) => naga::Literal::I32(1),
+            Type::Scalar(Scalar::U32) => naga::Literal::U32(1),
+            t => return Err(internal(span, format!("a `for` variable of type `{t}`"))),
+        };
+        let start = self.expr(start, block)?;
+        let end = self.expr(end, block)?;
+        self.name(end, &format!("{}_end", l.name));
+        let ptr = self.declare_var(l, Some(start), block, span)?;
+        self.slots[var] = Some(LocalSlot::Var(ptr));
+        self.flush(block);
+
+        let mut body_block = naga::Block::new();
+        let i = self.append(E::Load { pointer: ptr }, l.span);
+        let done = self.append(E::Binary { op: naga::BinaryOperator::GreaterEqual, left: i, right: end }, span);
+        let mut brk = naga::Block::new();
+        brk.push(S::Break, span.into());
+        self.push(&mut body_block, S::If { condition: done, accept: brk, reject: naga::Block::new() }, span);
+        self.loop_depth += 1;
+        let result = body.stmts.iter().try_for_each(|s| self.stmt(s, &mut body_block));
+        self.loop_depth -= 1;
+        result?;
+        self.flush(&mut body_block);
+
+        let mut continuing = naga::Block::new();
+        let i = self.append(E::Load { pointer: ptr }, l.span);
+        let one = self.append(E::Literal(one), span);
+        let next = self.append(E::Binary { op: naga::BinaryOperator::Add, left: i, right: one }, span);
+        self.push(&mut continuing, S::Store { pointer: ptr, value: next }, span);
+        self.push(block, S::Loop { body: body_block, continuing, break_if: None }, span);
+        Ok(())
+    }
+
+    fn assign(&mut self, place: &hir::Place, op: AssignOp, value: &hir::Expr, span: Span, block: &mut naga::Block) -> R<()> {
+        let (mut ptr, mut ty) = match place.root {
+            PlaceRoot::Local(id) => {
+                let l = self.local(id, place.span)?;
+                match self.slots[id] {
+                    Some(LocalSlot::Var(p)) => (p, l.ty),
+                    _ => return Err(internal(place.span, format!("assignment to `{}`, which is not a `var`", l.name))),
+                }
+            }
+            PlaceRoot::State(i) => {
+                let Kind::Pipeline { env, state_ptr, state, .. } = self.kind else {
+                    return Err(internal(place.span, "`state` in a library function"));
+                };
+                let decl = state.get(i).ok_or_else(|| internal(place.span, format!("state field #{i} does not exist")))?;
+                match env.state_members[i] {
+                    Some(m) => (self.append(E::AccessIndex { base: state_ptr, index: m }, place.span), decl.ty),
+                    // The field is left out of the struct: the write is dropped (values are pure).
+                    None => return Ok(()),
+                }
+            }
+        };
+        let mut swizzle = None;
+        for (k, access) in place.path.iter().enumerate() {
+            match access {
+                Access::Component(c) => {
+                    ptr = self.append(E::AccessIndex { base: ptr, index: u32::from(*c) }, place.span);
+                    ty = element_type(ty).ok_or_else(|| internal(place.span, format!("a component of `{ty}`")))?;
+                }
+                Access::Index(index) => {
+                    ptr = self.index(ptr, index, place.span, block)?;
+                    ty = element_type(ty).ok_or_else(|| internal(place.span, format!("an index into `{ty}`")))?;
+                }
+                Access::Swizzle(components) if k + 1 == place.path.len() => swizzle = Some(components),
+                Access::Swizzle(_) => return Err(internal(place.span, "a swizzle in the middle of a place")),
+            }
+        }
+        let v = self.expr(value, block)?;
+        let new = match swizzle {
+            None if op == AssignOp::Assign => v,
+            None => {
+                let old = self.append(E::Load { pointer: ptr }, place.span);
+                self.binary(binary_op(op), (old, ty), (v, value.ty), span)
+            }
+            Some(components) => {
+                let Type::Vector { size, scalar } = ty else {
+                    return Err(internal(place.span, format!("a swizzle of `{ty}`")));
+                };
+                let old = self.append(E::Load { pointer: ptr }, place.span);
+                let part = match op {
+                    AssignOp::Assign => v,
+                    _ => {
+                        let old_part = self.swizzle(old, components, place.span)?;
+                        let part_ty = if components.len() == 1 {
+                            Type::Scalar(scalar)
+                        } else {
+                            Type::vec(components.len() as u8, scalar)
+                        };
+                        self.binary(binary_op(op), (old_part, part_ty), (v, value.ty), span)
+                    }
+                };
+                let mut parts = Vec::with_capacity(size as usize);
+                for j in 0..size {
+                    parts.push(match components.iter().position(|&c| c == j) {
+                        Some(_) if components.len() == 1 => part,
+                        Some(pos) => self.append(E::AccessIndex { base: part, index: pos as u32 }, span),
+                        None => self.append(E::AccessIndex { base: old, index: u32::from(j) }, place.span),
+                    });
+                }
+                let vty = self.b.ty(ty, place.span)?;
+                self.append(E::Compose { ty: vty, components: parts }, span)
+            }
+        };
+        self.push(block, S::Store { pointer: ptr, value: new }, span);
+        Ok(())
+    }
+
+    // ---- Expressions ---------------------------------------------------------------------
+
+    /// The value of an expression.
+    fn expr(&mut self, e: &hir::Expr, block: &mut naga::Block) -> R<Ex> {
+        let span = e.span;
+        if let Some(ptr) = self.reference(e, block)? {
+            return Ok(self.append(E::Load { pointer: ptr }, span));
+        }
+        Ok(match &e.kind {
+            ExprKind::Const(c) => self.constant(c, span)?,
+            ExprKind::Local(id) => match self.slots.get(*id).copied().flatten() {
+                Some(LocalSlot::Value(h)) => h,
+                Some(LocalSlot::Var(p)) => self.append(E::Load { pointer: p }, span),
+                None => return Err(internal(span, format!("local #{id} used before its declaration"))),
+            },
+            ExprKind::Param(i) => match self.params.get(*i) {
+                Some(ParamSlot::Plain(h)) => *h,
+                Some(ParamSlot::Resource { .. }) => {
+                    return Err(internal(span, "a `volume` or `tf` parameter used as a value"));
+                }
+                None => return Err(internal(span, format!("parameter #{i} does not exist"))),
+            },
+            ExprKind::Uniform(i) => {
+                let (access, decl) = self.uniform(*i, span)?;
+                let UniformAccess::Member { block: gv, index } = access else {
+                    return Err(internal(span, format!("the resource uniform `{}` used as a value", decl.name)));
+                };
+                let base = self.global(gv, span);
+                let ptr = self.append(E::AccessIndex { base, index }, span);
+                let v = self.append(E::Load { pointer: ptr }, span);
+                // Only bool uniforms get here (see `reference`): stored as u32.
+                self.convert(v, Scalar::Bool, span)
+            }
+            ExprKind::State(_) => return Err(internal(span, "`state` read outside a pipeline function")),
+            ExprKind::CallLib { func, args } => match self.call_lib(*func, args, span, block)? {
+                Some(h) => h,
+                None => return Err(internal(span, "the result of a call that returns nothing used as a value")),
+            },
+            ExprKind::CallBuiltin { builtin, args } => self.builtin(*builtin, args, span, block)?,
+            ExprKind::Construct { args } => self.construct(e.ty, args, span, block)?,
+            ExprKind::Convert { arg } => {
+                let v = self.expr(arg, block)?;
+                match e.ty.scalar() {
+                    _ if arg.ty == e.ty => v,
+                    Some(s) => self.convert(v, s, span),
+                    None => return Err(internal(span, format!("a conversion to `{}`", e.ty))),
+                }
+            }
+            ExprKind::Unary { op, operand } => {
+                let v = self.expr(operand, block)?;
+                let op = match op {
+                    UnaryOp::Neg => naga::UnaryOperator::Negate,
+                    UnaryOp::Not if operand.ty.scalar() == Some(Scalar::Bool) => naga::UnaryOperator::LogicalNot,
+                    UnaryOp::Not => naga::UnaryOperator::BitwiseNot,
+                };
+                self.append(E::Unary { op, expr: v }, span)
+            }
+            ExprKind::Binary { op, lhs, rhs } => {
+                let l = self.expr(lhs, block)?;
+                let r = self.expr(rhs, block)?;
+                self.binary(*op, (l, lhs.ty), (r, rhs.ty), span)
+            }
+            ExprKind::Swizzle { base, components } => {
+                let v = self.expr(base, block)?;
+                self.swizzle(v, components, span)?
+            }
+            ExprKind::Index { base, index } => {
+                let v = self.expr(base, block)?;
+                match (const_index(index), base.ty) {
+                    (Some(k), _) => self.append(E::AccessIndex { base: v, index: k }, span),
+                    // naga indexes a matrix dynamically only behind a pointer: spill it.
+                    (None, Type::Matrix { .. }) => {
+                        let ty = self.b.ty(base.ty, span)?;
+                        let var = naga::LocalVariable { name: None, ty, init: None };
+                        let lv = self.func.local_variables.append(var, span.into());
+                        let ptr = self.append(E::LocalVariable(lv), span);
+                        self.push(block, S::Store { pointer: ptr, value: v }, span);
+                        let i = self.expr(index, block)?;
+                        let column = self.append(E::Access { base: ptr, index: i }, span);
+                        self.append(E::Load { pointer: column }, span)
+                    }
+                    (None, _) => {
+                        let i = self.expr(index, block)?;
+                        self.append(E::Access { base: v, index: i }, span)
+                    }
+                }
+            }
+        })
+    }
+
+    /// A pointer to what the expression reads, when it reads memory: a `var`, a state field, a
+    /// uniform block member, or a component / index of one. `None` (having appended nothing)
+    /// for anything else.
+    fn reference(&mut self, e: &hir::Expr, block: &mut naga::Block) -> R<Option<Ex>> {
+        let span = e.span;
+        Ok(match &e.kind {
+            ExprKind::Local(id) => match self.slots.get(*id).copied().flatten() {
+                Some(LocalSlot::Var(p)) => Some(p),
+                _ => None,
+            },
+            ExprKind::State(i) => {
+                let Kind::Pipeline { env, state_ptr, state, .. } = self.kind else {
+                    return Err(internal(span, "`state` in a library function"));
+                };
+                let decl = state.get(*i).ok_or_else(|| internal(span, format!("state field #{i} does not exist")))?;
+                let Some(m) = env.state_members[*i] else {
+                    return Err(internal(span, format!("state field `{}` is read but was left out", decl.name)));
+                };
+                Some(self.append(E::AccessIndex { base: state_ptr, index: m }, span))
+            }
+            ExprKind::Uniform(i) => match self.uniform(*i, span)? {
+                (UniformAccess::Member { block: gv, index }, decl) if decl.ty.scalar() != Some(Scalar::Bool) => {
+                    let base = self.global(gv, span);
+                    Some(self.append(E::AccessIndex { base, index }, span))
+                }
+                _ => None,
+            },
+            ExprKind::Index { base, index } => match self.reference(base, block)? {
+                Some(p) => Some(self.index(p, index, span, block)?),
+                None => None,
+            },
+            ExprKind::Swizzle { base, components } if components.len() == 1 => match self.reference(base, block)? {
+                Some(p) => Some(self.append(E::AccessIndex { base: p, index: u32::from(components[0]) }, span)),
+                None => None,
+            },
+            _ => None,
+        })
+    }
+
+    /// `base[index]` on a pointer.
+    fn index(&mut self, base: Ex, index: &hir::Expr, span: Span, block: &mut naga::Block) -> R<Ex> {
+        Ok(match const_index(index) {
+            Some(k) => self.append(E::AccessIndex { base, index: k }, span),
+            None => {
+                let i = self.expr(index, block)?;
+                self.append(E::Access { base, index: i }, span)
+            }
+        })
+    }
+
+    fn uniform(&self, i: usize, span: Span) -> R<(UniformAccess, &'a hir::UniformDecl)> {
+        let Kind::Pipeline { env, uniforms, .. } = self.kind else {
+            return Err(internal(span, "a uniform in a library function"));
+        };
+        match (env.uniforms.get(i), uniforms.get(i)) {
+            (Some(access), Some(decl)) => Ok((*access, decl)),
+            _ => Err(internal(span, format!("uniform #{i} does not exist"))),
+        }
+    }
+
+    fn constant(&mut self, c: &hir::ConstValue, span: Span) -> R<Ex> {
+        if c.components.len() != c.ty.components() || c.components.is_empty() {
+            return Err(internal(span, format!("a constant of type `{}` with {} components", c.ty, c.components.len())));
+        }
+        let literal = |v: ScalarValue| {
+            E::Literal(match v {
+                ScalarValue::Bool(b) => naga::Literal::Bool(b),
+                ScalarValue::I32(i) => naga::Literal::I32(i),
+                ScalarValue::U32(u) => naga::Literal::U32(u),
+                ScalarValue::F32(f) => naga::Literal::F32(f),
+            })
+        };
+        Ok(match c.ty {
+            Type::Scalar(_) => self.append(literal(c.components[0]), span),
+            Type::Vector { size, .. } if c.components.iter().all(|&v| v == c.components[0]) => {
+                let value = self.append(literal(c.components[0]), span);
+                let size = vector_size(size).ok_or_else(|| internal(span, "a vector of odd size"))?;
+                self.append(E::Splat { size, value }, span)
+            }
+            Type::Vector { .. } => {
+                let ty = self.b.ty(c.ty, span)?;
+                let components = c.components.iter().map(|&v| self.append(literal(v), span)).collect();
+                self.append(E::Compose { ty, components }, span)
+            }
+            Type::Matrix { rows, .. } => {
+                let ty = self.b.ty(c.ty, span)?;
+                let column_ty = self.b.ty(Type::vec(rows, Scalar::F32), span)?;
+                let mut columns = Vec::new();
+                for column in c.components.chunks(rows as usize) {
+                    let components = column.iter().map(|&v| self.append(literal(v), span)).collect();
+                    columns.push(self.append(E::Compose { ty: column_ty, components }, span));
+                }
+                self.append(E::Compose { ty, components: columns }, span)
+            }
+            t => return Err(internal(span, format!("a constant of type `{t}`"))),
+        })
+    }
+
+    fn convert(&mut self, v: Ex, to: Scalar, span: Span) -> Ex {
+        let s = naga_scalar(to);
+        self.append(E::As { expr: v, kind: s.kind, convert: Some(s.width) }, span)
+    }
+
+    fn splat(&mut self, v: Ex, size: u8, span: Span) -> R<Ex> {
+        let size = vector_size(size).ok_or_else(|| internal(span, "a vector of odd size"))?;
+        Ok(self.append(E::Splat { size, value: v }, span))
+    }
+
+    /// A binary operation with WGSL's vector-scalar mixing (naga mixes only in `*`).
+    fn binary(&mut self, op: BinaryOp, (mut l, lt): (Ex, Type), (mut r, rt): (Ex, Type), span: Span) -> Ex {
+        use naga::BinaryOperator as Bo;
+        if op != BinaryOp::Mul {
+            match (lt, rt) {
+                (Type::Vector { size, .. }, Type::Scalar(_)) => r = self.splat(r, size, span).unwrap_or(r),
+                (Type::Scalar(_), Type::Vector { size, .. }) => l = self.splat(l, size, span).unwrap_or(l),
+                _ => {}
+            }
+        }
+        let op = match op {
+            BinaryOp::Mul => Bo::Multiply,
+            BinaryOp::Div => Bo::Divide,
+            BinaryOp::Rem => Bo::Modulo,
+            BinaryOp::Add => Bo::Add,
+            BinaryOp::Sub => Bo::Subtract,
+            BinaryOp::Shl => Bo::ShiftLeft,
+            BinaryOp::Shr => Bo::ShiftRight,
+            BinaryOp::Lt => Bo::Less,
+            BinaryOp::Le => Bo::LessEqual,
+            BinaryOp::Gt => Bo::Greater,
+            BinaryOp::Ge => Bo::GreaterEqual,
+            BinaryOp::Eq => Bo::Equal,
+            BinaryOp::Ne => Bo::NotEqual,
+            BinaryOp::BitAnd => Bo::And,
+            BinaryOp::BitXor => Bo::ExclusiveOr,
+            BinaryOp::BitOr => Bo::InclusiveOr,
+            BinaryOp::And => Bo::LogicalAnd,
+            BinaryOp::Or => Bo::LogicalOr,
+        };
+        self.append(E::Binary { op, left: l, right: r }, span)
+    }
+
+    fn swizzle(&mut self, v: Ex, components: &[u8], span: Span) -> R<Ex> {
+        let pattern_of = |c: u8| match c {
+            0 => Ok(naga::SwizzleComponent::X),
+            1 => Ok(naga::SwizzleComponent::Y),
+            2 => Ok(naga::SwizzleComponent::Z),
+            3 => Ok(naga::SwizzleComponent::W),
+            _ => Err(internal(span, format!("swizzle component {c}"))),
+        };
+        if let [c] = components {
+            pattern_of(*c)?;
+            return Ok(self.append(E::AccessIndex { base: v, index: u32::from(*c) }, span));
+        }
+        let size = vector_size(components.len() as u8).ok_or_else(|| internal(span, "a swizzle of odd size"))?;
+        let mut pattern = [naga::SwizzleComponent::X; 4];
+        for (slot, &c) in pattern.iter_mut().zip(components) {
+            *slot = pattern_of(c)?;
+        }
+        Ok(self.append(E::Swizzle { size, vector: v, pattern }, span))
+    }
+
+    fn construct(&mut self, ty: Type, args: &[hir::Expr], span: Span, block: &mut naga::Block) -> R<Ex> {
+        let nty = self.b.ty(ty, span)?;
+        if args.is_empty() {
+            return Ok(self.append(E::ZeroValue(nty), span));
+        }
+        let mut values = Vec::with_capacity(args.len());
+        for a in args {
+            values.push(self.expr(a, block)?);
+        }
+        Ok(match (ty, args) {
+            (_, [a]) if a.ty == ty => values[0],
+            (Type::Scalar(s), [_]) => self.convert(values[0], s, span),
+            (Type::Vector { size, scalar }, [a]) if matches!(a.ty, Type::Scalar(_)) => {
+                let v = if a.ty == Type::Scalar(scalar) { values[0] } else { self.convert(values[0], scalar, span) };
+                self.splat(v, size, span)?
+            }
+            (Type::Vector { size, scalar }, [a]) if matches!(a.ty, Type::Vector { size: n, .. } if n == size) => {
+                self.convert(values[0], scalar, span)
+            }
+            (Type::Matrix { cols, rows }, _)
+                if args.len() == cols as usize * rows as usize && args.iter().all(|a| matches!(a.ty, Type::Scalar(_))) =>
+            {
+                let column_ty = self.b.ty(Type::vec(rows, Scalar::F32), span)?;
+                let columns = values
+                    .chunks(rows as usize)
+                    .map(|c| self.append(E::Compose { ty: column_ty, components: c.to_vec() }, span))
+                    .collect();
+                self.append(E::Compose { ty: nty, components: columns }, span)
+            }
+            _ => self.append(E::Compose { ty: nty, components: values }, span),
+        })
+    }
+
+    fn call_lib(&mut self, id: hir::LibFnId, args: &[hir::Expr], span: Span, block: &mut naga::Block) -> R<Option<Ex>> {
+        let function = self.b.lower_lib_fn(self.program, id)?;
+        let Some(callee) = self.program.lib_fns.get(id) else {
+            return Err(internal(span, format!("library function #{id} does not exist")));
+        };
+        if callee.params.len() != args.len() {
+            return Err(internal(span, format!("a call of `{}` with {} arguments", callee.name, args.len())));
+        }
+        let mut arguments = Vec::with_capacity(args.len());
+        for (p, a) in callee.params.iter().zip(args) {
+            if p.ty.is_resource() {
+                let (texture, sampler) = self.resource(a)?;
+                arguments.extend([texture, sampler]);
+            } else {
+                arguments.push(self.expr(a, block)?);
+            }
+        }
+        let result = (callee.ret != Type::Void).then(|| self.append(E::CallResult(function), span));
+        self.push(block, S::Call { function, arguments, result }, span);
+        Ok(result)
+    }
+
+    /// The texture and sampler of a `volume` or `tf` argument.
+    fn resource(&mut self, e: &hir::Expr) -> R<(Ex, Ex)> {
+        match e.kind {
+            ExprKind::Param(i) => match self.params.get(i) {
+                Some(ParamSlot::Resource { texture, sampler }) => return Ok((*texture, *sampler)),
+                _ => {}
+            },
+            ExprKind::Uniform(i) => match self.uniform(i, e.span)?.0 {
+                UniformAccess::Volume { texture, sampler } | UniformAccess::Tf { texture, sampler } => {
+                    return Ok((self.global(texture, e.span), self.global(sampler, e.span)));
+                }
+                UniformAccess::Member { .. } => {}
+            },
+            _ => {}
+        }
+        Err(internal(e.span, "expected a `volume` or `tf` parameter or uniform"))
+    }
+
+    fn builtin(&mut self, builtin: Builtin, args: &[hir::Expr], span: Span, block: &mut naga::Block) -> R<Ex> {
+        use Builtin as B;
+        let arity = |n: usize| {
+            if args.len() == n {
+                Ok(())
+            } else {
+                Err(internal(span, format!("`{builtin:?}` with {} arguments", args.len())))
+            }
+        };
+        let math = match builtin {
+            B::Abs => Some((Mf::Abs, 1)),
+            B::Min => Some((Mf::Min, 2)),
+            B::Max => Some((Mf::Max, 2)),
+            B::Clamp => Some((Mf::Clamp, 3)),
+            B::Mix => Some((Mf::Mix, 3)),
+            B::Step => Some((Mf::Step, 2)),
+            B::Smoothstep => Some((Mf::SmoothStep, 3)),
+            B::Sign => Some((Mf::Sign, 1)),
+            B::Floor => Some((Mf::Floor, 1)),
+            B::Ceil => Some((Mf::Ceil, 1)),
+            B::Fract => Some((Mf::Fract, 1)),
+            B::Round => Some((Mf::Round, 1)),
+            B::Trunc => Some((Mf::Trunc, 1)),
+            B::Sqrt => Some((Mf::Sqrt, 1)),
+            B::InverseSqrt => Some((Mf::InverseSqrt, 1)),
+            B::Pow => Some((Mf::Pow, 2)),
+            B::Exp => Some((Mf::Exp, 1)),
+            B::Exp2 => Some((Mf::Exp2, 1)),
+            B::Log => Some((Mf::Log, 1)),
+            B::Log2 => Some((Mf::Log2, 1)),
+            B::Sin => Some((Mf::Sin, 1)),
+            B::Cos => Some((Mf::Cos, 1)),
+            B::Tan => Some((Mf::Tan, 1)),
+            B::Asin => Some((Mf::Asin, 1)),
+            B::Acos => Some((Mf::Acos, 1)),
+            B::Atan => Some((Mf::Atan, 1)),
+            B::Atan2 => Some((Mf::Atan2, 2)),
+            B::Dot => Some((Mf::Dot, 2)),
+            B::Cross => Some((Mf::Cross, 2)),
+            B::Length => Some((Mf::Length, 1)),
+            B::Distance => Some((Mf::Distance, 2)),
+            B::Normalize => Some((Mf::Normalize, 1)),
+            B::Reflect => Some((Mf::Reflect, 2)),
+            B::FaceForward => Some((Mf::FaceForward, 3)),
+            B::Transpose => Some((Mf::Transpose, 1)),
+            B::Determinant => Some((Mf::Determinant, 1)),
+            B::Select | B::Any | B::All | B::Sample | B::Lookup | B::Dims => None,
+        };
+        if let Some((fun, n)) = math {
+            arity(n)?;
+            let mut values = Vec::with_capacity(n);
+            for a in args {
+                values.push(self.expr(a, block)?);
+            }
+            // WGSL's overloads of these take one type T for all (the first two, for `mix`)
+            // arguments; accept a scalar among vectors by splatting it.
+            let same_type = match fun {
+                Mf::Min | Mf::Max | Mf::Clamp | Mf::Step | Mf::SmoothStep | Mf::Pow | Mf::Atan2 => n,
+                Mf::Mix => 2,
+                _ => 0,
+            };
+            let widest = args[..same_type]
+                .iter()
+                .filter_map(|a| match a.ty {
+                    Type::Vector { size, .. } => Some(size),
+                    _ => None,
+                })
+                .max();
+            if let Some(size) = widest {
+                for (v, a) in values.iter_mut().zip(args).take(same_type) {
+                    if matches!(a.ty, Type::Scalar(_)) {
+                        *v = self.splat(*v, size, span)?;
+                    }
+                }
+            }
+            return Ok(self.append(
+                E::Math {
+                    fun,
+                    arg: values[0],
+                    arg1: values.get(1).copied(),
+                    arg2: values.get(2).copied(),
+                    arg3: None,
+                },
+                span,
+            ));
+        }
+        Ok(match builtin {
+            // WGSL: select(f, t, cond).
+            B::Select => {
+                arity(3)?;
+                let reject = self.expr(&args[0], block)?;
+                let accept = self.expr(&args[1], block)?;
+                let condition = self.expr(&args[2], block)?;
+                self.append(E::Select { condition, accept, reject }, span)
+            }
+            B::Any | B::All => {
+                arity(1)?;
+                let argument = self.expr(&args[0], block)?;
+                if matches!(args[0].ty, Type::Scalar(_)) {
+                    // `any(b)` and `all(b)` of a scalar are `b`.
+                    argument
+                } else {
+                    let fun =
+                        if builtin == B::Any { naga::RelationalFunction::Any } else { naga::RelationalFunction::All };
+                    self.append(E::Relational { fun, argument }, span)
+                }
+            }
+            B::Sample => {
+                arity(2)?;
+                let (image, sampler) = self.resource(&args[0])?;
+                let coordinate = self.expr(&args[1], block)?;
+                let texel = self.sample(image, sampler, coordinate, span);
+                self.append(E::AccessIndex { base: texel, index: 0 }, span)
+            }
+            B::Lookup => {
+                arity(2)?;
+                let (image, sampler) = self.resource(&args[0])?;
+                let x = self.expr(&args[1], block)?;
+                let half = self.append(E::Literal(naga::Literal::F32(0.5)), span);
+                let ty = self.b.ty(Type::vec(2, Scalar::F32), span)?;
+                let coordinate = self.append(E::Compose { ty, components: vec![x, half] }, span);
+                self.sample(image, sampler, coordinate, span)
+            }
+            B::Dims => {
+                arity(1)?;
+                let (image, _) = self.resource(&args[0])?;
+                self.append(E::ImageQuery { image, query: naga::ImageQuery::Size { level: None } }, span)
+            }
+            _ => return Err(internal(span, format!("built-in `{builtin:?}` is not lowered"))),
+        })
+    }
+
+    /// `textureSampleLevel(image, sampler, coordinate, 0.0)`.
+    fn sample(&mut self, image: Ex, sampler: Ex, coordinate: Ex, span: Span) -> Ex {
+        self.append(
+            E::ImageSample {
+                image,
+                sampler,
+                gather: None,
+                coordinate,
+                array_index: None,
+                offset: None,
+                level: naga::SampleLevel::Zero,
+                depth_ref: None,
+                clamp_to_edge: false,
+            },
+            span,
+        )
+    }
+}
+
+/// The element a component access or index of `t` yields.
+fn element_type(t: Type) -> Option<Type> {
+    match t {
+        Type::Vector { scalar, .. } => Some(Type::Scalar(scalar)),
+        Type::Matrix { rows, .. } => Some(Type::vec(rows, Scalar::F32)),
+        _ => None,
+    }
+}
+
+/// A non-negative constant index.
+fn const_index(e: &hir::Expr) -> Option<u32> {
+    match &e.kind {
+        ExprKind::Const(c) => match c.components.as_slice() {
+            [ScalarValue::I32(i)] => u32::try_from(*i).ok(),
+            [ScalarValue::U32(u)] => Some(*u),
+            _ => None,
+        },
+        _ => None,
+    }
+}
+
+fn binary_op(op: AssignOp) -> BinaryOp {
+    match op {
+        AssignOp::Assign | AssignOp::Add => BinaryOp::Add,
+        AssignOp::Sub => BinaryOp::Sub,
+        AssignOp::Mul => BinaryOp::Mul,
+        AssignOp::Div => BinaryOp::Div,
+    }
+}

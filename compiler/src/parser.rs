@@ -1,0 +1,1446 @@
+//! Parser: the tokens of one file to its syntax tree (chumsky).
+//!
+//! Parsing never fails. Errors are reported and recovered from at three levels, so every
+//! independent error in a file is reported once:
+//!
+//! - **expressions**: a broken parenthesised expression, argument list or index is skipped to its
+//!   closing bracket and becomes [`ExprKind::Error`];
+//! - **statements and declarations**: a broken one is skipped to the next `;` (inclusive) or past
+//!   the next balanced `{ ... }`, and becomes [`StmtKind::Error`]; a block whose `}` is missing at
+//!   the end of the file or before the next item keyword is closed there;
+//! - **items**: a broken item is skipped to the next item keyword at top level (`import const lib
+//!   pipeline remove`), balancing brackets.
+//!
+//! Nothing recurses without bound. Brackets are nested at most [`crate::lexer::MAX_NESTING`] deep
+//! (the lexer sees to that) and the recursion through them is on a growable stack (chumsky's
+//! `stacker`); unary operators and `else if` chains are parsed by loops; binary operators by a Pratt
+//! loop. Every tree the parser builds is at most [`MAX_DEPTH`] expression levels and [`MAX_DEPTH`]
+//! statement levels deep (deeper input is E0105 and becomes an error node), which bounds the
+//! recursion of every later pass, dropping the tree included.
+
+use crate::ast::*;
+use crate::diag::{Code, Diagnostic, Diagnostics};
+use crate::lexer::{Lexed, Token};
+use crate::source::{FileId, Span};
+use crate::types::Type;
+use chumsky::error::{RichPattern, RichReason};
+use chumsky::input::{MapExtra, ValueInput};
+use chumsky::pratt::{infix, left};
+use chumsky::prelude::*;
+use chumsky::recursive::Indirect;
+use std::collections::{HashMap, HashSet};
+
+/// The deepest expression tree, and the deepest statement nesting (blocks and `else if` levels),
+/// the parser builds. Deeper input is reported (E0105) and replaced by an error node.
+pub const MAX_DEPTH: u32 = 256;
+
+/// Depth of a node that replaced a too-deep subtree: enclosing nodes become errors as well,
+/// without a second report.
+const SATURATED: u32 = MAX_DEPTH + 1;
+
+/// Most expected tokens listed in a message.
+const MAX_EXPECTED: usize = 6;
+
+/// Tokens that start an item: where item-level recovery resumes, and where an unclosed block ends.
+const ITEM_KEYWORDS: [Token; 5] = [Token::Import, Token::Const, Token::Lib, Token::Pipeline, Token::Remove];
+
+/// A chumsky error; `Custom` carries a finished diagnostic (E0105, E0106, E0107, ...).
+type ParseError<'t> = Rich<'t, Token, SimpleSpan, Box<Diagnostic>>;
+type Extra<'t> = extra::Err<ParseError<'t>>;
+
+/// Parses one file's tokens. Never fails: returns the tree with every independent error reported.
+/// `eof` is the global offset of the end of the file (the span of "end of input").
+pub fn parse_module(lexed: &Lexed, file: FileId, eof: u32, diags: &mut Diagnostics) -> Module {
+    let tokens: Vec<(Token, SimpleSpan)> =
+        lexed.tokens.iter().map(|(t, s)| (t.clone(), SimpleSpan::from(s.start as usize..s.end as usize))).collect();
+    let eoi = SimpleSpan::from(eof as usize..eof as usize);
+    let (items, errors) = module_parser().parse(tokens.as_slice().split_token_span(eoi)).into_output_errors();
+    let mut items = items.unwrap_or_default();
+    attach_docs(&mut items, &lexed.docs);
+    report(errors, diags);
+    Module { file, items }
+}
+
+fn span_of(s: SimpleSpan) -> Span {
+    Span::new(s.start as u32, s.end as u32)
+}
+
+fn custom<'t>(d: Diagnostic) -> ParseError<'t> {
+    Rich::custom(SimpleSpan::from(d.span.start as usize..d.span.end as usize), Box::new(d))
+}
+
+/// An expression with the depth of its tree.
+#[derive(Clone)]
+struct Dx {
+    expr: Expr,
+    depth: u32,
+}
+
+impl Dx {
+    fn leaf(kind: ExprKind, span: Span) -> Dx {
+        Dx { expr: Expr { kind, span }, depth: 1 }
+    }
+
+    fn error(span: Span) -> Dx {
+        Dx::leaf(ExprKind::Error, span)
+    }
+}
+
+/// A statement (`None` for an empty `;`) with its nesting depth.
+#[derive(Clone)]
+struct St {
+    stmt: Option<Stmt>,
+    depth: u32,
+}
+
+/// Builds a node over children at most `inner` deep, or an error node if it would be too deep.
+fn deepen_expr(kind: ExprKind, span: Span, inner: u32) -> (Dx, Option<Diagnostic>) {
+    if inner >= SATURATED {
+        return (Dx { expr: Expr { kind: ExprKind::Error, span }, depth: SATURATED }, None);
+    }
+    if inner + 1 > MAX_DEPTH {
+        let d = Diagnostic::new(Code::TooDeep, span, format!("expression nested more than {MAX_DEPTH} levels deep"))
+            .with_label("this expression is too deep")
+            .with_help("split it with `let` bindings");
+        return (Dx { expr: Expr { kind: ExprKind::Error, span }, depth: SATURATED }, Some(d));
+    }
+    (Dx { expr: Expr { kind, span }, depth: inner + 1 }, None)
+}
+
+/// [`deepen_expr`] for statements.
+fn deepen_stmt(kind: StmtKind, span: Span, inner: u32) -> (St, Option<Diagnostic>) {
+    let error = |depth| St { stmt: Some(Stmt { kind: StmtKind::Error, span }), depth };
+    if inner >= SATURATED {
+        return (error(SATURATED), None);
+    }
+    if inner + 1 > MAX_DEPTH {
+        let d = Diagnostic::new(Code::TooDeep, span, format!("statements nested more than {MAX_DEPTH} levels deep"))
+            .with_label("this statement is too deep")
+            .with_help("move the inner part into a library function, or flatten the `else if` chain");
+        return (error(SATURATED), Some(d));
+    }
+    (St { stmt: Some(Stmt { kind, span }), depth: inner + 1 }, None)
+}
+
+fn emit<'t, I>(e: &mut MapExtra<'t, '_, I, Extra<'t>>, d: Option<Diagnostic>)
+where
+    I: ValueInput<'t, Token = Token, Span = SimpleSpan>,
+{
+    if let Some(d) = d {
+        e.emit(custom(d));
+    }
+}
+
+fn fold_binary<'t, I>(lhs: Dx, op: BinaryOp, rhs: Dx, e: &mut MapExtra<'t, '_, I, Extra<'t>>) -> Dx
+where
+    I: ValueInput<'t, Token = Token, Span = SimpleSpan>,
+{
+    let inner = lhs.depth.max(rhs.depth);
+    let kind = ExprKind::Binary { op, lhs: Box::new(lhs.expr), rhs: Box::new(rhs.expr) };
+    let (out, d) = deepen_expr(kind, span_of(e.span()), inner);
+    emit(e, d);
+    out
+}
+
+/// One entry of a pipeline function's body.
+enum Entry {
+    Decl(Decl),
+    Stmt(St),
+}
+
+/// A postfix operation: `.member` or `[index]`.
+enum Post {
+    Member(Ident),
+    Index(Dx),
+}
+
+/// Skips one balanced bracket group starting at `open`.
+fn group<'t, I>(open: Token, close: Token) -> impl Parser<'t, I, (), Extra<'t>> + Clone
+where
+    I: ValueInput<'t, Token = Token, Span = SimpleSpan>,
+{
+    let (paren, bracket, brace) =
+        ((Token::LParen, Token::RParen), (Token::LBracket, Token::RBracket), (Token::LBrace, Token::RBrace));
+    let [a, b] = match open {
+        Token::LParen => [bracket, brace],
+        Token::LBracket => [paren, brace],
+        _ => [paren, bracket],
+    };
+    nested_delimiters(open, close, [a, b], |_| ())
+}
+
+fn module_parser<'t, I>() -> impl Parser<'t, I, Vec<Item>, Extra<'t>>
+where
+    I: ValueInput<'t, Token = Token, Span = SimpleSpan>,
+{
+    use Token as T;
+
+    let ident = select! { T::Ident(name) = e => Ident { name, span: span_of(e.span()) } }.labelled("identifier").boxed();
+    // A name that is not a generic type name (`vec3`, `mat4x4`, ...).
+    let plain_ident = select! {
+        T::Ident(name) = e if !Type::is_generic_name(&name) => Ident { name, span: span_of(e.span()) }
+    }
+    .labelled("identifier")
+    .boxed();
+    let generic_ident = select! {
+        T::Ident(name) = e if Type::is_generic_name(&name) => Ident { name, span: span_of(e.span()) }
+    }
+    .boxed();
+
+    // Types: `name` or `name<T, ...>`, built by a loop (types nest at most four deep) so that no
+    // input can make this part recurse.
+    let mut ty = ident.clone().map(|name| TypeExpr { span: name.span, name, args: Vec::new() }).boxed();
+    for _ in 0..3 {
+        let args = ty.separated_by(just(T::Comma)).at_least(1).collect::<Vec<_>>().delimited_by(just(T::Lt), just(T::Gt));
+        ty = ident
+            .clone()
+            .then(args.or_not())
+            .map_with(|(name, args), e| TypeExpr { name, args: args.unwrap_or_default(), span: span_of(e.span()) })
+            .boxed();
+    }
+    let ty = ty.labelled("type").boxed();
+
+    let expr = recursive(|expr| {
+        let args = expr
+            .clone()
+            .separated_by(just(T::Comma))
+            .allow_trailing()
+            .collect::<Vec<Dx>>()
+            .delimited_by(just(T::LParen), just(T::RParen))
+            .recover_with(via_parser(
+                group(T::LParen, T::RParen).map_with(|_, e| vec![Dx::error(span_of(e.span()))]),
+            ))
+            .boxed();
+
+        let literal = select! {
+            T::Int(lit) = e => Dx::leaf(ExprKind::Int { value: lit.value, suffix: lit.suffix }, span_of(e.span())),
+            T::Float(lit) = e => Dx::leaf(ExprKind::Float { value: lit.value, suffixed: lit.suffixed }, span_of(e.span())),
+            T::True = e => Dx::leaf(ExprKind::Bool(true), span_of(e.span())),
+            T::False = e => Dx::leaf(ExprKind::Bool(false), span_of(e.span())),
+            // Already reported by the lexer.
+            T::Error = e => Dx::error(span_of(e.span())),
+        };
+
+        let state = just(T::State)
+            .ignore_then(just(T::Dot))
+            .ignore_then(ident.clone())
+            .map_with(|name, e| Dx::leaf(ExprKind::State(name), span_of(e.span())));
+
+        let call = |callee: Ident, generics: Vec<TypeExpr>, args: Vec<Dx>, span: Span| {
+            let inner = args.iter().map(|a| a.depth).max().unwrap_or(0);
+            let args = args.into_iter().map(|a| a.expr).collect();
+            deepen_expr(ExprKind::Call { callee, generics, args }, span, inner)
+        };
+
+        // `vec3<f32>(x)`, `vec3(x)` or `vec3`: after a generic type name, `<` always opens
+        // template arguments (never a comparison).
+        let generics = ty.clone().separated_by(just(T::Comma)).at_least(1).collect::<Vec<_>>().delimited_by(just(T::Lt), just(T::Gt));
+        let generic_call = generic_ident
+            .then(choice((
+                generics.then(args.clone()).map(|(g, a)| (g, Some(a))),
+                just(T::Lt).not().ignore_then(args.clone().or_not()).map(|a| (Vec::new(), a)),
+            )))
+            .map_with(move |(callee, (generics, args)), e| match args {
+                Some(args) => {
+                    let (out, d) = call(callee, generics, args, span_of(e.span()));
+                    emit(e, d);
+                    out
+                }
+                None => Dx::leaf(ExprKind::Name(callee.clone()), callee.span),
+            });
+
+        let call_or_name = plain_ident.clone().then(args.clone().or_not()).map_with(move |(callee, args), e| match args {
+            Some(args) => {
+                let (out, d) = call(callee, Vec::new(), args, span_of(e.span()));
+                emit(e, d);
+                out
+            }
+            None => Dx::leaf(ExprKind::Name(callee.clone()), callee.span),
+        });
+
+        let paren = expr
+            .clone()
+            .delimited_by(just(T::LParen), just(T::RParen))
+            .map_with(|inner: Dx, e| Dx { expr: Expr { kind: inner.expr.kind, span: span_of(e.span()) }, depth: inner.depth })
+            .recover_with(via_parser(group(T::LParen, T::RParen).map_with(|_, e| Dx::error(span_of(e.span())))));
+
+        let primary =
+            choice((literal, state, generic_call, call_or_name, paren)).labelled("expression").as_context().boxed();
+
+        let member = just(T::Dot).ignore_then(ident.clone()).map(Post::Member);
+        let index = expr
+            .clone()
+            .delimited_by(just(T::LBracket), just(T::RBracket))
+            .recover_with(via_parser(group(T::LBracket, T::RBracket).map_with(|_, e| Dx::error(span_of(e.span())))))
+            .map(Post::Index);
+        let postfix = primary
+            .foldl_with(choice((member, index)).repeated(), |base: Dx, post, e| {
+                let span = span_of(e.span());
+                let (out, d) = match post {
+                    Post::Member(member) => {
+                        deepen_expr(ExprKind::Member { base: Box::new(base.expr), member }, span, base.depth)
+                    }
+                    Post::Index(index) => {
+                        let inner = base.depth.max(index.depth);
+                        deepen_expr(ExprKind::Index { base: Box::new(base.expr), index: Box::new(index.expr) }, span, inner)
+                    }
+                };
+                emit(e, d);
+                out
+            })
+            .boxed();
+
+        // Prefix operators by a loop, not by recursion: `- - - - x` cannot exhaust the stack.
+        let prefix_op = choice((just(T::Minus).to(UnaryOp::Neg), just(T::Bang).to(UnaryOp::Not)))
+            .map_with(|op, e| (op, span_of(e.span())));
+        let unary = prefix_op
+            .repeated()
+            .collect::<Vec<_>>()
+            .then(postfix)
+            .map_with(|(ops, operand), e| {
+                let end = span_of(e.span()).end;
+                let mut out = operand;
+                for (op, at) in ops.into_iter().rev() {
+                    let (next, d) = deepen_expr(
+                        ExprKind::Unary { op, operand: Box::new(out.expr) },
+                        Span::new(at.start, end),
+                        out.depth,
+                    );
+                    emit(e, d);
+                    out = next;
+                }
+                out
+            })
+            .boxed();
+
+        let op = |t: Token, op: BinaryOp| just(t).to(op);
+        unary
+            .pratt((
+                infix(
+                    left(10),
+                    choice((op(T::Star, BinaryOp::Mul), op(T::Slash, BinaryOp::Div), op(T::Percent, BinaryOp::Rem))),
+                    fold_binary,
+                ),
+                infix(left(9), choice((op(T::Plus, BinaryOp::Add), op(T::Minus, BinaryOp::Sub))), fold_binary),
+                infix(left(8), choice((op(T::Shl, BinaryOp::Shl), op(T::Shr, BinaryOp::Shr))), fold_binary),
+                infix(
+                    left(7),
+                    choice((
+                        op(T::Lt, BinaryOp::Lt),
+                        op(T::Le, BinaryOp::Le),
+                        op(T::Gt, BinaryOp::Gt),
+                        op(T::Ge, BinaryOp::Ge),
+                    )),
+                    fold_binary,
+                ),
+                infix(left(6), choice((op(T::EqEq, BinaryOp::Eq), op(T::Ne, BinaryOp::Ne))), fold_binary),
+                infix(left(5), op(T::Amp, BinaryOp::BitAnd), fold_binary),
+                infix(left(4), op(T::Caret, BinaryOp::BitXor), fold_binary),
+                infix(left(3), op(T::Pipe, BinaryOp::BitOr), fold_binary),
+                infix(left(2), op(T::AndAnd, BinaryOp::And), fold_binary),
+                infix(left(1), op(T::OrOr, BinaryOp::Or), fold_binary),
+            ))
+            .boxed()
+    })
+    .boxed();
+    let value = expr.clone().map(|d: Dx| d.expr);
+
+    // ---- Statements ----
+
+    // The `}` of a block; when it is missing at the end of the file or before an item keyword, the
+    // error is reported and the block ends there (so the next item still parses).
+    let close = just(T::RBrace)
+        .ignored()
+        .recover_with(via_parser(choice((end(), one_of(ITEM_KEYWORDS).ignored())).rewind()))
+        .boxed();
+
+    // What a broken statement or declaration is skipped to.
+    let brace_group = group(T::LBrace, T::RBrace);
+    let skip_unit = choice((
+        group(T::LParen, T::RParen),
+        group(T::LBracket, T::RBracket),
+        none_of([T::Semi, T::LBrace, T::RBrace, T::Import, T::Const, T::Lib, T::Pipeline, T::Remove]).ignored(),
+    ));
+    let stmt_skip = choice((
+        brace_group.clone(),
+        just(T::Semi).ignored(),
+        skip_unit.repeated().at_least(1).then(choice((just(T::Semi).ignored(), brace_group.clone())).or_not()).ignored(),
+    ))
+    .map_with(|_, e| St { stmt: Some(Stmt { kind: StmtKind::Error, span: span_of(e.span()) }), depth: 1 })
+    .boxed();
+
+    let mut stmt = Recursive::<Indirect<'t, 't, I, St, Extra<'t>>>::declare();
+
+    let block = just(T::LBrace)
+        .ignore_then(stmt.clone().repeated().collect::<Vec<St>>())
+        .then_ignore(close.clone())
+        .map_with(|sts, e| {
+            let depth = sts.iter().map(|s| s.depth).max().unwrap_or(0);
+            let stmts = sts.into_iter().filter_map(|s| s.stmt).collect();
+            (Block { stmts, span: span_of(e.span()) }, depth)
+        })
+        .boxed();
+
+    let annotation = just(T::Colon).ignore_then(ty.clone()).or_not();
+    let let_stmt = just(T::Let)
+        .ignore_then(ident.clone())
+        .then(annotation.clone())
+        .then_ignore(just(T::Eq))
+        .then(value.clone())
+        .then_ignore(just(T::Semi))
+        .map(|((name, ty), value)| (StmtKind::Let { mutable: false, name, ty, value: Some(value) }, 0));
+    let var_stmt = just(T::Var)
+        .ignore_then(ident.clone())
+        .then(annotation.clone())
+        .then(just(T::Eq).ignore_then(value.clone()).or_not())
+        .then_ignore(just(T::Semi))
+        .map(|((name, ty), value)| (StmtKind::Let { mutable: true, name, ty, value }, 0));
+
+    // `if c {} else if c {} ... else {}` is parsed by a loop and folded from the right.
+    let if_head = just(T::If)
+        .ignore_then(value.clone())
+        .then(block.clone())
+        .map_with(|(cond, then), e| (cond, then, span_of(e.span())));
+    let if_stmt = if_head
+        .clone()
+        .then(just(T::Else).ignore_then(if_head).repeated().collect::<Vec<_>>())
+        .then(just(T::Else).ignore_then(block.clone()).or_not())
+        .map_with(|(((cond, then, _), else_ifs), last), e| {
+            let end = span_of(e.span()).end;
+            let mut otherwise = last;
+            for (cond, (then, then_depth), head) in else_ifs.into_iter().rev() {
+                let span = Span::new(head.start, end);
+                let inner = then_depth.max(otherwise.as_ref().map_or(0, |(_, d)| *d));
+                let kind = StmtKind::If { cond, then, otherwise: otherwise.map(|(b, _)| b) };
+                let (st, d) = deepen_stmt(kind, span, inner);
+                emit(e, d);
+                otherwise = Some((Block { stmts: st.stmt.into_iter().collect(), span }, st.depth));
+            }
+            let (then, then_depth) = then;
+            let inner = then_depth.max(otherwise.as_ref().map_or(0, |(_, d)| *d));
+            (StmtKind::If { cond, then, otherwise: otherwise.map(|(b, _)| b) }, inner)
+        });
+
+    let for_stmt = just(T::For)
+        .ignore_then(ident.clone())
+        .then_ignore(just(T::In))
+        .then(value.clone())
+        .then_ignore(just(T::DotDot))
+        .then(value.clone())
+        .then(block.clone())
+        .map(|(((var, start), end), (body, depth))| (StmtKind::For { var, start, end, body }, depth));
+
+    let return_stmt =
+        just(T::Return).ignore_then(value.clone().or_not()).then_ignore(just(T::Semi)).map(|e| (StmtKind::Return(e), 0));
+    let break_stmt = just(T::Break).then(just(T::Semi)).to((StmtKind::Break, 0));
+    let continue_stmt = just(T::Continue).then(just(T::Semi)).to((StmtKind::Continue, 0));
+    let block_stmt = block.clone().map(|(b, depth)| (StmtKind::Block(b), depth));
+
+    let assign_op = choice((
+        just(T::Eq).to(AssignOp::Assign),
+        just(T::PlusEq).to(AssignOp::Add),
+        just(T::MinusEq).to(AssignOp::Sub),
+        just(T::StarEq).to(AssignOp::Mul),
+        just(T::SlashEq).to(AssignOp::Div),
+    ));
+    let expr_stmt = value
+        .clone()
+        .then(assign_op.then(value.clone()).or_not())
+        .then_ignore(just(T::Semi))
+        .map_with(|(target, rest), e| match rest {
+            Some((op, value)) => (StmtKind::Assign { target, op, value }, 0),
+            None => {
+                if !matches!(target.kind, ExprKind::Call { .. } | ExprKind::Error) {
+                    e.emit(custom(
+                        Diagnostic::new(Code::Syntax, target.span, "only a call can be used as a statement")
+                            .with_label("this value is computed and never used")
+                            .with_help("assign it (`let v = ...;`, `x = ...;`) or remove it"),
+                    ));
+                }
+                (StmtKind::Expr(target), 0)
+            }
+        });
+    // A run of over-deep brackets the lexer already reported, standing alone.
+    let error_stmt = just(T::Error).then(just(T::Semi).or_not()).to((StmtKind::Error, 0));
+
+    let stmt_inner = choice((
+        let_stmt,
+        var_stmt,
+        if_stmt,
+        for_stmt,
+        return_stmt,
+        break_stmt,
+        continue_stmt,
+        block_stmt,
+        expr_stmt,
+        error_stmt,
+    ))
+    .map_with(|(kind, inner), e| {
+        let (st, d) = deepen_stmt(kind, span_of(e.span()), inner);
+        emit(e, d);
+        st
+    })
+    .or(just(T::Semi).to(St { stmt: None, depth: 0 }))
+    .labelled("statement");
+    stmt.define(stmt_inner.recover_with(via_parser(stmt_skip)).boxed());
+
+    // ---- Pipeline functions ----
+
+    let state_decl = just(T::State)
+        .ignore_then(ident.clone())
+        .then_ignore(just(T::Colon))
+        .then(ty.clone())
+        .then(just(T::Eq).ignore_then(value.clone()).or_not())
+        .then_ignore(just(T::Semi))
+        .map(|((name, ty), default)| DeclKind::State { ray: false, name, ty, default });
+    let uniform_decl = just(T::Uniform)
+        .ignore_then(ident.clone())
+        .then_ignore(just(T::Colon))
+        .then(ty.clone())
+        .then(just(T::Eq).ignore_then(value.clone()).or_not())
+        .then(just(T::In).ignore_then(value.clone()).then_ignore(just(T::DotDot)).then(value.clone()).or_not())
+        .then_ignore(just(T::Semi))
+        .map(|(((name, ty), default), range)| DeclKind::Uniform { name, ty, default, range });
+    let use_decl = just(T::Use)
+        .ignore_then(ident.clone().separated_by(just(T::Comma)).at_least(1).allow_trailing().collect::<Vec<_>>())
+        .then_ignore(just(T::Semi))
+        .map(|names| DeclKind::Use { names });
+    let decl = choice((state_decl, uniform_decl, use_decl)).labelled("declaration");
+
+    let attribute = select! { T::Attribute(name) = e => (name, span_of(e.span())) };
+    let entry = attribute
+        .or_not()
+        .then(choice((decl.map(Ok), stmt.clone().map(Err))))
+        .map_with(|(attr, entry), e| {
+            let span = span_of(e.span());
+            let mut entry = match entry {
+                Ok(kind) => Entry::Decl(Decl { kind, doc: None, span }),
+                Err(st) => Entry::Stmt(st),
+            };
+            if let Some((name, at)) = attr {
+                if name != "ray" {
+                    e.emit(custom(
+                        Diagnostic::new(Code::UnknownAttribute, at, format!("unknown attribute `@{name}`"))
+                            .with_label("not a VRS attribute")
+                            .with_help("the only attribute is `@ray`, on `state` declarations"),
+                    ));
+                } else if let Entry::Decl(Decl { kind: DeclKind::State { ray, .. }, .. }) = &mut entry {
+                    *ray = true;
+                } else if !matches!(&entry, Entry::Stmt(St { stmt: Some(Stmt { kind: StmtKind::Error, .. }), .. })) {
+                    e.emit(custom(
+                        Diagnostic::new(Code::Syntax, at, "`@ray` applies only to `state` declarations")
+                            .with_label("not allowed here")
+                            .with_help("remove it, or declare a field: `@ray state NAME: TYPE;`"),
+                    ));
+                }
+            }
+            entry
+        });
+    let body = just(T::LBrace).ignore_then(entry.repeated().collect::<Vec<Entry>>()).then_ignore(close).map_with(
+        |entries, e| {
+            let mut decls = Vec::new();
+            let mut stmts = Vec::new();
+            let mut first_stmt: Option<Span> = None;
+            for entry in entries {
+                match entry {
+                    Entry::Decl(decl) => {
+                        if let Some(first) = first_stmt {
+                            e.emit(custom(
+                                Diagnostic::new(
+                                    Code::DeclarationAfterStatement,
+                                    decl.span,
+                                    "declaration after the first statement",
+                                )
+                                .with_label("declarations must come before the statements")
+                                .with_secondary(first, "the first statement")
+                                .with_help("move this declaration above the first statement"),
+                            ));
+                        }
+                        decls.push(decl);
+                    }
+                    Entry::Stmt(St { stmt: Some(stmt), .. }) => {
+                        if first_stmt.is_none() && !matches!(stmt.kind, StmtKind::Error) {
+                            first_stmt = Some(stmt.span);
+                        }
+                        stmts.push(stmt);
+                    }
+                    Entry::Stmt(St { stmt: None, .. }) => {}
+                }
+            }
+            (decls, Block { stmts, span: span_of(e.span()) })
+        },
+    );
+
+    // `shading.lights`, `classification.additional[$]`
+    let step_path = ident
+        .clone()
+        .separated_by(just(T::Dot))
+        .at_least(1)
+        .collect::<Vec<_>>()
+        .then(ident.clone().delimited_by(just(T::LBracket), just(T::RBracket)).or_not())
+        .map_with(|(segments, substep), e| StepPath { segments, substep, span: span_of(e.span()) });
+    let when_active = just(T::When).then(just(T::Active)).or_not().map(|w| w.is_some());
+    let placement = choice((
+        just(T::In).to(PlacementKind::In),
+        just(T::Before).to(PlacementKind::Before),
+        just(T::After).to(PlacementKind::After),
+        just(T::Replace).to(PlacementKind::Replace),
+    ))
+    .then(step_path.clone())
+    .then(when_active.clone())
+    .map_with(|((kind, target), when_active), e| Placement { kind, target, when_active, span: span_of(e.span()) });
+
+    // ---- Items ----
+
+    let string = select! { T::Str(path) = e => Import::Path { path, span: span_of(e.span()) } }.labelled("string literal");
+    let std_path = select! { T::Ident(name) if name == "std" => () }
+        .labelled("`std`")
+        .ignore_then(just(T::ColonColon).ignore_then(ident.clone()).repeated().at_least(1).collect::<Vec<_>>())
+        .map(|path| Import::Std { path });
+    let import = just(T::Import).ignore_then(choice((string, std_path))).then_ignore(just(T::Semi)).map(ItemKind::Import);
+
+    let const_item = just(T::Const)
+        .ignore_then(ident.clone())
+        .then(annotation)
+        .then_ignore(just(T::Eq))
+        .then(value.clone())
+        .then_ignore(just(T::Semi))
+        .map(|((name, ty), value)| ItemKind::Const(ConstItem { name, ty, value }));
+
+    let param = ident
+        .clone()
+        .then_ignore(just(T::Colon))
+        .then(ty.clone())
+        .map_with(|(name, ty), e| Param { name, ty, span: span_of(e.span()) });
+    let lib_fn = just(T::Lib)
+        .ignore_then(just(T::Fn))
+        .ignore_then(ident.clone())
+        .then(
+            param
+                .separated_by(just(T::Comma))
+                .allow_trailing()
+                .collect::<Vec<_>>()
+                .delimited_by(just(T::LParen), just(T::RParen)),
+        )
+        .then(just(T::Arrow).ignore_then(ty.clone()).or_not())
+        .then(block)
+        .map(|(((name, params), ret), (body, _))| ItemKind::LibFn(LibFn { name, params, ret, body }));
+
+    let pipeline = just(T::Pipeline)
+        .ignore_then(ident.clone())
+        .then(placement)
+        .then(body)
+        .map(|((name, placement), (decls, body))| ItemKind::Pipeline(PipelineFn { name, placement, decls, body }));
+
+    let remove = just(T::Remove)
+        .ignore_then(step_path)
+        .then(when_active)
+        .then_ignore(just(T::Semi))
+        .map(|(target, when_active)| ItemKind::Remove(Remove { target, when_active }));
+
+    // A broken item is skipped up to the next item keyword outside brackets.
+    let any_group = choice((group(T::LBrace, T::RBrace), group(T::LParen, T::RParen), group(T::LBracket, T::RBracket)));
+    let item_skip = choice((any_group.clone(), any().ignored()))
+        .then(choice((any_group, none_of(ITEM_KEYWORDS).ignored())).repeated())
+        .to(None);
+
+    let item = choice((import, const_item, lib_fn, pipeline, remove))
+        .map_with(|kind, e| Some(Item { kind, doc: None, span: span_of(e.span()) }))
+        .recover_with(via_parser(item_skip));
+
+    item.repeated().collect::<Vec<Option<Item>>>().map(|items| items.into_iter().flatten().collect())
+}
+
+/// Fills the `doc` of items and declarations from the doc comments the lexer kept.
+fn attach_docs(items: &mut [Item], docs: &HashMap<u32, String>) {
+    if docs.is_empty() {
+        return;
+    }
+    for item in items {
+        item.doc = docs.get(&item.span.start).cloned();
+        if let ItemKind::Pipeline(p) = &mut item.kind {
+            for decl in &mut p.decls {
+                decl.doc = docs.get(&decl.span.start).cloned();
+            }
+        }
+    }
+}
+
+/// Turns chumsky's errors into diagnostics: one per spot, none for input the lexer already
+/// reported.
+fn report(errors: Vec<ParseError<'_>>, diags: &mut Diagnostics) {
+    let mut syntax_at: HashSet<u32> = HashSet::new();
+    let mut others: Vec<Diagnostic> = Vec::new();
+    for err in errors {
+        let Some(d) = to_diagnostic(err) else { continue };
+        if d.code == Code::Syntax {
+            if !syntax_at.insert(d.span.start) {
+                continue;
+            }
+        } else if others.contains(&d) {
+            continue;
+        } else {
+            others.push(d.clone());
+        }
+        diags.push(d);
+    }
+}
+
+/// `None` for an error at a token that stands for input the lexer already reported.
+fn to_diagnostic(err: ParseError<'_>) -> Option<Diagnostic> {
+    let span = span_of(*err.span());
+    match err.into_reason() {
+        RichReason::Custom(d) => Some(*d),
+        RichReason::ExpectedFound { expected, found } => {
+            let found = found.as_deref();
+            if found == Some(&Token::Error) {
+                return None;
+            }
+            let found_text = found.map_or_else(|| "end of input".to_string(), Token::to_string);
+            let list = expected_list(&expected);
+            let (message, label) = match list.len() {
+                0 => (format!("unexpected {found_text}"), "unexpected here".to_string()),
+                n if n <= MAX_EXPECTED => {
+                    let list = join_or(&list);
+                    (format!("expected {list}, found {found_text}"), format!("expected {list}"))
+                }
+                _ => {
+                    let shown = list[..MAX_EXPECTED].join(", ");
+                    (format!("unexpected {found_text}"), format!("expected one of {shown}, ..."))
+                }
+            };
+            Some(Diagnostic::new(Code::Syntax, span, message).with_label(label))
+        }
+    }
+}
+
+/// Operators and other tokens that could continue an expression: listed only when nothing
+/// else was expected (after `x` in `let y = x z`, "expected `;`" says more than thirty tokens).
+fn continues_expression(t: &Token) -> bool {
+    use Token::*;
+    matches!(
+        t,
+        Plus | Minus
+            | Star
+            | Slash
+            | Percent
+            | Shl
+            | Shr
+            | Lt
+            | Le
+            | Gt
+            | Ge
+            | EqEq
+            | Ne
+            | Amp
+            | Caret
+            | Pipe
+            | AndAnd
+            | OrOr
+            | Bang
+            | Dot
+            | LBracket
+            | LParen
+            | Eq
+            | PlusEq
+            | MinusEq
+            | StarEq
+            | SlashEq
+    )
+}
+
+fn expected_list(expected: &[RichPattern<'_, Token>]) -> Vec<String> {
+    let relevant = |p: &RichPattern<'_, Token>| !matches!(p, RichPattern::SomethingElse);
+    let has_other = expected.iter().any(|p| match p {
+        RichPattern::Token(t) => !continues_expression(t),
+        p => relevant(p),
+    });
+    let mut out: Vec<String> = Vec::new();
+    for p in expected {
+        let text = match p {
+            RichPattern::Token(t) if has_other && continues_expression(t) => continue,
+            RichPattern::Token(t) => t.to_string(),
+            RichPattern::Label(l) => l.to_string(),
+            RichPattern::Identifier(i) => format!("`{i}`"),
+            RichPattern::Any => "a token".to_string(),
+            RichPattern::EndOfInput => "end of input".to_string(),
+            _ => continue,
+        };
+        if !out.contains(&text) {
+            out.push(text);
+        }
+    }
+    out
+}
+
+/// `a`, `a or b`, `a, b or c`.
+fn join_or(items: &[String]) -> String {
+    match items {
+        [] => String::new(),
+        [one] => one.clone(),
+        [init @ .., last] => format!("{} or {last}", init.join(", ")),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::lexer::{IntSuffix, lex};
+
+    fn parse(src: &str) -> (Module, Vec<Diagnostic>) {
+        let mut diags = Diagnostics::new();
+        let lexed = lex(src, 0, &mut diags);
+        let module = parse_module(&lexed, 0, src.len() as u32, &mut diags);
+        (module, diags.iter().cloned().collect())
+    }
+
+    /// Parses input that must have no diagnostics.
+    fn parse_ok(src: &str) -> Module {
+        let (module, diags) = parse(src);
+        assert!(diags.is_empty(), "unexpected diagnostics for {src:?}: {diags:#?}");
+        module
+    }
+
+    fn line_of(src: &str, offset: u32) -> usize {
+        src[..offset as usize].matches('\n').count() + 1
+    }
+
+    /// The lines and codes of the diagnostics.
+    fn errors(src: &str) -> Vec<(usize, Code)> {
+        parse(src).1.iter().map(|d| (line_of(src, d.span.start), d.code)).collect()
+    }
+
+    /// S-expression form of an expression, for precedence tests.
+    fn show(e: &Expr) -> String {
+        match &e.kind {
+            ExprKind::Int { value, suffix } => {
+                let s = match suffix {
+                    Some(IntSuffix::I) => "i",
+                    Some(IntSuffix::U) => "u",
+                    None => "",
+                };
+                format!("{}{s}", value.map_or("?".to_string(), |v| v.to_string()))
+            }
+            ExprKind::Float { value, suffixed } => format!("{value:?}{}", if *suffixed { "f" } else { "" }),
+            ExprKind::Bool(b) => b.to_string(),
+            ExprKind::Name(n) => n.name.clone(),
+            ExprKind::State(n) => format!("state.{}", n.name),
+            ExprKind::Member { base, member } => format!("{}.{}", show(base), member.name),
+            ExprKind::Index { base, index } => format!("{}[{}]", show(base), show(index)),
+            ExprKind::Call { callee, generics, args } => {
+                let g = if generics.is_empty() {
+                    String::new()
+                } else {
+                    format!("<{}>", generics.iter().map(show_ty).collect::<Vec<_>>().join(", "))
+                };
+                format!("{}{g}({})", callee.name, args.iter().map(show).collect::<Vec<_>>().join(", "))
+            }
+            ExprKind::Unary { op, operand } => {
+                format!("({} {})", if *op == UnaryOp::Neg { "-" } else { "!" }, show(operand))
+            }
+            ExprKind::Binary { op, lhs, rhs } => format!("({} {} {})", op.symbol(), show(lhs), show(rhs)),
+            ExprKind::Error => "<error>".to_string(),
+        }
+    }
+
+    fn show_ty(t: &TypeExpr) -> String {
+        if t.args.is_empty() {
+            t.name.name.clone()
+        } else {
+            format!("{}<{}>", t.name.name, t.args.iter().map(show_ty).collect::<Vec<_>>().join(", "))
+        }
+    }
+
+    /// The statements of `lib fn f() { BODY }`.
+    fn body(src_body: &str) -> Vec<Stmt> {
+        let src = format!("lib fn f() {{ {src_body} }}");
+        let module = parse_ok(&src);
+        match module.items.into_iter().next().map(|i| i.kind) {
+            Some(ItemKind::LibFn(f)) => f.body.stmts,
+            other => panic!("not a lib fn: {other:?}"),
+        }
+    }
+
+    /// One expression, parsed as `let v = EXPR;`.
+    fn expr(text: &str) -> String {
+        match body(&format!("let v = {text};")).into_iter().next().map(|s| s.kind) {
+            Some(StmtKind::Let { value: Some(value), .. }) => show(&value),
+            other => panic!("not a let: {other:?}"),
+        }
+    }
+
+    fn pipeline(src: &str) -> PipelineFn {
+        match parse_ok(src).items.into_iter().next().map(|i| i.kind) {
+            Some(ItemKind::Pipeline(p)) => p,
+            other => panic!("not a pipeline: {other:?}"),
+        }
+    }
+
+    fn path_text(p: &StepPath) -> String {
+        match &p.substep {
+            Some(s) => format!("{}[{}]", p.step_name(), s.name),
+            None => p.step_name(),
+        }
+    }
+
+    // ---- Items ----
+
+    #[test]
+    fn imports() {
+        let src = "import \"lib/geom.vrs\";\nimport std::shading;\nimport \"a\\\"b\\\\c\";";
+        let m = parse_ok(src);
+        assert_eq!(m.items.len(), 3);
+        match &m.items[0].kind {
+            ItemKind::Import(Import::Path { path, span }) => {
+                assert_eq!(path, "lib/geom.vrs");
+                assert_eq!(&src[span.start as usize..span.end as usize], "\"lib/geom.vrs\"");
+            }
+            other => panic!("{other:?}"),
+        }
+        match &m.items[1].kind {
+            ItemKind::Import(Import::Std { path }) => {
+                assert_eq!(path.iter().map(|p| p.name.as_str()).collect::<Vec<_>>(), ["shading"]);
+            }
+            other => panic!("{other:?}"),
+        }
+        match &m.items[2].kind {
+            ItemKind::Import(Import::Path { path, .. }) => assert_eq!(path, "a\"b\\c"),
+            other => panic!("{other:?}"),
+        }
+        assert_eq!(errors("import foo::bar;"), vec![(1, Code::Syntax)]);
+        assert_eq!(errors("import std;"), vec![(1, Code::Syntax)]);
+    }
+
+    #[test]
+    fn consts() {
+        let m = parse_ok("const PI: f32 = 3.5;\nconst N = 2 * 3;\nconst V: vec3<f32> = vec3<f32>(1.0);");
+        let consts: Vec<&ConstItem> = m
+            .items
+            .iter()
+            .map(|i| match &i.kind {
+                ItemKind::Const(c) => c,
+                other => panic!("{other:?}"),
+            })
+            .collect();
+        assert_eq!(consts[0].name.name, "PI");
+        assert_eq!(consts[0].ty.as_ref().map(show_ty).as_deref(), Some("f32"));
+        assert_eq!(show(&consts[0].value), "3.5");
+        assert!(consts[1].ty.is_none());
+        assert_eq!(show(&consts[1].value), "(* 2 3)");
+        assert_eq!(consts[2].ty.as_ref().map(show_ty).as_deref(), Some("vec3<f32>"));
+        assert_eq!(show(&consts[2].value), "vec3<f32>(1.0)");
+    }
+
+    #[test]
+    fn lib_functions() {
+        let src = "/// Doc line one.\n/// Two.\nlib fn add(a: f32, b: vec3<f32>,) -> f32 { return a; }\nlib fn none() {}";
+        let m = parse_ok(src);
+        let ItemKind::LibFn(f) = &m.items[0].kind else { panic!() };
+        assert_eq!(m.items[0].doc.as_deref(), Some("Doc line one.\nTwo."));
+        assert_eq!(f.name.name, "add");
+        assert_eq!(f.params.len(), 2);
+        assert_eq!(f.params[1].name.name, "b");
+        assert_eq!(show_ty(&f.params[1].ty), "vec3<f32>");
+        assert_eq!(&src[f.params[0].span.start as usize..f.params[0].span.end as usize], "a: f32");
+        assert_eq!(f.ret.as_ref().map(show_ty).as_deref(), Some("f32"));
+        assert_eq!(f.body.stmts.len(), 1);
+        let item_text = &src[m.items[0].span.start as usize..m.items[0].span.end as usize];
+        assert!(item_text.starts_with("lib fn add") && item_text.ends_with('}'));
+        let ItemKind::LibFn(g) = &m.items[1].kind else { panic!() };
+        assert!(g.params.is_empty() && g.ret.is_none() && g.body.stmts.is_empty());
+        assert_eq!(m.items[1].doc, None);
+    }
+
+    #[test]
+    fn placements() {
+        let cases = [
+            ("in start", PlacementKind::In, "start", false),
+            ("before shading.lights", PlacementKind::Before, "shading.lights", false),
+            ("after classification.additional[$]", PlacementKind::After, "classification.additional[$]", false),
+            ("replace compositing.primary_color[dvr] when active", PlacementKind::Replace, "compositing.primary_color[dvr]", true),
+            ("after compositing when active", PlacementKind::After, "compositing", true),
+            ("before ray.setup[gm]", PlacementKind::Before, "ray.setup[gm]", false),
+            ("in sampling.additional when active", PlacementKind::In, "sampling.additional", true),
+        ];
+        for (text, kind, path, active) in cases {
+            let src = format!("pipeline p_$ {text} {{}}");
+            let p = pipeline(&src);
+            assert_eq!(p.name.name, "p_$");
+            assert_eq!(p.placement.kind, kind, "{text}");
+            assert_eq!(path_text(&p.placement.target), path, "{text}");
+            assert_eq!(p.placement.when_active, active, "{text}");
+            assert_eq!(&src[p.placement.span.start as usize..p.placement.span.end as usize], text);
+        }
+    }
+
+    #[test]
+    fn removes() {
+        let m = parse_ok("remove shading.tone;\nremove classification.additional[gm] when active;\nremove start;");
+        let removes: Vec<&Remove> = m
+            .items
+            .iter()
+            .map(|i| match &i.kind {
+                ItemKind::Remove(r) => r,
+                other => panic!("{other:?}"),
+            })
+            .collect();
+        assert_eq!(path_text(&removes[0].target), "shading.tone");
+        assert!(!removes[0].when_active);
+        assert_eq!(path_text(&removes[1].target), "classification.additional[gm]");
+        assert_eq!(removes[1].target.substep.as_ref().map(|s| s.name.as_str()), Some("gm"));
+        assert!(removes[1].when_active);
+        assert_eq!(removes[2].target.segments.len(), 1);
+        assert_eq!(errors("remove shading.tone when;"), vec![(1, Code::Syntax)]);
+    }
+
+    #[test]
+    fn declarations_with_docs() {
+        let src = "pipeline clip_$ after classification.additional[$] when active {
+    /// The clip plane.
+    /// (normal, offset)
+    uniform clip_plane_$: vec4f = vec4f(1.0, 0.0, 0.0, -0.5) in -1.0 .. 1.0;
+    uniform strength: f32;
+    state pos: vec3f;
+    /// Ray accumulator.
+    @ray state hits: u32 = 0u;
+    use plane_distance, other,;
+    state.pos = state.pos;
+}";
+        let p = pipeline(src);
+        assert_eq!(p.decls.len(), 5);
+        assert_eq!(p.decls[0].doc.as_deref(), Some("The clip plane.\n(normal, offset)"));
+        match &p.decls[0].kind {
+            DeclKind::Uniform { name, ty, default, range } => {
+                assert_eq!(name.name, "clip_plane_$");
+                assert_eq!(show_ty(ty), "vec4f");
+                assert_eq!(default.as_ref().map(show).as_deref(), Some("vec4f(1.0, 0.0, 0.0, (- 0.5))"));
+                let (lo, hi) = range.as_ref().expect("range");
+                assert_eq!((show(lo), show(hi)), ("(- 1.0)".to_string(), "1.0".to_string()));
+            }
+            other => panic!("{other:?}"),
+        }
+        assert!(matches!(&p.decls[1].kind, DeclKind::Uniform { default: None, range: None, .. }));
+        assert_eq!(p.decls[1].doc, None);
+        assert!(matches!(&p.decls[2].kind, DeclKind::State { ray: false, default: None, .. }));
+        match &p.decls[3].kind {
+            DeclKind::State { ray, name, default, .. } => {
+                assert!(*ray);
+                assert_eq!(name.name, "hits");
+                assert_eq!(default.as_ref().map(show).as_deref(), Some("0u"));
+            }
+            other => panic!("{other:?}"),
+        }
+        assert_eq!(p.decls[3].doc.as_deref(), Some("Ray accumulator."));
+        assert!(src[p.decls[3].span.start as usize..].starts_with("@ray state hits"));
+        match &p.decls[4].kind {
+            DeclKind::Use { names } => {
+                assert_eq!(names.iter().map(|n| n.name.as_str()).collect::<Vec<_>>(), ["plane_distance", "other"])
+            }
+            other => panic!("{other:?}"),
+        }
+        assert_eq!(p.body.stmts.len(), 1);
+    }
+
+    #[test]
+    fn declaration_after_statement_is_e0106() {
+        let src = "pipeline p in start {\n    state a: f32;\n    state.a = 1.0;\n    uniform u: f32;\n    use f;\n}";
+        let (m, diags) = parse(src);
+        let codes: Vec<_> = diags.iter().map(|d| (line_of(src, d.span.start), d.code)).collect();
+        assert_eq!(codes, vec![(4, Code::DeclarationAfterStatement), (5, Code::DeclarationAfterStatement)]);
+        let ItemKind::Pipeline(p) = &m.items[0].kind else { panic!() };
+        assert_eq!(p.decls.len(), 3, "still recorded");
+        assert_eq!(p.body.stmts.len(), 1);
+        assert_eq!(diags[0].secondary.len(), 1);
+    }
+
+    #[test]
+    fn attributes() {
+        let src = "pipeline p in start {\n    @foo state a: f32;\n    @ray uniform u: f32;\n    @ray state b: f32;\n}";
+        let (m, diags) = parse(src);
+        let codes: Vec<_> = diags.iter().map(|d| (line_of(src, d.span.start), d.code)).collect();
+        assert_eq!(codes, vec![(2, Code::UnknownAttribute), (3, Code::Syntax)]);
+        assert!(diags[0].message.contains("@foo"));
+        let ItemKind::Pipeline(p) = &m.items[0].kind else { panic!() };
+        assert_eq!(p.decls.len(), 3);
+        assert!(matches!(p.decls[0].kind, DeclKind::State { ray: false, .. }));
+        assert!(matches!(p.decls[2].kind, DeclKind::State { ray: true, .. }));
+    }
+
+    // ---- Statements ----
+
+    #[test]
+    fn statements() {
+        let stmts = body(
+            "let a = 1; let b: f32 = 2.0; var c: i32; var d = 3;
+             c = 1; c += 1; c -= 1; c *= 2; c /= 2; state.color.a = 0.0; v[0].x = 1.0;
+             f(a, b,); { let e = 1; } ; return; return a + 1; break; continue;",
+        );
+        let kinds: Vec<String> = stmts
+            .iter()
+            .map(|s| match &s.kind {
+                StmtKind::Let { mutable, name, ty, value } => format!(
+                    "{} {}{}{}",
+                    if *mutable { "var" } else { "let" },
+                    name.name,
+                    ty.as_ref().map(|t| format!(": {}", show_ty(t))).unwrap_or_default(),
+                    value.as_ref().map(|v| format!(" = {}", show(v))).unwrap_or_default()
+                ),
+                StmtKind::Assign { target, op, value } => format!("{} {op:?} {}", show(target), show(value)),
+                StmtKind::Expr(e) => format!("expr {}", show(e)),
+                StmtKind::Block(b) => format!("block {}", b.stmts.len()),
+                StmtKind::Return(e) => format!("return {}", e.as_ref().map(show).unwrap_or_default()),
+                StmtKind::Break => "break".into(),
+                StmtKind::Continue => "continue".into(),
+                other => format!("{other:?}"),
+            })
+            .collect();
+        assert_eq!(
+            kinds,
+            [
+                "let a = 1",
+                "let b: f32 = 2.0",
+                "var c: i32",
+                "var d = 3",
+                "c Assign 1",
+                "c Add 1",
+                "c Sub 1",
+                "c Mul 2",
+                "c Div 2",
+                "state.color.a Assign 0.0",
+                "v[0].x Assign 1.0",
+                "expr f(a, b)",
+                "block 1",
+                "return ",
+                "return (+ a 1)",
+                "break",
+                "continue",
+            ]
+        );
+    }
+
+    #[test]
+    fn if_else_chains() {
+        let src = "lib fn f() { if a { x(); } else if (b) { y(); } else if c { } else { z(); } if d {} }";
+        let m = parse_ok(src);
+        let ItemKind::LibFn(f) = &m.items[0].kind else { panic!() };
+        assert_eq!(f.body.stmts.len(), 2);
+        let StmtKind::If { cond, then, otherwise } = &f.body.stmts[0].kind else { panic!() };
+        assert_eq!(show(cond), "a");
+        assert_eq!(then.stmts.len(), 1);
+        let otherwise = otherwise.as_ref().expect("else if");
+        assert_eq!(otherwise.stmts.len(), 1);
+        let elif = &otherwise.stmts[0];
+        assert!(src[elif.span.start as usize..elif.span.end as usize].starts_with("if (b)"));
+        assert!(src[elif.span.start as usize..elif.span.end as usize].ends_with("z(); }"));
+        let StmtKind::If { cond, otherwise, .. } = &elif.kind else { panic!() };
+        assert_eq!(show(cond), "b");
+        let StmtKind::If { cond, otherwise, .. } = &otherwise.as_ref().expect("else if").stmts[0].kind else {
+            panic!()
+        };
+        assert_eq!(show(cond), "c");
+        assert_eq!(otherwise.as_ref().expect("else").stmts.len(), 1);
+        let StmtKind::If { otherwise: None, .. } = &f.body.stmts[1].kind else { panic!() };
+    }
+
+    #[test]
+    fn for_loops() {
+        let stmts = body("for i in 0..n { continue; } for j in a + 1 .. 2u { }");
+        let StmtKind::For { var, start, end, body } = &stmts[0].kind else { panic!() };
+        assert_eq!((var.name.as_str(), show(start), show(end)), ("i", "0".to_string(), "n".to_string()));
+        assert_eq!(body.stmts.len(), 1);
+        let StmtKind::For { start, end, .. } = &stmts[1].kind else { panic!() };
+        assert_eq!((show(start), show(end)), ("(+ a 1)".to_string(), "2u".to_string()));
+    }
+
+    #[test]
+    fn non_call_expression_statement_is_an_error() {
+        assert_eq!(errors("lib fn f() { x + 1; }"), vec![(1, Code::Syntax)]);
+        assert_eq!(errors("lib fn f() { f(x); }"), vec![]);
+    }
+
+    // ---- Expressions ----
+
+    #[test]
+    fn precedence() {
+        assert_eq!(expr("a + b * c"), "(+ a (* b c))");
+        assert_eq!(expr("a * b + c"), "(+ (* a b) c)");
+        assert_eq!(expr("a - b - c"), "(- (- a b) c)");
+        assert_eq!(expr("a < b == c"), "(== (< a b) c)");
+        assert_eq!(expr("a < b < c"), "(< (< a b) c)");
+        assert_eq!(expr("-a.x"), "(- a.x)");
+        assert_eq!(expr("!f(x)[0]"), "(! f(x)[0])");
+        assert_eq!(expr("- -a * b"), "(* (- (- a)) b)");
+        assert_eq!(expr("a || b && c | d ^ e & f == g < h << i + j * k"),
+            "(|| a (&& b (| c (^ d (& e (== f (< g (<< h (+ i (* j k))))))))))");
+        assert_eq!(expr("a * b % c / d"), "(/ (% (* a b) c) d)");
+        assert_eq!(expr("(a + b) * c"), "(* (+ a b) c)");
+        assert_eq!(expr("a >> 1u != b"), "(!= (>> a 1u) b)");
+        assert_eq!(expr("state.color.rgb * 2.0"), "(* state.color.rgb 2.0)");
+        assert_eq!(expr("m[0][1] + v.xyz.x"), "(+ m[0][1] v.xyz.x)");
+        assert_eq!(expr("true && !false"), "(&& true (! false))");
+        assert_eq!(expr("0x2Au + 7i + 1e-3 + .5 + 2.5e2f"), "(+ (+ (+ (+ 42u 7i) 0.001) 0.5) 250.0f)");
+    }
+
+    #[test]
+    fn generic_constructors_and_comparisons() {
+        assert_eq!(expr("vec3<f32>(1.0, 2.0, x)"), "vec3<f32>(1.0, 2.0, x)");
+        assert_eq!(expr("mat4x4<f32>(a)"), "mat4x4<f32>(a)");
+        assert_eq!(expr("vec3(1.0)"), "vec3(1.0)");
+        assert_eq!(expr("vec4f(c, 1.0)"), "vec4f(c, 1.0)");
+        assert_eq!(expr("a < b > (c)"), "(> (< a b) c)");
+        assert_eq!(expr("a<b"), "(< a b)");
+        assert_eq!(expr("vec3<f32>(x).y < 1.0"), "(< vec3<f32>(x).y 1.0)");
+        assert_eq!(errors("lib fn f() { let v = vec3<f32>; }"), vec![(1, Code::Syntax)]);
+    }
+
+    #[test]
+    fn spans() {
+        let src = "lib fn f() { let v = -(a + b).x * g(1, 2); }";
+        let stmts = body("let v = -(a + b).x * g(1, 2);");
+        let StmtKind::Let { value: Some(value), .. } = &stmts[0].kind else { panic!() };
+        let text = |e: &Expr| {
+            let offset = "lib fn f() { ".len() as u32;
+            src[(e.span.start - offset + 13) as usize..(e.span.end - offset + 13) as usize].to_string()
+        };
+        assert_eq!(text(value), "-(a + b).x * g(1, 2)");
+        let ExprKind::Binary { lhs, rhs, .. } = &value.kind else { panic!() };
+        assert_eq!(text(lhs), "-(a + b).x");
+        assert_eq!(text(rhs), "g(1, 2)");
+        let ExprKind::Unary { operand, .. } = &lhs.kind else { panic!() };
+        assert_eq!(text(operand), "(a + b).x");
+        let ExprKind::Member { base, .. } = &operand.kind else { panic!() };
+        assert_eq!(text(base), "(a + b)");
+    }
+
+    // ---- Recovery ----
+
+    #[test]
+    fn recovery_reports_each_independent_error() {
+        let src = "lib fn one(x: f32) -> f32 {
+    return x +;
+}
+
+lib fn two(x: f32) -> f32 {
+    let y = (x * 2.0;
+    return y;
+}
+";
+        let (m, diags) = parse(src);
+        let lines: Vec<_> = diags.iter().map(|d| (line_of(src, d.span.start), d.code)).collect();
+        assert_eq!(lines, vec![(2, Code::Syntax), (6, Code::Syntax)], "{diags:#?}");
+        assert_eq!(diags[0].message, "expected expression, found `;`");
+        assert_eq!(diags[1].message, "expected `)`, found `;`");
+        assert_eq!(m.items.len(), 2);
+        let ItemKind::LibFn(two) = &m.items[1].kind else { panic!() };
+        assert!(matches!(two.body.stmts[0].kind, StmtKind::Error));
+        assert!(matches!(two.body.stmts[1].kind, StmtKind::Return(Some(_))));
+    }
+
+    #[test]
+    fn readable_messages() {
+        let (_, diags) = parse("lib fn f() { let x = 1 }");
+        assert_eq!(diags.len(), 1);
+        assert_eq!(diags[0].message, "expected `;`, found `}`");
+        let (_, diags) = parse("lib fn f() { let x = a b; }");
+        assert_eq!(diags[0].message, "expected `;`, found identifier `b`");
+        let (_, diags) = parse("lib fn f() { g(a b); }");
+        assert_eq!(diags[0].message, "expected `,` or `)`, found identifier `b`");
+        let (_, diags) = parse("foo");
+        assert_eq!(diags[0].message, "expected `import`, `const`, `lib`, `pipeline` or `remove`, found identifier `foo`");
+    }
+
+    #[test]
+    fn recovery_at_item_level() {
+        let src = "pipeline p inn start { state.x = 1.0; }\nconst A = ;\nlib fn g() { return 1; }\n} }\nremove start;";
+        let (m, diags) = parse(src);
+        let lines: Vec<_> = diags.iter().map(|d| line_of(src, d.span.start)).collect();
+        assert_eq!(lines, vec![1, 2, 4], "{diags:#?}");
+        let kinds: Vec<_> = m
+            .items
+            .iter()
+            .map(|i| match i.kind {
+                ItemKind::LibFn(_) => "lib",
+                ItemKind::Remove(_) => "remove",
+                _ => "other",
+            })
+            .collect();
+        assert_eq!(kinds, ["lib", "remove"]);
+    }
+
+    #[test]
+    fn statement_recovery_skips_to_semicolon_or_block() {
+        let src = "lib fn f() {\n  let = 1;\n  if x + { y(); }\n  z();\n  w(;\n}\n";
+        let (m, diags) = parse(src);
+        let lines: Vec<_> = diags.iter().map(|d| line_of(src, d.span.start)).collect();
+        assert_eq!(lines, vec![2, 3, 5], "{diags:#?}");
+        let ItemKind::LibFn(f) = &m.items[0].kind else { panic!() };
+        let kinds: Vec<_> = f.body.stmts.iter().map(|s| matches!(s.kind, StmtKind::Error)).collect();
+        assert_eq!(kinds, [true, true, false, false]);
+    }
+
+    #[test]
+    fn unclosed_block_at_end_of_file() {
+        let (m, diags) = parse("lib fn f() {\n  if x {\n    let a = 1;\n");
+        assert_eq!(diags.len(), 1, "{diags:#?}");
+        assert!(diags[0].message.contains("found end of input"));
+        assert_eq!(m.items.len(), 1);
+        let (_, diags) = parse("pipeline p in start {");
+        assert_eq!(diags.len(), 1);
+        let (_, diags) = parse("{");
+        assert_eq!(diags.len(), 1);
+    }
+
+    #[test]
+    fn unclosed_block_before_next_item() {
+        let src = "lib fn f() {\n  let a = 1;\nlib fn g() { return; }\n";
+        let (m, diags) = parse(src);
+        let lines: Vec<_> = diags.iter().map(|d| line_of(src, d.span.start)).collect();
+        assert_eq!(lines, vec![3]);
+        assert_eq!(m.items.len(), 2);
+    }
+
+    #[test]
+    fn lexer_errors_are_not_reported_again() {
+        let deep = format!("lib fn f() {{ let a = {}1{}; }}", "(".repeat(300), ")".repeat(300));
+        let (m, diags) = parse(&deep);
+        assert_eq!(diags.iter().map(|d| d.code).collect::<Vec<_>>(), vec![Code::TooDeep]);
+        assert_eq!(m.items.len(), 1);
+        let deep_block = format!("lib fn f() {{ {} {} }}", "{".repeat(300), "}".repeat(300));
+        let (_, diags) = parse(&deep_block);
+        assert_eq!(diags.iter().map(|d| d.code).collect::<Vec<_>>(), vec![Code::TooDeep]);
+    }
+
+    #[test]
+    fn garbage_never_panics() {
+        let pieces = [
+            "(", ")", "{", "}", "[", "]", ";", ",", ".", "..", "$", "state", "uniform", "use", "@ray", "@x", "let",
+            "var", "for", "in", "if", "else", "return", "break", "fn", "lib", "pipeline", "remove", "replace", "when",
+            "active", "0", "1.0", "vec3", "<", ">", "f32", "+", "-", "!", "=", "+=", "import", "::", "->", ":", "\"s\"",
+            "const", "x", "after", "before",
+        ];
+        let mut seed = 0x2545_F491_4F6C_DD1Du64;
+        for _ in 0..400 {
+            let mut src = String::new();
+            for _ in 0..60 {
+                seed ^= seed << 13;
+                seed ^= seed >> 7;
+                seed ^= seed << 17;
+                src.push_str(pieces[(seed % pieces.len() as u64) as usize]);
+                src.push(' ');
+            }
+            let _ = parse(&src);
+        }
+    }
+
+    // ---- Depth ----
+
+    /// Runs `f` on a thread with the default 2 MiB test stack.
+    fn on_small_stack(f: impl FnOnce() + Send + 'static) {
+        std::thread::Builder::new().stack_size(2 << 20).spawn(f).expect("spawn").join().expect("no overflow");
+    }
+
+    #[test]
+    fn long_unary_runs_do_not_overflow() {
+        on_small_stack(|| {
+            let src = format!("lib fn f() -> f32 {{ return {}x; }}", "- ".repeat(20_000));
+            let (m, diags) = parse(&src);
+            assert_eq!(diags.iter().map(|d| d.code).collect::<Vec<_>>(), vec![Code::TooDeep]);
+            assert_eq!(m.items.len(), 1);
+            let src = format!("lib fn f() -> f32 {{ return {}x; }}", "-".repeat(MAX_DEPTH as usize - 1));
+            let (_, diags) = parse(&src);
+            assert!(diags.is_empty(), "{diags:?}");
+        });
+    }
+
+    #[test]
+    fn long_operator_chains_do_not_overflow() {
+        on_small_stack(|| {
+            let src = format!("lib fn f(a: f32) -> f32 {{ return a{}; }}", "+a".repeat(100_000));
+            let (m, diags) = parse(&src);
+            assert_eq!(diags.iter().map(|d| d.code).collect::<Vec<_>>(), vec![Code::TooDeep]);
+            let ItemKind::LibFn(f) = &m.items[0].kind else { panic!() };
+            assert!(matches!(f.body.stmts[0].kind, StmtKind::Return(Some(Expr { kind: ExprKind::Error, .. }))));
+            let src = format!("lib fn f(a: f32) -> f32 {{ return a{}; }}", "+a".repeat(MAX_DEPTH as usize - 1));
+            let (_, diags) = parse(&src);
+            assert!(diags.is_empty(), "{diags:?}");
+            let src = format!("lib fn f(a: f32) -> f32 {{ return a{}; }}", ".x".repeat(50_000));
+            let (_, diags) = parse(&src);
+            assert_eq!(diags.iter().map(|d| d.code).collect::<Vec<_>>(), vec![Code::TooDeep]);
+        });
+    }
+
+    #[test]
+    fn long_else_if_chains_do_not_overflow() {
+        on_small_stack(|| {
+            let src = format!("lib fn f() {{ if a {{ }}{} g(); }}", " else if a { }".repeat(50_000));
+            let (m, diags) = parse(&src);
+            assert_eq!(diags.iter().map(|d| d.code).collect::<Vec<_>>(), vec![Code::TooDeep]);
+            let ItemKind::LibFn(f) = &m.items[0].kind else { panic!() };
+            assert_eq!(f.body.stmts.len(), 2);
+            let src = format!("lib fn f() {{ if a {{ }}{} }}", " else if a { }".repeat(100));
+            parse_ok(&src);
+        });
+    }
+
+    #[test]
+    fn deep_brackets_do_not_overflow() {
+        on_small_stack(|| {
+            let src = format!("lib fn f() {{ let a = {}1{}; }}", "f(".repeat(127), ")".repeat(127));
+            parse_ok(&src);
+            let src = format!("lib fn f() {{ {} {} }}", "if a {".repeat(120), "}".repeat(120));
+            parse_ok(&src);
+        });
+    }
+
+    #[test]
+    fn long_inputs_parse_in_linear_time() {
+        let stmt = "state.color = vec4f(state.color.rgb * 0.5 + f(x, y)[1], 1.0);\n";
+        let src = format!("pipeline p in start {{\n{}}}", stmt.repeat(20_000));
+        let start = std::time::Instant::now();
+        let (m, diags) = parse(&src);
+        assert!(diags.is_empty());
+        let ItemKind::Pipeline(p) = &m.items[0].kind else { panic!() };
+        assert_eq!(p.body.stmts.len(), 20_000);
+        assert!(start.elapsed().as_secs() < 20, "took {:?}", start.elapsed());
+    }
+
+    // ---- Conformance cases ----
+
+    fn vrs_files(dir: &std::path::Path, out: &mut Vec<std::path::PathBuf>) {
+        let Ok(entries) = std::fs::read_dir(dir) else { return };
+        for entry in entries.flatten() {
+            let path = entry.path();
+            if path.is_dir() {
+                vrs_files(&path, out);
+            } else if path.extension().is_some_and(|e| e == "vrs") {
+                out.push(path);
+            }
+        }
+    }
+
+    #[test]
+    fn conformance_cases_parse() {
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+        let dirs = [root.join("../../shared/conformance/cases"), root.join("../tests/fixtures")];
+        let mut files = Vec::new();
+        for dir in &dirs {
+            vrs_files(dir, &mut files);
+        }
+        if files.is_empty() {
+            eprintln!("no conformance cases found next to the repository; skipped");
+            return;
+        }
+        for path in files {
+            let text = std::fs::read_to_string(&path).expect("readable");
+            let (_, diags) = parse(&text);
+            let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+            let in_ok_folder = path.ancestors().any(|a| {
+                a.file_name().is_some_and(|n| n.to_string_lossy().starts_with("ok_"))
+                    && a.parent().is_some_and(|p| p.ends_with("cases"))
+            });
+            if name.starts_with("ok_") || in_ok_folder {
+                assert!(diags.is_empty(), "{}: {diags:#?}", path.display());
+            }
+        }
+    }
+}

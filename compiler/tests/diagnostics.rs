@@ -1,0 +1,49 @@
+//! Diagnostic fixtures: each `tests/fixtures/diagnostics/CODE_name.vrs` must produce `CODE`;
+//! the rendered diagnostics are snapshots. The catalogue in `docs/reference.md` must list every
+//! code, and every code must have a fixture.
+
+mod common;
+
+use std::collections::BTreeSet;
+use vrsc::diag::{Code, render_plain};
+
+#[test]
+fn every_fixture_reports_its_code() {
+    for (name, path) in common::cases("diagnostics") {
+        let checked = common::check_fixture(&path);
+        let diags = checked.diags.sorted();
+        let want = name.split('_').next().unwrap_or_default();
+        assert!(
+            diags.iter().any(|d| d.code.as_str() == want),
+            "{name}: expected {want}, got {:?}",
+            diags.iter().map(|d| d.code.as_str()).collect::<Vec<_>>()
+        );
+        insta::assert_snapshot!(name, render_plain(&diags, &checked.sources));
+    }
+}
+
+/// Codes no fixture can trigger, with the reason.
+const UNTRIGGERABLE: &[(Code, &str)] =
+    [(Code::Internal, "a compiler bug by definition; the lowering unit tests feed malformed IR to produce it")]
+        .as_slice();
+
+#[test]
+fn every_code_has_a_fixture_and_a_catalogue_entry() {
+    let fixtures: BTreeSet<String> = common::cases("diagnostics")
+        .into_iter()
+        .filter_map(|(name, _)| name.split('_').next().map(String::from))
+        .collect();
+    let reference = std::fs::read_to_string(common::fixtures().join("../../docs/reference.md"))
+        .expect("docs/reference.md exists");
+    for &code in Code::ALL {
+        let code_str = code.as_str();
+        assert!(
+            reference.contains(&format!("### {code_str}")),
+            "docs/reference.md has no `### {code_str}` entry ({})",
+            code.title()
+        );
+        if UNTRIGGERABLE.iter().all(|(c, _)| *c != code) {
+            assert!(fixtures.contains(code_str), "no fixture tests/fixtures/diagnostics/{code_str}_*.vrs triggers {code_str}");
+        }
+    }
+}
