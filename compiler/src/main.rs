@@ -37,6 +37,19 @@ enum Command {
         #[arg(short, long)]
         output: Option<PathBuf>,
     },
+    /// Compose every view of a scene; write DIR/VIEW.wgsl and DIR/VIEW.json (reflection).
+    Build {
+        scene: PathBuf,
+        #[arg(short, long)]
+        output: PathBuf,
+    },
+    /// Print the pipeline map of a scene's views: steps, their functions, where each came from.
+    Pipeline {
+        scene: PathBuf,
+        /// Only this view.
+        #[arg(long)]
+        view: Option<String>,
+    },
 }
 
 #[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -81,6 +94,8 @@ fn main() -> ExitCode {
 fn run(cli: &Cli) -> Outcome {
     let printer = Printer { format: cli.message_format, color: cli.color };
     match &cli.command {
+        Command::Build { scene, output } => build(&printer, scene, output),
+        Command::Pipeline { scene, view } => pipeline(&printer, scene, view.as_deref()),
         Command::Check { files } => match driver::check_files(files) {
             Ok(checked) => printer.finish(&checked),
             Err(e) => io_failure(&e),
@@ -108,6 +123,45 @@ fn run(cli: &Cli) -> Outcome {
     }
 }
 
+fn build(printer: &Printer, scene: &std::path::Path, dir: &std::path::Path) -> Outcome {
+    let built = match vrsc::compose::build::build_scene(scene, None) {
+        Ok(b) => b,
+        Err(e) => return io_failure(&format!("cannot read `{}`: {e}", scene.display())),
+    };
+    let outcome = printer.report(&built.diags.sorted(), &built.sources);
+    if !matches!(outcome, Outcome::Ok) {
+        return outcome;
+    }
+    if let Err(e) = std::fs::create_dir_all(dir) {
+        return io_failure(&format!("cannot create `{}`: {e}", dir.display()));
+    }
+    for view in &built.views {
+        let Some(shader) = &view.shader else { continue };
+        let json = serde_json::to_string_pretty(&shader.reflection).unwrap_or_default();
+        for (ext, text) in [("wgsl", shader.wgsl.as_str()), ("json", json.as_str())] {
+            let path = dir.join(format!("{}.{ext}", view.name));
+            if let Err(e) = std::fs::write(&path, text) {
+                return io_failure(&format!("cannot write `{}`: {e}", path.display()));
+            }
+        }
+        eprintln!("wrote {}/{}.wgsl and .json", dir.display(), view.name);
+    }
+    Outcome::Ok
+}
+
+fn pipeline(printer: &Printer, scene: &std::path::Path, only: Option<&str>) -> Outcome {
+    let built = match vrsc::compose::build::build_scene(scene, only) {
+        Ok(b) => b,
+        Err(e) => return io_failure(&format!("cannot read `{}`: {e}", scene.display())),
+    };
+    let outcome = printer.report(&built.diags.sorted(), &built.sources);
+    for view in &built.views {
+        println!("== view {} ==", view.name);
+        print!("{}", view.composition.render_pipeline_map(&view.program, &built.sources));
+    }
+    outcome
+}
+
 fn io_failure(e: &dyn std::fmt::Display) -> Outcome {
     eprintln!("error: {e}");
     Outcome::Failure
@@ -121,9 +175,12 @@ struct Printer {
 impl Printer {
     /// Prints every diagnostic and says whether the input had errors.
     fn finish(&self, checked: &Checked) -> Outcome {
-        let sorted = checked.diags.sorted();
-        self.print(&sorted, &checked.sources);
-        if sorted.iter().any(Diagnostic::is_error) { Outcome::InputErrors } else { Outcome::Ok }
+        self.report(&checked.diags.sorted(), &checked.sources)
+    }
+
+    fn report(&self, diags: &[Diagnostic], sources: &SourceMap) -> Outcome {
+        self.print(diags, sources);
+        if diags.iter().any(Diagnostic::is_error) { Outcome::InputErrors } else { Outcome::Ok }
     }
 
     fn print(&self, diags: &[Diagnostic], sources: &SourceMap) {

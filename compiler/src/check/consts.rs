@@ -2,10 +2,10 @@
 //! detection), defaults and range bounds. An expression is checked like any other (in a
 //! [`FnKind::Const`] context, where only constants are in scope), then folded with `consteval`.
 
+use super::Checker;
 use super::consteval::{self, ConstError};
 use super::expr::const_index;
 use super::scope::{ConstState, FnCx, FnKind};
-use super::Checker;
 use crate::ast;
 use crate::diag::{Code, Diagnostic};
 use crate::hir::{self, ConstValue};
@@ -65,9 +65,10 @@ impl Checker<'_> {
                     return None;
                 }
                 if !resolved.is_plain() {
-                    let d = Diagnostic::new(Code::ResourceMisuse, t.span, format!("a constant cannot be a `{resolved}`"))
-                        .with_label("not a plain value")
-                        .with_help("declare it as a uniform of a pipeline function");
+                    let d =
+                        Diagnostic::new(Code::ResourceMisuse, t.span, format!("a constant cannot be a `{resolved}`"))
+                            .with_label("not a plain value")
+                            .with_help("declare it as a uniform of a pipeline function");
                     self.diags.push(d);
                     return None;
                 }
@@ -125,11 +126,15 @@ impl Checker<'_> {
                 Diagnostic::new(Code::ConstEvalFailed, span, format!("`{text}` divides by zero"))
                     .with_label("division by zero in a constant expression")
             }
-            ConstError::NotConstant => {
-                Diagnostic::new(Code::NotConstant, span, format!("`{text}` is not a constant expression"))
-                    .with_label("computed at run time")
-                    .with_note("constant expressions may use literals, constructors, unary minus, arithmetic and other constants")
-            }
+            ConstError::NotConstant => Diagnostic::new(
+                Code::NotConstant,
+                span,
+                format!("`{text}` is not a constant expression"),
+            )
+            .with_label("computed at run time")
+            .with_note(
+                "constant expressions may use literals, constructors, unary minus, arithmetic and other constants",
+            ),
         }
     }
 }

@@ -93,14 +93,19 @@ impl Checker<'_> {
     }
 
     /// Checks a pipeline header into `f` (state, uniforms, uses) and returns the declarations.
-    pub(super) fn declarations(&mut self, f: &mut FnCx, decls: &[ast::Decl]) -> (Vec<hir::StateDecl>, Vec<hir::UniformDecl>) {
+    pub(super) fn declarations(
+        &mut self,
+        f: &mut FnCx,
+        decls: &[ast::Decl],
+    ) -> (Vec<hir::StateDecl>, Vec<hir::UniformDecl>) {
         let mut states: Vec<hir::StateDecl> = Vec::new();
         let mut uniforms: Vec<hir::UniformDecl> = Vec::new();
         for d in decls {
             match &d.kind {
                 DeclKind::State { ray, name, ty, default } => {
-                    let t = self.decl_type(f, ty, "a state field");
-                    let default = self.default_value(f, default.as_ref(), t, &format!("the default of `state {}`", name.name));
+                    let t = self.decl_type(f, ty, name, true);
+                    let default =
+                        self.default_value(f, default.as_ref(), t, &format!("the default of `state {}`", name.name));
                     if let Some(first) = states.iter().find(|s| s.name == name.name) {
                         let dup = duplicate(&name.name, "state field", name.span, first.span);
                         self.emit(f, dup);
@@ -133,14 +138,14 @@ impl Checker<'_> {
     }
 
     /// The declared type of a state field (plain only) or uniform (plain or resource).
-    fn decl_type(&mut self, f: &mut FnCx, ty: &ast::TypeExpr, what: &str) -> Type {
+    fn decl_type(&mut self, f: &mut FnCx, ty: &ast::TypeExpr, name: &ast::Ident, state: bool) -> Type {
         let t = self.resolve_type(ty);
         if t.is_error() {
             f.failed = true;
-        } else if t.is_resource() && what == "a state field" {
-            let d = Diagnostic::new(Code::ResourceMisuse, ty.span, format!("{what} cannot hold a `{t}`"))
+        } else if t.is_resource() && state {
+            let d = Diagnostic::new(Code::ResourceMisuse, ty.span, format!("a state field cannot hold a `{t}`"))
                 .with_label(format!("`{t}` is not a plain value"))
-                .with_help(format!("declare it as a uniform instead: `uniform NAME: {t};`"));
+                .with_help(format!("declare it as a uniform instead: `uniform {}: {t};`", name.name));
             self.emit(f, d);
             return Type::Error;
         }
@@ -169,17 +174,21 @@ impl Checker<'_> {
         default: Option<&ast::Expr>,
         range: Option<&(ast::Expr, ast::Expr)>,
     ) -> Option<hir::UniformDecl> {
-        let t = self.decl_type(f, ty, "a uniform");
+        let t = self.decl_type(f, ty, name, false);
         if t.is_resource() {
             for (present, what, span) in [
-                (default.map(|e| e.span), "a default", d.span),
-                (range.map(|r| r.0.span.to(r.1.span)), "a range", d.span),
+                (default.map(|e| e.span), "the default", d.span),
+                (range.map(|r| r.0.span.to(r.1.span)), "the range", d.span),
             ] {
                 let Some(at) = present else { continue };
-                let diag = Diagnostic::new(Code::ResourceMisuse, at, format!("a `{t}` uniform cannot have {what}"))
-                    .with_label("not allowed here")
-                    .with_secondary(span, format!("`{}` is a {t}", name.name))
-                    .with_help(format!("the scene binds the {t}; remove {what}"));
+                let diag = Diagnostic::new(
+                    Code::ResourceMisuse,
+                    at,
+                    format!("a `{t}` uniform cannot have {}", what.replace("the ", "a ")),
+                )
+                .with_label("not allowed here")
+                .with_secondary(span, format!("`{}` is a {t}", name.name))
+                .with_help(format!("the scene binds the {t}: remove {what}"));
                 self.emit(f, diag);
             }
         }
@@ -202,7 +211,14 @@ impl Checker<'_> {
     }
 
     /// Range bounds: of the uniform's type, or scalars that bound every component (splat).
-    fn range(&mut self, f: &mut FnCx, name: &ast::Ident, ty: Type, lo: &ast::Expr, hi: &ast::Expr) -> Option<(ConstValue, ConstValue)> {
+    fn range(
+        &mut self,
+        f: &mut FnCx,
+        name: &ast::Ident,
+        ty: Type,
+        lo: &ast::Expr,
+        hi: &ast::Expr,
+    ) -> Option<(ConstValue, ConstValue)> {
         if ty.scalar() == Some(Scalar::Bool) {
             let d = Diagnostic::new(Code::TypeMismatch, lo.span.to(hi.span), format!("a {ty} uniform has no range"))
                 .with_label("ranges bound numbers")
@@ -253,22 +269,32 @@ impl Checker<'_> {
                 f.uses.push(UseSlot { lib, span: n.span, called: false });
             }
             Some(ItemRef::Const(_)) => {
-                let d = Diagnostic::new(Code::UnknownLibrary, n.span, format!("`{}` is a constant, not a library function", n.name))
-                    .with_label("not a library function")
-                    .with_help("constants need no declaration: remove it from `use`");
+                let d = Diagnostic::new(
+                    Code::UnknownLibrary,
+                    n.span,
+                    format!("`{}` is a constant, not a library function", n.name),
+                )
+                .with_label("not a library function")
+                .with_help("constants need no declaration: remove it from `use`");
                 self.emit(f, d);
             }
             None => {
                 let libs: Vec<String> = self
                     .scopes
                     .get(f.module)
-                    .map(|s| s.names.iter().filter(|(_, r)| matches!(r, ItemRef::Lib(_))).map(|(n, _)| n.clone()).collect())
+                    .map(|s| {
+                        s.names.iter().filter(|(_, r)| matches!(r, ItemRef::Lib(_))).map(|(n, _)| n.clone()).collect()
+                    })
                     .unwrap_or_default();
-                let mut d = Diagnostic::new(Code::UnknownLibrary, n.span, format!("no library function `{}` in scope", n.name))
-                    .with_label("not defined in this module or its imports");
-                d = match did_you_mean(&n.name, libs.iter().map(String::as_str)) {
-                    Some(best) => d.with_help(format!("did you mean `{best}`?")),
-                    None => d.with_help(format!("define `lib fn {}` or import the module that defines it", n.name)),
+                let mut d =
+                    Diagnostic::new(Code::UnknownLibrary, n.span, format!("no library function `{}` in scope", n.name))
+                        .with_label("not defined in this module or its imports");
+                d = match (self.import_help(&n.name), did_you_mean(&n.name, libs.iter().map(String::as_str))) {
+                    (Some(help), _) => d.with_help(help),
+                    (None, Some(best)) => d.with_help(format!("did you mean `{best}`?")),
+                    (None, None) => {
+                        d.with_help(format!("define `lib fn {}` or import the module that defines it", n.name))
+                    }
                 };
                 self.emit(f, d);
             }
@@ -287,16 +313,24 @@ impl Checker<'_> {
         }
         for (u, slot) in uniforms.iter().zip(&f.uniforms).filter(|(_, s)| !s.read) {
             self.diags.push(
-                Diagnostic::new(Code::UnusedUniform, u.span, format!("uniform `{}` is declared but never read", slot.name))
-                    .with_label("never read")
-                    .with_help("use it in the body, or remove the declaration"),
+                Diagnostic::new(
+                    Code::UnusedUniform,
+                    u.span,
+                    format!("uniform `{}` is declared but never read", slot.name),
+                )
+                .with_label("never read")
+                .with_help("use it in the body, or remove the declaration"),
             );
         }
         for s in states.iter().filter(|s| !s.read && !s.written) {
             self.diags.push(
-                Diagnostic::new(Code::UnusedState, s.span, format!("state field `{}` is declared but never used", s.name))
-                    .with_label("neither read nor written")
-                    .with_help(format!("use `state.{}` in the body, or remove the declaration", s.name)),
+                Diagnostic::new(
+                    Code::UnusedState,
+                    s.span,
+                    format!("state field `{}` is declared but never used", s.name),
+                )
+                .with_label("neither read nor written")
+                .with_help(format!("use `state.{}` in the body, or remove the declaration", s.name)),
             );
         }
     }
@@ -320,7 +354,8 @@ impl Checker<'_> {
                     Some((first, owner)) => state_conflict(first, owner, s),
                 };
                 let d = d.or_else(|| {
-                    let first = default_conflict(&first_state_default, &s.name, s.default.as_ref(), s.span, "state field");
+                    let first =
+                        default_conflict(&first_state_default, &s.name, s.default.as_ref(), s.span, "state field");
                     if s.default.is_some() {
                         first_state_default.entry(&s.name).or_insert((s, &pipe.name));
                     }
@@ -340,7 +375,8 @@ impl Checker<'_> {
                     Some((first, owner)) => uniform_conflict(first, owner, u),
                 };
                 let d = d.or_else(|| {
-                    let first = default_conflict(&first_uniform_default, &u.name, u.default.as_ref(), u.span, "uniform");
+                    let first =
+                        default_conflict(&first_uniform_default, &u.name, u.default.as_ref(), u.span, "uniform");
                     if u.default.is_some() {
                         first_uniform_default.entry(&u.name).or_insert((u, &pipe.name));
                     }
@@ -437,15 +473,15 @@ fn state_conflict(first: &hir::StateDecl, owner: &str, s: &hir::StateDecl) -> Op
             Diagnostic::new(
                 Code::StateConflict,
                 s.span,
-                format!(
-                    "state field `{name}` is {} here but {} in `{owner}`",
-                    lifetime(s.ray),
-                    lifetime(first.ray)
-                ),
+                format!("state field `{name}` is {} here but {} in `{owner}`", lifetime(s.ray), lifetime(first.ray)),
             )
             .with_label(format!("{} here", lifetime(s.ray)))
             .with_secondary(first.span, format!("first declared here as {}", lifetime(first.ray)))
-            .with_help(if first.ray { "add `@ray` to this declaration" } else { "remove `@ray` from this declaration" }),
+            .with_help(if first.ray {
+                "add `@ray` to this declaration"
+            } else {
+                "remove `@ray` from this declaration"
+            }),
         );
     }
     None

@@ -148,26 +148,33 @@ impl Checker<'_> {
 
     /// Checks any expression (a call may return nothing). Follows at most [`MAX_DEPTH`] levels.
     pub(super) fn expr(&mut self, f: &mut FnCx, e: &ast::Expr, hint: Hint) -> hir::Expr {
-        if self.depth >= MAX_DEPTH {
-            return self.too_deep(f, e.span);
+        if self.expr_depth >= MAX_DEPTH {
+            return self.too_deep(f, e.span, "expression");
         }
-        self.depth += 1;
+        self.expr_depth += 1;
         let out = self.expr_kind(f, e, hint);
-        self.depth -= 1;
+        self.expr_depth -= 1;
         out
     }
 
     /// E0105, once per function: deeper trees would overflow the stack of every later pass.
-    pub(super) fn too_deep(&mut self, f: &mut FnCx, span: Span) -> hir::Expr {
-        if !f.too_deep {
-            f.too_deep = true;
+    /// `what` is "expression" or "block".
+    pub(super) fn too_deep(&mut self, f: &mut FnCx, span: Span, what: &str) -> hir::Expr {
+        let reported = f.too_deep || (f.kind == FnKind::Const && self.const_too_deep);
+        f.too_deep = true;
+        self.const_too_deep |= f.kind == FnKind::Const;
+        if !reported {
             let d = Diagnostic::new(
                 Code::TooDeep,
                 span,
-                format!("expression nested too deeply (more than {MAX_DEPTH} levels)"),
+                format!("{what} nested too deeply (more than {MAX_DEPTH} levels)"),
             )
             .with_label("nesting limit reached here")
-            .with_help("split the expression into several `let` statements");
+            .with_help(if what == "block" {
+                "move the inner part into a library function"
+            } else {
+                "split the expression into several `let` statements"
+            });
             self.emit(f, d);
         }
         poison(f, span)
@@ -179,7 +186,7 @@ impl Checker<'_> {
             ExprKind::Float { value, .. } => self.float_literal(f, e.span, *value, false),
             ExprKind::Bool(b) => constant(ScalarValue::Bool(*b), e.span),
             ExprKind::Name(id) => self.name(f, id, hint),
-            ExprKind::State(id) => match self.state_field(f, id, e.span, StateUse::Read) {
+            ExprKind::State(id) => match self.state_field(f, id, e.span, StateUse::Read, hint) {
                 Some((index, ty)) => mk(hir::ExprKind::State(index), ty, e.span),
                 None => poison(f, e.span),
             },
@@ -223,17 +230,18 @@ impl Checker<'_> {
         }
         let text = self.show(span);
         let (label, help) = match scalar {
-            Scalar::U32 if v < 0 => ("u32 has no negative values", "use an i32 (suffix `i`) for a negative value".into()),
+            Scalar::U32 if v < 0 => {
+                ("u32 has no negative values", "use an i32 (suffix `i`) for a negative value".into())
+            }
             Scalar::I32 if v > 0 && v <= i128::from(u32::MAX) && suffix.is_none() => {
                 ("i32 holds -2147483648 ..= 2147483647", format!("write `{magnitude}u` for a u32"))
             }
             Scalar::I32 => ("i32 holds -2147483648 ..= 2147483647", "use a float (write `.0`) for such values".into()),
             _ => ("u32 holds 0 ..= 4294967295", "use a float (write `.0`) for such values".into()),
         };
-        let d =
-            Diagnostic::new(Code::LiteralOutOfRange, span, format!("`{text}` does not fit in {}", scalar.name()))
-                .with_label(label)
-                .with_help(help);
+        let d = Diagnostic::new(Code::LiteralOutOfRange, span, format!("`{text}` does not fit in {}", scalar.name()))
+            .with_label(label)
+            .with_help(help);
         self.emit(f, d);
         poison(f, span)
     }
@@ -277,10 +285,14 @@ impl Checker<'_> {
     }
 
     fn unknown_name(&mut self, f: &mut FnCx, id: &Ident, hint: Hint) -> hir::Expr {
+        if f.lost_statement {
+            return poison(f, id.span);
+        }
         let name = &id.name;
         let mut candidates = f.visible_names();
         if let Some(scope) = self.scopes.get(f.module) {
-            candidates.extend(scope.names.iter().filter(|(_, r)| matches!(r, ItemRef::Const(_))).map(|(n, _)| n.clone()));
+            candidates
+                .extend(scope.names.iter().filter(|(_, r)| matches!(r, ItemRef::Const(_))).map(|(n, _)| n.clone()));
         }
         let suggestion = did_you_mean(name, candidates.iter().map(String::as_str)).map(str::to_string);
         let mut d = match f.kind {
@@ -319,7 +331,15 @@ impl Checker<'_> {
     }
 
     /// `state.F`: its index in the pipeline's declarations and its type, marking the use.
-    pub(super) fn state_field(&mut self, f: &mut FnCx, id: &Ident, span: Span, how: StateUse) -> Option<(usize, Type)> {
+    /// `guess` is the type the context suggests, offered when F is undeclared and unknown.
+    pub(super) fn state_field(
+        &mut self,
+        f: &mut FnCx,
+        id: &Ident,
+        span: Span,
+        how: StateUse,
+        guess: Hint,
+    ) -> Option<(usize, Type)> {
         let name = &id.name;
         match f.kind {
             FnKind::Pipeline => {}
@@ -351,7 +371,7 @@ impl Checker<'_> {
             slot.written |= how != StateUse::Read;
             return Some((index, slot.ty));
         }
-        let (ty, ray) = self.state_type_hint(name);
+        let (ty, ray) = self.state_type_hint(name, guess);
         let decl = format!("{}state {name}: {ty};", if ray { "@ray " } else { "" });
         let d = Diagnostic::new(Code::UndeclaredState, span, format!("`state.{name}` is not declared"))
             .with_label(format!("`{}` has no `state {name}` declaration", f.name))
@@ -361,7 +381,7 @@ impl Checker<'_> {
     }
 
     /// The type (and `@ray`) a state field has elsewhere, or in the standard library's fields.
-    fn state_type_hint(&self, name: &str) -> (String, bool) {
+    fn state_type_hint(&self, name: &str, guess: Hint) -> (String, bool) {
         if let Some((ty, ray)) = self.state_hints.get(name) {
             return (ty.clone(), *ray);
         }
@@ -385,7 +405,7 @@ impl Checker<'_> {
         if name.starts_with("color_") {
             return (String::from("vec4f"), false);
         }
-        (String::from("TYPE"), false)
+        (type_or_placeholder(guess), false)
     }
 
     /// `base.member`: a swizzle or one vector component.
@@ -398,7 +418,8 @@ impl Checker<'_> {
             Ok((components, ty)) => mk(hir::ExprKind::Swizzle { base: Box::new(b), components }, ty, span),
             Err(why) => {
                 let text = format!("`{}.{}`: {why}", self.show(base.span), member.name);
-                let d = Diagnostic::new(Code::InvalidMember, member.span, text).with_label(format!("not a member of {}", b.ty));
+                let d = Diagnostic::new(Code::InvalidMember, member.span, text)
+                    .with_label(format!("not a member of {}", b.ty));
                 self.emit(f, d);
                 poison(f, span)
             }
@@ -475,13 +496,23 @@ impl Checker<'_> {
         }
     }
 
-    fn binary(&mut self, f: &mut FnCx, op: BinaryOp, lhs: &ast::Expr, rhs: &ast::Expr, span: Span, hint: Hint) -> hir::Expr {
+    fn binary(
+        &mut self,
+        f: &mut FnCx,
+        op: BinaryOp,
+        lhs: &ast::Expr,
+        rhs: &ast::Expr,
+        span: Span,
+        hint: Hint,
+    ) -> hir::Expr {
         let (l, r) = self.operands(f, op, lhs, rhs, hint);
         if l.ty.is_error() || r.ty.is_error() {
             return poison(f, span);
         }
         match rules::binary_result(op, l.ty, r.ty) {
-            Some(ty) if !ty.is_error() => mk(hir::ExprKind::Binary { op, lhs: Box::new(l), rhs: Box::new(r) }, ty, span),
+            Some(ty) if !ty.is_error() => {
+                mk(hir::ExprKind::Binary { op, lhs: Box::new(l), rhs: Box::new(r) }, ty, span)
+            }
             _ => {
                 let sym = op.symbol();
                 let mut d = Diagnostic::new(

@@ -1,8 +1,8 @@
 //! Whole functions: lib-fn signatures, lib-fn bodies (with the "returns on every path" rule)
 //! and pipeline functions (placement, header, body, unused declarations).
 
-use super::scope::{Binding, FnCx, FnKind, duplicate};
 use super::Checker;
+use super::scope::{Binding, FnCx, FnKind, duplicate};
 use crate::ast::{self, ItemKind};
 use crate::diag::{Code, Diagnostic};
 use crate::hir;
@@ -101,7 +101,7 @@ impl Checker<'_> {
                 format!("`{}` can reach its end without returning a value", lf.name.name),
             )
             .with_label(format!("declared to return {ret}"))
-            .with_help(format!("add a `return` of a {ret} at the end of `{}`", lf.name.name));
+            .with_help(format!("end every path of `{}` with `return ...;` (a {ret})", lf.name.name));
             self.emit(&mut f, d);
         }
         let hir = hir::LibFn {

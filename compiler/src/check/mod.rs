@@ -74,11 +74,18 @@ struct Checker<'a> {
     state_hints: HashMap<String, (String, bool)>,
     /// Every uniform name declared anywhere, to explain why a lib fn cannot see one.
     uniform_names: HashSet<String>,
-    /// Current nesting of expressions and blocks, across constant evaluation too.
-    depth: u32,
+    /// Current nesting of expressions (across constant evaluation too: a chain of constants
+    /// that refer to each other nests as deep as one expression would).
+    expr_depth: u32,
+    /// Current nesting of blocks.
+    block_depth: u32,
+    /// E0105 was reported inside a constant expression: a long chain of constants crosses the
+    /// limit in each of its constants, but it is one mistake.
+    const_too_deep: bool,
 }
 
-/// Deepest nesting of expressions (and blocks) the checker follows before reporting E0105.
+/// Deepest nesting of expressions, and of blocks, the checker follows before reporting E0105
+/// (the parser has the same limits; this one also bounds chains of constants).
 const MAX_DEPTH: u32 = 256;
 
 impl<'a> Checker<'a> {
@@ -94,7 +101,9 @@ impl<'a> Checker<'a> {
             dup_pipelines: HashSet::new(),
             state_hints: HashMap::new(),
             uniform_names: HashSet::new(),
-            depth: 0,
+            expr_depth: 0,
+            block_depth: 0,
+            const_too_deep: false,
         }
     }
 

@@ -385,6 +385,9 @@ pub(super) struct FnCx {
     pub failed: bool,
     /// E0105 was reported for this function already.
     pub too_deep: bool,
+    /// The parser dropped a statement of this body: it may have declared names, so unknown
+    /// names after it are not reported again.
+    pub lost_statement: bool,
 }
 
 impl FnCx {
@@ -405,6 +408,7 @@ impl FnCx {
             loops: 0,
             failed: false,
             too_deep: false,
+            lost_statement: false,
         }
     }
 

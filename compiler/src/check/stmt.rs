@@ -44,11 +44,11 @@ impl Checker<'_> {
     /// Checks a block; `new_scope` is false for a function's top-level block, which shares
     /// scope 0 with the parameters (lib fns) or uniforms (pipelines), as in WGSL.
     pub(super) fn block(&mut self, f: &mut FnCx, b: &ast::Block, new_scope: bool) -> (hir::Block, Flow) {
-        if self.depth >= MAX_DEPTH {
-            self.too_deep(f, b.span);
+        if self.block_depth >= MAX_DEPTH {
+            self.too_deep(f, b.span, "block");
             return (hir::Block { stmts: Vec::new(), span: b.span }, Flow { returns: true, diverges: false });
         }
-        self.depth += 1;
+        self.block_depth += 1;
         if new_scope {
             f.push_scope();
         }
@@ -83,7 +83,7 @@ impl Checker<'_> {
         if new_scope {
             f.pop_scope();
         }
-        self.depth -= 1;
+        self.block_depth -= 1;
         (hir::Block { stmts, span: b.span }, flow)
     }
 
@@ -120,7 +120,9 @@ impl Checker<'_> {
                 let flow = Flow { returns: tf.returns && of.returns, diverges: tf.diverges && of.diverges };
                 (wrap(hir::StmtKind::If { cond: c, then, otherwise }), flow)
             }
-            StmtKind::For { var, start, end, body } => (self.for_stmt(f, var, start, end, body).and_then(wrap), Flow::default()),
+            StmtKind::For { var, start, end, body } => {
+                (self.for_stmt(f, var, start, end, body).and_then(wrap), Flow::default())
+            }
             StmtKind::Break | StmtKind::Continue => {
                 let is_break = matches!(s.kind, StmtKind::Break);
                 if f.loops == 0 {
@@ -145,6 +147,7 @@ impl Checker<'_> {
             StmtKind::Error => {
                 // Already reported by the parser; assume it returned, so no E0401 follows from it.
                 f.failed = true;
+                f.lost_statement = true;
                 (None, Flow { returns: true, diverges: false })
             }
         }
@@ -219,12 +222,15 @@ impl Checker<'_> {
         if e.ty == expected || e.ty.is_error() || expected.is_error() {
             return true;
         }
-        let mut d = Diagnostic::new(Code::TypeMismatch, e.span, format!("{what} needs a {expected}, not {}", e.ty))
+        let mut d = Diagnostic::new(Code::TypeMismatch, e.span, format!("{what} expects {expected}, found {}", e.ty))
             .with_label(format!("this is {}", e.ty));
         if e.ty.scalar() == Some(Scalar::F32) && expected.scalar().is_some_and(Scalar::is_integer) {
             d = d.with_note("a float value never becomes an integer implicitly");
         }
-        if e.ty.components() == expected.components() && e.ty.components() > 0 && !matches!(expected, Type::Matrix { .. }) {
+        if e.ty.components() == expected.components()
+            && e.ty.components() > 0
+            && !matches!(expected, Type::Matrix { .. })
+        {
             d = d.with_help(format!("convert it explicitly: `{expected}({})`", self.show(e.span)));
         }
         self.emit(f, d);
@@ -232,6 +238,15 @@ impl Checker<'_> {
     }
 
     fn assign(&mut self, f: &mut FnCx, target: &ast::Expr, op: AssignOp, value: &ast::Expr) -> Option<hir::StmtKind> {
+        if let ExprKind::State(id) = &target.kind
+            && f.kind == FnKind::Pipeline
+            && !f.state.iter().any(|s| s.name == id.name)
+        {
+            // Undeclared: the value's type is the best guess for the declaration to offer.
+            let v = self.value(f, value, None);
+            self.state_field(f, id, target.span, StateUse::Write, concrete_hint(&v));
+            return None;
+        }
         let place = self.place(f, target, op != AssignOp::Assign);
         let hint: Hint = place.as_ref().map(|p| p.ty).filter(|t| !t.is_error());
         let v = self.value(f, value, hint);
@@ -269,23 +284,33 @@ impl Checker<'_> {
     }
 
     /// Root, accesses, type, and whether the path ends in a multi-component swizzle.
-    fn place_parts(&mut self, f: &mut FnCx, e: &ast::Expr, compound: bool) -> Option<(PlaceRoot, Vec<Access>, Type, bool)> {
-        if self.depth >= MAX_DEPTH {
-            self.too_deep(f, e.span);
+    fn place_parts(
+        &mut self,
+        f: &mut FnCx,
+        e: &ast::Expr,
+        compound: bool,
+    ) -> Option<(PlaceRoot, Vec<Access>, Type, bool)> {
+        if self.expr_depth >= MAX_DEPTH {
+            self.too_deep(f, e.span, "expression");
             return None;
         }
-        self.depth += 1;
+        self.expr_depth += 1;
         let out = self.place_kind(f, e, compound);
-        self.depth -= 1;
+        self.expr_depth -= 1;
         out
     }
 
-    fn place_kind(&mut self, f: &mut FnCx, e: &ast::Expr, compound: bool) -> Option<(PlaceRoot, Vec<Access>, Type, bool)> {
+    fn place_kind(
+        &mut self,
+        f: &mut FnCx,
+        e: &ast::Expr,
+        compound: bool,
+    ) -> Option<(PlaceRoot, Vec<Access>, Type, bool)> {
         match &e.kind {
             ExprKind::Name(id) => self.place_root(f, id).map(|(root, ty)| (root, Vec::new(), ty, false)),
             ExprKind::State(id) => {
                 let how = if compound { StateUse::ReadWrite } else { StateUse::Write };
-                let (index, ty) = self.state_field(f, id, e.span, how)?;
+                let (index, ty) = self.state_field(f, id, e.span, how, None)?;
                 Some((PlaceRoot::State(index), Vec::new(), ty, false))
             }
             ExprKind::Member { base, member } => {
@@ -367,16 +392,22 @@ impl Checker<'_> {
                 let ty = f.locals.get(l).map_or(Type::Error, |local| local.ty);
                 match f.local_kinds.get(l) {
                     Some(LocalKind::Var) => return Some((PlaceRoot::Local(l), ty)),
-                    Some(LocalKind::Let) => {
-                        Diagnostic::new(Code::NotAssignable, id.span, format!("cannot assign to `{name}`, a `let` constant"))
-                            .with_label("assigned here")
-                            .with_secondary(decl, "declared with `let` here")
-                            .with_help(format!("declare it with `var` to change it: `var {name} = ...;`"))
-                    }
-                    _ => Diagnostic::new(Code::NotAssignable, id.span, format!("cannot assign to loop variable `{name}`"))
-                        .with_label("assigned here")
-                        .with_secondary(decl, "the loop sets it")
-                        .with_help(format!("copy it into a variable: `var j = {name};`")),
+                    Some(LocalKind::Let) => Diagnostic::new(
+                        Code::NotAssignable,
+                        id.span,
+                        format!("cannot assign to `{name}`: it is declared with `let`"),
+                    )
+                    .with_label("assigned here")
+                    .with_secondary(decl, "declared with `let` here")
+                    .with_help(format!("declare it with `var` to change it: `var {name} = ...;`")),
+                    _ => Diagnostic::new(
+                        Code::NotAssignable,
+                        id.span,
+                        format!("cannot assign to loop variable `{name}`"),
+                    )
+                    .with_label("assigned here")
+                    .with_secondary(decl, "the loop sets it")
+                    .with_help(format!("copy it into a variable: `var j = {name};`")),
                 }
             }
             Some((Binding::Param(_), decl)) => {
@@ -390,6 +421,10 @@ impl Checker<'_> {
                     .with_label("assigned here")
                     .with_secondary(decl, "uniforms are read-only")
                     .with_help(format!("copy it into a variable first: `var {name}_v = {name};`"))
+            }
+            None if f.lost_statement => {
+                f.failed = true;
+                return None;
             }
             None if self.item(f.module, name).is_some() => {
                 Diagnostic::new(Code::NotAssignable, id.span, format!("cannot assign to `{name}`"))
@@ -459,7 +494,9 @@ impl Checker<'_> {
                 format!("pipeline function `{}` cannot return a value", f.name),
             )
             .with_label("returns a value")
-            .with_help("pipeline functions write their results to state: assign it to a `state` field and write `return;`"),
+            .with_help(
+                "pipeline functions write their results to state: assign it to a `state` field and write `return;`",
+            ),
             (FnKind::Lib, Some(_)) if f.ret == Type::Void => Diagnostic::new(
                 Code::ReturnMismatch,
                 span,
@@ -470,7 +507,7 @@ impl Checker<'_> {
             (FnKind::Lib, None) if f.ret != Type::Void && !f.ret.is_error() => Diagnostic::new(
                 Code::ReturnMismatch,
                 span,
-                format!("`{}` must return a {}", f.name, f.ret),
+                format!("`{}` must return a value of type {}", f.name, f.ret),
             )
             .with_label("returns no value")
             .with_help(format!("return a value: `return ...;` of type {}", f.ret)),
@@ -496,9 +533,13 @@ impl Checker<'_> {
             }
             _ => {
                 self.expr(f, e, None);
-                let d = Diagnostic::new(Code::Syntax, e.span, "this expression does nothing: only a call can be a statement")
-                    .with_label("value is never used")
-                    .with_help("store it: `let x = ...;`, or assign it to a variable or state field");
+                let d = Diagnostic::new(
+                    Code::Syntax,
+                    e.span,
+                    "this expression does nothing: only a call can be a statement",
+                )
+                .with_label("value is never used")
+                .with_help("store it: `let x = ...;`, or assign it to a variable or state field");
                 self.emit(f, d);
                 None
             }

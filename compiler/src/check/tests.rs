@@ -76,14 +76,18 @@ fn ok(src: &str) -> Checked {
 
 #[test]
 fn literals_take_the_expected_type() {
-    let c = ok("lib fn f() -> f32 {\n let a: u32 = 7;\n let b: f32 = 3;\n let c = 2;\n var d: f32 = 0.0;\n d += 1;\n return b + f32(a) + f32(c) + d;\n}");
+    let c = ok(
+        "lib fn f() -> f32 {\n let a: u32 = 7;\n let b: f32 = 3;\n let c = 2;\n var d: f32 = 0.0;\n d += 1;\n return b + f32(a) + f32(c) + d;\n}",
+    );
     let f = &c.program.lib_fns[0];
     assert_eq!(f.locals.iter().map(|l| l.ty).collect::<Vec<_>>(), [Type::U32, Type::F32, Type::I32, Type::F32]);
 }
 
 #[test]
 fn literal_adopts_other_operand_and_constructor_scalar() {
-    ok("lib fn f(x: f32, u: u32) -> vec3f {\n let a = x * 2;\n let b = 1 + x;\n let c = u + 1;\n let m = max(x, 0);\n return vec3f(1, 2, a + b + f32(c) + m);\n}");
+    ok(
+        "lib fn f(x: f32, u: u32) -> vec3f {\n let a = x * 2;\n let b = 1 + x;\n let c = u + 1;\n let m = max(x, 0);\n return vec3f(1, 2, a + b + f32(c) + m);\n}",
+    );
 }
 
 #[test]
@@ -111,8 +115,10 @@ fn duplicate_items_and_locals() {
 
 #[test]
 fn unknown_type_suggests() {
-    let c = expect("lib fn f(x: flaot) {}", &[(Code::UnknownType, 1)]);
-    assert!(c.message(Code::UnknownType).contains("`f32`"), "{:?}", c.diags);
+    let c = expect("lib fn f(x: vec3d) {}", &[(Code::UnknownType, 1)]);
+    assert!(c.message(Code::UnknownType).contains("`vec3f`"), "{:?}", c.diags);
+    let c = expect("lib fn f(x: vec3) {}", &[(Code::UnknownType, 1)]);
+    assert!(c.message(Code::UnknownType).contains("`vec3<f32>`"), "{:?}", c.diags);
     ok("lib fn f(x: vec3<f32>, m: mat3x3<f32>) -> vec3f {\n return m * x;\n}");
 }
 
@@ -160,13 +166,13 @@ fn imports_bring_lib_fns_and_consts() {
         loader.finish()
     };
     let program = check_program(&graph, &sources, &mut diags);
-    let codes: Vec<(Code, usize)> = diags
-        .iter()
-        .map(|d| (d.code, sources.position(d.span.start).map_or(0, |(_, p)| p.line)))
-        .collect();
+    let codes: Vec<(Code, usize)> =
+        diags.iter().map(|d| (d.code, sources.position(d.span.start).map_or(0, |(_, p)| p.line))).collect();
     assert_eq!(codes, [(Code::Duplicate, 3)]);
-    // The imported `twice` is kept (its module is fine); the clashing local one is not.
-    assert!(program.lib_fns.iter().any(|f| f.name == "g"));
+    // The imported `twice` is kept (its module is fine); the clashing local one is not, nor is
+    // `g`, which calls it (local names win).
+    let kept: Vec<(&str, usize)> = program.lib_fns.iter().map(|f| (f.name.as_str(), f.module)).collect();
+    assert_eq!(kept, [("twice", 1)]);
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -233,13 +239,14 @@ fn deep_expressions_are_cut_off() {
     let terms = vec!["x"; 100_000].join(" + ");
     let src = format!("lib fn f(x: f32) -> f32 {{\n return {terms};\n}}");
     // The parser itself may recurse; give the test a big stack like the CLI's main thread.
-    let c = std::thread::Builder::new().stack_size(256 << 20).spawn(move || check(&src).codes()).unwrap().join().unwrap();
+    let c =
+        std::thread::Builder::new().stack_size(256 << 20).spawn(move || check(&src).codes()).unwrap().join().unwrap();
     assert_eq!(c.iter().filter(|d| d.0 == Code::TooDeep).count(), 1, "{c:?}");
 }
 
 #[test]
 fn moderately_deep_expression_is_fine() {
-    let terms = vec!["x"; 200].join(" + ");
+    let terms = vec!["x"; 256].join(" + ");
     ok(&format!("lib fn f(x: f32) -> f32 {{\n return {terms};\n}}"));
 }
 
@@ -317,7 +324,10 @@ fn resources_only_as_params_and_uniforms() {
     expect("lib fn g(v: volume) -> volume {\n return v;\n}", &[(Code::ResourceMisuse, 1)]);
     expect("lib fn g(v: volume) {\n let w = v;\n}", &[(Code::ResourceMisuse, 2)]);
     expect("pipeline keep in start {\n state v: volume;\n}", &[(Code::ResourceMisuse, 2)]);
-    expect("pipeline p in start {\n uniform v: volume = 1.0;\n state value: f32;\n state.value = sample(v, vec3f(0.5));\n}", &[(Code::ResourceMisuse, 2)]);
+    expect(
+        "pipeline p in start {\n uniform v: volume = 1.0;\n state value: f32;\n state.value = sample(v, vec3f(0.5));\n}",
+        &[(Code::ResourceMisuse, 2)],
+    );
 }
 
 #[test]
@@ -332,7 +342,9 @@ fn recursion_is_reported_once() {
 
 #[test]
 fn lib_fns_are_in_callee_order_with_renumbered_calls() {
-    let c = ok("lib fn a(x: f32) -> f32 { return b(x) + c(x); }\nlib fn b(x: f32) -> f32 { return c(x); }\nlib fn c(x: f32) -> f32 { return x; }");
+    let c = ok(
+        "lib fn a(x: f32) -> f32 { return b(x) + c(x); }\nlib fn b(x: f32) -> f32 { return c(x); }\nlib fn c(x: f32) -> f32 { return x; }",
+    );
     let names: Vec<&str> = c.program.lib_fns.iter().map(|f| f.name.as_str()).collect();
     assert_eq!(names, ["c", "b", "a"]);
     let a = &c.program.lib_fns[2];
@@ -371,7 +383,10 @@ fn undeclared_and_unknown_library() {
         &[(Code::UndeclaredLibrary, 4)],
     );
     assert!(c.message(Code::UndeclaredLibrary).contains("`use brighten;`"), "{:?}", c.diags);
-    expect("pipeline p in start {\n use nothing;\n state value: f32;\n state.value = 1.0;\n}", &[(Code::UnknownLibrary, 2)]);
+    expect(
+        "pipeline p in start {\n use nothing;\n state value: f32;\n state.value = 1.0;\n}",
+        &[(Code::UnknownLibrary, 2)],
+    );
     // A lib fn calling another needs no `use`.
     ok("lib fn a(x: f32) -> f32 { return x; }\nlib fn b(x: f32) -> f32 { return a(x); }");
 }
@@ -386,7 +401,9 @@ fn unused_declarations_warn() {
 
 #[test]
 fn state_read_and_written_are_recorded() {
-    let c = ok("pipeline p in start {\n state a: f32;\n state b: f32;\n state c: vec4f;\n state.b = state.a;\n state.c.a += 1.0;\n}");
+    let c = ok(
+        "pipeline p in start {\n state a: f32;\n state b: f32;\n state c: vec4f;\n state.b = state.a;\n state.c.a += 1.0;\n}",
+    );
     let s = &c.program.pipelines[0].state;
     assert_eq!((s[0].read, s[0].written), (true, false));
     assert_eq!((s[1].read, s[1].written), (false, true));
@@ -395,13 +412,21 @@ fn state_read_and_written_are_recorded() {
 
 #[test]
 fn uniforms_defaults_and_ranges() {
-    let c = ok("pipeline p in start {\n uniform clip: vec4f = vec4f(1.0, 0.0, 0.0, -0.5) in -1.0 .. 1.0;\n uniform n: i32 = 3 in 0 .. 10;\n state value: f32;\n state.value = clip.x + f32(n);\n}");
+    let c = ok(
+        "pipeline p in start {\n uniform clip: vec4f = vec4f(1.0, 0.0, 0.0, -0.5) in -1.0 .. 1.0;\n uniform n: i32 = 3 in 0 .. 10;\n state value: f32;\n state.value = clip.x + f32(n);\n}",
+    );
     let u = &c.program.pipelines[0].uniforms;
     assert_eq!(u[0].default.as_ref().unwrap().components[3], ScalarValue::F32(-0.5));
     let (lo, hi) = u[0].range.as_ref().unwrap();
-    assert_eq!((lo.ty, lo.components.len(), hi.components[2]), (Type::vec(4, crate::types::Scalar::F32), 4, ScalarValue::F32(1.0)));
+    assert_eq!(
+        (lo.ty, lo.components.len(), hi.components[2]),
+        (Type::vec(4, crate::types::Scalar::F32), 4, ScalarValue::F32(1.0))
+    );
     assert_eq!(u[1].range.as_ref().unwrap().1.components, [ScalarValue::I32(10)]);
-    expect("pipeline p in start {\n state value: f32 = vec2f(1.0);\n state.value = 1.0;\n}", &[(Code::TypeMismatch, 2)]);
+    expect(
+        "pipeline p in start {\n state value: f32 = vec2f(1.0);\n state.value = 1.0;\n}",
+        &[(Code::TypeMismatch, 2)],
+    );
     expect(
         "pipeline p in start {\n uniform g: f32;\n state value: f32 = g;\n state.value = g;\n}",
         &[(Code::UnknownName, 3)],
@@ -428,8 +453,14 @@ fn declaration_conflicts_across_functions() {
     expect(&format!("{both} @ray state w: f32;\n state.w = 2.0;\n}}"), &[(Code::StateConflict, 6)]);
     ok(&format!("{both} state w: f32 = 0.0;\n state.w = 2.0;\n}}"));
     let u = "pipeline a in start {\n uniform g: f32 = 1.0;\n state value: f32;\n state.value = g;\n}\npipeline b in end {\n";
-    expect(&format!("{u} uniform g: i32;\n state value: f32;\n state.value = f32(g);\n}}"), &[(Code::UniformConflict, 7)]);
-    expect(&format!("{u} uniform g: f32 = 2.0;\n state value: f32;\n state.value = g;\n}}"), &[(Code::DefaultConflict, 7)]);
+    expect(
+        &format!("{u} uniform g: i32;\n state value: f32;\n state.value = f32(g);\n}}"),
+        &[(Code::UniformConflict, 7)],
+    );
+    expect(
+        &format!("{u} uniform g: f32 = 2.0;\n state value: f32;\n state.value = g;\n}}"),
+        &[(Code::DefaultConflict, 7)],
+    );
 }
 
 #[test]
@@ -443,12 +474,17 @@ fn conflicts_across_modules_point_at_the_later_module() {
 
 #[test]
 fn placements() {
-    let c = ok("pipeline a before compositing {\n state value: f32;\n state.value = 1.0;\n}\npipeline b after compositing {\n state value: f32;\n state.value = 1.0;\n}\nremove shading.tone;\nremove classification.additional[$];");
+    let c = ok(
+        "pipeline a before compositing {\n state value: f32;\n state.value = 1.0;\n}\npipeline b after compositing {\n state value: f32;\n state.value = 1.0;\n}\nremove shading.tone;\nremove classification.additional[$];",
+    );
     use crate::steps::Step;
     assert_eq!(c.program.pipelines[0].placement.step, Step::CompositingPrimaryColor);
     assert_eq!(c.program.pipelines[1].placement.step, Step::CompositingAdditional);
     assert_eq!(c.program.removes[1].substep.as_deref(), Some("$"));
-    let c = expect("pipeline p after shadingg.lights {\n state value: f32;\n state.value = 1.0;\n}", &[(Code::UnknownStep, 1)]);
+    let c = expect(
+        "pipeline p after shadingg.lights {\n state value: f32;\n state.value = 1.0;\n}",
+        &[(Code::UnknownStep, 1)],
+    );
     assert!(c.message(Code::UnknownStep).contains("shading.lights"), "{:?}", c.diags);
     expect("pipeline p in compositing {\n state value: f32;\n state.value = 1.0;\n}", &[(Code::GroupNotAllowed, 1)]);
     expect("\nremove shading;", &[(Code::GroupNotAllowed, 2)]);
@@ -456,7 +492,9 @@ fn placements() {
 
 #[test]
 fn template_names_are_kept() {
-    let c = ok("lib fn d(p: vec4f, q: vec3f) -> f32 { return dot(p.xyz, q) + p.w; }\npipeline clip_$ after classification.additional[$] when active {\n uniform clip_plane_$: vec4f = vec4f(1.0, 0.0, 0.0, -0.5) in -1.0 .. 1.0;\n state pos: vec3f;\n state color_$: vec4f;\n use d;\n if d(clip_plane_$, state.pos) < 0.0 {\n state.color_$ = vec4f(0.0);\n }\n}");
+    let c = ok(
+        "lib fn d(p: vec4f, q: vec3f) -> f32 { return dot(p.xyz, q) + p.w; }\npipeline clip_$ after classification.additional[$] when active {\n uniform clip_plane_$: vec4f = vec4f(1.0, 0.0, 0.0, -0.5) in -1.0 .. 1.0;\n state pos: vec3f;\n state color_$: vec4f;\n use d;\n if d(clip_plane_$, state.pos) < 0.0 {\n state.color_$ = vec4f(0.0);\n }\n}",
+    );
     let p = &c.program.pipelines[0];
     assert_eq!((p.name.as_str(), p.placement.substep.as_deref()), ("clip_$", Some("$")));
     assert_eq!(p.uses, [0]);
@@ -465,8 +503,14 @@ fn template_names_are_kept() {
 #[test]
 fn duplicate_declarations_in_a_header() {
     expect("pipeline p in start {\n state v: f32;\n state v: f32;\n state.v = 1.0;\n}", &[(Code::Duplicate, 3)]);
-    expect("pipeline p in start {\n uniform u: f32;\n uniform u: f32;\n state v: f32;\n state.v = u;\n}", &[(Code::Duplicate, 3)]);
-    expect("pipeline p in start {\n uniform u: f32;\n state v: f32;\n state.v = u;\n}\npipeline p in end {\n uniform u: f32;\n state v: f32;\n state.v = u;\n}", &[(Code::Duplicate, 6)]);
+    expect(
+        "pipeline p in start {\n uniform u: f32;\n uniform u: f32;\n state v: f32;\n state.v = u;\n}",
+        &[(Code::Duplicate, 3)],
+    );
+    expect(
+        "pipeline p in start {\n uniform u: f32;\n state v: f32;\n state.v = u;\n}\npipeline p in end {\n uniform u: f32;\n state v: f32;\n state.v = u;\n}",
+        &[(Code::Duplicate, 6)],
+    );
 }
 
 #[test]
@@ -476,4 +520,24 @@ fn failed_pipelines_are_left_out() {
         &[(Code::UndeclaredUniform, 7)],
     );
     assert_eq!(c.program.pipelines.iter().map(|p| p.name.as_str()).collect::<Vec<_>>(), ["good"]);
+}
+
+#[test]
+fn names_after_a_dropped_statement_are_not_reported_again() {
+    let c = check("lib fn two(x: f32) -> f32 {\n let y = (x * 2.0;\n return y;\n}");
+    assert_eq!(c.codes(), [(Code::Syntax, 2)]);
+    assert!(c.program.lib_fns.is_empty());
+}
+
+#[test]
+fn long_chains_of_constants_do_not_overflow() {
+    // Each constant refers to the next one, so evaluating the first nests through all of them.
+    let src: String = (0..2000).map(|i| format!("const C{i}: f32 = C{}  + 1.0;\n", i + 1)).collect::<String>()
+        + "const C2000: f32 = 0.0;\n";
+    let c = check(&src);
+    assert_eq!(c.codes().iter().filter(|d| d.0 == Code::TooDeep).count(), 1, "{:?}", c.codes());
+    // In source order they are fine.
+    let src: String = "const C0: f32 = 0.0;\n".to_string()
+        + &(1..2000).map(|i| format!("const C{i}: f32 = C{} + 1.0;\n", i - 1)).collect::<String>();
+    ok(&src);
 }

@@ -155,6 +155,7 @@ pub fn build(module: &mut naga::Module, plan: &EntryPlan) -> naga::EntryPoint {
         });
         let xy_f = b.expr(E::As { expr: xy, kind: naga::ScalarKind::Float, convert: Some(4) });
         let half = b.literal(naga::Literal::F32(0.5));
+        let half = b.expr(E::Splat { size: naga::VectorSize::Bi, value: half });
         let centre = b.binary(Bo::Add, xy_f, half);
         let size_f = b.expr(E::As { expr: size, kind: naga::ScalarKind::Float, convert: Some(4) });
         let pixel = b.binary(Bo::Divide, centre, size_f);

@@ -7,3 +7,5 @@
 pub mod place;
 pub mod entry;
 pub mod view;
+pub mod build;
+pub mod reflect;

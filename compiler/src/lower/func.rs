@@ -15,11 +15,11 @@ type R<T> = Result<T, Diagnostic>;
 type Ex = Handle<naga::Expression>;
 
 pub(super) fn lower_lib_fn(b: &mut ModuleBuilder, program: &hir::Program, lf: &hir::LibFn) -> R<naga::Function> {
-    let mut func = naga::Function { name: Some(b.claim_function_name(&lf.name)), ..Default::default() };
+    let mut func = naga::Function { name: Some(b.claim_function_name(&lf.name, lf.module)), ..Default::default() };
     let mut params = Vec::with_capacity(lf.params.len());
     for p in &lf.params {
         let name = emitted_name(&p.name);
-        let mut arg = |func: &mut naga::Function, name: String, ty| {
+        let arg = |func: &mut naga::Function, name: String, ty| {
             let index = func.arguments.len() as u32;
             func.arguments.push(naga::FunctionArgument { name: Some(name), ty, binding: None });
             func.expressions.append(E::FunctionArgument(index), p.span.into())
@@ -65,7 +65,7 @@ pub(super) fn lower_pipeline_fn(
         return Err(internal(pf.span, format!("the environment of pipeline function `{}` does not fit it", pf.name)));
     }
     let ptr_ty = b.function_pointer_type(env.state_type);
-    let mut func = naga::Function { name: Some(b.claim_function_name(name)), ..Default::default() };
+    let mut func = naga::Function { name: Some(b.claim_function_name(name, pf.module)), ..Default::default() };
     func.arguments.push(naga::FunctionArgument { name: Some("state".into()), ty: ptr_ty, binding: None });
     let state_ptr = func.expressions.append(E::FunctionArgument(0), pf.span.into());
     let kind = Kind::Pipeline { env, state_ptr, state: &pf.state, uniforms: &pf.uniforms };
@@ -86,15 +86,8 @@ fn block_returns(b: &hir::Block) -> bool {
 }
 
 enum Kind<'a> {
-    Lib {
-        ret: Type,
-    },
-    Pipeline {
-        env: &'a PipelineEnv,
-        state_ptr: Ex,
-        state: &'a [hir::StateDecl],
-        uniforms: &'a [hir::UniformDecl],
-    },
+    Lib { ret: Type },
+    Pipeline { env: &'a PipelineEnv, state_ptr: Ex, state: &'a [hir::StateDecl], uniforms: &'a [hir::UniformDecl] },
 }
 
 #[derive(Clone, Copy)]
@@ -193,9 +186,7 @@ impl<'a> FnCtx<'a> {
     /// written inline anyway or already has a name.
     fn name(&mut self, h: Ex, name: &str) {
         let expr = &self.func.expressions[h];
-        if !expr.needs_pre_emit()
-            && !matches!(expr, E::CallResult(_))
-            && !self.func.named_expressions.contains_key(&h)
+        if !expr.needs_pre_emit() && !matches!(expr, E::CallResult(_)) && !self.func.named_expressions.contains_key(&h)
         {
             self.func.named_expressions.insert(h, emitted_name(name));
         }
@@ -357,7 +348,14 @@ impl<'a> FnCtx<'a> {
         Ok(())
     }
 
-    fn assign(&mut self, place: &hir::Place, op: AssignOp, value: &hir::Expr, span: Span, block: &mut naga::Block) -> R<()> {
+    fn assign(
+        &mut self,
+        place: &hir::Place,
+        op: AssignOp,
+        value: &hir::Expr,
+        span: Span,
+        block: &mut naga::Block,
+    ) -> R<()> {
         let (mut ptr, mut ty) = match place.root {
             PlaceRoot::Local(id) => {
                 let l = self.local(id, place.span)?;
@@ -370,7 +368,8 @@ impl<'a> FnCtx<'a> {
                 let Kind::Pipeline { env, state_ptr, state, .. } = self.kind else {
                     return Err(internal(place.span, "`state` in a library function"));
                 };
-                let decl = state.get(i).ok_or_else(|| internal(place.span, format!("state field #{i} does not exist")))?;
+                let decl =
+                    state.get(i).ok_or_else(|| internal(place.span, format!("state field #{i} does not exist")))?;
                 match env.state_members[i] {
                     Some(m) => (self.append(E::AccessIndex { base: state_ptr, index: m }, place.span), decl.ty),
                     // The field is left out of the struct: the write is dropped (values are pure).
@@ -585,7 +584,10 @@ impl<'a> FnCtx<'a> {
 
     fn constant(&mut self, c: &hir::ConstValue, span: Span) -> R<Ex> {
         if c.components.len() != c.ty.components() || c.components.is_empty() {
-            return Err(internal(span, format!("a constant of type `{}` with {} components", c.ty, c.components.len())));
+            return Err(internal(
+                span,
+                format!("a constant of type `{}` with {} components", c.ty, c.components.len()),
+            ));
         }
         let literal = |v: ScalarValue| {
             E::Literal(match v {
@@ -676,7 +678,10 @@ impl<'a> FnCtx<'a> {
             pattern_of(*c)?;
             return Ok(self.append(E::AccessIndex { base: v, index: u32::from(*c) }, span));
         }
-        let size = vector_size(components.len() as u8).ok_or_else(|| internal(span, "a swizzle of odd size"))?;
+        let size = u8::try_from(components.len())
+            .ok()
+            .and_then(vector_size)
+            .ok_or_else(|| internal(span, "a swizzle of odd size"))?;
         let mut pattern = [naga::SwizzleComponent::X; 4];
         for (slot, &c) in pattern.iter_mut().zip(components) {
             *slot = pattern_of(c)?;
@@ -704,7 +709,8 @@ impl<'a> FnCtx<'a> {
                 self.convert(values[0], scalar, span)
             }
             (Type::Matrix { cols, rows }, _)
-                if args.len() == cols as usize * rows as usize && args.iter().all(|a| matches!(a.ty, Type::Scalar(_))) =>
+                if args.len() == cols as usize * rows as usize
+                    && args.iter().all(|a| matches!(a.ty, Type::Scalar(_))) =>
             {
                 let column_ty = self.b.ty(Type::vec(rows, Scalar::F32), span)?;
                 let columns = values
@@ -833,13 +839,7 @@ impl<'a> FnCtx<'a> {
                 }
             }
             return Ok(self.append(
-                E::Math {
-                    fun,
-                    arg: values[0],
-                    arg1: values.get(1).copied(),
-                    arg2: values.get(2).copied(),
-                    arg3: None,
-                },
+                E::Math { fun, arg: values[0], arg1: values.get(1).copied(), arg2: values.get(2).copied(), arg3: None },
                 span,
             ));
         }

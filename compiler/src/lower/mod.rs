@@ -25,7 +25,8 @@
 //!   with `b` evaluated once, before the loop.
 //! - Swizzle assignment `v.xz = e` loads `v`, builds the new vector and stores it whole.
 //! - Names go through [`emitted_name`]: `$` becomes `_T_` (and naga's own clean-up applies).
-//!   Function names are made unique per module with a `_2`, `_3`, ... suffix, in lowering order.
+//!   Function names are made unique per module, in lowering order: a clash gets the defining VRS
+//!   module's index as a prefix (`m1_f`).
 //!
 //! Every expression and statement carries the span of the HIR node it came from, so a naga
 //! validation error maps back to VRS source ([`validate`]); such an error is a compiler bug and
@@ -107,12 +108,12 @@ pub(crate) fn vector_size(n: u8) -> Option<naga::VectorSize> {
 fn plain_inner(t: Type) -> Option<naga::TypeInner> {
     Some(match t {
         Type::Scalar(s) => naga::TypeInner::Scalar(naga_scalar(s)),
-        Type::Vector { size, scalar } => naga::TypeInner::Vector { size: vector_size(size)?, scalar: naga_scalar(scalar) },
-        Type::Matrix { cols, rows } => naga::TypeInner::Matrix {
-            columns: vector_size(cols)?,
-            rows: vector_size(rows)?,
-            scalar: naga::Scalar::F32,
-        },
+        Type::Vector { size, scalar } => {
+            naga::TypeInner::Vector { size: vector_size(size)?, scalar: naga_scalar(scalar) }
+        }
+        Type::Matrix { cols, rows } => {
+            naga::TypeInner::Matrix { columns: vector_size(cols)?, rows: vector_size(rows)?, scalar: naga::Scalar::F32 }
+        }
         Type::Volume | Type::Tf | Type::Void | Type::Error => return None,
     })
 }
@@ -177,7 +178,8 @@ impl ModuleBuilder {
 
     /// The naga type of a plain VRS type (scalar, vector, matrix); an internal error otherwise.
     pub fn ty(&mut self, t: Type, span: Span) -> Result<Handle<naga::Type>, Diagnostic> {
-        let inner = plain_inner(t).ok_or_else(|| internal(span, format!("the type `{t}` reached lowering as a value")))?;
+        let inner =
+            plain_inner(t).ok_or_else(|| internal(span, format!("the type `{t}` reached lowering as a value")))?;
         Ok(self.module.types.insert(naga::Type { name: None, inner }, naga::Span::UNDEFINED))
     }
 
@@ -333,13 +335,15 @@ impl ModuleBuilder {
         self.module.global_variables.append(var, span.into())
     }
 
-    /// A function name not used yet in this module: `base`, else `base_2`, `base_3`, ...
-    fn claim_function_name(&mut self, base: &str) -> String {
+    /// A function name not used yet in this module: `base`; on a clash `mM_base` (M the index of
+    /// the defining VRS module), then `mM_N_base` for N = 2, 3, ... (never a trailing digit, to
+    /// which naga's namer would add a `_`).
+    fn claim_function_name(&mut self, base: &str, module: usize) -> String {
         let base = emitted_name(base);
         let mut name = base.clone();
-        let mut n = 2;
+        let mut n = 1;
         while !self.function_names.insert(name.clone()) {
-            name = format!("{base}_{n}");
+            name = if n == 1 { format!("m{module}_{base}") } else { format!("m{module}_{n}_{base}") };
             n += 1;
         }
         name
@@ -421,7 +425,13 @@ pub fn lower_standalone(
             None
         } else {
             let b = binding();
-            Some(builder.add_uniform_block(&format!("Uniforms_{name}"), &format!("uniforms_{name}"), &plain, b, pf.span)?)
+            Some(builder.add_uniform_block(
+                &format!("Uniforms_{name}"),
+                &format!("uniforms_{name}"),
+                &plain,
+                b,
+                pf.span,
+            )?)
         };
         let mut uniforms = Vec::with_capacity(pf.uniforms.len());
         let mut index = 0;
@@ -439,8 +449,12 @@ pub fn lower_standalone(
         let env = PipelineEnv { state_type, state_members: (0..pf.state.len() as u32).map(Some).collect(), uniforms };
         builder.lower_pipeline_fn(program, pf, &name, &env)?;
     }
-    let fallback =
-        program.pipelines.first().map(|p| p.span).or_else(|| program.lib_fns.first().map(|f| f.span)).unwrap_or_default();
+    let fallback = program
+        .pipelines
+        .first()
+        .map(|p| p.span)
+        .or_else(|| program.lib_fns.first().map(|f| f.span))
+        .unwrap_or_default();
     let module = builder.finish();
     let info = validate(&module, sources, fallback)?;
     Ok((module, info))
@@ -478,10 +492,10 @@ fn validation_diagnostic(
         .collect();
     // naga lists the outer context (the function) first and the culprit last.
     let (primary, label) = spans.pop().unwrap_or((fallback, String::new()));
-    let mut diag =
-        internal(primary, format!("the generated IR did not validate: {message}")).with_label(label);
+    let label = if label.is_empty() { String::new() } else { format!("lowered to {label}") };
+    let mut diag = internal(primary, format!("the generated IR did not validate: {message}")).with_label(label);
     for (span, label) in spans.into_iter().rev() {
-        diag = diag.with_secondary(span, label);
+        diag = diag.with_secondary(span, format!("lowered to {label}"));
     }
     diag
 }

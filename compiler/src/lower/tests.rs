@@ -164,7 +164,14 @@ impl H {
             .collect();
         let uniforms = uniforms
             .iter()
-            .map(|&(n, ty)| UniformDecl { name: n.into(), ty, default: None, range: None, doc: None, span: self.span() })
+            .map(|&(n, ty)| UniformDecl {
+                name: n.into(),
+                ty,
+                default: None,
+                range: None,
+                doc: None,
+                span: self.span(),
+            })
             .collect();
         let body = self.block(body);
         PipelineFn {
@@ -336,7 +343,8 @@ fn lib_fn_with_loops_swizzles_and_returns() {
             "continue;",
             "continuing {",
             "i = (_e",
-            "vec3<f32>(0.5f)",
+            "v = vec3(0.5f);",
+            "v = vec3<f32>(_e37.x, _e38.y, _e37.y);",
             "k = f32();",
             "return vec4<f32>(",
         ],
@@ -400,9 +408,9 @@ fn volumes_and_transfer_functions() {
         &[
             "fn classify(v: texture_3d<f32>, v_sampler: sampler, t: texture_2d<f32>, t_sampler: sampler, p: vec3<f32>) -> vec4<f32>",
             "textureDimensions(v)",
-            "textureSampleLevel(v, v_sampler, (p + (vec3<f32>(1f) / vec3<f32>(d))), 0f)",
-            ".x;",
-            "textureSampleLevel(t, t_sampler, vec2<f32>(s, 0.5f), 0f)",
+            "textureSampleLevel(v, v_sampler, (p + (vec3(1f) / vec3<f32>(d))), 0.0);",
+            "let s = _e11.x;",
+            "textureSampleLevel(t, t_sampler, vec2<f32>(s, 0.5f), 0.0)",
             "struct State_classify_p {\n    pos: vec3<f32>,\n    color: vec4<f32>,\n}",
             "struct Uniforms_classify_p {\n    gain: f32,\n}",
             "@group(0) @binding(0) \nvar<uniform> uniforms_classify_p: Uniforms_classify_p;",
@@ -438,7 +446,10 @@ fn pipeline_fn_reads_uniforms_and_writes_state_components() {
     let s2 = h.assign(PlaceRoot::State(0), vec![Access::Swizzle(vec![0, 1, 2])], vf(3), AssignOp::Mul, tint);
     let r = h.ret(None);
     let if_ = h.if_(enabled, vec![s1, s2, r], None);
-    let bools = h.cnst(Type::vec(3, Scalar::Bool), vec![ScalarValue::Bool(true), ScalarValue::Bool(false), ScalarValue::Bool(true)]);
+    let bools = h.cnst(
+        Type::vec(3, Scalar::Bool),
+        vec![ScalarValue::Bool(true), ScalarValue::Bool(false), ScalarValue::Bool(true)],
+    );
     let any = h.builtin(Builtin::Any, vec![bools], BOOL);
     let s3 = h.assign(PlaceRoot::State(1), vec![], BOOL, AssignOp::Assign, any);
     let two = h.i(2);
@@ -501,7 +512,10 @@ fn matrices() {
     let k = h.param(2, I32);
     let mk = h.index(m, k, vf(4));
     let mk = h.swz(mk, &[0, 1, 2], vf(3));
-    let c = h.cnst(mat(2, 2), vec![ScalarValue::F32(1.0), ScalarValue::F32(2.0), ScalarValue::F32(3.0), ScalarValue::F32(4.0)]);
+    let c = h.cnst(
+        mat(2, 2),
+        vec![ScalarValue::F32(1.0), ScalarValue::F32(2.0), ScalarValue::F32(3.0), ScalarValue::F32(4.0)],
+    );
     let one = h.i(1);
     let c1 = h.index(c, one, vf(2));
     let c1 = h.swz(c1, &[0, 1, 1], vf(3));
@@ -585,7 +599,7 @@ fn call_chains_and_names() {
             "fn b(x_1: f32) -> f32 {",
             "fn a(x_2: f32) -> f32 {",
             "fn f() -> f32 {",
-            "fn f_2() -> f32 {",
+            "fn m1_f() -> f32 {",
             "fn noop_T(x_3: f32) {",
             "struct State_shade_T {\n    t_T: f32,\n}",
             "fn shade_T(state: ptr<function, State_shade_T>) {",
@@ -695,4 +709,41 @@ fn malformed_hir_is_an_internal_error() {
         let program = Program { lib_fns: vec![f], ..Default::default() };
         assert_eq!(lower_standalone(&program, &sources()).unwrap_err().code, Code::Internal);
     }
+}
+
+#[test]
+fn uniform_block_of_every_plain_type() {
+    let types = [
+        F32,
+        vf(3),
+        BOOL,
+        Type::vec(2, Scalar::Bool),
+        mat(3, 2),
+        Type::U32,
+        mat(2, 2),
+        vf(2),
+        mat(4, 3),
+        Type::vec(4, Scalar::I32),
+        mat(3, 3),
+        I32,
+    ];
+    let members: Vec<(String, Type)> = types.iter().enumerate().map(|(i, &t)| (format!("u{i}x"), t)).collect();
+    let mut b = ModuleBuilder::new();
+    let block = b
+        .add_uniform_block("Uniforms", "uniforms", &members, ResourceBinding { group: 0, binding: 0 }, Span::DUMMY)
+        .unwrap();
+    let ty = b.module.global_variables[block].ty;
+    let layout = b.struct_layout(ty).unwrap();
+    let offsets: Vec<u32> = layout.members.iter().map(|m| m.offset).collect();
+    assert_eq!(offsets, vec![0, 16, 28, 32, 40, 64, 72, 88, 96, 160, 176, 224]);
+    assert_eq!(layout.size, 240);
+    let module = b.finish();
+    let info = validate(&module, &sources(), Span::DUMMY).unwrap();
+    let text = write_wgsl(&module, &info).unwrap();
+    // naga's WGSL front end lays the struct out the same way.
+    let reparsed = naga::front::wgsl::parse_str(&text).unwrap();
+    let (_, t) = reparsed.types.iter().find(|(_, t)| t.name.as_deref() == Some("Uniforms")).unwrap();
+    let naga::TypeInner::Struct { members, span } = &t.inner else { panic!() };
+    assert_eq!(members.iter().map(|m| m.offset).collect::<Vec<_>>(), offsets);
+    assert_eq!(*span, 240);
 }
