@@ -1623,6 +1623,18 @@ modules = [{ path = "compose_2d.vrs" }]
     }
 
     #[test]
+    fn standard_module_paths_and_tf_files() {
+        let text = MINIMAL.replace("phantom = \"sphere\"", "phantom = \"sphere\"\ntf = \"tfs/bone.json\"")
+            + "modules = [{ path = \"std::tone\" }]\n";
+        let (_, result) = parse(&text);
+        let scene = result.unwrap_or_else(|e| panic!("{:?}", e.diagnostics));
+        assert!(matches!(&scene.primary().tf, Some(TfRef::File(f)) if f.resolved == Path::new("scenes/tfs/bone.json")));
+        assert!(matches!(&scene.views[0].modules[0].source, ModuleSource::Std(n) if n.value == "tone"));
+        let errs = errors(&(MINIMAL.to_string() + "modules = [{ path = \"std::no such\" }]\n"));
+        assert_eq!(errs[0].3, "`std::no such` does not name a standard module");
+    }
+
+    #[test]
     fn garbage_never_panics() {
         for text in ["", "[", "[[view]]\nname = 3", "x = [[[[[[1]]]]]]", "\u{feff}[render]\n", "[uniforms]\na = 1e999"]
         {

@@ -18,7 +18,9 @@ pub fn cases(folder: &str) -> Vec<(String, PathBuf)> {
         .filter_map(|e| {
             let path = e.path();
             let name = path.file_stem()?.to_str()?.to_string();
-            if path.is_dir() {
+            if path.join("scene.toml").is_file() {
+                Some((name, path.join("scene.toml")))
+            } else if path.is_dir() {
                 Some((name, path.join("main.vrs")))
             } else if path.extension().is_some_and(|x| x == "vrs") {
                 Some((name, path))
@@ -42,6 +44,15 @@ pub fn check_fixture(path: &Path) -> Checked {
     let text = std::fs::read_to_string(path).expect("fixture readable");
     let name = path.file_name().and_then(|n| n.to_str()).unwrap_or("fixture.vrs");
     driver::check_source(name, &text, path.parent())
+}
+
+/// Composes a scene fixture; returns its rendered diagnostics and their codes.
+pub fn build_fixture(path: &Path) -> (String, Vec<String>) {
+    let cwd = std::env::current_dir().expect("cwd");
+    let built = vrsc::compose::build::build_scene(&pathdiff(path, &cwd), None).expect("fixture readable");
+    let diags = built.diags.sorted();
+    let codes = diags.iter().map(|d| d.code.as_str().to_string()).collect();
+    (vrsc::diag::render_plain(&diags, &built.sources), codes)
 }
 
 /// `path` relative to `base` when it lies below base's parent (tests run in `compiler/`).

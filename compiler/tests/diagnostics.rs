@@ -1,4 +1,5 @@
-//! Diagnostic fixtures: each `tests/fixtures/diagnostics/CODE_name.vrs` must produce `CODE`;
+//! Diagnostic fixtures: each `tests/fixtures/diagnostics/CODE_name.vrs` (checked), `CODE_name/main.vrs`
+//! (checked, with imports) or `CODE_name/scene.toml` (composed) must produce `CODE`;
 //! the rendered diagnostics are snapshots. The catalogue in `docs/reference.md` must list every
 //! code, and every code must have a fixture.
 
@@ -10,15 +11,17 @@ use vrsc::diag::{Code, render_plain};
 #[test]
 fn every_fixture_reports_its_code() {
     for (name, path) in common::cases("diagnostics") {
-        let checked = common::check_fixture(&path);
-        let diags = checked.diags.sorted();
+        let (rendered, codes) = if path.ends_with("scene.toml") {
+            common::build_fixture(&path)
+        } else {
+            let checked = common::check_fixture(&path);
+            let diags = checked.diags.sorted();
+            let codes = diags.iter().map(|d| d.code.as_str().to_string()).collect();
+            (render_plain(&diags, &checked.sources), codes)
+        };
         let want = name.split('_').next().unwrap_or_default();
-        assert!(
-            diags.iter().any(|d| d.code.as_str() == want),
-            "{name}: expected {want}, got {:?}",
-            diags.iter().map(|d| d.code.as_str()).collect::<Vec<_>>()
-        );
-        insta::assert_snapshot!(name, render_plain(&diags, &checked.sources));
+        assert!(codes.iter().any(|c| c == want), "{name}: expected {want}, got {codes:?}");
+        insta::assert_snapshot!(name, rendered);
     }
 }
 

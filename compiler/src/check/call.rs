@@ -372,6 +372,10 @@ impl Checker<'_> {
             slot.called = true;
             return;
         }
+        if !f.first_report(format!("use {}", callee.name)) {
+            f.failed = true;
+            return;
+        }
         let d = Diagnostic::new(
             Code::UndeclaredLibrary,
             callee.span,

@@ -285,7 +285,7 @@ impl Checker<'_> {
     }
 
     fn unknown_name(&mut self, f: &mut FnCx, id: &Ident, hint: Hint) -> hir::Expr {
-        if f.lost_statement {
+        if f.lost_statement || !f.first_report(format!("name {}", id.name)) {
             return poison(f, id.span);
         }
         let name = &id.name;
@@ -370,6 +370,10 @@ impl Checker<'_> {
             slot.read |= how != StateUse::Write;
             slot.written |= how != StateUse::Read;
             return Some((index, slot.ty));
+        }
+        if !f.first_report(format!("state {name}")) {
+            f.failed = true;
+            return None;
         }
         let (ty, ray) = self.state_type_hint(name, guess);
         let decl = format!("{}state {name}: {ty};", if ray { "@ray " } else { "" });

@@ -124,13 +124,9 @@ impl Checker<'_> {
         let mut pipes = Vec::new();
         let mut removes = Vec::new();
         for (m, module) in graph.modules.iter().enumerate() {
-            for (i, item) in module.ast.items.iter().enumerate() {
+            for item in &module.ast.items {
                 match &item.kind {
-                    ItemKind::Pipeline(p) => {
-                        let mut out = self.check_pipeline(m, item, p);
-                        out.failed |= self.dup_pipelines.contains(&(m, i));
-                        pipes.push(out);
-                    }
+                    ItemKind::Pipeline(p) => pipes.push(self.check_pipeline(m, item, p)),
                     ItemKind::Remove(r) => removes.extend(self.remove_item(m, r, item.span)),
                     _ => {}
                 }

@@ -67,8 +67,6 @@ struct Checker<'a> {
     consts: Vec<ConstInfo>,
     /// Constants being evaluated, innermost last (for cycle messages).
     const_stack: Vec<usize>,
-    /// Pipeline functions that are duplicates in their module: (module, item).
-    dup_pipelines: HashSet<(usize, usize)>,
     /// The written type (and `@ray`) of each state field declared anywhere in the graph, to
     /// offer the missing declaration in E0501.
     state_hints: HashMap<String, (String, bool)>,
@@ -98,7 +96,6 @@ impl<'a> Checker<'a> {
             libs: Vec::new(),
             consts: Vec::new(),
             const_stack: Vec::new(),
-            dup_pipelines: HashSet::new(),
             state_hints: HashMap::new(),
             uniform_names: HashSet::new(),
             expr_depth: 0,

@@ -8,7 +8,7 @@ use crate::hir;
 use crate::source::Span;
 use crate::steps::did_you_mean;
 use crate::types::Type;
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 use std::path::Path;
 
 /// What a module-level name refers to.
@@ -62,11 +62,11 @@ struct OwnItem {
 }
 
 impl Checker<'_> {
-    /// Gives every lib fn and const of the graph its id, and reports duplicate pipeline names.
+    /// Gives every lib fn and const of the graph its id. (Pipeline functions are not in the item
+    /// scope: two of one name clash only if they land in the same step, which the composer sees.)
     pub(super) fn collect_items(&mut self) {
         let graph = self.graph;
         for (m, module) in graph.modules.iter().enumerate() {
-            let mut pipelines: HashMap<&str, Span> = HashMap::new();
             for (i, item) in module.ast.items.iter().enumerate() {
                 match &item.kind {
                     ItemKind::LibFn(f) => self.libs.push(LibInfo {
@@ -84,14 +84,6 @@ impl Checker<'_> {
                         name: c.name.name.clone(),
                         state: ConstState::Pending,
                     }),
-                    ItemKind::Pipeline(p) if !p.name.name.is_empty() => {
-                        if let Some(&first) = pipelines.get(p.name.name.as_str()) {
-                            self.diags.push(duplicate(&p.name.name, "pipeline function", p.name.span, first));
-                            self.dup_pipelines.insert((m, i));
-                        } else {
-                            pipelines.insert(&p.name.name, p.name.span);
-                        }
-                    }
                     _ => {}
                 }
             }
@@ -388,6 +380,9 @@ pub(super) struct FnCx {
     /// The parser dropped a statement of this body: it may have declared names, so unknown
     /// names after it are not reported again.
     pub lost_statement: bool,
+    /// Missing names already reported in this function (`state.F`, names, `use`s): a missing
+    /// declaration is one mistake however often it is used.
+    pub reported: HashSet<String>,
 }
 
 impl FnCx {
@@ -409,6 +404,7 @@ impl FnCx {
             failed: false,
             too_deep: false,
             lost_statement: false,
+            reported: HashSet::new(),
         }
     }
 
@@ -445,6 +441,11 @@ impl FnCx {
         self.locals.push(hir::Local { name: name.to_string(), ty, mutable, span });
         self.local_kinds.push(kind);
         self.locals.len() - 1
+    }
+
+    /// True the first time `key` is seen: report it then, stay quiet afterwards.
+    pub fn first_report(&mut self, key: String) -> bool {
+        self.reported.insert(key)
     }
 
     /// Every local name visible now, for suggestions.
