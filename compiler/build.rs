@@ -19,7 +19,8 @@ fn main() {
         })
         .unwrap_or_default();
     entries.sort();
-    let mut table = String::from("/// Standard modules: (name, source), sorted by name.\nstatic STDLIB: &[(&str, &str)] = &[\n");
+    let mut table =
+        String::from("/// Standard modules: (name, source), sorted by name.\nstatic STDLIB: &[(&str, &str)] = &[\n");
     for (name, path) in &entries {
         println!("cargo::rerun-if-changed={path}");
         let _ = writeln!(table, "    ({name:?}, include_str!({path:?})),");

@@ -87,7 +87,14 @@ impl<'a> Loader<'a> {
         Some(self.add_module(key.clone(), None, Some(name), text.to_string(), key))
     }
 
-    fn add_module(&mut self, name: String, path: Option<&Path>, std_name: Option<&str>, text: String, key: String) -> usize {
+    fn add_module(
+        &mut self,
+        name: String,
+        path: Option<&Path>,
+        std_name: Option<&str>,
+        text: String,
+        key: String,
+    ) -> usize {
         let canonical = path.map(|p| p.canonicalize().unwrap_or_else(|_| p.to_path_buf()));
         let file = self.sources.add(name, canonical, text);
         let source = self.sources.file(file);
@@ -115,7 +122,8 @@ impl<'a> Loader<'a> {
                 ItemKind::Import(ast::Import::Path { path, span }) => Some((ImportRequest::Path(path.clone()), *span)),
                 ItemKind::Import(ast::Import::Std { path }) => {
                     let name = path.iter().map(|p| p.name.as_str()).collect::<Vec<_>>().join("::");
-                    let span = path.first().map(|p| p.span).unwrap_or(item.span).to(path.last().map_or(item.span, |p| p.span));
+                    let span =
+                        path.first().map(|p| p.span).unwrap_or(item.span).to(path.last().map_or(item.span, |p| p.span));
                     Some((ImportRequest::Std(name), span))
                 }
                 _ => None,
@@ -123,10 +131,10 @@ impl<'a> Loader<'a> {
             .collect();
         let mut imports = Vec::new();
         for (request, span) in requests {
-            if let Some(target) = self.import(request, dir.as_deref(), span) {
-                if !imports.contains(&target) {
-                    imports.push(target);
-                }
+            if let Some(target) = self.import(request, dir.as_deref(), span)
+                && !imports.contains(&target)
+            {
+                imports.push(target);
             }
         }
         imports

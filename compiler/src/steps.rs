@@ -65,7 +65,7 @@ impl Step {
             return StepLookup::Step(*step);
         }
         let mut members = Step::ALL.iter().filter(|s| s.group() == path && path != "ray" && s.name() != path);
-        match (members.next(), members.last()) {
+        match (members.next(), members.next_back()) {
             (Some(first), Some(last)) => StepLookup::Group { first: *first, last: *last },
             (Some(only), None) => StepLookup::Group { first: *only, last: *only },
             _ => StepLookup::Unknown,

@@ -36,8 +36,8 @@ fn every_code_has_a_fixture_and_a_catalogue_entry() {
         .into_iter()
         .filter_map(|(name, _)| name.split('_').next().map(String::from))
         .collect();
-    let reference = std::fs::read_to_string(common::fixtures().join("../../docs/reference.md"))
-        .expect("docs/reference.md exists");
+    let reference =
+        std::fs::read_to_string(common::fixtures().join("../../docs/reference.md")).expect("docs/reference.md exists");
     for &code in Code::ALL {
         let code_str = code.as_str();
         assert!(
@@ -46,7 +46,10 @@ fn every_code_has_a_fixture_and_a_catalogue_entry() {
             code.title()
         );
         if UNTRIGGERABLE.iter().all(|(c, _)| *c != code) {
-            assert!(fixtures.contains(code_str), "no fixture tests/fixtures/diagnostics/{code_str}_*.vrs triggers {code_str}");
+            assert!(
+                fixtures.contains(code_str),
+                "no fixture tests/fixtures/diagnostics/{code_str}_*.vrs triggers {code_str}"
+            );
         }
     }
 }

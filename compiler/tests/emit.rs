@@ -12,7 +12,8 @@ fn emitted_wgsl_is_valid_and_stable() {
         let wgsl = checked.emit_standalone_wgsl().unwrap_or_else(|| {
             panic!("{name}: {}", vrsc::diag::render_plain(&checked.diags.sorted(), &checked.sources))
         });
-        let module = naga::front::wgsl::parse_str(&wgsl).unwrap_or_else(|e| panic!("{name}: {}", e.emit_to_string(&wgsl)));
+        let module =
+            naga::front::wgsl::parse_str(&wgsl).unwrap_or_else(|e| panic!("{name}: {}", e.emit_to_string(&wgsl)));
         naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::all())
             .validate(&module)
             .unwrap_or_else(|e| panic!("{name}: re-parsed WGSL does not validate: {e:?}"));

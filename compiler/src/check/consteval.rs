@@ -351,6 +351,7 @@ mod tests {
     }
 
     #[test]
+    #[allow(clippy::approx_constant)] // `3.14` is the literal under test, not an approximation of π.
     fn float_arithmetic() {
         assert_eq!(eval_binary(BinaryOp::Mul, &f(2.0), &f(3.14)), Ok(f(2.0 * 3.14)));
         assert_eq!(eval_binary(BinaryOp::Mul, &f(3e38), &f(10.0)), Err(ConstError::Overflow));

@@ -262,7 +262,11 @@ impl Checker<'_> {
         match self.item(f.module, &n.name) {
             Some(ItemRef::Lib(lib)) => {
                 if let Some(first) = f.uses.iter().find(|u| u.lib == lib) {
-                    let dup = duplicate(&n.name, "`use` of", n.span, first.span);
+                    let dup =
+                        Diagnostic::new(Code::Duplicate, n.span, format!("`{}` is listed twice in `use`", n.name))
+                            .with_label("listed again here")
+                            .with_secondary(first.span, "first listed here")
+                            .with_help("remove the second one");
                     self.emit(f, dup);
                     return;
                 }
@@ -338,60 +342,18 @@ impl Checker<'_> {
     /// Every declaration of one state field or uniform, across all pipeline functions of the
     /// graph, must agree with the first one (module order, then source order).
     pub(super) fn check_conflicts(&mut self, pipes: &mut [PipeOut]) {
-        let mut failed = Vec::new();
-        let mut first_state: HashMap<&str, (&hir::StateDecl, &str)> = HashMap::new();
-        let mut first_state_default: HashMap<&str, (&hir::StateDecl, &str)> = HashMap::new();
-        let mut first_uniform: HashMap<&str, (&hir::UniformDecl, &str)> = HashMap::new();
-        let mut first_uniform_default: HashMap<&str, (&hir::UniformDecl, &str)> = HashMap::new();
+        let mut states: Firsts<hir::StateDecl> = Firsts::default();
+        let mut uniforms: Firsts<hir::UniformDecl> = Firsts::default();
         let mut reports = Vec::new();
         for (p, pipe) in pipes.iter().enumerate() {
-            for s in pipe.state.iter().filter(|s| !s.ty.is_error()) {
-                let d = match first_state.get(s.name.as_str()) {
-                    None => {
-                        first_state.insert(&s.name, (s, &pipe.name));
-                        None
-                    }
-                    Some((first, owner)) => state_conflict(first, owner, s),
-                };
-                let d = d.or_else(|| {
-                    let first =
-                        default_conflict(&first_state_default, &s.name, s.default.as_ref(), s.span, "state field");
-                    if s.default.is_some() {
-                        first_state_default.entry(&s.name).or_insert((s, &pipe.name));
-                    }
-                    first
-                });
-                if let Some(d) = d {
-                    reports.push(d);
-                    failed.push(p);
-                }
-            }
-            for u in pipe.uniforms.iter().filter(|u| !u.ty.is_error()) {
-                let d = match first_uniform.get(u.name.as_str()) {
-                    None => {
-                        first_uniform.insert(&u.name, (u, &pipe.name));
-                        None
-                    }
-                    Some((first, owner)) => uniform_conflict(first, owner, u),
-                };
-                let d = d.or_else(|| {
-                    let first =
-                        default_conflict(&first_uniform_default, &u.name, u.default.as_ref(), u.span, "uniform");
-                    if u.default.is_some() {
-                        first_uniform_default.entry(&u.name).or_insert((u, &pipe.name));
-                    }
-                    first
-                });
-                if let Some(d) = d {
-                    reports.push(d);
-                    failed.push(p);
-                }
-            }
+            let owner = pipe.name.as_str();
+            let state = pipe.state.iter().filter_map(|s| states.check(s, owner, state_conflict));
+            let found: Vec<Diagnostic> =
+                state.chain(pipe.uniforms.iter().filter_map(|u| uniforms.check(u, owner, uniform_conflict))).collect();
+            reports.extend(found.into_iter().map(|d| (p, d)));
         }
-        for d in reports {
+        for (p, d) in reports {
             self.diags.push(d);
-        }
-        for p in failed {
             if let Some(pipe) = pipes.get_mut(p) {
                 pipe.failed = true;
             }
@@ -399,13 +361,24 @@ impl Checker<'_> {
     }
 }
 
-/// A declaration that has a default, for [`default_conflict`].
-trait Defaulted {
+/// A state or uniform declaration, as the conflict rules see it.
+trait Declared {
+    /// "state field" or "uniform".
+    const WHAT: &'static str;
+    fn name(&self) -> &str;
+    fn ty(&self) -> Type;
     fn default_value(&self) -> Option<&ConstValue>;
     fn span(&self) -> Span;
 }
 
-impl Defaulted for hir::StateDecl {
+impl Declared for hir::StateDecl {
+    const WHAT: &'static str = "state field";
+    fn name(&self) -> &str {
+        &self.name
+    }
+    fn ty(&self) -> Type {
+        self.ty
+    }
     fn default_value(&self) -> Option<&ConstValue> {
         self.default.as_ref()
     }
@@ -414,7 +387,14 @@ impl Defaulted for hir::StateDecl {
     }
 }
 
-impl Defaulted for hir::UniformDecl {
+impl Declared for hir::UniformDecl {
+    const WHAT: &'static str = "uniform";
+    fn name(&self) -> &str {
+        &self.name
+    }
+    fn ty(&self) -> Type {
+        self.ty
+    }
     fn default_value(&self) -> Option<&ConstValue> {
         self.default.as_ref()
     }
@@ -423,34 +403,59 @@ impl Defaulted for hir::UniformDecl {
     }
 }
 
-/// E0505 when `default` differs from the first default given for `name`.
-fn default_conflict<T: Defaulted>(
-    firsts: &HashMap<&str, (&T, &str)>,
-    name: &str,
-    default: Option<&ConstValue>,
-    span: Span,
-    what: &str,
-) -> Option<Diagnostic> {
-    let default = default?;
-    let (first, owner) = firsts.get(name)?;
-    let earlier = first.default_value()?;
-    if earlier == default || earlier.ty != default.ty {
-        return None;
+/// The first declaration of each name, and the first that gives a default, with the pipeline
+/// function that holds it.
+struct Firsts<'p, T> {
+    decl: HashMap<&'p str, (&'p T, &'p str)>,
+    default: HashMap<&'p str, (&'p T, &'p str)>,
+}
+
+impl<T> Default for Firsts<'_, T> {
+    fn default() -> Self {
+        Firsts { decl: HashMap::new(), default: HashMap::new() }
     }
-    Some(
-        Diagnostic::new(
-            Code::DefaultConflict,
-            span,
-            format!(
-                "{what} `{name}` has default {} here but {} in `{owner}`",
-                show_const(default),
-                show_const(earlier)
-            ),
+}
+
+impl<'p, T: Declared> Firsts<'p, T> {
+    /// The conflict of `d` (declared in `owner`) with the earlier declarations, then records it.
+    /// `kind` compares type (and lifetime); defaults are compared only when that agrees.
+    fn check(&mut self, d: &'p T, owner: &'p str, kind: fn(&T, &str, &T) -> Option<Diagnostic>) -> Option<Diagnostic> {
+        if d.ty().is_error() {
+            return None;
+        }
+        let conflict = match self.decl.get(d.name()) {
+            None => {
+                self.decl.insert(d.name(), (d, owner));
+                None
+            }
+            Some((first, first_owner)) => kind(first, first_owner, d),
+        };
+        conflict.or_else(|| {
+            let found = self.default_conflict(d);
+            if d.default_value().is_some() {
+                self.default.entry(d.name()).or_insert((d, owner));
+            }
+            found
+        })
+    }
+
+    /// E0505 when `d`'s default differs from the first default given for its name.
+    fn default_conflict(&self, d: &T) -> Option<Diagnostic> {
+        let default = d.default_value()?;
+        let (first, owner) = self.default.get(d.name())?;
+        let earlier = first.default_value()?;
+        if earlier == default || earlier.ty != default.ty {
+            return None;
+        }
+        let (now, then) = (show_const(default), show_const(earlier));
+        let message = format!("{} `{}` has default {now} here but {then} in `{owner}`", T::WHAT, d.name());
+        Some(
+            Diagnostic::new(Code::DefaultConflict, d.span(), message)
+                .with_label(format!("default {now}"))
+                .with_secondary(first.span(), format!("first declared here with default {then}"))
+                .with_help("give every declaration the same default, or leave the default out here"),
         )
-        .with_label(format!("default {}", show_const(default)))
-        .with_secondary(first.span(), format!("first declared here with default {}", show_const(earlier)))
-        .with_help("give every declaration the same default, or leave the default out here"),
-    )
+    }
 }
 
 fn state_conflict(first: &hir::StateDecl, owner: &str, s: &hir::StateDecl) -> Option<Diagnostic> {

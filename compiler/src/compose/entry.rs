@@ -111,7 +111,8 @@ impl Body {
 
 /// Builds the entry point `main`; its types are added to `module`.
 pub fn build(module: &mut naga::Module, plan: &EntryPlan) -> naga::EntryPoint {
-    let ty = |module: &mut naga::Module, inner| module.types.insert(naga::Type { name: None, inner }, naga::Span::UNDEFINED);
+    let ty =
+        |module: &mut naga::Module, inner| module.types.insert(naga::Type { name: None, inner }, naga::Span::UNDEFINED);
     let vec3u = ty(module, naga::TypeInner::Vector { size: naga::VectorSize::Tri, scalar: naga::Scalar::U32 });
     let u32_ty = ty(module, naga::TypeInner::Scalar(naga::Scalar::U32));
     let mut func = naga::Function {
@@ -151,7 +152,12 @@ pub fn build(module: &mut naga::Module, plan: &EntryPlan) -> naga::EntryPoint {
         let xy = b.expr(E::Swizzle {
             size: naga::VectorSize::Bi,
             vector: id,
-            pattern: [naga::SwizzleComponent::X, naga::SwizzleComponent::Y, naga::SwizzleComponent::X, naga::SwizzleComponent::X],
+            pattern: [
+                naga::SwizzleComponent::X,
+                naga::SwizzleComponent::Y,
+                naga::SwizzleComponent::X,
+                naga::SwizzleComponent::X,
+            ],
         });
         let xy_f = b.expr(E::As { expr: xy, kind: naga::ScalarKind::Float, convert: Some(4) });
         let half = b.literal(naga::Literal::F32(0.5));
@@ -208,7 +214,12 @@ pub fn build(module: &mut naga::Module, plan: &EntryPlan) -> naga::EntryPoint {
     let xy = b.expr(E::Swizzle {
         size: naga::VectorSize::Bi,
         vector: id,
-        pattern: [naga::SwizzleComponent::X, naga::SwizzleComponent::Y, naga::SwizzleComponent::X, naga::SwizzleComponent::X],
+        pattern: [
+            naga::SwizzleComponent::X,
+            naga::SwizzleComponent::Y,
+            naga::SwizzleComponent::X,
+            naga::SwizzleComponent::X,
+        ],
     });
     b.push(&mut body, S::ImageStore { image: output, coordinate: xy, array_index: None, value: color });
     b.push(&mut body, S::Return { value: None });

@@ -81,7 +81,13 @@ pub fn emit(program: &hir::Program, comp: &Composition, sources: &SourceMap) -> 
         bindings.push(BindingInfo { name: name.to_string(), group: 0, binding, kind });
         ResourceBinding { group: 0, binding }
     };
-    let block = b.add_uniform_block("Uniforms", "uniforms", &members, bind("uniforms", BindingKind::UniformBlock), Span::DUMMY)?;
+    let block = b.add_uniform_block(
+        "Uniforms",
+        "uniforms",
+        &members,
+        bind("uniforms", BindingKind::UniformBlock),
+        Span::DUMMY,
+    )?;
     let output = add_output_image(&mut b, bind("output", BindingKind::OutputImage));
     let access: Vec<UniformAccess> = comp
         .uniforms
@@ -93,9 +99,12 @@ pub fn emit(program: &hir::Program, comp: &Composition, sources: &SourceMap) -> 
                 bind(&u.name, BindingKind::VolumeSampler),
                 u.span,
             ),
-            Type::Tf => {
-                b.add_tf_binding(&u.name, bind(&u.name, BindingKind::TfTexture), bind(&u.name, BindingKind::TfSampler), u.span)
-            }
+            Type::Tf => b.add_tf_binding(
+                &u.name,
+                bind(&u.name, BindingKind::TfTexture),
+                bind(&u.name, BindingKind::TfSampler),
+                u.span,
+            ),
             _ => {
                 let index = uniforms.iter().position(|p| p.name == u.name).unwrap_or_default() as u32;
                 UniformAccess::Member { block, index }
@@ -223,6 +232,10 @@ fn lower_defaults(
         body: hir::Block { stmts, span: Span::DUMMY },
         span: Span::DUMMY,
     };
-    let env = PipelineEnv { state_type, state_members: (0..comp.fields.len() as u32).map(Some).collect(), uniforms: Vec::new() };
+    let env = PipelineEnv {
+        state_type,
+        state_members: (0..comp.fields.len() as u32).map(Some).collect(),
+        uniforms: Vec::new(),
+    };
     b.lower_pipeline_fn(program, &pf, name, &env)
 }

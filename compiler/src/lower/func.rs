@@ -553,10 +553,9 @@ impl<'a> FnCtx<'a> {
                 Some(p) => Some(self.index(p, index, span, block)?),
                 None => None,
             },
-            ExprKind::Swizzle { base, components } if components.len() == 1 => match self.reference(base, block)? {
-                Some(p) => Some(self.append(E::AccessIndex { base: p, index: u32::from(components[0]) }, span)),
-                None => None,
-            },
+            ExprKind::Swizzle { base, components } if components.len() == 1 => self
+                .reference(base, block)?
+                .map(|p| self.append(E::AccessIndex { base: p, index: u32::from(components[0]) }, span)),
             _ => None,
         })
     }
@@ -748,10 +747,11 @@ impl<'a> FnCtx<'a> {
     /// The texture and sampler of a `volume` or `tf` argument.
     fn resource(&mut self, e: &hir::Expr) -> R<(Ex, Ex)> {
         match e.kind {
-            ExprKind::Param(i) => match self.params.get(i) {
-                Some(ParamSlot::Resource { texture, sampler }) => return Ok((*texture, *sampler)),
-                _ => {}
-            },
+            ExprKind::Param(i) => {
+                if let Some(ParamSlot::Resource { texture, sampler }) = self.params.get(i) {
+                    return Ok((*texture, *sampler));
+                }
+            }
             ExprKind::Uniform(i) => match self.uniform(i, e.span)?.0 {
                 UniformAccess::Volume { texture, sampler } | UniformAccess::Tf { texture, sampler } => {
                     return Ok((self.global(texture, e.span), self.global(sampler, e.span)));
