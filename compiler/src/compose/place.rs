@@ -20,7 +20,8 @@
 //! - Read-before-write (W0005) follows lifetimes: an `@ray` field read in a sample step is
 //!   written by any sample-step write (the previous sample's); a per-sample field is reset before
 //!   every sample, so a `ray.setup` write does not reach a sample step. W0005 and W0006 are only
-//!   reported for functions of non-standard modules: the standard library relies on defaults.
+//!   reported for functions of non-standard modules (the standard library relies on defaults),
+//!   and never for the fields the entry point requires.
 
 use crate::ast::PlacementKind;
 use crate::diag::{Code, Diagnostic, Diagnostics};
@@ -195,8 +196,9 @@ impl Composition {
 
 /// Places every pipeline function and `remove` of the given modules, in order, and checks the
 /// composed state and uniforms. `is_std(module)` tells standard modules apart (they get no
-/// data-flow warnings). Fields named in `required` are kept whenever a placed function declares
-/// them, even if no function reads them (the entry point does).
+/// data-flow warnings). Fields named in `required` belong to the entry point, which reads (and
+/// may set) them: they are kept whenever a placed function declares them, even if no function
+/// reads them, and get no data-flow warnings.
 ///
 /// Errors go to `diags`; the composition is returned whatever happened (check
 /// `diags.has_errors()` before emitting).
@@ -210,8 +212,8 @@ pub fn compose(
     let units = instantiate(program, uses, diags);
     let mut placer =
         Placer { program, units: &units, steps: vec![Vec::new(); Step::ALL.len()], replaced: HashMap::new(), diags };
-    for u in 0..units.len() {
-        match units[u].source {
+    for (u, unit) in units.iter().enumerate() {
+        match unit.source {
             Source::Pipeline(_) => placer.place(u),
             Source::Remove(_) => placer.remove(u),
         }
@@ -425,14 +427,13 @@ impl<'a> Placer<'a> {
         let pos = match &sub {
             Some(x) => {
                 let pos = self.find(s, x);
-                if pl.kind == PlacementKind::Replace {
-                    if let Some(r) = self.replaced.get(&(step, x.clone())).copied() {
-                        // Taken already: gone, or still held by the earlier replacement (named x).
-                        if pos.is_none_or(|i| self.steps[s][i] == r.by) {
-                            self.double_replace(u, step, x, pl.span, r);
-                            return;
-                        }
-                    }
+                // Taken already: gone, or still held by the earlier replacement (named x).
+                if pl.kind == PlacementKind::Replace
+                    && let Some(r) = self.replaced.get(&(step, x.clone())).copied()
+                    && pos.is_none_or(|i| self.steps[s][i] == r.by)
+                {
+                    self.double_replace(u, step, x, pl.span, r);
+                    return;
                 }
                 match pos {
                     Some(i) => Some(i),
@@ -453,11 +454,9 @@ impl<'a> Placer<'a> {
         };
         let whole_replace = pl.kind == PlacementKind::Replace && sub.is_none();
         let replaced_pos = if pl.kind == PlacementKind::Replace { pos } else { None };
-        if !whole_replace {
-            if let Some(j) = self.find(s, &self.units[u].name).filter(|&j| Some(j) != replaced_pos) {
-                self.duplicate(u, step, self.steps[s][j]);
-                return;
-            }
+        if !whole_replace && let Some(j) = self.find(s, &self.units[u].name).filter(|&j| Some(j) != replaced_pos) {
+            self.duplicate(u, step, self.steps[s][j]);
+            return;
         }
         let span = pl.span;
         let kind = pl.kind;
@@ -742,20 +741,24 @@ impl<'a, F: Fn(usize) -> bool> Merger<'a, F> {
             }
             let read = acc.uses.iter().any(|x| x.read);
             let written = acc.uses.iter().any(|x| x.written);
-            self.read_before_write(acc, first.ray);
             let required = self.required.contains(&acc.name.as_str());
-            if written && !read && !required {
-                if let Some(w) = acc.uses.iter().find(|x| x.written && !self.unit_is_std(x.unit)) {
-                    let d = Diagnostic::new(
-                        Code::WrittenNeverRead,
-                        self.state((w.unit, w.decl)).span,
-                        format!("state field `{}` is written but no function of the pipeline reads it", acc.name),
-                    )
-                    .with_label("written here, never read")
-                    .with_note("the field is left out of the composed state, so the write has no effect")
-                    .with_help("read it in a later step, or remove the write");
-                    self.push(w.unit, d);
-                }
+            if !required {
+                self.read_before_write(acc, first.ray);
+            }
+            if written
+                && !read
+                && !required
+                && let Some(w) = acc.uses.iter().find(|x| x.written && !self.unit_is_std(x.unit))
+            {
+                let d = Diagnostic::new(
+                    Code::WrittenNeverRead,
+                    self.state((w.unit, w.decl)).span,
+                    format!("state field `{}` is written but no function of the pipeline reads it", acc.name),
+                )
+                .with_label("written here, never read")
+                .with_note("the field is left out of the composed state, so the write has no effect")
+                .with_help("read it in a later step, or remove the write");
+                self.push(w.unit, d);
             }
             if read || required {
                 kept[fi] = Some(out_fields.len());
