@@ -4,19 +4,24 @@
 //! independent error in a file is reported once:
 //!
 //! - **expressions**: a broken parenthesised expression, argument list or index is skipped to its
-//!   closing bracket and becomes [`ExprKind::Error`];
+//!   closing bracket (within the statement) and becomes [`ExprKind::Error`];
 //! - **statements and declarations**: a broken one is skipped to the next `;` (inclusive) or past
 //!   the next balanced `{ ... }`, and becomes [`StmtKind::Error`]; a block whose `}` is missing at
 //!   the end of the file or before the next item keyword is closed there;
-//! - **items**: a broken item is skipped to the next item keyword at top level (`import const lib
-//!   pipeline remove`), balancing brackets.
+//! - **items**: a broken item is skipped to the next item keyword (`import const lib pipeline
+//!   remove`); none of them can occur inside an item, so brackets need no balancing there.
+//!
+//! Chumsky's errors become E0104 diagnostics that say what was expected and what was found; a
+//! syntax error right after characters the lexer dropped (E0101, E0102), or at a [`Token::Error`],
+//! is not reported again.
 //!
 //! Nothing recurses without bound. Brackets are nested at most [`crate::lexer::MAX_NESTING`] deep
 //! (the lexer sees to that) and the recursion through them is on a growable stack (chumsky's
-//! `stacker`); unary operators and `else if` chains are parsed by loops; binary operators by a Pratt
-//! loop. Every tree the parser builds is at most [`MAX_DEPTH`] expression levels and [`MAX_DEPTH`]
-//! statement levels deep (deeper input is E0105 and becomes an error node), which bounds the
-//! recursion of every later pass, dropping the tree included.
+//! `stacker`); unary operators and `else if` chains are parsed by loops, binary operators as a flat
+//! list folded by precedence, and recovery scans are loops. Every tree the parser builds is at most
+//! [`MAX_DEPTH`] expression levels and [`MAX_DEPTH`] statement levels deep (deeper input is E0105
+//! and becomes an error node), which bounds the recursion of every later pass, dropping the tree
+//! included.
 
 use crate::ast::*;
 use crate::diag::{Code, Diagnostic, Diagnostics};
@@ -369,9 +374,7 @@ where
             .allow_trailing()
             .collect::<Vec<Dx>>()
             .delimited_by(just(T::LParen), just(T::RParen))
-            .recover_with(via_parser(
-                skip_expr_group(T::LParen).map(|span| vec![Dx::error(span)]),
-            ))
+            .recover_with(via_parser(skip_expr_group(T::LParen).map(|span| vec![Dx::error(span)])))
             .boxed();
         // Tokens that may continue an expression are tested with `select_ref!`, whose failure is
         // not listed in messages: after `x` in `let y = x z`, "expected `;`" says more than a list
@@ -380,13 +383,14 @@ where
         let opt_args = peek(T::LParen).ignore_then(args.clone()).or_not();
 
         let literal = select_ref! {
-            T::Int(lit) = e => Dx::leaf(ExprKind::Int { value: lit.value, suffix: lit.suffix }, span_of(e.span())),
-            T::Float(lit) = e => Dx::leaf(ExprKind::Float { value: lit.value, suffixed: lit.suffixed }, span_of(e.span())),
-            T::True = e => Dx::leaf(ExprKind::Bool(true), span_of(e.span())),
-            T::False = e => Dx::leaf(ExprKind::Bool(false), span_of(e.span())),
+            T::Int(lit) => ExprKind::Int { value: lit.value, suffix: lit.suffix },
+            T::Float(lit) => ExprKind::Float { value: lit.value, suffixed: lit.suffixed },
+            T::True => ExprKind::Bool(true),
+            T::False => ExprKind::Bool(false),
             // Already reported by the lexer.
-            T::Error = e => Dx::error(span_of(e.span())),
-        };
+            T::Error => ExprKind::Error,
+        }
+        .map_with(|kind, e| Dx::leaf(kind, span_of(e.span())));
 
         let state = just(T::State)
             .ignore_then(just(T::Dot))
@@ -401,7 +405,12 @@ where
 
         // `vec3<f32>(x)`, `vec3(x)` or `vec3`: after a generic type name, `<` always opens
         // template arguments (never a comparison).
-        let generics = ty.clone().separated_by(just(T::Comma)).at_least(1).collect::<Vec<_>>().delimited_by(just(T::Lt), just(T::Gt));
+        let generics = ty
+            .clone()
+            .separated_by(just(T::Comma))
+            .at_least(1)
+            .collect::<Vec<_>>()
+            .delimited_by(just(T::Lt), just(T::Gt));
         let generic_call = generic_ident
             .then(choice((
                 generics.then(args.clone()).map(|(g, a)| (g, Some(a))),
@@ -428,18 +437,20 @@ where
         let paren = expr
             .clone()
             .delimited_by(just(T::LParen), just(T::RParen))
-            .map_with(|inner: Dx, e| Dx { expr: Expr { kind: inner.expr.kind, span: span_of(e.span()) }, depth: inner.depth })
+            .map_with(|inner: Dx, e| {
+                let expr = Expr { kind: inner.expr.kind, span: span_of(e.span()) };
+                Dx { expr, depth: inner.depth }
+            })
             .recover_with(via_parser(skip_expr_group(T::LParen).map(Dx::error)));
 
-        let primary =
-            choice((literal, state, generic_call, call_or_name, paren)).labelled("expression").boxed();
+        let primary = choice((literal, state, generic_call, call_or_name, paren)).labelled("expression").boxed();
 
         let member = peek(T::Dot).ignore_then(just(T::Dot)).ignore_then(ident.clone()).map(Post::Member);
         let index = peek(T::LBracket)
             .ignore_then(
-                expr.clone().delimited_by(just(T::LBracket), just(T::RBracket)).recover_with(via_parser(
-                    skip_expr_group(T::LBracket).map(Dx::error),
-                )),
+                expr.clone()
+                    .delimited_by(just(T::LBracket), just(T::RBracket))
+                    .recover_with(via_parser(skip_expr_group(T::LBracket).map(Dx::error))),
             )
             .map(Post::Index);
         let postfix = primary
@@ -451,7 +462,8 @@ where
                     }
                     Post::Index(index) => {
                         let inner = base.depth.max(index.depth);
-                        deepen_expr(ExprKind::Index { base: Box::new(base.expr), index: Box::new(index.expr) }, span, inner)
+                        let kind = ExprKind::Index { base: Box::new(base.expr), index: Box::new(index.expr) };
+                        deepen_expr(kind, span, inner)
                     }
                 };
                 emit(e, d);

@@ -1621,14 +1621,16 @@ pipeline debug in end {
     state.debug = vec4f(1.0);
 }
 ";
-        let f = fx(&[("std_init.vrs", std), ("user.vrs", user)]);
-        let (c, d) = f.compose_with(&f.all(), &["out_color", "terminate"]);
+        let px = "pipeline px in start { state pixel: vec2f = vec2f(0.0); @ray state n: f32 = 0.0; state.n = state.n + state.pixel.x; }";
+        let f = fx(&[("std_init.vrs", std), ("user.vrs", user), ("px.vrs", px)]);
+        let (c, d) = f.compose_with(&f.all(), &["out_color", "terminate", "pixel"]);
         let warnings: Vec<(&str, usize)> = d.iter().map(|x| (x.code.as_str(), f.line(x.span))).collect();
         // `debug`: W0006 at the user's writer. `scratch` written only by the standard module:
         // left out without a warning. `out_color` is required by the entry point: kept.
+        // `pixel` is the entry point's: read without a writer, but no W0005.
         assert_eq!(warnings, [("W0006", 2)]);
         let kept: Vec<&str> = c.fields.iter().map(|x| x.name.as_str()).collect();
-        assert_eq!(kept, ["out_color"]);
+        assert_eq!(kept, ["out_color", "pixel", "n"]);
         assert!(c.fields[0].written && !c.fields[0].read && c.fields[0].ray);
         assert_eq!(c.step(Step::RaySetup)[0].state, [Some(0), None]);
         assert_eq!(c.step(Step::End)[0].state, [None, None, None]);
