@@ -324,3 +324,21 @@ pub enum Builtin {
     /// `dims(v: volume) -> vec3u`
     Dims,
 }
+
+/// A constant as VRS source: `1.0`, `vec3f(0.5, 0.5, 0.5)`.
+pub fn show_const(v: &ConstValue) -> String {
+    let parts: Vec<String> = v
+        .components
+        .iter()
+        .map(|c| match c {
+            ScalarValue::Bool(b) => b.to_string(),
+            ScalarValue::I32(i) => i.to_string(),
+            ScalarValue::U32(u) => format!("{u}u"),
+            ScalarValue::F32(x) => format!("{x:?}"),
+        })
+        .collect();
+    match v.ty {
+        Type::Scalar(_) => parts.join(", "),
+        _ => format!("{}({})", v.ty, parts.join(", ")),
+    }
+}

@@ -7,7 +7,8 @@ use super::scope::{Binding, FnCx, ItemRef, StateSlot, UniformSlot, UseSlot, dupl
 use super::{Checker, type_or_placeholder};
 use crate::ast::{self, DeclKind, PlacementKind};
 use crate::diag::{Code, Diagnostic};
-use crate::hir::{self, ConstValue, ScalarValue};
+use crate::hir::show_const;
+use crate::hir::{self, ConstValue};
 use crate::source::Span;
 use crate::steps::{Step, StepLookup, did_you_mean};
 use crate::types::{Scalar, Type};
@@ -507,22 +508,4 @@ fn uniform_conflict(first: &hir::UniformDecl, owner: &str, u: &hir::UniformDecl)
         .with_secondary(first.span, format!("first declared here as {}", first.ty))
         .with_help(format!("every declaration of `uniform {name}` must have the same type")),
     )
-}
-
-/// A constant as VRS source: `1.0`, `vec3f(0.5, 0.5, 0.5)`.
-pub(super) fn show_const(v: &ConstValue) -> String {
-    let parts: Vec<String> = v
-        .components
-        .iter()
-        .map(|c| match c {
-            ScalarValue::Bool(b) => b.to_string(),
-            ScalarValue::I32(i) => i.to_string(),
-            ScalarValue::U32(u) => format!("{u}u"),
-            ScalarValue::F32(x) => format!("{x:?}"),
-        })
-        .collect();
-    match v.ty {
-        Type::Scalar(_) => parts.join(", "),
-        _ => format!("{}({})", v.ty, parts.join(", ")),
-    }
 }

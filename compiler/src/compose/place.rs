@@ -25,6 +25,7 @@
 
 use crate::ast::PlacementKind;
 use crate::diag::{Code, Diagnostic, Diagnostics};
+use crate::hir::show_const;
 use crate::hir::{self, ConstValue, ScalarValue};
 use crate::source::{SourceMap, Span};
 use crate::steps::{Step, did_you_mean};
@@ -1018,24 +1019,6 @@ pub fn zero_value(ty: Type) -> ConstValue {
         _ => Vec::new(),
     };
     ConstValue { ty, components }
-}
-
-/// A constant as VRS source: `1.0`, `vec3f(0.5, 0.5, 0.5)`.
-pub fn show_const(v: &ConstValue) -> String {
-    let parts: Vec<String> = v
-        .components
-        .iter()
-        .map(|c| match c {
-            ScalarValue::Bool(b) => b.to_string(),
-            ScalarValue::I32(i) => i.to_string(),
-            ScalarValue::U32(u) => format!("{u}u"),
-            ScalarValue::F32(x) => format!("{x:?}"),
-        })
-        .collect();
-    match v.ty {
-        Type::Scalar(_) => parts.join(", "),
-        _ => format!("{}({})", v.ty, parts.join(", ")),
-    }
 }
 
 #[cfg(test)]
