@@ -157,7 +157,7 @@ impl<'a> Loader<'a> {
             Ok(text) => Some(self.add_module(display_path(&full), Some(&full), None, text, key)),
             Err(err) => {
                 self.diags.push(
-                    Diagnostic::new(Code::ImportNotFound, span, format!("cannot read `{}`: {err}", full.display()))
+                    Diagnostic::new(Code::ImportNotFound, span, format!("cannot read `{path}`: {err}"))
                         .with_label("imported here")
                         .with_note("import paths are relative to the importing file"),
                 );

@@ -125,7 +125,7 @@ fn load_module(loader: &mut Loader<'_>, module_ref: &ModuleRef) -> Result<usize,
                 .with_label("not in the standard library")
         }),
         ModuleSource::File(file) => loader.load_root_file(&file.resolved).map_err(|e| {
-            Diagnostic::new(Code::ImportNotFound, file.span, format!("cannot read `{}`: {e}", file.resolved.display()))
+            Diagnostic::new(Code::ImportNotFound, file.span, format!("cannot read `{}`: {e}", file.given))
                 .with_label("named here")
                 .with_note("module paths are relative to the scene file")
         }),
