@@ -113,7 +113,9 @@ impl<'a> Loader<'a> {
 
     fn follow_imports(&mut self, index: usize) -> Vec<usize> {
         let module = &self.graph.modules[index];
-        let dir = self.sources.file(module.file).path.as_deref().and_then(Path::parent).map(Path::to_path_buf);
+        let importer = self.sources.file(module.file);
+        let dir = importer.path.as_deref().and_then(Path::parent).map(Path::to_path_buf);
+        let shown_dir = Path::new(&importer.name).parent().map(Path::to_path_buf).unwrap_or_default();
         let requests: Vec<(ImportRequest, Span)> = module
             .ast
             .items
@@ -131,7 +133,7 @@ impl<'a> Loader<'a> {
             .collect();
         let mut imports = Vec::new();
         for (request, span) in requests {
-            if let Some(target) = self.import(request, dir.as_deref(), span)
+            if let Some(target) = self.import(request, dir.as_deref(), &shown_dir, span)
                 && !imports.contains(&target)
             {
                 imports.push(target);
@@ -140,21 +142,23 @@ impl<'a> Loader<'a> {
         imports
     }
 
-    fn import(&mut self, request: ImportRequest, dir: Option<&Path>, span: Span) -> Option<usize> {
+    fn import(&mut self, request: ImportRequest, dir: Option<&Path>, shown_dir: &Path, span: Span) -> Option<usize> {
         match request {
-            ImportRequest::Path(path) => self.import_path(&path, dir, span),
+            ImportRequest::Path(path) => self.import_path(&path, dir, shown_dir, span),
             ImportRequest::Std(name) => self.import_std(&name, span),
         }
     }
 
-    fn import_path(&mut self, path: &str, dir: Option<&Path>, span: Span) -> Option<usize> {
+    /// `shown_dir` is the importing file's directory as the user named it: imported files are
+    /// shown relative to it, so messages carry the paths the user wrote, not absolute ones.
+    fn import_path(&mut self, path: &str, dir: Option<&Path>, shown_dir: &Path, span: Span) -> Option<usize> {
         let full = dir.map_or_else(|| PathBuf::from(path), |d| d.join(path));
         let key = canonical_key(&full);
         if let Some(&target) = self.loaded.get(&key) {
             return self.check_cycle(target, span);
         }
         match std::fs::read_to_string(&full) {
-            Ok(text) => Some(self.add_module(display_path(&full), Some(&full), None, text, key)),
+            Ok(text) => Some(self.add_module(lexical_join(shown_dir, path), Some(&full), None, text, key)),
             Err(err) => {
                 self.diags.push(
                     Diagnostic::new(Code::ImportNotFound, span, format!("cannot read `{path}`: {err}"))
@@ -211,9 +215,32 @@ fn canonical_key(path: &Path) -> String {
     path.canonicalize().unwrap_or_else(|_| path.to_path_buf()).display().to_string()
 }
 
-/// Paths are shown relative to the working directory when they are below it.
-fn display_path(path: &Path) -> String {
-    let cwd = std::env::current_dir().ok();
-    let shown = cwd.as_deref().and_then(|c| path.strip_prefix(c).ok()).unwrap_or(path);
-    shown.display().to_string()
+/// `base/rel` with `.` dropped and `dir/..` folded, without touching the file system.
+fn lexical_join(base: &Path, rel: &str) -> String {
+    use std::path::Component;
+    let joined = base.join(rel);
+    let mut parts: Vec<Component> = Vec::new();
+    for part in joined.components() {
+        match part {
+            Component::CurDir => {}
+            Component::ParentDir if matches!(parts.last(), Some(Component::Normal(_))) => {
+                parts.pop();
+            }
+            other => parts.push(other),
+        }
+    }
+    parts.iter().collect::<PathBuf>().display().to_string()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::lexical_join;
+    use std::path::Path;
+
+    #[test]
+    fn lexical_join_folds_dots_but_keeps_leading_parents() {
+        assert_eq!(lexical_join(Path::new("../tests/a"), "./b.vrs"), "../tests/a/b.vrs");
+        assert_eq!(lexical_join(Path::new("src/mods"), "../lib/c.vrs"), "src/lib/c.vrs");
+        assert_eq!(lexical_join(Path::new(""), "../x.vrs"), "../x.vrs");
+    }
 }
