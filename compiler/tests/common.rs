@@ -56,7 +56,7 @@ pub fn build_fixture(path: &Path) -> (String, Vec<String>) {
 }
 
 /// `path` relative to `base` when it lies below base's parent (tests run in `compiler/`).
-fn pathdiff(path: &Path, base: &Path) -> PathBuf {
+pub fn pathdiff(path: &Path, base: &Path) -> PathBuf {
     let path = path.canonicalize().unwrap_or_else(|_| path.to_path_buf());
     match base.parent().and_then(|p| path.strip_prefix(p.canonicalize().ok()?).ok()) {
         Some(rest) => Path::new("..").join(rest),

@@ -4,8 +4,10 @@
 //! state and uniform declarations of the placed functions and checks the data flow of the linear
 //! pipeline. Its [`place::Composition`] is what emission builds the shader from.
 
+pub mod backends;
 pub mod build;
 pub mod entry;
+pub mod explain;
 pub mod place;
 pub mod reflect;
 pub mod view;

@@ -8,6 +8,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 use vrsc::diag::Diagnostic;
 use vrsc::driver::{self, Checked};
+use vrsc::compose::backends::Target;
 use vrsc::source::SourceMap;
 
 #[derive(Parser)]
@@ -42,6 +43,17 @@ enum Command {
         scene: PathBuf,
         #[arg(short, long)]
         output: PathBuf,
+        /// Also translate each view through naga's back ends: spirv, glsl, msl, hlsl
+        /// (comma-separated or repeated); written as DIR/VIEW.spv, .comp.glsl, .metal, .hlsl.
+        #[arg(long, value_delimiter = ',')]
+        emit: Vec<Target>,
+    },
+    /// Print a view's composed WGSL with each function annotated by the VRS file:line it came from.
+    Explain {
+        scene: PathBuf,
+        /// The view (may be left out when the scene has one view).
+        #[arg(long)]
+        view: Option<String>,
     },
     /// Print the pipeline map of a scene's views: steps, their functions, where each came from.
     Pipeline {
@@ -94,7 +106,8 @@ fn main() -> ExitCode {
 fn run(cli: &Cli) -> Outcome {
     let printer = Printer { format: cli.message_format, color: cli.color };
     match &cli.command {
-        Command::Build { scene, output } => build(&printer, scene, output),
+        Command::Build { scene, output, emit } => build(&printer, scene, output, emit),
+        Command::Explain { scene, view } => explain(&printer, scene, view.as_deref()),
         Command::Pipeline { scene, view } => pipeline(&printer, scene, view.as_deref()),
         Command::Check { files } => match driver::check_files(files) {
             Ok(checked) => printer.finish(&checked),
@@ -123,7 +136,7 @@ fn run(cli: &Cli) -> Outcome {
     }
 }
 
-fn build(printer: &Printer, scene: &std::path::Path, dir: &std::path::Path) -> Outcome {
+fn build(printer: &Printer, scene: &std::path::Path, dir: &std::path::Path, targets: &[Target]) -> Outcome {
     let built = match vrsc::compose::build::build_scene(scene, None) {
         Ok(b) => b,
         Err(e) => return io_failure(&format!("cannot read `{}`: {e}", scene.display())),
@@ -138,15 +151,45 @@ fn build(printer: &Printer, scene: &std::path::Path, dir: &std::path::Path) -> O
     for view in &built.views {
         let Some(shader) = &view.shader else { continue };
         let json = serde_json::to_string_pretty(&shader.reflection).unwrap_or_default();
-        for (ext, text) in [("wgsl", shader.wgsl.as_str()), ("json", json.as_str())] {
+        let mut outputs = vec![("wgsl", shader.wgsl.as_bytes().to_vec()), ("json", json.into_bytes())];
+        for &target in targets {
+            match vrsc::compose::backends::translate(&shader.module, &shader.info, "main", target) {
+                Ok(bytes) => outputs.push((target.extension(), bytes)),
+                Err(e) => {
+                    eprintln!("error: view `{}`: naga's {} back end failed: {e}", view.name, target.name());
+                    return Outcome::InputErrors;
+                }
+            }
+        }
+        for (ext, bytes) in &outputs {
             let path = dir.join(format!("{}.{ext}", view.name));
-            if let Err(e) = std::fs::write(&path, text) {
+            if let Err(e) = std::fs::write(&path, bytes) {
                 return io_failure(&format!("cannot write `{}`: {e}", path.display()));
             }
         }
-        eprintln!("wrote {}/{}.wgsl and .json", dir.display(), view.name);
+        let extensions: Vec<&str> = outputs.iter().map(|(ext, _)| *ext).collect();
+        eprintln!("wrote {}/{}.{{{}}}", dir.display(), view.name, extensions.join(","));
     }
     Outcome::Ok
+}
+
+fn explain(printer: &Printer, scene: &std::path::Path, only: Option<&str>) -> Outcome {
+    let built = match vrsc::compose::build::build_scene(scene, only) {
+        Ok(b) => b,
+        Err(e) => return io_failure(&format!("cannot read `{}`: {e}", scene.display())),
+    };
+    let outcome = printer.report(&built.diags.sorted(), &built.sources);
+    if only.is_none() && built.views.len() > 1 {
+        let names: Vec<&str> = built.views.iter().map(|v| v.name.as_str()).collect();
+        eprintln!("error: the scene has several views; pick one with --view ({})", names.join(", "));
+        return Outcome::Failure;
+    }
+    for view in &built.views {
+        if let Some(text) = vrsc::compose::explain::explain(view, &built.sources) {
+            print!("{text}");
+        }
+    }
+    outcome
 }
 
 fn pipeline(printer: &Printer, scene: &std::path::Path, only: Option<&str>) -> Outcome {
