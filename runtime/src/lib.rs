@@ -1,1 +1,43 @@
-//! Runtime for shaders composed by `vrsc` (see issue: the runtime is built on top of the composer).
+//! vrs-runtime: renders the shaders that `vrsc` composes, with wgpu, headless or on an
+//! application's device.
+//!
+//! Two ways in:
+//! - **Precompiled views**: load `VIEW.wgsl` + `VIEW.json` written by `vrsc build` with
+//!   [`ViewShader::load`] (no compiler needed), bind volumes and transfer functions in
+//!   [`Resources`], set uniforms by name and render with [`ViewRenderer`].
+//! - **Scenes** (feature `compiler`, on by default): [`SceneRenderer::open`] composes a scene
+//!   file through the compiler library, loads its volumes once and renders every view.
+//!
+//! ```no_run
+//! use vrs_runtime::{AdapterChoice, Gpu, RenderOptions, SceneRenderer};
+//!
+//! let gpu = Gpu::headless(AdapterChoice::PreferHardware)?;
+//! let mut scene = SceneRenderer::open(gpu, "examples/basic/scene.toml".as_ref(), RenderOptions::default(), &mut |_, _, _| {})?;
+//! scene.set_uniform("ambient", 0.4)?; // typed from the reflection: a wrong type is an error
+//! for (view, image) in scene.render_all()? {
+//!     image.save(format!("{view}.png"))?;
+//! }
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+
+pub mod error;
+pub mod geometry;
+pub mod gpu;
+pub mod reflection;
+#[cfg(feature = "compiler")]
+pub mod scene;
+pub mod shader;
+pub mod textures;
+pub mod tf;
+pub mod uniforms;
+pub mod view;
+pub mod volume;
+
+pub use error::RuntimeError;
+pub use geometry::{OrbitCamera, SliceAxis, SlicePlane};
+pub use gpu::{AdapterChoice, Gpu};
+#[cfg(feature = "compiler")]
+pub use scene::{RenderOptions, SceneRenderer};
+pub use shader::{PipelineCache, ViewShader};
+pub use uniforms::Value;
+pub use view::{Resources, ViewRenderer};

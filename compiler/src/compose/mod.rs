@@ -6,6 +6,7 @@
 
 pub mod backends;
 pub mod build;
+pub mod cache;
 pub mod entry;
 pub mod explain;
 pub mod place;

@@ -1,0 +1,165 @@
+//! A composition cache: composing a scene whose structure was composed before (same views,
+//! same standard and user modules with the same instances, same module sources) returns the
+//! earlier shaders instead of composing again. Changing only uniform values, camera, sizes,
+//! volumes' files or transfer functions is such a hit; it costs a scene parse and a read of the
+//! module files, not a composition.
+
+use super::build::{self, BuiltScene};
+use super::reflect::content_hash;
+use crate::scene::{ModuleRef, ModuleSource, Scene};
+use crate::source::SourceMap;
+use std::collections::HashMap;
+use std::fmt::Write;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+/// Composed scenes by structural key.
+#[derive(Default)]
+pub struct CompositionCache {
+    entries: HashMap<String, Entry>,
+    stats: CacheStats,
+}
+
+/// How often [`CompositionCache::build`] reused a composition.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct CacheStats {
+    pub hits: u64,
+    pub misses: u64,
+}
+
+struct Entry {
+    /// Every user source file the composition read, with the hash of its text then.
+    inputs: Vec<(PathBuf, String)>,
+    built: Arc<BuiltScene>,
+}
+
+/// The outcome of [`CompositionCache::build`].
+pub struct CachedBuild {
+    /// The composition: shaders, reflection and the diagnostics of when it was composed.
+    /// Reflection's uniform `value`s are those of that scene; take current values from `scene`.
+    pub built: Arc<BuiltScene>,
+    /// The scene as it is now (`None` when it is invalid; then `built` holds its errors).
+    pub scene: Option<Scene>,
+    /// Whether `built` came from the cache.
+    pub hit: bool,
+}
+
+impl CompositionCache {
+    pub fn new() -> CompositionCache {
+        CompositionCache::default()
+    }
+
+    pub fn stats(&self) -> CacheStats {
+        self.stats
+    }
+
+    /// Composes every view of the scene at `path`, or reuses an earlier composition of the same
+    /// structure whose module files are unchanged.
+    pub fn build(&mut self, path: &Path) -> std::io::Result<CachedBuild> {
+        let text = std::fs::read_to_string(path)?;
+        let mut sources = SourceMap::new();
+        let file = sources.add(path.display().to_string(), Some(path.to_path_buf()), text);
+        let Ok(scene) = crate::scene::parse_scene(&sources, file) else {
+            self.stats.misses += 1;
+            return Ok(CachedBuild { built: Arc::new(build::build_scene(path, None)?), scene: None, hit: false });
+        };
+        let key = structural_key(&scene);
+        if let Some(entry) = self.entries.get(&key)
+            && inputs_unchanged(&entry.inputs)
+        {
+            self.stats.hits += 1;
+            return Ok(CachedBuild { built: entry.built.clone(), scene: Some(scene), hit: true });
+        }
+        self.stats.misses += 1;
+        let built = Arc::new(build::build_scene(path, None)?);
+        if !built.diags.has_errors() {
+            let inputs = user_inputs(&built.sources, path);
+            self.entries.insert(key, Entry { inputs, built: built.clone() });
+        }
+        Ok(CachedBuild { built, scene: Some(scene), hit: false })
+    }
+}
+
+/// Everything of a scene that shapes its shaders: per view, its name and kind and the modules
+/// composed for it (standard ones with their instances, then the scene's and the view's).
+pub fn structural_key(scene: &Scene) -> String {
+    let mut key = String::new();
+    for view in &scene.views {
+        let _ = write!(key, "view {} {:?}:", view.name.name, view.kind.value);
+        for std in scene.standard_modules(view) {
+            let _ = write!(key, " std::{}{:?}", std.name, std.instances);
+        }
+        for module in scene.modules.iter().chain(&view.modules) {
+            key.push(' ');
+            module_key(&mut key, module);
+        }
+        key.push('\n');
+    }
+    key
+}
+
+fn module_key(key: &mut String, module: &ModuleRef) {
+    match &module.source {
+        ModuleSource::Std(name) => key.push_str(&name.value),
+        ModuleSource::File(file) => key.push_str(&file.resolved.display().to_string()),
+    }
+    if let Some(instances) = &module.instances {
+        let names: Vec<&str> = instances.iter().map(|i| i.name.as_str()).collect();
+        let _ = write!(key, "{names:?}");
+    }
+}
+
+/// The user files a composition read (every source with a path but the scene file itself).
+fn user_inputs(sources: &SourceMap, scene: &Path) -> Vec<(PathBuf, String)> {
+    sources
+        .files()
+        .filter_map(|(_, f)| Some((f.path.clone()?, &f.text)))
+        .filter(|(p, _)| p != scene)
+        .map(|(p, text)| (p, content_hash(text)))
+        .collect()
+}
+
+fn inputs_unchanged(inputs: &[(PathBuf, String)]) -> bool {
+    inputs.iter().all(|(path, hash)| std::fs::read_to_string(path).is_ok_and(|text| &content_hash(&text) == hash))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const MODULE: &str = "pipeline dim after classification.primary {\n    uniform k: f32 = 0.5;\n    \
+                          state color: vec4f;\n    state.color = state.color * k;\n}\n";
+
+    fn scene(k: f32, compositing: &str) -> String {
+        format!(
+            "[render]\ncompositing = \"{compositing}\"\n\n[[volume]]\nname = \"v\"\nrole = \"primary\"\n\
+             phantom = \"head\"\n\n[[module]]\npath = \"dim.vrs\"\n\n[uniforms]\nk = {k:.2}\n\n\
+             [[view]]\nname = \"3d\"\nkind = \"raycast\"\n"
+        )
+    }
+
+    #[test]
+    fn uniform_changes_hit_structural_changes_miss() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("scene.toml");
+        std::fs::write(dir.path().join("dim.vrs"), MODULE).unwrap();
+        std::fs::write(&path, scene(0.5, "dvr")).unwrap();
+        let mut cache = CompositionCache::new();
+        let first = cache.build(&path).unwrap();
+        assert!(!first.hit && !first.built.diags.has_errors());
+
+        std::fs::write(&path, scene(0.25, "dvr")).unwrap();
+        let second = cache.build(&path).unwrap();
+        assert!(second.hit, "a uniform-only change reuses the composition");
+        assert!(Arc::ptr_eq(&first.built, &second.built));
+        let k = second.scene.as_ref().unwrap().uniform_values().get("k").cloned();
+        assert_eq!(k, Some(crate::scene::UniformValue::Float(0.25)));
+
+        std::fs::write(&path, scene(0.25, "mip")).unwrap();
+        assert!(!cache.build(&path).unwrap().hit, "another compositing mode is another shader");
+
+        std::fs::write(dir.path().join("dim.vrs"), MODULE.replace("0.5", "0.75")).unwrap();
+        assert!(!cache.build(&path).unwrap().hit, "an edited module file is composed again");
+        assert_eq!(cache.stats(), CacheStats { hits: 1, misses: 3 });
+    }
+}

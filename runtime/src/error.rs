@@ -1,0 +1,73 @@
+//! Errors of the runtime, each naming what it concerns (a file, a uniform, a view).
+
+use std::fmt;
+use std::path::PathBuf;
+
+#[derive(Debug)]
+pub enum RuntimeError {
+    /// No adapter or device.
+    Gpu(crate::gpu::GpuError),
+    /// A file could not be read or written.
+    Io { path: PathBuf, error: std::io::Error },
+    /// A `.wgsl` + `.json` pair that does not belong together, or malformed reflection.
+    Shader { path: PathBuf, message: String },
+    /// wgpu refused the shader or pipeline (a bug in the composer if it validated).
+    Pipeline { view: String, message: String },
+    Volume(crate::volume::LoadError),
+    Tf(crate::tf::TfError),
+    Uniform { view: String, error: crate::uniforms::UniformError },
+    /// Input that is valid on its own but cannot be used here: a missing binding, a volume
+    /// beyond the device's limits, an unknown phantom.
+    Invalid(String),
+    /// A scene did not compose; the diagnostics were rendered into the message.
+    #[cfg(feature = "compiler")]
+    Compose { rendered: String },
+}
+
+impl RuntimeError {
+    /// The `vrsc` exit code: 2 for I/O and device problems, 1 for bad input.
+    pub fn exit_code(&self) -> u8 {
+        match self {
+            RuntimeError::Io { .. } | RuntimeError::Gpu(_) => 2,
+            RuntimeError::Volume(e) if e.is_io() => 2,
+            _ => 1,
+        }
+    }
+}
+
+impl fmt::Display for RuntimeError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            RuntimeError::Gpu(e) => write!(f, "{e}"),
+            RuntimeError::Io { path, error } => write!(f, "`{}`: {error}", path.display()),
+            RuntimeError::Shader { path, message } => write!(f, "`{}`: {message}", path.display()),
+            RuntimeError::Pipeline { view, message } => write!(f, "view `{view}`: the GPU refused its shader: {message}"),
+            RuntimeError::Volume(e) => write!(f, "{e}"),
+            RuntimeError::Tf(e) => write!(f, "{e}"),
+            RuntimeError::Uniform { view, error } => write!(f, "view `{view}`: {error}"),
+            RuntimeError::Invalid(message) => f.write_str(message),
+            #[cfg(feature = "compiler")]
+            RuntimeError::Compose { rendered } => f.write_str(rendered),
+        }
+    }
+}
+
+impl std::error::Error for RuntimeError {}
+
+impl From<crate::gpu::GpuError> for RuntimeError {
+    fn from(e: crate::gpu::GpuError) -> RuntimeError {
+        RuntimeError::Gpu(e)
+    }
+}
+
+impl From<crate::volume::LoadError> for RuntimeError {
+    fn from(e: crate::volume::LoadError) -> RuntimeError {
+        RuntimeError::Volume(e)
+    }
+}
+
+impl From<crate::tf::TfError> for RuntimeError {
+    fn from(e: crate::tf::TfError) -> RuntimeError {
+        RuntimeError::Tf(e)
+    }
+}

@@ -1,0 +1,288 @@
+//! Rendering whole scenes (cargo feature `compiler`): compose through the compiler library,
+//! load each volume and transfer function once, and drive every view from the scene's camera,
+//! slice and uniform settings. This is the paper's scene graph: volumes, transfer functions and
+//! scene uniforms are shared nodes; each view owns its composed pipeline.
+
+use crate::error::RuntimeError;
+use crate::geometry::{self, OrbitCamera, SliceAxis, SlicePlane};
+use crate::gpu::Gpu;
+use crate::reflection::Reflection;
+use crate::shader::{PipelineCache, PipelineStats, ViewShader};
+use crate::textures::{TfTexture, VolumeTexture};
+use crate::view::{Resources, ViewRenderer};
+use crate::{tf, volume};
+use glam::Mat4;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use vrsc::compose::build::BuiltScene;
+use vrsc::compose::cache::CompositionCache;
+use vrsc::scene::{self as vscene, Role, Scene, TfRef, UniformValue, ViewKind, VolumeSource};
+
+/// Choices a scene file does not make.
+#[derive(Clone, Debug)]
+pub struct RenderOptions {
+    /// Replaces every view's `size`.
+    pub size: Option<[u32; 2]>,
+    /// Grid size of built-in phantoms.
+    pub phantom_size: [u32; 3],
+}
+
+impl Default for RenderOptions {
+    fn default() -> RenderOptions {
+        RenderOptions { size: None, phantom_size: [128, 128, 128] }
+    }
+}
+
+/// A view of the scene and how it looks at the volume.
+pub struct SceneView {
+    pub name: String,
+    pub renderer: ViewRenderer,
+    /// Raycast views: the orbit camera.
+    pub camera: Option<OrbitCamera>,
+    /// Slice views: the plane and the slab thickness.
+    pub slice: Option<(SlicePlane, f32)>,
+}
+
+/// A loaded scene, ready to render every frame.
+pub struct SceneRenderer {
+    gpu: Gpu,
+    path: PathBuf,
+    options: RenderOptions,
+    compositions: CompositionCache,
+    pipelines: PipelineCache,
+    resources: Resources,
+    /// Grid and transform of each volume by scene name, primary first.
+    grids: Vec<(String, Role, [u32; 3], Mat4)>,
+    pub views: Vec<SceneView>,
+}
+
+/// Progress of loading a volume: (volume name, bytes done, bytes in all).
+pub type Progress<'a> = &'a mut dyn FnMut(&str, u64, u64);
+
+impl SceneRenderer {
+    /// Composes and loads the scene at `path`. Composition errors come back rendered as text in
+    /// [`RuntimeError::Compose`]; use [`SceneRenderer::from_built`] to print them yourself.
+    pub fn open(gpu: Gpu, path: &Path, options: RenderOptions, progress: Progress) -> Result<SceneRenderer, RuntimeError> {
+        let mut compositions = CompositionCache::new();
+        let cached =
+            compositions.build(path).map_err(|error| RuntimeError::Io { path: path.to_path_buf(), error })?;
+        let scene = composed_scene(&cached.built, cached.scene)?;
+        let mut renderer = SceneRenderer::from_built(gpu, path, &scene, &cached.built, options, progress)?;
+        renderer.compositions = compositions;
+        Ok(renderer)
+    }
+
+    /// A renderer for a scene the caller composed (and whose diagnostics it reported).
+    pub fn from_built(
+        gpu: Gpu,
+        path: &Path,
+        scene: &Scene,
+        built: &BuiltScene,
+        options: RenderOptions,
+        progress: Progress,
+    ) -> Result<SceneRenderer, RuntimeError> {
+        let mut resources = Resources::new(&gpu);
+        let grids = load_volumes(&gpu, scene, &options, &mut resources, progress)?;
+        let mut renderer = SceneRenderer {
+            gpu,
+            path: path.to_path_buf(),
+            options,
+            compositions: CompositionCache::new(),
+            pipelines: PipelineCache::new(),
+            resources,
+            grids,
+            views: Vec::new(),
+        };
+        renderer.set_views(scene, built)?;
+        Ok(renderer)
+    }
+
+    pub fn gpu(&self) -> &Gpu {
+        &self.gpu
+    }
+
+    /// Pipeline cache hits and misses since the scene was opened.
+    pub fn pipeline_stats(&self) -> PipelineStats {
+        self.pipelines.stats()
+    }
+
+    pub fn view_mut(&mut self, name: &str) -> Option<&mut SceneView> {
+        self.views.iter_mut().find(|v| v.name == name)
+    }
+
+    /// Sets a uniform in every view whose shader reads it; an error if none does.
+    pub fn set_uniform(&mut self, name: &str, value: impl Into<crate::uniforms::Value>) -> Result<(), RuntimeError> {
+        let value = value.into();
+        let mut found = false;
+        for view in &mut self.views {
+            if view.renderer.has_uniform(name) {
+                view.renderer.set_uniform(name, value.clone())?;
+                found = true;
+            }
+        }
+        if found {
+            return Ok(());
+        }
+        match self.views.first_mut() {
+            // Let the view's block produce the message (unknown name, did you mean).
+            Some(view) => view.renderer.set_uniform(name, value),
+            None => Err(RuntimeError::Invalid(format!("the scene has no views to set `{name}` in"))),
+        }
+    }
+
+    /// Reads the scene file again. Volumes stay loaded; a structural change composes (and
+    /// compiles) again, anything else only updates uniforms. Returns whether any view got a
+    /// new shader.
+    pub fn reload(&mut self) -> Result<bool, RuntimeError> {
+        let cached =
+            self.compositions.build(&self.path).map_err(|error| RuntimeError::Io { path: self.path.clone(), error })?;
+        let hit = cached.hit;
+        let scene = composed_scene(&cached.built, cached.scene)?;
+        let misses = self.pipelines.stats().misses;
+        self.set_views(&scene, &cached.built)?;
+        Ok(!hit && self.pipelines.stats().misses > misses)
+    }
+
+    /// Renders every view; images in view order.
+    pub fn render_all(&mut self) -> Result<Vec<(String, image::RgbaImage)>, RuntimeError> {
+        let mut images = Vec::new();
+        for view in &mut self.views {
+            apply_view_uniforms(view, &self.grids)?;
+            images.push((view.name.clone(), view.renderer.render(&self.gpu, &self.resources)?));
+        }
+        Ok(images)
+    }
+
+    /// Records one frame of view `index` (for benchmarks: no read-back).
+    pub fn encode_view(&mut self, index: usize, encoder: &mut wgpu::CommandEncoder) -> Result<(), RuntimeError> {
+        let view = &mut self.views[index];
+        apply_view_uniforms(view, &self.grids)?;
+        view.renderer.encode(&self.gpu, &self.resources, encoder)
+    }
+
+    fn set_views(&mut self, scene: &Scene, built: &BuiltScene) -> Result<(), RuntimeError> {
+        let values = scene.uniform_values();
+        let mut views = Vec::new();
+        for (view, output) in scene.views.iter().zip(&built.views) {
+            let shader = output.shader.as_ref().ok_or_else(|| {
+                RuntimeError::Invalid(format!("view `{}` did not compose", output.name))
+            })?;
+            let reflection: Reflection = serde_json::to_value(&shader.reflection)
+                .ok()
+                .and_then(|json| serde_json::from_value(json).ok())
+                .ok_or_else(|| RuntimeError::Invalid("the compiler's reflection does not round-trip".into()))?;
+            let shader = ViewShader::new(shader.wgsl.clone(), reflection, &self.path)?;
+            let size = self.options.size.unwrap_or(view.size);
+            let mut renderer = ViewRenderer::new(&self.gpu, &mut self.pipelines, shader, size)?;
+            for (name, value) in &values {
+                if renderer.has_uniform(name)
+                    && let Some(value) = renderer.uniforms().value_from_json(name, &uniform_json(value))
+                {
+                    renderer.set_uniform(name, value)?;
+                }
+            }
+            let (camera, slice) = match view.kind.value {
+                ViewKind::Raycast => (Some(orbit(view.camera)), None),
+                ViewKind::Slice => {
+                    let axis = match view.axis.as_ref().map(|a| a.value) {
+                        Some(vscene::Axis::X) => SliceAxis::X,
+                        Some(vscene::Axis::Y) => SliceAxis::Y,
+                        _ => SliceAxis::Z,
+                    };
+                    (None, Some((SlicePlane::new(axis, view.position), view.slab)))
+                }
+            };
+            views.push(SceneView { name: output.name.clone(), renderer, camera, slice });
+        }
+        self.views = views;
+        Ok(())
+    }
+}
+
+/// The scene of a composition, or its errors rendered as text.
+fn composed_scene(built: &BuiltScene, scene: Option<Scene>) -> Result<Scene, RuntimeError> {
+    let diags = built.diags.sorted();
+    match scene {
+        Some(scene) if !built.diags.has_errors() => Ok(scene),
+        _ => Err(RuntimeError::Compose { rendered: vrsc::diag::render_plain(&diags, &built.sources) }),
+    }
+}
+
+fn orbit(c: vscene::Camera) -> OrbitCamera {
+    OrbitCamera { azimuth: c.azimuth, elevation: c.elevation, distance: c.distance, fov: c.fov }
+}
+
+/// Camera or slice plane, and the transforms from the primary volume to the others.
+fn apply_view_uniforms(view: &mut SceneView, grids: &[(String, Role, [u32; 3], Mat4)]) -> Result<(), RuntimeError> {
+    let r = &mut view.renderer;
+    let Some((_, _, primary_dims, primary_g)) = grids.first() else { return Ok(()) };
+    if let Some(camera) = view.camera
+        && r.has_uniform("inv_view_proj")
+    {
+        let [w, h] = r.size();
+        let extent = geometry::extent(*primary_dims, *primary_g);
+        r.set_uniform("inv_view_proj", camera.inv_view_proj(extent, w as f32 / h.max(1) as f32))?;
+    }
+    if let Some((plane, slab)) = view.slice {
+        for (name, v) in [("slice_origin", plane.origin), ("slice_u", plane.u), ("slice_v", plane.v)] {
+            if r.has_uniform(name) {
+                r.set_uniform(name, v)?;
+            }
+        }
+        if r.has_uniform("slab") {
+            r.set_uniform("slab", slab)?;
+        }
+    }
+    for (name, _, dims, g) in &grids[1..] {
+        let uniform = format!("primary_to_{name}");
+        if r.has_uniform(&uniform) {
+            r.set_uniform(&uniform, geometry::primary_to((primary_dims, *primary_g), (dims, *g)))?;
+        }
+    }
+    Ok(())
+}
+
+/// Loads and uploads every volume and transfer function of the scene; returns the grids,
+/// primary first.
+fn load_volumes(
+    gpu: &Gpu,
+    scene: &Scene,
+    options: &RenderOptions,
+    resources: &mut Resources,
+    progress: Progress,
+) -> Result<Vec<(String, Role, [u32; 3], Mat4)>, RuntimeError> {
+    let mut grids = Vec::new();
+    let primary = scene.primary();
+    let ordered = std::iter::once(primary).chain(scene.volumes.iter().filter(|v| v.role.value != Role::Primary));
+    for v in ordered {
+        let name = &v.name.name;
+        let data = match &v.source {
+            VolumeSource::File(file) => volume::load(&file.resolved, &mut |done, total| progress(name, done, total))?,
+            VolumeSource::Phantom(p) => volume::phantom::phantom(&p.value, options.phantom_size)
+                .map_err(|e| RuntimeError::Invalid(format!("volume `{name}`: {e}")))?,
+        };
+        let is_primary = v.role.value == Role::Primary;
+        let binding = if is_primary { "volume".to_string() } else { format!("volume_{name}") };
+        let texture = VolumeTexture::upload(gpu, name, &data, None)?;
+        grids.push((name.clone(), v.role.value, data.dims, data.grid_to_world));
+        resources.volumes.insert(binding, Arc::new(texture));
+        if let Some(tf_ref) = &v.tf {
+            let table = match tf_ref {
+                TfRef::Preset(p) => tf::preset(&p.value)?,
+                TfRef::File(file) => tf::from_paraview_json(&file.resolved)?,
+            };
+            let binding = if is_primary { "tf".to_string() } else { format!("tf_{name}") };
+            resources.tfs.insert(binding, Arc::new(TfTexture::upload(gpu, &table)));
+        }
+    }
+    Ok(grids)
+}
+
+fn uniform_json(v: &UniformValue) -> serde_json::Value {
+    match v {
+        UniformValue::Bool(b) => (*b).into(),
+        UniformValue::Int(i) => (*i).into(),
+        UniformValue::Float(f) => serde_json::Number::from_f64(*f).map_or(serde_json::Value::Null, Into::into),
+        UniformValue::Array(items) => items.iter().map(uniform_json).collect(),
+    }
+}

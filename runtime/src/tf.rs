@@ -1,0 +1,471 @@
+//! Transfer functions: a colour and an opacity for each normalized sample value in [0, 1].
+//!
+//! A transfer function is a table of [`TF_WIDTH`] RGBA entries with straight (not premultiplied)
+//! alpha, uploaded as a 1D texture. The opacity of an entry is the opacity of one sample at the
+//! compositor's reference step (`ref_step` in `std::composite_dvr`, 1/400 of the volume), so a
+//! value that fills a region should have a small opacity (a few hundredths) to stay
+//! see-through, and only surfaces meant to look solid should approach 1.
+//!
+//! Presets are defined over normalized values, so they fit any volume once its window maps the
+//! interesting values to [0, 1]; their levels match the phantoms (`crate::volume::phantom`) and
+//! normalized CT and MRI.
+
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+use serde_json::Value;
+
+/// Entries in a transfer function table.
+pub const TF_WIDTH: u32 = 1024;
+
+/// A transfer function table.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TransferFunction {
+    /// The preset's name, the colormap's `Name`, or the file stem.
+    pub name: String,
+    /// [`TF_WIDTH`] entries over the normalized value [0, 1]: r, g, b and straight alpha, each in
+    /// [0, 1].
+    pub rgba: Vec<[f32; 4]>,
+}
+
+impl TransferFunction {
+    /// The table as 8-bit RGBA (4 bytes per entry), for an `Rgba8Unorm` texture.
+    pub fn to_rgba8(&self) -> Vec<u8> {
+        self.rgba.iter().flatten().map(|&c| (c.clamp(0.0, 1.0) * 255.0).round() as u8).collect()
+    }
+}
+
+/// A colour control point: normalized value, then r, g, b in [0, 1].
+pub type ColorPoint = (f32, [f32; 3]);
+
+/// An opacity control point: normalized value, then opacity in [0, 1].
+pub type OpacityPoint = (f32, f32);
+
+/// The built-in transfer functions.
+pub const PRESETS: &[&str] =
+    &["grayscale", "ct_bone", "ct_soft_tissue", "mr_default", "vessel_red", "vessel_blue", "hot_metal", "labels"];
+
+/// Why a transfer function could not be made.
+#[derive(Debug)]
+#[non_exhaustive]
+pub enum TfError {
+    /// The name is not one of [`PRESETS`].
+    UnknownPreset { name: String },
+    /// A colormap file could not be read.
+    Io { path: PathBuf, error: std::io::Error },
+    /// A colormap file is not a ParaView colormap; `message` says what is wrong.
+    Invalid { path: PathBuf, message: String },
+}
+
+impl fmt::Display for TfError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            TfError::UnknownPreset { name } => {
+                write!(f, "unknown transfer function preset `{name}`")?;
+                if let Some(close) = did_you_mean(name, PRESETS) {
+                    write!(f, " (did you mean `{close}`?)")?;
+                }
+                write!(f, "; the presets are: {}", PRESETS.join(", "))
+            }
+            TfError::Io { path, error } => write!(f, "`{}`: cannot read: {error}", path.display()),
+            TfError::Invalid { path, message } => write!(f, "`{}`: {message}", path.display()),
+        }
+    }
+}
+
+impl std::error::Error for TfError {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        match self {
+            TfError::Io { error, .. } => Some(error),
+            _ => None,
+        }
+    }
+}
+
+/// The preset `name` (one of [`PRESETS`]).
+pub fn preset(name: &str) -> Result<TransferFunction, TfError> {
+    let (color, opacity): (&[ColorPoint], &[OpacityPoint]) = match name {
+        // A grey ramp; opacity grows with the value so dense material hides what is behind it.
+        "grayscale" => (&[(0.0, [0.0; 3]), (1.0, [1.0; 3])], &[(0.05, 0.0), (1.0, 0.25)]),
+        // Bone only (CT above ~0.7 of the window): ivory turning white, nearly opaque.
+        "ct_bone" => (
+            &[(0.0, [0.0; 3]), (0.68, [0.55, 0.45, 0.35]), (0.8, [0.92, 0.85, 0.72]), (1.0, [1.0, 1.0, 0.97])],
+            &[(0.68, 0.0), (0.74, 0.35), (0.85, 0.7), (1.0, 0.9)],
+        ),
+        // Fat faint yellow, soft tissue (0.3-0.45) reddish beige and see-through, vessels
+        // (~0.65) bright red-white, bone white and dense.
+        "ct_soft_tissue" => (
+            &[
+                (0.0, [0.0; 3]),
+                (0.12, [0.6, 0.45, 0.25]),
+                (0.2, [0.85, 0.7, 0.4]),
+                (0.3, [0.8, 0.38, 0.3]),
+                (0.45, [0.95, 0.68, 0.55]),
+                (0.58, [1.0, 0.35, 0.25]),
+                (0.7, [1.0, 0.75, 0.7]),
+                (0.85, [1.0, 1.0, 0.95]),
+                (1.0, [1.0; 3]),
+            ],
+            &[
+                (0.1, 0.0),
+                (0.15, 0.004),
+                (0.22, 0.004),
+                (0.28, 0.012),
+                (0.45, 0.035),
+                (0.55, 0.05),
+                (0.62, 0.3),
+                (0.75, 0.45),
+                (1.0, 0.8),
+            ],
+        ),
+        // Grey to white, transparent below ~0.15 (background noise in MRI), moderate above.
+        "mr_default" => (
+            &[(0.0, [0.1; 3]), (0.15, [0.35; 3]), (0.6, [0.8, 0.8, 0.78]), (1.0, [1.0; 3])],
+            &[(0.15, 0.0), (0.4, 0.03), (0.7, 0.12), (1.0, 0.3)],
+        ),
+        // Contrast-filled vessels (above ~0.55): dark to bright red (or blue), nearly opaque.
+        "vessel_red" => (
+            &[(0.0, [0.0; 3]), (0.55, [0.5, 0.03, 0.03]), (0.7, [0.9, 0.12, 0.1]), (1.0, [1.0, 0.55, 0.5])],
+            &[(0.55, 0.0), (0.62, 0.4), (0.75, 0.75), (1.0, 0.9)],
+        ),
+        "vessel_blue" => (
+            &[(0.0, [0.0; 3]), (0.55, [0.03, 0.08, 0.5]), (0.7, [0.1, 0.3, 0.95]), (1.0, [0.55, 0.75, 1.0])],
+            &[(0.55, 0.0), (0.62, 0.4), (0.75, 0.75), (1.0, 0.9)],
+        ),
+        // Black body colours: black, red, yellow, white.
+        "hot_metal" => (
+            &[(0.0, [0.0; 3]), (0.35, [0.85, 0.05, 0.0]), (0.7, [1.0, 0.85, 0.0]), (1.0, [1.0; 3])],
+            &[(0.05, 0.0), (1.0, 0.3)],
+        ),
+        "labels" => return Ok(labels()),
+        _ => return Err(TfError::UnknownPreset { name: name.to_string() }),
+    };
+    Ok(from_points(name, color, opacity))
+}
+
+/// Distinct colours for the label bins 1..=16 (bin 0 is the transparent background).
+const LABEL_COLOURS: [[f32; 3]; 16] = [
+    [0.90, 0.10, 0.10],
+    [0.15, 0.70, 0.20],
+    [0.15, 0.35, 0.95],
+    [0.95, 0.85, 0.10],
+    [0.80, 0.20, 0.80],
+    [0.10, 0.80, 0.85],
+    [1.00, 0.55, 0.10],
+    [0.50, 0.30, 0.85],
+    [0.65, 0.90, 0.20],
+    [1.00, 0.55, 0.70],
+    [0.10, 0.50, 0.50],
+    [0.60, 0.40, 0.20],
+    [0.95, 0.95, 0.70],
+    [0.50, 0.05, 0.10],
+    [0.60, 0.80, 1.00],
+    [0.40, 0.40, 0.40],
+];
+
+/// Piecewise-constant colours for label volumes: bin k is centred on k/16, so with labels
+/// 0..=L (L <= 16) normalized by their range, every label gets its own bin and colour; label 0
+/// is transparent. (Label volumes should be sampled without interpolation, or values between
+/// two labels pass through other bins.)
+fn labels() -> TransferFunction {
+    let bins = LABEL_COLOURS.len();
+    let edge = |k: usize| (k as f32 + 0.5) / bins as f32;
+    let mut color = vec![(0.0, [0.0; 3])];
+    let mut opacity = vec![(0.0, 0.0)];
+    for (i, &c) in LABEL_COLOURS.iter().enumerate() {
+        // Close the previous bin at the edge, then open this one there.
+        let previous = color.last().map_or([0.0; 3], |p| p.1);
+        let previous_opacity = opacity.last().map_or(0.0, |p| p.1);
+        color.extend([(edge(i), previous), (edge(i), c)]);
+        opacity.extend([(edge(i), previous_opacity), (edge(i), 0.6)]);
+    }
+    from_points("labels", &color, &opacity)
+}
+
+/// Builds a table by piecewise-linear interpolation between control points `(x, value)` over
+/// [0, 1], holding the end values beyond the first and last points. Points need not be sorted;
+/// two points at the same x make a step (the later one applies from x on). Without colour points
+/// the colour is white; without opacity points the opacity is a linear ramp from 0 to 1.
+/// Values are clamped to [0, 1].
+pub fn from_points(name: &str, color: &[ColorPoint], opacity: &[OpacityPoint]) -> TransferFunction {
+    let opacity: Vec<(f32, [f32; 1])> = opacity.iter().map(|&(x, o)| (x, [o])).collect();
+    let colors = Table::new(color);
+    let alphas = Table::new(&opacity);
+    let rgba = (0..TF_WIDTH)
+        .map(|i| {
+            let x = i as f32 / (TF_WIDTH - 1) as f32;
+            let [r, g, b] = colors.at(x).unwrap_or([1.0; 3]);
+            let [a] = alphas.at(x).unwrap_or([x]);
+            [r, g, b, a].map(|c| if c.is_nan() { 0.0 } else { c.clamp(0.0, 1.0) })
+        })
+        .collect();
+    TransferFunction { name: name.to_string(), rgba }
+}
+
+/// Control points sorted by x (stably, so steps keep their order), non-finite x dropped.
+struct Table<const N: usize> {
+    points: Vec<(f32, [f32; N])>,
+}
+
+impl<const N: usize> Table<N> {
+    fn new(points: &[(f32, [f32; N])]) -> Self {
+        let mut points: Vec<_> = points.iter().filter(|p| p.0.is_finite()).copied().collect();
+        points.sort_by(|a, b| a.0.total_cmp(&b.0));
+        Table { points }
+    }
+
+    /// The interpolated value at `x`; `None` without points.
+    fn at(&self, x: f32) -> Option<[f32; N]> {
+        let after = self.points.partition_point(|p| p.0 <= x);
+        let (first, last) = (self.points.first()?, self.points.last()?);
+        if after == 0 {
+            return Some(first.1);
+        }
+        if after == self.points.len() {
+            return Some(last.1);
+        }
+        let ((x0, v0), (x1, v1)) = (self.points[after - 1], self.points[after]);
+        let t = (x - x0) / (x1 - x0);
+        Some(std::array::from_fn(|i| v0[i] + (v1[i] - v0[i]) * t))
+    }
+}
+
+/// Reads a ParaView colormap (`File > Export` in the colour map editor): a JSON array of objects
+/// (the first with `RGBPoints` is used) or one object, with `RGBPoints` `[x, r, g, b, ...]` and
+/// optionally `Points` `[x, opacity, midpoint, sharpness, ...]` (used as linear `x, opacity`).
+/// The x range of `RGBPoints` maps to [0, 1]; without `Points` the opacity is a linear ramp.
+pub fn from_paraview_json(path: &Path) -> Result<TransferFunction, TfError> {
+    let text = std::fs::read_to_string(path).map_err(|error| TfError::Io { path: path.to_path_buf(), error })?;
+    let stem = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+    parse_paraview(&text, &stem).map_err(|message| TfError::Invalid { path: path.to_path_buf(), message })
+}
+
+/// Parses a ParaView colormap's text; errors are messages for users.
+fn parse_paraview(text: &str, fallback_name: &str) -> Result<TransferFunction, String> {
+    let json: Value = serde_json::from_str(text).map_err(|e| format!("not valid JSON: {e}"))?;
+    let colormap = match &json {
+        Value::Array(items) => items.iter().find(|item| item.get("RGBPoints").is_some()),
+        Value::Object(_) => Some(&json),
+        _ => None,
+    }
+    .ok_or("not a ParaView colormap: expected an object, or an array of objects, with `RGBPoints`")?;
+    let rgb = numbers(colormap, "RGBPoints")?.ok_or("the colormap has no `RGBPoints`")?;
+    if rgb.is_empty() || rgb.len() % 4 != 0 {
+        return Err(format!("`RGBPoints` has {} numbers, expected groups of 4 (x, r, g, b)", rgb.len()));
+    }
+    let opacity = numbers(colormap, "Points")?;
+    if let Some(points) = &opacity
+        && (points.is_empty() || points.len() % 4 != 0)
+    {
+        return Err(format!(
+            "`Points` has {} numbers, expected groups of 4 (x, opacity, midpoint, sharpness)",
+            points.len()
+        ));
+    }
+    let (lo, hi) =
+        rgb.chunks_exact(4).fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), p| (lo.min(p[0]), hi.max(p[0])));
+    let to_unit = |x: f32| if hi > lo { (x - lo) / (hi - lo) } else { 0.0 };
+    let color: Vec<ColorPoint> = rgb.chunks_exact(4).map(|p| (to_unit(p[0]), [p[1], p[2], p[3]])).collect();
+    let opacity: Vec<OpacityPoint> = match &opacity {
+        Some(points) => points.chunks_exact(4).map(|p| (to_unit(p[0]), p[1])).collect(),
+        None => vec![(0.0, 0.0), (1.0, 1.0)],
+    };
+    let name = colormap.get("Name").and_then(Value::as_str).unwrap_or(fallback_name);
+    Ok(from_points(name, &color, &opacity))
+}
+
+/// The array of finite numbers under `key`, if the key is present.
+fn numbers(object: &Value, key: &str) -> Result<Option<Vec<f32>>, String> {
+    let Some(value) = object.get(key) else { return Ok(None) };
+    let array = value.as_array().ok_or_else(|| format!("`{key}` is not an array of numbers"))?;
+    array
+        .iter()
+        .enumerate()
+        .map(|(i, v)| match v.as_f64() {
+            Some(n) if n.is_finite() => Ok(n as f32),
+            _ => Err(format!("`{key}` entry {i} is not a number: `{v}`")),
+        })
+        .collect::<Result<_, _>>()
+        .map(Some)
+}
+
+/// The candidate closest to a mistyped `name`, if any is close: at most one edit (insertion,
+/// deletion, substitution or swap of neighbours) per three characters. Shared by the lists of
+/// names the runtime accepts (presets, phantoms).
+pub(crate) fn did_you_mean<'a>(name: &str, candidates: &[&'a str]) -> Option<&'a str> {
+    let name = name.to_ascii_lowercase();
+    candidates
+        .iter()
+        .map(|&c| (edit_distance(&name, c), c))
+        .filter(|&(d, c)| d <= (name.len().max(c.len()) / 3).max(1))
+        .min_by_key(|&(d, _)| d)
+        .map(|(_, c)| c)
+}
+
+/// Edit distance counting a swap of neighbouring characters as one edit (optimal string
+/// alignment), since swaps are the commonest typo.
+fn edit_distance(a: &str, b: &str) -> usize {
+    let (a, b): (Vec<char>, Vec<char>) = (a.chars().collect(), b.chars().collect());
+    // rows[i][j]: distance between a[..i] and b[..j]; only three rows are needed at a time.
+    let mut before: Vec<usize> = Vec::new();
+    let mut previous: Vec<usize> = (0..=b.len()).collect();
+    for i in 1..=a.len() {
+        let mut row = vec![i; b.len() + 1];
+        for j in 1..=b.len() {
+            let cost = usize::from(a[i - 1] != b[j - 1]);
+            row[j] = (previous[j] + 1).min(row[j - 1] + 1).min(previous[j - 1] + cost);
+            if i > 1 && j > 1 && a[i - 1] == b[j - 2] && a[i - 2] == b[j - 1] {
+                row[j] = row[j].min(before[j - 2] + 1);
+            }
+        }
+        before = std::mem::replace(&mut previous, row);
+    }
+    previous[b.len()]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The entry for normalized value `x`.
+    fn at(tf: &TransferFunction, x: f32) -> [f32; 4] {
+        tf.rgba[(x * (TF_WIDTH - 1) as f32).round() as usize]
+    }
+
+    #[test]
+    fn every_preset_is_a_full_table_in_range() {
+        for &name in PRESETS {
+            let tf = preset(name).unwrap();
+            assert_eq!(tf.name, name);
+            assert_eq!(tf.rgba.len(), TF_WIDTH as usize, "{name}");
+            assert!(tf.rgba.iter().flatten().all(|c| (0.0..=1.0).contains(c)), "{name}");
+            assert_eq!(tf.to_rgba8().len(), 4 * TF_WIDTH as usize);
+            assert_eq!(at(&tf, 0.0)[3], 0.0, "{name}: the lowest value is transparent");
+        }
+    }
+
+    #[test]
+    fn presets_pick_their_tissues() {
+        let bone = preset("ct_bone").unwrap();
+        assert_eq!(at(&bone, 0.38)[3], 0.0, "liver is invisible");
+        assert!(at(&bone, 0.85)[3] > 0.5, "bone is dense");
+        let soft = preset("ct_soft_tissue").unwrap();
+        let (fat, liver, vessel) = (at(&soft, 0.15), at(&soft, 0.38), at(&soft, 0.65));
+        assert!(fat[3] < liver[3] && liver[3] < 0.1 && vessel[3] > 0.2);
+        assert!(liver[0] > liver[2], "soft tissue is reddish");
+        let red = preset("vessel_red").unwrap();
+        assert_eq!(at(&red, 0.5)[3], 0.0);
+        let v = at(&red, 0.65);
+        assert!(v[3] > 0.4 && v[0] > 2.0 * v[2]);
+        let blue = at(&preset("vessel_blue").unwrap(), 0.65);
+        assert!(blue[2] > 2.0 * blue[0]);
+        assert_eq!(at(&preset("mr_default").unwrap(), 0.1)[3], 0.0);
+    }
+
+    #[test]
+    fn labels_are_piecewise_constant() {
+        let tf = preset("labels").unwrap();
+        assert_eq!(at(&tf, 0.0)[3], 0.0);
+        assert_eq!(at(&tf, 0.02)[3], 0.0);
+        // Labels 0..=4 normalized by their range: 0, 0.25, 0.5, 0.75, 1.
+        let colours: Vec<[f32; 4]> = [0.25, 0.5, 0.75, 1.0].iter().map(|&x| at(&tf, x)).collect();
+        for (i, a) in colours.iter().enumerate() {
+            assert_eq!(a[3], 0.6);
+            assert!(colours[i + 1..].iter().all(|b| a != b), "distinct colours");
+        }
+        // Constant within a bin: a bin is 64 entries wide.
+        assert_eq!(at(&tf, 0.25), at(&tf, 0.25 + 0.02));
+        assert_eq!(at(&tf, 1.0)[..3], LABEL_COLOURS[15]);
+    }
+
+    #[test]
+    fn unknown_preset_suggests() {
+        let e = preset("ct_bnoe").unwrap_err().to_string();
+        assert!(
+            e.starts_with("unknown transfer function preset `ct_bnoe` (did you mean `ct_bone`?); the presets are: ")
+        );
+        assert!(e.ends_with("hot_metal, labels"), "{e}");
+        let e = preset("rainbow").unwrap_err().to_string();
+        assert!(!e.contains("did you mean"), "{e}");
+    }
+
+    #[test]
+    fn from_points_interpolates_sorts_and_clamps() {
+        let tf = from_points("t", &[(1.0, [1.0, 0.0, 2.0]), (0.0, [0.0, 1.0, 0.0])], &[(0.5, 0.2), (0.75, f32::NAN)]);
+        assert_eq!(tf.rgba[0], [0.0, 1.0, 0.0, 0.2]);
+        assert_eq!(tf.rgba[1023][..3], [1.0, 0.0, 1.0]);
+        let mid = tf.rgba[511];
+        assert!((mid[0] - 511.0 / 1023.0).abs() < 1e-6);
+        assert_eq!(tf.rgba[1023][3], 0.0, "NaN opacity becomes 0");
+        let defaults = from_points("d", &[], &[]);
+        assert_eq!(defaults.rgba[0], [1.0, 1.0, 1.0, 0.0]);
+        assert_eq!(defaults.rgba[1023], [1.0; 4]);
+        assert_eq!(from_points("x", &[], &[]).to_rgba8()[4 * 1023..], [255, 255, 255, 255]);
+    }
+
+    fn write(dir: &tempfile::TempDir, text: &str) -> PathBuf {
+        let path = dir.path().join("map.json");
+        std::fs::write(&path, text).unwrap();
+        path
+    }
+
+    #[test]
+    fn paraview_with_points() {
+        let dir = tempfile::tempdir().unwrap();
+        let text = r#"[{"ColorSpace": "RGB", "Name": "Cool",
+            "RGBPoints": [-100, 0, 0, 1, 100, 1, 0, 0],
+            "Points": [-100, 0, 0.5, 0, 0, 0.5, 0.5, 0, 100, 1, 0.5, 0]}]"#;
+        let tf = from_paraview_json(&write(&dir, text)).unwrap();
+        assert_eq!(tf.name, "Cool");
+        assert_eq!(tf.rgba[0], [0.0, 0.0, 1.0, 0.0]);
+        assert_eq!(tf.rgba[1023], [1.0, 0.0, 0.0, 1.0]);
+        assert!((tf.rgba[511][3] - 0.5).abs() < 0.01);
+    }
+
+    #[test]
+    fn paraview_without_points_ramps_opacity() {
+        let dir = tempfile::tempdir().unwrap();
+        let tf = from_paraview_json(&write(&dir, r#"{"RGBPoints": [0, 0, 0, 0, 0.5, 1, 1, 1]}"#)).unwrap();
+        assert_eq!(tf.name, "map");
+        assert_eq!(tf.rgba[0], [0.0; 4]);
+        assert_eq!(tf.rgba[1023], [1.0; 4]);
+        assert!((tf.rgba[256][3] - 256.0 / 1023.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn paraview_errors_name_the_file_and_problem() {
+        let dir = tempfile::tempdir().unwrap();
+        let cases = [
+            ("{not json", "not valid JSON"),
+            ("42", "not a ParaView colormap"),
+            ("[]", "not a ParaView colormap"),
+            (r#"[{"Name": "x"}]"#, "not a ParaView colormap"),
+            (r#"{"Name": "x"}"#, "the colormap has no `RGBPoints`"),
+            (r#"{"RGBPoints": [0, 1, 1]}"#, "`RGBPoints` has 3 numbers, expected groups of 4"),
+            (r#"{"RGBPoints": []}"#, "`RGBPoints` has 0 numbers"),
+            (r#"{"RGBPoints": [0, 1, "a", 1]}"#, "`RGBPoints` entry 2 is not a number: `\"a\"`"),
+            (r#"{"RGBPoints": "0 1 1 1"}"#, "`RGBPoints` is not an array of numbers"),
+            (r#"{"RGBPoints": [0, 1, 1, 1], "Points": [0, 1]}"#, "`Points` has 2 numbers, expected groups of 4"),
+        ];
+        for (text, expected) in cases {
+            let path = write(&dir, text);
+            let e = from_paraview_json(&path).unwrap_err().to_string();
+            assert!(e.starts_with(&format!("`{}`: ", path.display())), "{e}");
+            assert!(e.contains(expected), "{text}: {e}");
+        }
+        let missing = from_paraview_json(&dir.path().join("none.json")).unwrap_err();
+        assert!(matches!(missing, TfError::Io { .. }));
+        assert!(missing.to_string().contains("cannot read"));
+    }
+
+    #[test]
+    fn did_you_mean_allows_one_edit_per_three_characters() {
+        assert_eq!(did_you_mean("haed", &["head", "abdomen"]), Some("head"));
+        assert_eq!(did_you_mean("ABDOMEN", &["head", "abdomen"]), Some("abdomen"));
+        assert_eq!(did_you_mean("abdmn", &["head", "abdomen"]), Some("abdomen"));
+        assert_eq!(did_you_mean("xyz", &["head", "abdomen"]), None);
+        assert_eq!(edit_distance("kitten", "sitting"), 3);
+        assert_eq!(edit_distance("ab", "ba"), 1);
+        assert_eq!(edit_distance("", "abc"), 3);
+    }
+}

@@ -1,0 +1,186 @@
+//! Rendering one view: its pipeline, its uniform block and buffer, its output image, and the
+//! shared volumes and transfer functions it binds by name.
+
+use crate::error::RuntimeError;
+use crate::gpu::Gpu;
+use crate::reflection::BindingKind;
+use crate::shader::{PipelineCache, ViewShader};
+use crate::textures::{TfTexture, VolumeTexture, linear_sampler};
+use crate::uniforms::{UniformBlock, Value};
+use std::collections::HashMap;
+use std::sync::Arc;
+
+/// Textures shared by the views of a scene, by the uniform name the shaders bind them under
+/// (`volume`, `volume_gm`, `tf`, `tf_gm`).
+pub struct Resources {
+    pub volumes: HashMap<String, Arc<VolumeTexture>>,
+    pub tfs: HashMap<String, Arc<TfTexture>>,
+    pub sampler: wgpu::Sampler,
+}
+
+impl Resources {
+    pub fn new(gpu: &Gpu) -> Resources {
+        Resources { volumes: HashMap::new(), tfs: HashMap::new(), sampler: linear_sampler(gpu) }
+    }
+}
+
+/// One view's GPU state. Changing uniforms only rewrites the uniform buffer.
+pub struct ViewRenderer {
+    shader: ViewShader,
+    pipeline: Arc<wgpu::ComputePipeline>,
+    uniforms: UniformBlock,
+    uniform_buffer: wgpu::Buffer,
+    output: wgpu::Texture,
+    size: [u32; 2],
+}
+
+/// Rows of a texture-to-buffer copy are padded to this many bytes.
+const ROW_ALIGNMENT: u32 = wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
+
+impl ViewRenderer {
+    /// A renderer of `shader` at `size` pixels; the pipeline comes from `cache`.
+    pub fn new(gpu: &Gpu, cache: &mut PipelineCache, shader: ViewShader, size: [u32; 2]) -> Result<ViewRenderer, RuntimeError> {
+        let pipeline = cache.get(gpu, &shader)?;
+        let uniforms = UniformBlock::new(&shader.reflection);
+        let uniform_buffer = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("uniforms"),
+            size: uniforms.bytes().len() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let output = create_output(gpu, size);
+        Ok(ViewRenderer { shader, pipeline, uniforms, uniform_buffer, output, size })
+    }
+
+    pub fn shader(&self) -> &ViewShader {
+        &self.shader
+    }
+
+    pub fn size(&self) -> [u32; 2] {
+        self.size
+    }
+
+    /// Sets a uniform by name; the value must have the uniform's type.
+    pub fn set_uniform(&mut self, name: &str, value: impl Into<Value>) -> Result<(), RuntimeError> {
+        let view = &self.shader.reflection.view;
+        self.uniforms.set(name, value).map_err(|error| RuntimeError::Uniform { view: view.clone(), error })
+    }
+
+    /// Whether the shader reads uniform `name` (unreached uniforms are not in it).
+    pub fn has_uniform(&self, name: &str) -> bool {
+        self.uniforms.has(name)
+    }
+
+    pub fn uniforms(&self) -> &UniformBlock {
+        &self.uniforms
+    }
+
+    /// Swaps in another shader of the same view (a structural change), keeping the size. Uniform
+    /// values start again from the new reflection.
+    pub fn set_shader(&mut self, gpu: &Gpu, cache: &mut PipelineCache, shader: ViewShader) -> Result<(), RuntimeError> {
+        *self = ViewRenderer::new(gpu, cache, shader, self.size)?;
+        Ok(())
+    }
+
+    /// Records the view's compute pass into `encoder`.
+    pub fn encode(&mut self, gpu: &Gpu, resources: &Resources, encoder: &mut wgpu::CommandEncoder) -> Result<(), RuntimeError> {
+        if let Some(bytes) = self.uniforms.take_changes() {
+            gpu.queue.write_buffer(&self.uniform_buffer, 0, bytes);
+        }
+        let bind_group = self.bind_group(gpu, resources)?;
+        let [wx, wy, _] = self.shader.reflection.workgroup_size;
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("raycast"), timestamp_writes: None });
+        pass.set_pipeline(&self.pipeline);
+        pass.set_bind_group(0, &bind_group, &[]);
+        pass.dispatch_workgroups(self.size[0].div_ceil(wx.max(1)), self.size[1].div_ceil(wy.max(1)), 1);
+        Ok(())
+    }
+
+    /// Renders and reads the image back (straight alpha RGBA8).
+    pub fn render(&mut self, gpu: &Gpu, resources: &Resources) -> Result<image::RgbaImage, RuntimeError> {
+        let mut encoder = gpu.device.create_command_encoder(&Default::default());
+        self.encode(gpu, resources, &mut encoder)?;
+        let [w, h] = self.size;
+        let padded_row = (w * 4).div_ceil(ROW_ALIGNMENT) * ROW_ALIGNMENT;
+        let readback = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("readback"),
+            size: u64::from(padded_row) * u64::from(h),
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        encoder.copy_texture_to_buffer(
+            self.output.as_image_copy(),
+            wgpu::TexelCopyBufferInfo {
+                buffer: &readback,
+                layout: wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(padded_row), rows_per_image: Some(h) },
+            },
+            wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
+        );
+        gpu.queue.submit([encoder.finish()]);
+        let slice = readback.slice(..);
+        slice.map_async(wgpu::MapMode::Read, |_| {});
+        gpu.wait();
+        let mapped = slice.get_mapped_range().map_err(|e| RuntimeError::Invalid(format!("cannot read the image back: {e}")))?;
+        let mut pixels = Vec::with_capacity((w * h * 4) as usize);
+        for row in mapped.chunks(padded_row as usize) {
+            pixels.extend_from_slice(&row[..(w * 4) as usize]);
+        }
+        drop(mapped);
+        readback.unmap();
+        unpremultiply(&mut pixels);
+        image::RgbaImage::from_raw(w, h, pixels).ok_or_else(|| RuntimeError::Invalid("image size mismatch".into()))
+    }
+
+    fn bind_group(&self, gpu: &Gpu, resources: &Resources) -> Result<wgpu::BindGroup, RuntimeError> {
+        let output_view = self.output.create_view(&Default::default());
+        let view_name = &self.shader.reflection.view;
+        let missing = |what: &str, name: &str| {
+            RuntimeError::Invalid(format!("view `{view_name}` reads {what} `{name}`, but none is bound"))
+        };
+        let mut entries = Vec::new();
+        for binding in &self.shader.reflection.bindings {
+            let resource = match binding.kind {
+                BindingKind::UniformBlock => self.uniform_buffer.as_entire_binding(),
+                BindingKind::OutputImage => wgpu::BindingResource::TextureView(&output_view),
+                BindingKind::VolumeTexture => wgpu::BindingResource::TextureView(
+                    &resources.volumes.get(&binding.name).ok_or_else(|| missing("volume", &binding.name))?.view,
+                ),
+                BindingKind::TfTexture => wgpu::BindingResource::TextureView(
+                    &resources.tfs.get(&binding.name).ok_or_else(|| missing("transfer function", &binding.name))?.view,
+                ),
+                BindingKind::VolumeSampler | BindingKind::TfSampler => wgpu::BindingResource::Sampler(&resources.sampler),
+            };
+            entries.push(wgpu::BindGroupEntry { binding: binding.binding, resource });
+        }
+        Ok(gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some(view_name),
+            layout: &self.pipeline.get_bind_group_layout(0),
+            entries: &entries,
+        }))
+    }
+}
+
+fn create_output(gpu: &Gpu, [w, h]: [u32; 2]) -> wgpu::Texture {
+    gpu.device.create_texture(&wgpu::TextureDescriptor {
+        label: Some("view output"),
+        size: wgpu::Extent3d { width: w.max(1), height: h.max(1), depth_or_array_layers: 1 },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format: wgpu::TextureFormat::Rgba8Unorm,
+        usage: wgpu::TextureUsages::STORAGE_BINDING | wgpu::TextureUsages::COPY_SRC,
+        view_formats: &[],
+    })
+}
+
+/// The shader writes premultiplied colour; PNG wants straight alpha.
+fn unpremultiply(pixels: &mut [u8]) {
+    for px in pixels.chunks_exact_mut(4) {
+        let a = px[3];
+        if a != 0 && a != 255 {
+            for c in &mut px[..3] {
+                *c = ((u32::from(*c) * 255 + u32::from(a) / 2) / u32::from(a)).min(255) as u8;
+            }
+        }
+    }
+}

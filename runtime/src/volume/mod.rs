@@ -1,0 +1,611 @@
+//! Volumes on the CPU: loading NIfTI-1, NRRD and MetaImage files, and generating phantoms.
+//!
+//! Every loader validates the header before it reads or allocates the data, so a hostile or
+//! broken file costs at most the memory its actual data needs, and every problem is reported as
+//! a [`LoadError`] that names the file and the header field at fault.
+//!
+//! World space is RAS+ millimetres (NIfTI's convention): headers in LPS (MetaImage, NRRD with
+//! `space: left-posterior-superior`) have their x and y axes negated, so that volumes loaded from
+//! different formats line up.
+
+mod mhd;
+mod nifti;
+mod nrrd;
+pub mod phantom;
+
+use std::fmt;
+use std::fs::File;
+use std::io::{self, BufRead, Read};
+use std::path::{Path, PathBuf};
+
+use glam::{Mat4, Vec3, Vec4};
+
+pub use phantom::{PHANTOMS, UnknownPhantom, phantom};
+
+/// The most voxels a volume may have: 2^31 (8 GiB as `f32`, 4 GiB on the GPU as half floats).
+pub const MAX_VOXELS: u64 = 1 << 31;
+
+/// A scalar volume in memory, as `f32` with the file's value scaling applied.
+#[derive(Clone, PartialEq)]
+pub struct Volume {
+    /// Samples per axis; x varies fastest in `data`.
+    pub dims: [u32; 3],
+    /// World units (mm) per voxel along each axis.
+    pub spacing: [f32; 3],
+    /// Voxel index (i, j, k) of a voxel centre -> world position (mm, RAS+), from the header.
+    pub grid_to_world: Mat4,
+    /// The samples, `dims[0] * dims[1] * dims[2]` of them, x fastest, then y, then z.
+    pub data: Vec<f32>,
+    /// Minimum and maximum of the finite samples (`[0, 0]` when there are none).
+    pub range: [f32; 2],
+}
+
+impl Volume {
+    /// Builds a volume from samples in physical units, deriving `spacing` from the lengths of the
+    /// voxel axes in `grid_to_world` and `range` from the data.
+    pub fn new(dims: [u32; 3], grid_to_world: Mat4, data: Vec<f32>) -> Volume {
+        let range = finite_range(&data);
+        Volume { dims, spacing: spacing_of(&grid_to_world), grid_to_world, data, range }
+    }
+
+    /// Values mapped to [0, 1] by `window` (lo, hi), or by `range` when `None`; clamped; NaN -> 0.
+    ///
+    /// This is what the GPU samples: transfer functions are defined over [0, 1], so one preset
+    /// fits any data once a window picks the interesting values. A window with `hi <= lo` is a
+    /// threshold: values above `lo` become 1.
+    pub fn normalized(&self, window: Option<[f32; 2]>) -> Vec<f32> {
+        let window = Window::new(window.unwrap_or(self.range));
+        self.data.iter().map(|&v| window.apply(v)).collect()
+    }
+
+    /// [`Volume::normalized`] as IEEE half floats, for an `R16Float` texture upload (half the
+    /// memory of `f32`, and filterable on every backend).
+    pub fn normalized_f16(&self, window: Option<[f32; 2]>) -> Vec<half::f16> {
+        let window = Window::new(window.unwrap_or(self.range));
+        self.data.iter().map(|&v| half::f16::from_f32(window.apply(v))).collect()
+    }
+
+    /// The number of voxels, `dims[0] * dims[1] * dims[2]`.
+    pub fn voxel_count(&self) -> u64 {
+        self.dims.iter().map(|&d| u64::from(d)).product()
+    }
+
+    /// Bytes the volume takes on the GPU at 2 bytes per voxel (see [`Volume::normalized_f16`]).
+    pub fn gpu_bytes(&self) -> u64 {
+        self.voxel_count() * 2
+    }
+}
+
+/// Prints the shape, not the (possibly gigabytes of) samples.
+impl fmt::Debug for Volume {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("Volume")
+            .field("dims", &self.dims)
+            .field("spacing", &self.spacing)
+            .field("grid_to_world", &self.grid_to_world)
+            .field("data", &format_args!("[{} samples]", self.data.len()))
+            .field("range", &self.range)
+            .finish()
+    }
+}
+
+/// A value window, precomputed so normalizing a sample is one multiply-add.
+#[derive(Clone, Copy)]
+struct Window {
+    lo: f32,
+    /// `1 / (hi - lo)`, or `None` for a degenerate window (a threshold at `lo`).
+    scale: Option<f32>,
+}
+
+impl Window {
+    fn new([lo, hi]: [f32; 2]) -> Window {
+        Window { lo, scale: (hi > lo).then(|| 1.0 / (hi - lo)) }
+    }
+
+    fn apply(self, v: f32) -> f32 {
+        let t = match self.scale {
+            Some(scale) => (v - self.lo) * scale,
+            None if v > self.lo => 1.0,
+            None => 0.0,
+        };
+        if t.is_nan() { 0.0 } else { t.clamp(0.0, 1.0) }
+    }
+}
+
+/// Minimum and maximum of the finite values; `[0, 0]` when there are none, so a window built
+/// from it is always finite.
+fn finite_range(data: &[f32]) -> [f32; 2] {
+    let (lo, hi) = data
+        .iter()
+        .filter(|v| v.is_finite())
+        .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &v| (lo.min(v), hi.max(v)));
+    if lo <= hi { [lo, hi] } else { [0.0, 0.0] }
+}
+
+/// The length of each voxel axis (the first three columns of the matrix); 1 where that length
+/// is not a usable positive number, so the spacing is always safe to divide by.
+fn spacing_of(grid_to_world: &Mat4) -> [f32; 3] {
+    let axis = |v: Vec4| {
+        let len = v.truncate().length();
+        if len.is_finite() && len > 0.0 { len } else { 1.0 }
+    };
+    [axis(grid_to_world.x_axis), axis(grid_to_world.y_axis), axis(grid_to_world.z_axis)]
+}
+
+/// A grid-to-world matrix from three voxel axes (world vectors per voxel step) and the world
+/// position of voxel (0, 0, 0).
+fn affine(axes: [Vec3; 3], origin: Vec3) -> Mat4 {
+    Mat4::from_cols(axes[0].extend(0.0), axes[1].extend(0.0), axes[2].extend(0.0), origin.extend(1.0))
+}
+
+/// Converts a matrix into LPS+ world space (DICOM, ITK) into RAS+ by negating world x and y.
+fn lps_to_ras(m: Mat4) -> Mat4 {
+    Mat4::from_scale(Vec3::new(-1.0, -1.0, 1.0)) * m
+}
+
+/// Whether a grid-to-world matrix is finite and invertible, so it can place a volume.
+fn is_usable(m: &Mat4) -> bool {
+    let det = glam::Mat3::from_mat4(*m).determinant();
+    m.is_finite() && det.is_finite() && det != 0.0
+}
+
+/// Why a volume could not be loaded, and from which file.
+#[derive(Debug)]
+pub struct LoadError {
+    /// The path given to [`load`].
+    pub path: PathBuf,
+    /// What went wrong.
+    pub kind: LoadErrorKind,
+}
+
+impl LoadError {
+    /// True for a file that is missing or unreadable (the CLI exits with 2), false for a file
+    /// whose content is wrong or unsupported (exit 1).
+    pub fn is_io(&self) -> bool {
+        matches!(self.kind, LoadErrorKind::Io { .. })
+    }
+}
+
+impl fmt::Display for LoadError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "`{}`: {}", self.path.display(), self.kind)
+    }
+}
+
+impl std::error::Error for LoadError {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        match &self.kind {
+            LoadErrorKind::Io { error, .. } => Some(error),
+            _ => None,
+        }
+    }
+}
+
+/// The problem behind a [`LoadError`]; its `Display` is a sentence for users.
+#[derive(Debug)]
+#[non_exhaustive]
+pub enum LoadErrorKind {
+    /// A file could not be opened or read: the volume file itself (`file: None`) or the data file
+    /// its header names.
+    Io { file: Option<PathBuf>, error: io::Error },
+    /// The file name does not end in one of the supported extensions.
+    UnknownFormat,
+    /// A header field is missing, malformed or unsupported; the message names the field.
+    Header(String),
+    /// The header declares more than [`MAX_VOXELS`] voxels.
+    TooLarge { dims: Vec<u64>, voxels: u128 },
+    /// The data section's length disagrees with what the header declares.
+    SizeMismatch { expected: u64, found: u64, compressed: bool },
+    /// Compressed data could not be decompressed.
+    Corrupt(String),
+    /// The samples (as `f32`) do not fit in memory.
+    OutOfMemory { bytes: u64 },
+}
+
+impl fmt::Display for LoadErrorKind {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            LoadErrorKind::Io { file: None, error } => write!(f, "cannot read: {error}"),
+            LoadErrorKind::Io { file: Some(file), error } => {
+                write!(f, "cannot read the data file `{}`: {error}", file.display())
+            }
+            LoadErrorKind::UnknownFormat => {
+                f.write_str("unknown volume format (expected .nii, .nii.gz, .nrrd, .nhdr, .mhd or .mha)")
+            }
+            LoadErrorKind::Header(message) => f.write_str(message),
+            LoadErrorKind::TooLarge { dims, voxels } => {
+                let dims: Vec<String> = dims.iter().map(u64::to_string).collect();
+                write!(f, "too large: {} = {voxels} voxels (at most {MAX_VOXELS} are supported)", dims.join(" x "))
+            }
+            LoadErrorKind::SizeMismatch { expected, found, compressed: false } => {
+                write!(f, "header says {expected} bytes of data, file has {found}")
+            }
+            LoadErrorKind::SizeMismatch { expected, found, compressed: true } => {
+                write!(f, "header says {expected} bytes of data, the decompressed data has {found}")
+            }
+            LoadErrorKind::Corrupt(message) => write!(f, "corrupt or truncated compressed data: {message}"),
+            LoadErrorKind::OutOfMemory { bytes } => {
+                write!(f, "not enough memory for the volume ({} MiB as 32-bit floats)", bytes >> 20)
+            }
+        }
+    }
+}
+
+/// Loads a volume, picking the format by the file name: `.nii`, `.nii.gz` (NIfTI-1), `.nrrd`,
+/// `.nhdr` (NRRD), `.mhd`, `.mha` (MetaImage).
+///
+/// `progress(done_bytes, total_bytes)` is called as the file holding the data is read (about
+/// every 1% of it), and once with `done == total` at the end, so a caller can draw a progress bar.
+pub fn load(path: &Path, progress: &mut dyn FnMut(u64, u64)) -> Result<Volume, LoadError> {
+    let name = path.file_name().map(|n| n.to_string_lossy().to_ascii_lowercase()).unwrap_or_default();
+    let result = if name.ends_with(".nii.gz") {
+        nifti::load(path, true, progress)
+    } else if name.ends_with(".nii") {
+        nifti::load(path, false, progress)
+    } else if name.ends_with(".nrrd") || name.ends_with(".nhdr") {
+        nrrd::load(path, progress)
+    } else if name.ends_with(".mhd") || name.ends_with(".mha") {
+        mhd::load(path, progress)
+    } else {
+        Err(LoadErrorKind::UnknownFormat)
+    };
+    result.map_err(|kind| LoadError { path: path.to_path_buf(), kind })
+}
+
+/// The sample types the loaders accept; all are converted to `f32`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum ScalarType {
+    U8,
+    I8,
+    U16,
+    I16,
+    U32,
+    I32,
+    F32,
+    F64,
+}
+
+impl ScalarType {
+    /// Bytes per sample.
+    fn size(self) -> u64 {
+        match self {
+            ScalarType::U8 | ScalarType::I8 => 1,
+            ScalarType::U16 | ScalarType::I16 => 2,
+            ScalarType::U32 | ScalarType::I32 | ScalarType::F32 => 4,
+            ScalarType::F64 => 8,
+        }
+    }
+
+    /// Appends the samples in `bytes` (a whole number of them) to `out` as `f32`.
+    fn decode(self, bytes: &[u8], big_endian: bool, out: &mut Vec<f32>) {
+        macro_rules! convert {
+            ($t:ty, $n:literal) => {{
+                let (samples, _) = bytes.as_chunks::<$n>();
+                if big_endian {
+                    out.extend(samples.iter().map(|&s| <$t>::from_be_bytes(s) as f32));
+                } else {
+                    out.extend(samples.iter().map(|&s| <$t>::from_le_bytes(s) as f32));
+                }
+            }};
+        }
+        match self {
+            ScalarType::U8 => out.extend(bytes.iter().map(|&b| f32::from(b))),
+            ScalarType::I8 => out.extend(bytes.iter().map(|&b| f32::from(b as i8))),
+            ScalarType::U16 => convert!(u16, 2),
+            ScalarType::I16 => convert!(i16, 2),
+            ScalarType::U32 => convert!(u32, 4),
+            ScalarType::I32 => convert!(i32, 4),
+            ScalarType::F32 => convert!(f32, 4),
+            ScalarType::F64 => convert!(f64, 8),
+        }
+    }
+}
+
+/// The voxel counts of a header's size field as `u32`s, refusing zero sizes and volumes beyond
+/// [`MAX_VOXELS`] before anything is allocated. `field` names the header field for the message.
+fn check_dims(field: &str, sizes: [u64; 3]) -> Result<[u32; 3], LoadErrorKind> {
+    if sizes.contains(&0) {
+        let [x, y, z] = sizes;
+        return Err(LoadErrorKind::Header(format!("`{field}` has a zero size: {x} x {y} x {z}")));
+    }
+    let voxels = sizes.iter().map(|&s| u128::from(s)).product::<u128>();
+    match sizes.map(u32::try_from) {
+        [Ok(x), Ok(y), Ok(z)] if voxels <= u128::from(MAX_VOXELS) => Ok([x, y, z]),
+        _ => Err(LoadErrorKind::TooLarge { dims: sizes.to_vec(), voxels }),
+    }
+}
+
+/// How the samples are stored.
+#[derive(Clone, Copy, Debug)]
+struct Layout {
+    ty: ScalarType,
+    big_endian: bool,
+    voxels: u64,
+}
+
+impl Layout {
+    fn bytes(&self) -> u64 {
+        self.voxels * self.ty.size()
+    }
+}
+
+/// What a loader knows about the stream it reads samples from, for sizing and error messages.
+struct DataSource<'a> {
+    /// The data file when it is not the file given to [`load`].
+    file: Option<&'a Path>,
+    /// Whether the stream is decompressed (its length is unknown until it is read).
+    compressed: bool,
+    /// The bytes the stream holds, when known without reading it (uncompressed files).
+    available: Option<u64>,
+}
+
+impl DataSource<'_> {
+    /// A read error as a load error: decompressors report bad or truncated input as
+    /// `InvalidInput`, `InvalidData` or `UnexpectedEof`, which is the file's content at fault,
+    /// not the file system.
+    fn read_error(&self, error: io::Error) -> LoadErrorKind {
+        use io::ErrorKind::{InvalidData, InvalidInput, UnexpectedEof};
+        if self.compressed && matches!(error.kind(), InvalidData | InvalidInput | UnexpectedEof) {
+            LoadErrorKind::Corrupt(error.to_string())
+        } else {
+            LoadErrorKind::Io { file: self.file.map(Path::to_path_buf), error }
+        }
+    }
+
+    fn mismatch(&self, expected: u64, found: u64) -> LoadErrorKind {
+        LoadErrorKind::SizeMismatch { expected, found, compressed: self.compressed }
+    }
+}
+
+/// Bytes read and converted at a time: bounds the extra memory to one chunk whatever the volume.
+const CHUNK_BYTES: usize = 1 << 20;
+
+/// Reads exactly the samples `layout` describes from `reader` (positioned at the first sample)
+/// and checks that nothing follows them.
+///
+/// The output grows with the data actually read (it is reserved up front only when the source's
+/// length is known and right), so a small compressed file claiming a huge volume cannot make
+/// this allocate more than the data it really holds.
+fn read_samples(reader: &mut dyn Read, layout: Layout, source: &DataSource) -> Result<Vec<f32>, LoadErrorKind> {
+    let expected = layout.bytes();
+    if let Some(available) = source.available
+        && available != expected
+    {
+        return Err(source.mismatch(expected, available));
+    }
+    let reserve = if source.available.is_some() { layout.voxels } else { layout.voxels.min(1 << 22) };
+    let mut out = Vec::new();
+    out.try_reserve_exact(usize::try_from(reserve).unwrap_or(usize::MAX))
+        .map_err(|_| LoadErrorKind::OutOfMemory { bytes: reserve * 4 })?;
+    let mut buf = vec![0u8; CHUNK_BYTES];
+    let mut remaining = expected;
+    while remaining > 0 {
+        let want = usize::try_from(remaining).map_or(CHUNK_BYTES, |r| r.min(CHUNK_BYTES));
+        let got = read_full(reader, &mut buf[..want]).map_err(|e| source.read_error(e))?;
+        if got < want {
+            return Err(source.mismatch(expected, expected - remaining + got as u64));
+        }
+        layout.ty.decode(&buf[..want], layout.big_endian, &mut out);
+        remaining -= want as u64;
+    }
+    let extra = io::copy(reader, &mut io::sink()).map_err(|e| source.read_error(e))?;
+    if extra > 0 {
+        return Err(source.mismatch(expected, expected + extra));
+    }
+    Ok(out)
+}
+
+/// Fills `buf` as far as the stream allows; returns how many bytes were read (less than
+/// `buf.len()` only at the end of the stream).
+fn read_full(reader: &mut dyn Read, buf: &mut [u8]) -> io::Result<usize> {
+    let mut filled = 0;
+    while filled < buf.len() {
+        match reader.read(&mut buf[filled..]) {
+            Ok(0) => break,
+            Ok(n) => filled += n,
+            Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
+            Err(e) => return Err(e),
+        }
+    }
+    Ok(filled)
+}
+
+/// Skips `n` bytes of `reader`; returns how many there were (less than `n` at the end).
+fn skip_bytes(reader: &mut dyn Read, n: u64) -> io::Result<u64> {
+    io::copy(&mut reader.take(n), &mut io::sink())
+}
+
+/// Opens a file and returns it with its length; `data_file` is true for a data file named by a
+/// header, so that an error names it.
+fn open(path: &Path, data_file: bool) -> Result<(File, u64), LoadErrorKind> {
+    let io_error = |error| LoadErrorKind::Io { file: data_file.then(|| path.to_path_buf()), error };
+    let file = File::open(path).map_err(io_error)?;
+    let len = file.metadata().map_err(io_error)?.len();
+    Ok((file, len))
+}
+
+/// Counts the bytes read from the file holding the data and reports them to a progress callback
+/// about every 1% (and at least every 256 KiB read), which is often enough for a smooth bar and
+/// rare enough to cost nothing. The first report comes after the first step, so reading a small
+/// detached header reports nothing before its data file's progress starts.
+struct ProgressReader<'p, R> {
+    inner: R,
+    done: u64,
+    total: u64,
+    next_report: u64,
+    progress: &'p mut dyn FnMut(u64, u64),
+}
+
+impl<'p, R> ProgressReader<'p, R> {
+    fn new(inner: R, total: u64, progress: &'p mut dyn FnMut(u64, u64)) -> Self {
+        let mut reader = ProgressReader { inner, done: 0, total, next_report: 0, progress };
+        reader.next_report = reader.step();
+        reader
+    }
+
+    fn step(&self) -> u64 {
+        (self.total / 100).max(256 << 10)
+    }
+}
+
+impl<R: Read> Read for ProgressReader<'_, R> {
+    fn read(&mut self, buf: &mut [u8]) -> io::Result<usize> {
+        let n = self.inner.read(buf)?;
+        self.done += n as u64;
+        if n > 0 && self.done >= self.next_report {
+            (self.progress)(self.done.min(self.total), self.total);
+            self.next_report = self.done + self.step();
+        }
+        Ok(n)
+    }
+}
+
+/// Reads one header line of a text header (NRRD, MetaImage) that may be followed by binary
+/// data: at most `MAX_LINE` bytes, so a binary file given by mistake is refused quickly.
+/// Returns `None` at the end of the stream, else the line without its line ending and the
+/// number of bytes consumed.
+fn read_header_line(reader: &mut dyn BufRead) -> Result<Option<(String, u64)>, LoadErrorKind> {
+    const MAX_LINE: u64 = 64 << 10;
+    let mut line = Vec::new();
+    let mut limited: io::Take<&mut dyn BufRead> = Read::take(reader, MAX_LINE + 1);
+    let n = limited.read_until(b'\n', &mut line).map_err(|error| LoadErrorKind::Io { file: None, error })?;
+    if n == 0 {
+        return Ok(None);
+    }
+    if n as u64 > MAX_LINE {
+        return Err(LoadErrorKind::Header("a header line is longer than 64 KiB: is this really a header?".into()));
+    }
+    while line.last().is_some_and(|&b| b == b'\n' || b == b'\r') {
+        line.pop();
+    }
+    let text = String::from_utf8(line)
+        .map_err(|_| LoadErrorKind::Header("the header is not text (a line is not UTF-8)".into()))?;
+    Ok(Some((text, n as u64)))
+}
+
+/// The most header lines accepted; a real header has a few dozen.
+const MAX_HEADER_LINES: usize = 10_000;
+
+/// Parses whitespace-separated numbers of a header field, naming the field when one is not a
+/// number.
+fn parse_numbers<T: std::str::FromStr>(field: &str, value: &str) -> Result<Vec<T>, LoadErrorKind> {
+    value
+        .split_whitespace()
+        .map(|word| word.parse().map_err(|_| LoadErrorKind::Header(format!("`{field}`: `{word}` is not a number"))))
+        .collect()
+}
+
+/// A data file named by a header, relative to the header's directory unless absolute.
+fn sibling(header: &Path, name: &str) -> PathBuf {
+    let name = Path::new(name);
+    if name.is_absolute() { name.to_path_buf() } else { header.parent().unwrap_or(Path::new("")).join(name) }
+}
+
+#[cfg(test)]
+pub(crate) mod tests {
+    use super::*;
+
+    /// Loads without a progress callback.
+    pub(crate) fn load_quiet(path: &Path) -> Result<Volume, LoadError> {
+        load(path, &mut |_, _| {})
+    }
+
+    /// Asserts that two matrices agree to 1e-5.
+    pub(crate) fn assert_mat_eq(a: Mat4, b: Mat4) {
+        assert!(a.abs_diff_eq(b, 1e-5), "{a:?}\n!=\n{b:?}");
+    }
+
+    fn volume(data: Vec<f32>) -> Volume {
+        let n = data.len() as u32;
+        Volume::new([n, 1, 1], Mat4::IDENTITY, data)
+    }
+
+    #[test]
+    fn range_ignores_non_finite_values() {
+        let v = volume(vec![3.0, f32::NAN, -2.0, f32::INFINITY, 5.0]);
+        assert_eq!(v.range, [-2.0, 5.0]);
+        assert_eq!(volume(vec![f32::NAN]).range, [0.0, 0.0]);
+    }
+
+    #[test]
+    fn normalized_maps_range_or_window_and_clamps() {
+        let v = volume(vec![0.0, 5.0, 10.0, f32::NAN, f32::INFINITY, f32::NEG_INFINITY]);
+        assert_eq!(v.normalized(None), vec![0.0, 0.5, 1.0, 0.0, 1.0, 0.0]);
+        assert_eq!(v.normalized(Some([5.0, 7.5])), vec![0.0, 0.0, 1.0, 0.0, 1.0, 0.0]);
+        // A degenerate window thresholds.
+        assert_eq!(v.normalized(Some([5.0, 5.0]))[..3], [0.0, 0.0, 1.0]);
+        let halves = v.normalized_f16(None);
+        assert_eq!(halves[1], half::f16::from_f32(0.5));
+        assert_eq!(v.voxel_count(), 6);
+        assert_eq!(v.gpu_bytes(), 12);
+    }
+
+    #[test]
+    fn constant_volume_normalizes_to_zero() {
+        assert_eq!(volume(vec![4.0; 3]).normalized(None), vec![0.0; 3]);
+    }
+
+    #[test]
+    fn spacing_comes_from_the_matrix_axes() {
+        let m = affine([Vec3::new(0.0, 2.0, 0.0), Vec3::new(-3.0, 0.0, 0.0), Vec3::ZERO], Vec3::ONE);
+        assert_eq!(spacing_of(&m), [2.0, 3.0, 1.0]);
+    }
+
+    #[test]
+    fn check_dims_refuses_zero_and_huge() {
+        assert_eq!(check_dims("sizes", [2, 3, 4]).ok(), Some([2, 3, 4]));
+        let zero = check_dims("sizes", [2, 0, 4]).unwrap_err().to_string();
+        assert!(zero.contains("`sizes` has a zero size"), "{zero}");
+        let huge = check_dims("sizes", [100_000, 100_000, 100_000]).unwrap_err().to_string();
+        assert!(huge.starts_with("too large: 100000 x 100000 x 100000 = 1000000000000000 voxels"), "{huge}");
+        assert!(check_dims("sizes", [1 << 11, 1 << 10, 1 << 10]).is_ok());
+        assert!(check_dims("sizes", [1 << 11, 1 << 10, (1 << 10) + 1]).is_err());
+        assert!(check_dims("sizes", [u64::MAX, 1, 1]).is_err());
+    }
+
+    #[test]
+    fn decode_all_types_both_endians() {
+        let mut out = Vec::new();
+        ScalarType::I8.decode(&[0xff, 0x02], false, &mut out);
+        ScalarType::U16.decode(&[0x01, 0x02], true, &mut out);
+        ScalarType::I16.decode(&(-300i16).to_le_bytes(), false, &mut out);
+        ScalarType::U32.decode(&70000u32.to_be_bytes(), true, &mut out);
+        ScalarType::I32.decode(&(-70000i32).to_le_bytes(), false, &mut out);
+        ScalarType::F32.decode(&1.5f32.to_be_bytes(), true, &mut out);
+        ScalarType::F64.decode(&(-2.25f64).to_le_bytes(), false, &mut out);
+        ScalarType::U8.decode(&[200], false, &mut out);
+        assert_eq!(out, vec![-1.0, 2.0, 258.0, -300.0, 70000.0, -70000.0, 1.5, -2.25, 200.0]);
+    }
+
+    #[test]
+    fn unknown_extension_is_not_io() {
+        let e = load_quiet(Path::new("/nonexistent/volume.dcm")).unwrap_err();
+        assert!(!e.is_io());
+        assert!(e.to_string().starts_with("`/nonexistent/volume.dcm`: unknown volume format"), "{e}");
+    }
+
+    #[test]
+    fn missing_files_are_io_errors() {
+        for name in ["a.nii", "a.nii.gz", "a.nrrd", "a.nhdr", "a.mhd", "a.mha"] {
+            let path = Path::new("/nonexistent/dir").join(name);
+            let e = load_quiet(&path).unwrap_err();
+            assert!(e.is_io(), "{name}: {e}");
+            assert!(e.to_string().contains("cannot read"), "{e}");
+            assert!(std::error::Error::source(&e).is_some());
+        }
+    }
+
+    #[test]
+    fn progress_is_reported_in_steps() {
+        let data = vec![7u8; 3 << 20];
+        let mut calls = Vec::new();
+        let mut progress = |done, total| calls.push((done, total));
+        let mut reader = ProgressReader::new(&data[..], data.len() as u64, &mut progress);
+        let n = io::copy(&mut reader, &mut io::sink()).unwrap();
+        assert_eq!(n, data.len() as u64);
+        assert!(calls.first().is_some_and(|&(done, _)| done >= 256 << 10));
+        assert!(calls.len() > 5 && calls.len() < 200, "{}", calls.len());
+        assert!(calls.windows(2).all(|w| w[0].0 <= w[1].0));
+        assert!(calls.iter().all(|&(done, total)| total == data.len() as u64 && done <= total));
+    }
+}
