@@ -4,7 +4,7 @@
 use clap::{Parser, Subcommand, ValueEnum};
 use codespan_reporting::term::{self, termcolor};
 use std::io::Write;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use vrsc::diag::Diagnostic;
 use vrsc::driver::{self, Checked};
@@ -54,6 +54,18 @@ enum Command {
         /// The view (may be left out when the scene has one view).
         #[arg(long)]
         view: Option<String>,
+    },
+    /// Render every view of a scene to DIR/VIEW.png.
+    Render {
+        scene: PathBuf,
+        #[arg(short, long)]
+        output: PathBuf,
+        /// Image size for every view, WxH (overrides the scene's `size`).
+        #[arg(long, value_parser = parse_size)]
+        size: Option<[u32; 2]>,
+        /// Use the software adapter (lavapipe) even when a GPU is present.
+        #[arg(long)]
+        software: bool,
     },
     /// Print the pipeline map of a scene's views: steps, their functions, where each came from.
     Pipeline {
@@ -107,6 +119,7 @@ fn run(cli: &Cli) -> Outcome {
     let printer = Printer { format: cli.message_format, color: cli.color };
     match &cli.command {
         Command::Build { scene, output, emit } => build(&printer, scene, output, emit),
+        Command::Render { scene, output, size, software } => render(&printer, scene, output, *size, *software),
         Command::Explain { scene, view } => explain(&printer, scene, view.as_deref()),
         Command::Pipeline { scene, view } => pipeline(&printer, scene, view.as_deref()),
         Command::Check { files } => match driver::check_files(files) {
@@ -203,6 +216,81 @@ fn pipeline(printer: &Printer, scene: &std::path::Path, only: Option<&str>) -> O
         print!("{}", view.composition.render_pipeline_map(&view.program, &built.sources));
     }
     outcome
+}
+
+fn parse_size(text: &str) -> Result<[u32; 2], String> {
+    let (w, h) = text.split_once(['x', 'X']).ok_or("expected WxH, for example 512x512")?;
+    let parse = |s: &str| s.trim().parse::<u32>().ok().filter(|&n| (1..=16384).contains(&n));
+    match (parse(w), parse(h)) {
+        (Some(w), Some(h)) => Ok([w, h]),
+        _ => Err("width and height must be whole numbers from 1 to 16384".into()),
+    }
+}
+
+fn render(printer: &Printer, scene_path: &Path, dir: &Path, size: Option<[u32; 2]>, software: bool) -> Outcome {
+    use vrs_runtime::{AdapterChoice, Gpu, RenderOptions, SceneRenderer};
+    let built = match vrsc::compose::build::build_scene(scene_path, None) {
+        Ok(b) => b,
+        Err(e) => return io_failure(&format!("cannot read `{}`: {e}", scene_path.display())),
+    };
+    let outcome = printer.report(&built.diags.sorted(), &built.sources);
+    let Some(scene) = built.scene.as_ref().filter(|_| matches!(outcome, Outcome::Ok)) else { return outcome };
+    let choice = if software { AdapterChoice::Software } else { AdapterChoice::PreferHardware };
+    let gpu = match Gpu::headless(choice) {
+        Ok(gpu) => gpu,
+        Err(e) => return io_failure(&e),
+    };
+    eprintln!("rendering on {}", gpu.adapter);
+    let options = RenderOptions { size, ..RenderOptions::default() };
+    let mut bar = ProgressBar::default();
+    let renderer = SceneRenderer::from_built(gpu, scene_path, scene, &built, options, &mut |name, done, total| {
+        bar.update(name, done, total)
+    });
+    let result = renderer.and_then(|mut r| r.render_all());
+    let images = match result {
+        Ok(images) => images,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return if e.exit_code() == 2 { Outcome::Failure } else { Outcome::InputErrors };
+        }
+    };
+    if let Err(e) = std::fs::create_dir_all(dir) {
+        return io_failure(&format!("cannot create `{}`: {e}", dir.display()));
+    }
+    for (view, image) in images {
+        let path = dir.join(format!("{view}.png"));
+        if let Err(e) = image.save(&path) {
+            return io_failure(&format!("cannot write `{}`: {e}", path.display()));
+        }
+        eprintln!("wrote {} ({}x{})", path.display(), image.width(), image.height());
+    }
+    Outcome::Ok
+}
+
+/// A one-line progress bar on stderr for volumes large enough to take a while to read.
+#[derive(Default)]
+struct ProgressBar {
+    shown: Option<(String, u64)>,
+}
+
+impl ProgressBar {
+    const MIN_BYTES: u64 = 4 << 20;
+
+    fn update(&mut self, name: &str, done: u64, total: u64) {
+        if total < Self::MIN_BYTES || !std::io::IsTerminal::is_terminal(&std::io::stderr()) {
+            return;
+        }
+        let percent = done.saturating_mul(100) / total.max(1);
+        if self.shown.as_ref().is_some_and(|(n, p)| n == name && *p == percent) {
+            return;
+        }
+        let filled = (percent / 5) as usize;
+        eprint!("\rloading {name} [{}{}] {percent:>3}%", "#".repeat(filled), " ".repeat(20 - filled));
+        if done >= total {
+            eprintln!();
+        }
+        self.shown = Some((name.to_string(), percent));
+    }
 }
 
 fn io_failure(e: &dyn std::fmt::Display) -> Outcome {

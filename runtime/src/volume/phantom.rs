@@ -56,8 +56,21 @@ pub fn phantom(name: &str, dims: [u32; 3]) -> Result<Volume, UnknownPhantom> {
     for shape in &shapes {
         grid.paint(&mut data, shape);
     }
+    if name == "abdomen" {
+        // Its shapes are laid out as on a radiological image (patient's right on the left,
+        // back at the bottom); the grid is RAS like NIfTI: +x right, +y anterior.
+        mirror_xy(&mut data, dims);
+    }
     let centre = Vec3::from_array(dims.map(|d| (d as f32 - 1.0) / 2.0));
     Ok(Volume { dims, spacing: [1.0; 3], grid_to_world: Mat4::from_translation(-centre), data, range: [0.0, 1.0] })
+}
+
+/// Reverses the x and y axes of a grid (a half turn about z).
+fn mirror_xy(data: &mut [f32], dims: [u32; 3]) {
+    let (nx, ny) = (dims[0] as usize, dims[1] as usize);
+    for slice in data.chunks_exact_mut(nx * ny) {
+        slice.reverse();
+    }
 }
 
 /// A region of the phantom box, in the box's normalized coordinates [-1, 1]^3.
@@ -430,7 +443,8 @@ mod tests {
     fn abdomen_levels() {
         let v = phantom("abdomen", [96, 96, 96]).unwrap();
         let close = |p: [f32; 3], want: f32, what: &str| {
-            let got = at(&v, p);
+            // The shapes' image layout, mirrored into the RAS grid.
+            let got = at(&v, [-p[0], -p[1], p[2]]);
             assert!((got - want).abs() < 0.02, "{what} at {p:?}: {got}, expected {want}");
         };
         close([0.95, 0.95, 0.0], 0.0, "air");
