@@ -8,20 +8,34 @@ pub enum RuntimeError {
     /// No adapter or device.
     Gpu(crate::gpu::GpuError),
     /// A file could not be read or written.
-    Io { path: PathBuf, error: std::io::Error },
+    Io {
+        path: PathBuf,
+        error: std::io::Error,
+    },
     /// A `.wgsl` + `.json` pair that does not belong together, or malformed reflection.
-    Shader { path: PathBuf, message: String },
+    Shader {
+        path: PathBuf,
+        message: String,
+    },
     /// wgpu refused the shader or pipeline (a bug in the composer if it validated).
-    Pipeline { view: String, message: String },
+    Pipeline {
+        view: String,
+        message: String,
+    },
     Volume(crate::volume::LoadError),
     Tf(crate::tf::TfError),
-    Uniform { view: String, error: crate::uniforms::UniformError },
+    Uniform {
+        view: String,
+        error: crate::uniforms::UniformError,
+    },
     /// Input that is valid on its own but cannot be used here: a missing binding, a volume
     /// beyond the device's limits, an unknown phantom.
     Invalid(String),
     /// A scene did not compose; the diagnostics were rendered into the message.
     #[cfg(feature = "compiler")]
-    Compose { rendered: String },
+    Compose {
+        rendered: String,
+    },
 }
 
 impl RuntimeError {
@@ -41,7 +55,9 @@ impl fmt::Display for RuntimeError {
             RuntimeError::Gpu(e) => write!(f, "{e}"),
             RuntimeError::Io { path, error } => write!(f, "`{}`: {error}", path.display()),
             RuntimeError::Shader { path, message } => write!(f, "`{}`: {message}", path.display()),
-            RuntimeError::Pipeline { view, message } => write!(f, "view `{view}`: the GPU refused its shader: {message}"),
+            RuntimeError::Pipeline { view, message } => {
+                write!(f, "view `{view}`: the GPU refused its shader: {message}")
+            }
             RuntimeError::Volume(e) => write!(f, "{e}"),
             RuntimeError::Tf(e) => write!(f, "{e}"),
             RuntimeError::Uniform { view, error } => write!(f, "view `{view}`: {error}"),

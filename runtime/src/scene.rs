@@ -62,10 +62,14 @@ pub type Progress<'a> = &'a mut dyn FnMut(&str, u64, u64);
 impl SceneRenderer {
     /// Composes and loads the scene at `path`. Composition errors come back rendered as text in
     /// [`RuntimeError::Compose`]; use [`SceneRenderer::from_built`] to print them yourself.
-    pub fn open(gpu: Gpu, path: &Path, options: RenderOptions, progress: Progress) -> Result<SceneRenderer, RuntimeError> {
+    pub fn open(
+        gpu: Gpu,
+        path: &Path,
+        options: RenderOptions,
+        progress: Progress,
+    ) -> Result<SceneRenderer, RuntimeError> {
         let mut compositions = CompositionCache::new();
-        let cached =
-            compositions.build(path).map_err(|error| RuntimeError::Io { path: path.to_path_buf(), error })?;
+        let cached = compositions.build(path).map_err(|error| RuntimeError::Io { path: path.to_path_buf(), error })?;
         let scene = composed_scene(&cached.built, cached.scene)?;
         let mut renderer = SceneRenderer::from_built(gpu, path, &scene, &cached.built, options, progress)?;
         renderer.compositions = compositions;
@@ -153,6 +157,13 @@ impl SceneRenderer {
         Ok(images)
     }
 
+    /// Replaces the shader of view `index` (an application's own variant of the composed one,
+    /// with the same bindings and uniform block); uniforms start again from its reflection.
+    pub fn replace_shader(&mut self, index: usize, shader: ViewShader) -> Result<(), RuntimeError> {
+        let view = self.views.get_mut(index).ok_or_else(|| RuntimeError::Invalid(format!("no view {index}")))?;
+        view.renderer.set_shader(&self.gpu, &mut self.pipelines, shader)
+    }
+
     /// Records one frame of view `index` (for benchmarks: no read-back).
     pub fn encode_view(&mut self, index: usize, encoder: &mut wgpu::CommandEncoder) -> Result<(), RuntimeError> {
         let view = &mut self.views[index];
@@ -164,9 +175,10 @@ impl SceneRenderer {
         let values = scene.uniform_values();
         let mut views = Vec::new();
         for (view, output) in scene.views.iter().zip(&built.views) {
-            let shader = output.shader.as_ref().ok_or_else(|| {
-                RuntimeError::Invalid(format!("view `{}` did not compose", output.name))
-            })?;
+            let shader = output
+                .shader
+                .as_ref()
+                .ok_or_else(|| RuntimeError::Invalid(format!("view `{}` did not compose", output.name)))?;
             let reflection: Reflection = serde_json::to_value(&shader.reflection)
                 .ok()
                 .and_then(|json| serde_json::from_value(json).ok())

@@ -19,7 +19,12 @@ pub struct VolumeTexture {
 impl VolumeTexture {
     /// Uploads `volume`, mapping `window` (or its value range) to [0, 1]. Refuses grids beyond
     /// the device's 3D texture limit.
-    pub fn upload(gpu: &Gpu, name: &str, volume: &Volume, window: Option<[f32; 2]>) -> Result<VolumeTexture, RuntimeError> {
+    pub fn upload(
+        gpu: &Gpu,
+        name: &str,
+        volume: &Volume,
+        window: Option<[f32; 2]>,
+    ) -> Result<VolumeTexture, RuntimeError> {
         let max = gpu.device.limits().max_texture_dimension_3d;
         if volume.dims.iter().any(|&d| d == 0 || d > max) {
             return Err(RuntimeError::Invalid(format!(
@@ -27,11 +32,8 @@ impl VolumeTexture {
                 volume.dims[0], volume.dims[1], volume.dims[2]
             )));
         }
-        let size = wgpu::Extent3d {
-            width: volume.dims[0],
-            height: volume.dims[1],
-            depth_or_array_layers: volume.dims[2],
-        };
+        let size =
+            wgpu::Extent3d { width: volume.dims[0], height: volume.dims[1], depth_or_array_layers: volume.dims[2] };
         let texture = gpu.device.create_texture(&wgpu::TextureDescriptor {
             label: Some(name),
             size,

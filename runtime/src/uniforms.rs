@@ -217,7 +217,9 @@ impl UniformBlock {
     pub fn value_from_json(&self, name: &str, json: &Json) -> Option<Value> {
         let shape = self.members.iter().find(|m| m.name == name)?.shape?;
         let flat: Vec<&Json> = match json {
-            Json::Array(items) => items.iter().flat_map(|i| i.as_array().map_or(vec![i], |col| col.iter().collect())).collect(),
+            Json::Array(items) => {
+                items.iter().flat_map(|i| i.as_array().map_or(vec![i], |col| col.iter().collect())).collect()
+            }
             scalar => vec![scalar],
         };
         Some(match shape.kind {

@@ -39,7 +39,12 @@ const ROW_ALIGNMENT: u32 = wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
 
 impl ViewRenderer {
     /// A renderer of `shader` at `size` pixels; the pipeline comes from `cache`.
-    pub fn new(gpu: &Gpu, cache: &mut PipelineCache, shader: ViewShader, size: [u32; 2]) -> Result<ViewRenderer, RuntimeError> {
+    pub fn new(
+        gpu: &Gpu,
+        cache: &mut PipelineCache,
+        shader: ViewShader,
+        size: [u32; 2],
+    ) -> Result<ViewRenderer, RuntimeError> {
         let pipeline = cache.get(gpu, &shader)?;
         let uniforms = UniformBlock::new(&shader.reflection);
         let uniform_buffer = gpu.device.create_buffer(&wgpu::BufferDescriptor {
@@ -83,13 +88,19 @@ impl ViewRenderer {
     }
 
     /// Records the view's compute pass into `encoder`.
-    pub fn encode(&mut self, gpu: &Gpu, resources: &Resources, encoder: &mut wgpu::CommandEncoder) -> Result<(), RuntimeError> {
+    pub fn encode(
+        &mut self,
+        gpu: &Gpu,
+        resources: &Resources,
+        encoder: &mut wgpu::CommandEncoder,
+    ) -> Result<(), RuntimeError> {
         if let Some(bytes) = self.uniforms.take_changes() {
             gpu.queue.write_buffer(&self.uniform_buffer, 0, bytes);
         }
         let bind_group = self.bind_group(gpu, resources)?;
         let [wx, wy, _] = self.shader.reflection.workgroup_size;
-        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("raycast"), timestamp_writes: None });
+        let mut pass =
+            encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("raycast"), timestamp_writes: None });
         pass.set_pipeline(&self.pipeline);
         pass.set_bind_group(0, &bind_group, &[]);
         pass.dispatch_workgroups(self.size[0].div_ceil(wx.max(1)), self.size[1].div_ceil(wy.max(1)), 1);
@@ -112,7 +123,11 @@ impl ViewRenderer {
             self.output.as_image_copy(),
             wgpu::TexelCopyBufferInfo {
                 buffer: &readback,
-                layout: wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(padded_row), rows_per_image: Some(h) },
+                layout: wgpu::TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(padded_row),
+                    rows_per_image: Some(h),
+                },
             },
             wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
         );
@@ -120,7 +135,8 @@ impl ViewRenderer {
         let slice = readback.slice(..);
         slice.map_async(wgpu::MapMode::Read, |_| {});
         gpu.wait();
-        let mapped = slice.get_mapped_range().map_err(|e| RuntimeError::Invalid(format!("cannot read the image back: {e}")))?;
+        let mapped =
+            slice.get_mapped_range().map_err(|e| RuntimeError::Invalid(format!("cannot read the image back: {e}")))?;
         let mut pixels = Vec::with_capacity((w * h * 4) as usize);
         for row in mapped.chunks(padded_row as usize) {
             pixels.extend_from_slice(&row[..(w * 4) as usize]);
@@ -148,7 +164,9 @@ impl ViewRenderer {
                 BindingKind::TfTexture => wgpu::BindingResource::TextureView(
                     &resources.tfs.get(&binding.name).ok_or_else(|| missing("transfer function", &binding.name))?.view,
                 ),
-                BindingKind::VolumeSampler | BindingKind::TfSampler => wgpu::BindingResource::Sampler(&resources.sampler),
+                BindingKind::VolumeSampler | BindingKind::TfSampler => {
+                    wgpu::BindingResource::Sampler(&resources.sampler)
+                }
             };
             entries.push(wgpu::BindGroupEntry { binding: binding.binding, resource });
         }

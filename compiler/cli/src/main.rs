@@ -6,9 +6,9 @@ use codespan_reporting::term::{self, termcolor};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
+use vrsc::compose::backends::Target;
 use vrsc::diag::Diagnostic;
 use vrsc::driver::{self, Checked};
-use vrsc::compose::backends::Target;
 use vrsc::source::SourceMap;
 
 #[derive(Parser)]

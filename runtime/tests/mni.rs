@@ -1,0 +1,32 @@
+//! The MNI152 template volumes in `../shared/data/mni152` (see that folder's README): grid,
+//! spacing, orientation and value range as the NIfTI headers say. Skipped, saying why, when the
+//! folder is absent (it is not part of the project).
+
+use std::path::Path;
+
+const FILES: [&str; 3] = [
+    "mni_icbm152_t1_tal_nlin_sym_09a_converted.nii.gz",
+    "mni_icbm152_gm_tal_nlin_sym_09a_converted.nii.gz",
+    "mni_icbm152_wm_tal_nlin_sym_09a_converted.nii.gz",
+];
+
+#[test]
+fn mni152_volumes_load_on_one_grid() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/mni152");
+    if !dir.is_dir() {
+        println!("skipped: {} is absent (see ../shared/data/README.md for how to get it)", dir.display());
+        return;
+    }
+    let mut grids = Vec::new();
+    for file in FILES {
+        let volume = vrs_runtime::volume::load(&dir.join(file), &mut |_, _| {}).expect("MNI volume loads");
+        assert_eq!(volume.dims, [197, 233, 189], "{file}");
+        assert_eq!(volume.spacing, [1.0, 1.0, 1.0], "{file}");
+        assert!(volume.range[0] >= 0.0 && volume.range[1] > volume.range[0], "{file}: range {:?}", volume.range);
+        // RAS, 1 mm, origin near the anterior commissure: voxel (98, 134, 72) is close to world 0.
+        let centre = volume.grid_to_world.transform_point3(glam::Vec3::new(98.0, 134.0, 72.0));
+        assert!(centre.length() < 2.0, "{file}: voxel (98, 134, 72) is at {centre}");
+        grids.push((volume.dims, volume.grid_to_world));
+    }
+    assert!(grids.windows(2).all(|w| w[0] == w[1]), "the three volumes share one grid");
+}

@@ -1,0 +1,164 @@
+//! The runtime against the compiler's output on the software adapter: every composed view
+//! compiles in wgpu, precompiled views load (and stale pairs are refused), uniforms are typed,
+//! the pipeline cache spares recompiles, and bad input is an error, never a panic.
+
+mod common;
+
+use std::path::{Path, PathBuf};
+use vrs_runtime::{PipelineCache, RenderOptions, RuntimeError, SceneRenderer, ViewShader};
+
+fn scenes_under(dir: &Path) -> Vec<PathBuf> {
+    let mut out = Vec::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(dir) = stack.pop() {
+        for path in std::fs::read_dir(&dir).expect("readable").filter_map(|e| e.ok().map(|e| e.path())) {
+            if path.is_dir() {
+                stack.push(path);
+            } else if path.extension().is_some_and(|x| x == "toml") {
+                out.push(path);
+            }
+        }
+    }
+    out.sort();
+    out
+}
+
+/// The compiler's shader of each view, as the runtime sees it.
+fn view_shaders(scene: &Path) -> Vec<ViewShader> {
+    let built = vrsc::compose::build::build_scene(scene, None).expect("scene readable");
+    assert!(!built.diags.has_errors(), "{}", vrsc::diag::render_plain(&built.diags.sorted(), &built.sources));
+    built
+        .views
+        .iter()
+        .map(|v| {
+            let shader = v.shader.as_ref().expect("composed");
+            let json = serde_json::to_string(&shader.reflection).unwrap();
+            let reflection = vrs_runtime::reflection::Reflection::from_json(&json).unwrap();
+            ViewShader::new(shader.wgsl.clone(), reflection, scene).unwrap()
+        })
+        .collect()
+}
+
+#[test]
+fn every_composed_view_compiles_in_wgpu() {
+    let gpu = common::software_gpu();
+    let mut cache = PipelineCache::new();
+    let root = common::root();
+    let mut count = 0;
+    for dir in ["tests/fixtures/compose", "tests/fixtures/render", "examples"] {
+        for scene in scenes_under(&root.join(dir)) {
+            for shader in view_shaders(&scene) {
+                cache.get(&gpu, &shader).unwrap_or_else(|e| panic!("{}: {e}", scene.display()));
+                count += 1;
+            }
+        }
+    }
+    assert!(count >= 25, "only {count} views");
+}
+
+fn temp_scene(dir: &Path, text: &str) -> PathBuf {
+    let path = dir.join("scene.toml");
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+const SCENE: &str = r#"
+[render]
+compositing = "dvr"
+shading = true
+
+[[volume]]
+name = "head"
+role = "primary"
+phantom = "head"
+
+[uniforms]
+ambient = AMBIENT
+
+[[view]]
+name = "3d"
+kind = "raycast"
+size = [32, 32]
+"#;
+
+fn small() -> RenderOptions {
+    RenderOptions { phantom_size: [24, 24, 24], ..RenderOptions::default() }
+}
+
+#[test]
+fn a_uniform_change_never_recompiles_and_a_structural_one_does() {
+    let gpu = common::software_gpu();
+    let dir = tempfile::tempdir().unwrap();
+    let path = temp_scene(dir.path(), &SCENE.replace("AMBIENT", "0.3"));
+    let mut scene = SceneRenderer::open(gpu, &path, small(), &mut |_, _, _| {}).unwrap();
+    let before = scene.render_all().unwrap().remove(0).1;
+    assert_eq!(scene.pipeline_stats().misses, 1);
+
+    temp_scene(dir.path(), &SCENE.replace("AMBIENT", "0.9"));
+    assert!(!scene.reload().unwrap(), "a uniform change must not compile a new shader");
+    let brighter = scene.render_all().unwrap().remove(0).1;
+    assert_eq!(scene.pipeline_stats().misses, 1);
+    assert_ne!(before, brighter, "the new ambient value is used");
+
+    scene.set_uniform("ambient", 0.3f32).unwrap();
+    assert_eq!(scene.render_all().unwrap().remove(0).1, before, "setting it back gives the same image");
+
+    temp_scene(dir.path(), &SCENE.replace("AMBIENT", "0.9").replace("\"dvr\"", "\"mip\""));
+    assert!(scene.reload().unwrap(), "another compositing mode is a new shader");
+    assert_eq!(scene.pipeline_stats().misses, 2);
+}
+
+#[test]
+fn uniforms_are_typed_by_name() {
+    let gpu = common::software_gpu();
+    let dir = tempfile::tempdir().unwrap();
+    let path = temp_scene(dir.path(), &SCENE.replace("AMBIENT", "0.3"));
+    let mut scene = SceneRenderer::open(gpu, &path, small(), &mut |_, _, _| {}).unwrap();
+    let err = scene.set_uniform("ambiant", 0.5f32).unwrap_err().to_string();
+    assert!(err.contains("no uniform `ambiant`; did you mean `ambient`?"), "{err}");
+    let err = scene.set_uniform("ambient", [1.0f32, 2.0, 3.0]).unwrap_err().to_string();
+    assert!(err.contains("uniform `ambient` is a f32, not 3 f32 values"), "{err}");
+}
+
+#[test]
+fn precompiled_views_load_and_stale_pairs_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = common::root().join("examples/basic/scene.toml");
+    let built = vrsc::compose::build::build_scene(&scene, Some("3d")).unwrap();
+    let shader = built.views[0].shader.as_ref().unwrap();
+    let (wgsl, json) = (dir.path().join("3d.wgsl"), dir.path().join("3d.json"));
+    std::fs::write(&wgsl, &shader.wgsl).unwrap();
+    std::fs::write(&json, serde_json::to_string(&shader.reflection).unwrap()).unwrap();
+    let loaded = ViewShader::load_view(dir.path(), "3d").unwrap();
+    assert_eq!(loaded.reflection.view, "3d");
+
+    std::fs::write(&wgsl, format!("{}\n// edited\n", shader.wgsl)).unwrap();
+    let err = ViewShader::load(&wgsl, &json).unwrap_err().to_string();
+    assert!(err.contains("rebuild both with `vrsc build`"), "{err}");
+
+    let old =
+        serde_json::to_string(&shader.reflection).unwrap().replace("\"format_version\":1", "\"format_version\":0");
+    std::fs::write(&json, old).unwrap();
+    let err = ViewShader::load(&wgsl, &json).unwrap_err().to_string();
+    assert!(err.contains("reflection format version 0"), "{err}");
+}
+
+#[test]
+fn bad_volumes_are_errors_with_exit_codes() {
+    let gpu = common::software_gpu();
+    let dir = tempfile::tempdir().unwrap();
+    let missing = SCENE.replace("AMBIENT", "0.3").replace("phantom = \"head\"", "path = \"missing.nii.gz\"");
+    let path = temp_scene(dir.path(), &missing);
+    let err = SceneRenderer::open(gpu.clone(), &path, small(), &mut |_, _, _| {}).err().expect("missing file");
+    assert_eq!(err.exit_code(), 2, "{err}");
+    assert!(err.to_string().contains("missing.nii.gz"), "{err}");
+
+    std::fs::write(dir.path().join("missing.nii.gz"), b"not a volume").unwrap();
+    let err = SceneRenderer::open(gpu.clone(), &path, small(), &mut |_, _, _| {}).err().expect("corrupt file");
+    assert_eq!(err.exit_code(), 1, "{err}");
+
+    let unknown = SCENE.replace("AMBIENT", "0.3").replace("phantom = \"head\"", "phantom = \"heart\"");
+    let path = temp_scene(dir.path(), &unknown);
+    let err = SceneRenderer::open(gpu, &path, small(), &mut |_, _, _| {}).err().expect("unknown phantom");
+    assert!(matches!(err, RuntimeError::Invalid(_)) && err.to_string().contains("heart"), "{err}");
+}
