@@ -4,6 +4,6 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 . scripts/ensure-vulkan.sh
-scene="${1:-examples/basic/scene.toml}"
+scene="${1:-examples/ablation/scene.toml}"
 out="${2:-out}"
 cargo run --release --bin vrsc -- render "$scene" -o "$out"

@@ -145,6 +145,9 @@ pub struct Volume {
     pub name: Ident,
     pub role: Located<Role>,
     pub source: VolumeSource,
+    /// `fallback = "NAME"`: the built-in phantom to use when the `path` file does not exist (so
+    /// an example renders before its data is downloaded).
+    pub fallback: Option<Located<String>>,
     /// The transfer function; `None` only for mask volumes, which have none.
     pub tf: Option<TfRef>,
     /// The whole `[[volume]]` table.
@@ -588,9 +591,10 @@ struct RawVolume {
     role: Spanned<Role>,
     path: Option<Spanned<String>>,
     phantom: Option<Spanned<String>>,
+    fallback: Option<Spanned<String>>,
     tf: Option<Spanned<String>>,
 }
-const VOLUME_KEYS: &[&str] = &["name", "role", "path", "phantom", "tf"];
+const VOLUME_KEYS: &[&str] = &["name", "role", "path", "phantom", "fallback", "tf"];
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -978,6 +982,20 @@ impl Cx<'_> {
                     VolumeSource::Phantom(Located { value: String::new(), span })
                 }
             };
+            let fallback = match (v.fallback, &source) {
+                (Some(f), VolumeSource::Phantom(_)) => {
+                    self.ignored(&f, "fallback", "on a volume that is a phantom");
+                    None
+                }
+                (Some(f), _) => {
+                    let span = self.span(&f);
+                    if !is_identifier(f.get_ref()) {
+                        self.emit(self.invalid(span, format!("the phantom name `{}` is not an identifier", f.get_ref())));
+                    }
+                    Some(Located { value: f.into_inner(), span })
+                }
+                (None, _) => None,
+            };
             let tf = match (&v.tf, role.value) {
                 (Some(tf), Role::Mask) => {
                     self.ignored(tf, "tf", "on a mask volume");
@@ -988,7 +1006,7 @@ impl Cx<'_> {
                 (None, Role::Tag) => Some(TfRef::Preset(Located { value: DEFAULT_TAG_TF.into(), span: Span::DUMMY })),
                 (None, _) => Some(TfRef::Preset(Located { value: DEFAULT_TF.into(), span: Span::DUMMY })),
             };
-            out.push(Volume { name, role, source, tf, span });
+            out.push(Volume { name, role, source, fallback, tf, span });
         }
         if !out.iter().any(|v| v.role.value == Role::Primary) {
             let span = out.first().map_or(Span::new(self.base, self.base), |v| v.role.span);

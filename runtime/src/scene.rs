@@ -54,6 +54,9 @@ pub struct SceneRenderer {
     /// Grid and transform of each volume by scene name, primary first.
     grids: Vec<(String, Role, [u32; 3], Mat4)>,
     pub views: Vec<SceneView>,
+    /// Things the user should know that are not errors (a volume replaced by its fallback
+    /// phantom because its file is absent).
+    pub notices: Vec<String>,
 }
 
 /// Progress of loading a volume: (volume name, bytes done, bytes in all).
@@ -86,7 +89,8 @@ impl SceneRenderer {
         progress: Progress,
     ) -> Result<SceneRenderer, RuntimeError> {
         let mut resources = Resources::new(&gpu);
-        let grids = load_volumes(&gpu, scene, &options, &mut resources, progress)?;
+        let mut notices = Vec::new();
+        let grids = load_volumes(&gpu, scene, &options, &mut resources, &mut notices, progress)?;
         let mut renderer = SceneRenderer {
             gpu,
             path: path.to_path_buf(),
@@ -96,6 +100,7 @@ impl SceneRenderer {
             resources,
             grids,
             views: Vec::new(),
+            notices,
         };
         renderer.set_views(scene, built)?;
         Ok(renderer)
@@ -261,6 +266,7 @@ fn load_volumes(
     scene: &Scene,
     options: &RenderOptions,
     resources: &mut Resources,
+    notices: &mut Vec<String>,
     progress: Progress,
 ) -> Result<Vec<(String, Role, [u32; 3], Mat4)>, RuntimeError> {
     let mut grids = Vec::new();
@@ -268,10 +274,21 @@ fn load_volumes(
     let ordered = std::iter::once(primary).chain(scene.volumes.iter().filter(|v| v.role.value != Role::Primary));
     for v in ordered {
         let name = &v.name.name;
-        let data = match &v.source {
-            VolumeSource::File(file) => volume::load(&file.resolved, &mut |done, total| progress(name, done, total))?,
-            VolumeSource::Phantom(p) => volume::phantom::phantom(&p.value, options.phantom_size)
-                .map_err(|e| RuntimeError::Invalid(format!("volume `{name}`: {e}")))?,
+        let phantom = |p: &str| {
+            volume::phantom::phantom(p, options.phantom_size)
+                .map_err(|e| RuntimeError::Invalid(format!("volume `{name}`: {e}")))
+        };
+        let data = match (&v.source, &v.fallback) {
+            (VolumeSource::File(file), Some(fallback)) if !file.resolved.exists() => {
+                notices.push(format!(
+                    "volume `{name}`: `{}` is absent; using the built-in `{}` phantom instead",
+                    file.resolved.display(),
+                    fallback.value
+                ));
+                phantom(&fallback.value)?
+            }
+            (VolumeSource::File(file), _) => volume::load(&file.resolved, &mut |done, total| progress(name, done, total))?,
+            (VolumeSource::Phantom(p), _) => phantom(&p.value)?,
         };
         let is_primary = v.role.value == Role::Primary;
         let binding = if is_primary { "volume".to_string() } else { format!("volume_{name}") };

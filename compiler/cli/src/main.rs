@@ -246,7 +246,10 @@ fn render(printer: &Printer, scene_path: &Path, dir: &Path, size: Option<[u32; 2
     let renderer = SceneRenderer::from_built(gpu, scene_path, scene, &built, options, &mut |name, done, total| {
         bar.update(name, done, total)
     });
-    let result = renderer.and_then(|mut r| r.render_all());
+    let result = renderer.and_then(|mut r| {
+        r.notices.iter().for_each(|n| eprintln!("note: {n}"));
+        r.render_all()
+    });
     let images = match result {
         Ok(images) => images,
         Err(e) => {

@@ -1,6 +1,7 @@
 //! Shared set-up of the runtime's integration tests.
 #![allow(dead_code)]
 
+use image::RgbaImage;
 use std::path::{Path, PathBuf};
 use vrs_runtime::{AdapterChoice, Gpu};
 
@@ -30,3 +31,57 @@ pub fn software_gpu() -> Gpu {
         )
     })
 }
+
+pub const CHANNEL_TOLERANCE: u8 = 8;
+pub const MIN_MATCHING: f64 = 0.995;
+pub const MAX_MEAN_DIFF: f64 = 1.0;
+
+/// How far `actual` is from `golden`: (fraction of matching pixels, mean absolute difference,
+/// difference image).
+pub fn compare(actual: &RgbaImage, golden: &RgbaImage) -> (f64, f64, RgbaImage) {
+    let mut matching = 0usize;
+    let mut total_diff = 0u64;
+    let mut diff = RgbaImage::new(actual.width(), actual.height());
+    for ((a, g), d) in actual.pixels().zip(golden.pixels()).zip(diff.pixels_mut()) {
+        let worst = (0..4).map(|c| a[c].abs_diff(g[c])).max().unwrap_or(0);
+        total_diff += (0..4).map(|c| u64::from(a[c].abs_diff(g[c]))).sum::<u64>();
+        if worst <= CHANNEL_TOLERANCE {
+            matching += 1;
+        }
+        let shown = worst.saturating_mul(8);
+        *d = image::Rgba([shown, if worst > CHANNEL_TOLERANCE { 0 } else { shown }, 0, 255]);
+    }
+    let pixels = (actual.width() * actual.height()).max(1) as f64;
+    (matching as f64 / pixels, total_diff as f64 / (pixels * 4.0), diff)
+}
+
+/// Compares `actual` with `tests/golden/NAME.png` (see golden.rs for the tolerance).
+pub fn check_golden(name: &str, actual: &RgbaImage) -> Result<(), String> {
+    let golden_path = &root().join(format!("tests/golden/{name}.png"));
+    if std::env::var_os("VRS_UPDATE_GOLDEN").is_some() {
+        actual.save(golden_path).map_err(|e| e.to_string())?;
+        return Ok(());
+    }
+    let golden = image::open(golden_path)
+        .map_err(|e| format!("{name}: cannot read {}: {e} (VRS_UPDATE_GOLDEN=1 writes it)", golden_path.display()))?
+        .to_rgba8();
+    if golden.dimensions() != actual.dimensions() {
+        return Err(format!("{name}: size {:?}, golden {:?}", actual.dimensions(), golden.dimensions()));
+    }
+    let (matching, mean, diff) = compare(actual, &golden);
+    if matching >= MIN_MATCHING && mean <= MAX_MEAN_DIFF {
+        return Ok(());
+    }
+    let out = root().join("target/golden-failures");
+    let _ = std::fs::create_dir_all(&out);
+    let _ = actual.save(out.join(format!("{name}.actual.png")));
+    let _ = diff.save(out.join(format!("{name}.diff.png")));
+    Err(format!(
+        "{name}: {:.2}% of pixels within {CHANNEL_TOLERANCE}/255 (need {:.1}%), mean difference {mean:.2}/255 \
+         (at most {MAX_MEAN_DIFF}); actual and difference images in {}",
+        matching * 100.0,
+        MIN_MATCHING * 100.0,
+        out.display()
+    ))
+}
+
