@@ -990,7 +990,9 @@ impl Cx<'_> {
                 (Some(f), _) => {
                     let span = self.span(&f);
                     if !is_identifier(f.get_ref()) {
-                        self.emit(self.invalid(span, format!("the phantom name `{}` is not an identifier", f.get_ref())));
+                        self.emit(
+                            self.invalid(span, format!("the phantom name `{}` is not an identifier", f.get_ref())),
+                        );
                     }
                     Some(Located { value: f.into_inner(), span })
                 }

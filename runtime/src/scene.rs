@@ -51,12 +51,19 @@ pub struct SceneRenderer {
     compositions: CompositionCache,
     pipelines: PipelineCache,
     resources: Resources,
-    /// Grid and transform of each volume by scene name, primary first.
-    grids: Vec<(String, Role, [u32; 3], Mat4)>,
+    /// Grid and transform of each volume, primary first.
+    grids: Vec<VolumeGrid>,
     pub views: Vec<SceneView>,
     /// Things the user should know that are not errors (a volume replaced by its fallback
     /// phantom because its file is absent).
     pub notices: Vec<String>,
+}
+
+/// Where a volume's voxels are: what `primary_to_NAME` is computed from.
+struct VolumeGrid {
+    name: String,
+    dims: [u32; 3],
+    grid_to_world: Mat4,
 }
 
 /// Progress of loading a volume: (volume name, bytes done, bytes in all).
@@ -230,14 +237,15 @@ fn orbit(c: vscene::Camera) -> OrbitCamera {
 }
 
 /// Camera or slice plane, and the transforms from the primary volume to the others.
-fn apply_view_uniforms(view: &mut SceneView, grids: &[(String, Role, [u32; 3], Mat4)]) -> Result<(), RuntimeError> {
+fn apply_view_uniforms(view: &mut SceneView, grids: &[VolumeGrid]) -> Result<(), RuntimeError> {
     let r = &mut view.renderer;
-    let Some((_, _, primary_dims, primary_g)) = grids.first() else { return Ok(()) };
+    let Some(primary) = grids.first() else { return Ok(()) };
+    let (primary_dims, primary_g) = (&primary.dims, primary.grid_to_world);
     if let Some(camera) = view.camera
         && r.has_uniform("inv_view_proj")
     {
         let [w, h] = r.size();
-        let extent = geometry::extent(*primary_dims, *primary_g);
+        let extent = geometry::extent(*primary_dims, primary_g);
         r.set_uniform("inv_view_proj", camera.inv_view_proj(extent, w as f32 / h.max(1) as f32))?;
     }
     if let Some((plane, slab)) = view.slice {
@@ -250,10 +258,11 @@ fn apply_view_uniforms(view: &mut SceneView, grids: &[(String, Role, [u32; 3], M
             r.set_uniform("slab", slab)?;
         }
     }
-    for (name, _, dims, g) in &grids[1..] {
-        let uniform = format!("primary_to_{name}");
+    for other in &grids[1..] {
+        let uniform = format!("primary_to_{}", other.name);
         if r.has_uniform(&uniform) {
-            r.set_uniform(&uniform, geometry::primary_to((primary_dims, *primary_g), (dims, *g)))?;
+            let m = geometry::primary_to((primary_dims, primary_g), (&other.dims, other.grid_to_world));
+            r.set_uniform(&uniform, m)?;
         }
     }
     Ok(())
@@ -268,7 +277,7 @@ fn load_volumes(
     resources: &mut Resources,
     notices: &mut Vec<String>,
     progress: Progress,
-) -> Result<Vec<(String, Role, [u32; 3], Mat4)>, RuntimeError> {
+) -> Result<Vec<VolumeGrid>, RuntimeError> {
     let mut grids = Vec::new();
     let primary = scene.primary();
     let ordered = std::iter::once(primary).chain(scene.volumes.iter().filter(|v| v.role.value != Role::Primary));
@@ -287,13 +296,15 @@ fn load_volumes(
                 ));
                 phantom(&fallback.value)?
             }
-            (VolumeSource::File(file), _) => volume::load(&file.resolved, &mut |done, total| progress(name, done, total))?,
+            (VolumeSource::File(file), _) => {
+                volume::load(&file.resolved, &mut |done, total| progress(name, done, total))?
+            }
             (VolumeSource::Phantom(p), _) => phantom(&p.value)?,
         };
         let is_primary = v.role.value == Role::Primary;
         let binding = if is_primary { "volume".to_string() } else { format!("volume_{name}") };
         let texture = VolumeTexture::upload(gpu, name, &data, None)?;
-        grids.push((name.clone(), v.role.value, data.dims, data.grid_to_world));
+        grids.push(VolumeGrid { name: name.clone(), dims: data.dims, grid_to_world: data.grid_to_world });
         resources.volumes.insert(binding, Arc::new(texture));
         if let Some(tf_ref) = &v.tf {
             let table = match tf_ref {

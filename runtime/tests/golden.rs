@@ -11,8 +11,8 @@
 
 mod common;
 
-use image::RgbaImage;
 use common::{MIN_MATCHING, compare};
+use image::RgbaImage;
 use std::path::PathBuf;
 use vrs_runtime::{RenderOptions, SceneRenderer};
 

@@ -84,8 +84,7 @@ pub fn translate(
             Ok(out.into_bytes())
         }
         Target::Hlsl => {
-            let pipeline =
-                hlsl::PipelineOptions { entry_point: Some((stage, entry.to_string())) };
+            let pipeline = hlsl::PipelineOptions { entry_point: Some((stage, entry.to_string())) };
             let options = hlsl::Options::default();
             let mut out = String::new();
             hlsl::Writer::new(&mut out, &options, &pipeline).write(module, info, None).map_err(err)?;

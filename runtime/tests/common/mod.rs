@@ -84,4 +84,3 @@ pub fn check_golden(name: &str, actual: &RgbaImage) -> Result<(), String> {
         out.display()
     ))
 }
-
