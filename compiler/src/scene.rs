@@ -107,6 +107,8 @@ pub struct Render {
     pub boundary: bool,
     /// Gooch-style tone shading (`std::tone`); needs `shading`.
     pub tone: bool,
+    /// Empty-space skipping in raycast views (`std::skip`); DVR only.
+    pub empty_space_skipping: bool,
     /// Initial value of the `step_size` uniform (normalized units); `None`: the uniform's
     /// default, [`DEFAULT_STEP_SIZE`].
     pub step_size: Option<Located<f32>>,
@@ -461,6 +463,10 @@ impl Scene {
             Compositing::Mip => add("composite_mip", vec![]),
             Compositing::Iso => add("composite_iso", vec![]),
         }
+        // Last: its functions append to `ray.setup` and `end` after the ones above.
+        if r.empty_space_skipping && view.kind.value == ViewKind::Raycast {
+            add("skip", vec![]);
+        }
         out
     }
 }
@@ -566,6 +572,7 @@ struct RawRender {
     lights: Option<Spanned<Vec<Spanned<String>>>>,
     boundary: Option<Spanned<bool>>,
     tone: Option<Spanned<bool>>,
+    empty_space_skipping: Option<Spanned<bool>>,
     step_size: Option<Spanned<f32>>,
     max_samples: Option<Spanned<u32>>,
     jitter: Option<Spanned<f32>>,
@@ -578,6 +585,7 @@ const RENDER_KEYS: &[&str] = &[
     "lights",
     "boundary",
     "tone",
+    "empty_space_skipping",
     "step_size",
     "max_samples",
     "jitter",
@@ -877,7 +885,27 @@ impl Cx<'_> {
                     .with_label("premultiplied RGBA"),
             );
         }
-        Render { compositing, iso_value, shading, lights, boundary, tone, step_size, max_samples, jitter, background }
+        let empty_space_skipping = match &r.empty_space_skipping {
+            Some(skip) if *skip.get_ref() && compositing.value != Compositing::Dvr => {
+                self.ignored(skip, "empty_space_skipping", "without `compositing = \"dvr\"`");
+                false
+            }
+            Some(skip) => *skip.get_ref(),
+            None => false,
+        };
+        Render {
+            compositing,
+            iso_value,
+            shading,
+            lights,
+            boundary,
+            tone,
+            empty_space_skipping,
+            step_size,
+            max_samples,
+            jitter,
+            background,
+        }
     }
 
     /// Checks a list of instance-like names: identifiers, not keywords, no duplicates.

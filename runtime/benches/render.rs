@@ -90,4 +90,26 @@ fn main() {
     let (c, h) = (results[0], results[1]);
     println!("composed / hand-written: {:.3} with early termination, {:.3} without", c.0 / h.0, c.1 / h.1);
     println!("samples per frame without early termination: {samples:.0}");
+
+    // Empty-space skipping: the same scene with `empty_space_skipping = true`.
+    let dir = std::env::temp_dir().join(format!("vrs-bench-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let text = std::fs::read_to_string(&scene_path)
+        .expect("scene")
+        .replace("[render]", "[render]\nempty_space_skipping = true");
+    let skip_path = dir.join("scene.toml");
+    std::fs::write(&skip_path, text).expect("temp scene");
+    let options = RenderOptions { size: Some([SIZE, SIZE]), ..RenderOptions::default() };
+    let gpu = scene.gpu().clone();
+    let mut skipping = SceneRenderer::open(gpu, &skip_path, options, &mut |_, _, _| {}).expect("skipping scene");
+    let skip_ert = median_frame_ms(&mut skipping, 0);
+    skipping.views[0].renderer.set_uniform("ert_threshold", 2.0f32).expect("ert uniform");
+    let skip_no_ert = median_frame_ms(&mut skipping, 0);
+    println!(
+        "empty-space skipping: {skip_ert:7.1} ms/frame with early termination ({:.2}x faster), {skip_no_ert:7.1} ms \
+         without ({:.2}x faster)",
+        c.0 / skip_ert,
+        c.1 / skip_no_ert
+    );
+    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -23,6 +23,7 @@
 pub mod error;
 pub mod geometry;
 pub mod gpu;
+pub mod occupancy;
 pub mod reflection;
 #[cfg(feature = "compiler")]
 pub mod scene;

@@ -53,6 +53,9 @@ pub struct SceneRenderer {
     resources: Resources,
     /// Grid and transform of each volume, primary first.
     grids: Vec<VolumeGrid>,
+    /// Empty-space skipping: the primary volume's normalized values, to rebuild the occupancy
+    /// grid when its transfer function changes. `None` when the scene does not skip.
+    skipping: Option<Vec<f32>>,
     pub views: Vec<SceneView>,
     /// Things the user should know that are not errors (a volume replaced by its fallback
     /// phantom because its file is absent).
@@ -97,7 +100,8 @@ impl SceneRenderer {
     ) -> Result<SceneRenderer, RuntimeError> {
         let mut resources = Resources::new(&gpu);
         let mut notices = Vec::new();
-        let grids = load_volumes(&gpu, scene, &options, &mut resources, &mut notices, progress)?;
+        let loaded = load_volumes(&gpu, scene, &options, &mut resources, &mut notices, progress)?;
+        let skipping = scene.render.empty_space_skipping.then_some(loaded.primary_values);
         let mut renderer = SceneRenderer {
             gpu,
             path: path.to_path_buf(),
@@ -105,10 +109,12 @@ impl SceneRenderer {
             compositions: CompositionCache::new(),
             pipelines: PipelineCache::new(),
             resources,
-            grids,
+            grids: loaded.grids,
+            skipping,
             views: Vec::new(),
             notices,
         };
+        renderer.update_occupancy(&loaded.primary_tf);
         renderer.set_views(scene, built)?;
         Ok(renderer)
     }
@@ -174,6 +180,35 @@ impl SceneRenderer {
     pub fn replace_shader(&mut self, index: usize, shader: ViewShader) -> Result<(), RuntimeError> {
         let view = self.views.get_mut(index).ok_or_else(|| RuntimeError::Invalid(format!("no view {index}")))?;
         view.renderer.set_shader(&self.gpu, &mut self.pipelines, shader)
+    }
+
+    /// Replaces the transfer function of volume `volume` (its name in the scene) in every view:
+    /// the table is rewritten in place, no shader changes; with empty-space skipping the
+    /// primary volume's occupancy grid is rebuilt.
+    pub fn set_transfer_function(
+        &mut self,
+        volume: &str,
+        tf: &crate::tf::TransferFunction,
+    ) -> Result<(), RuntimeError> {
+        let is_primary = self.grids.first().is_some_and(|g| g.name == volume);
+        let binding = if is_primary { "tf".to_string() } else { format!("tf_{volume}") };
+        let texture = self.resources.tfs.get(&binding).ok_or_else(|| {
+            RuntimeError::Invalid(format!("the scene has no volume `{volume}` with a transfer function"))
+        })?;
+        texture.write(&self.gpu, tf);
+        if is_primary {
+            self.update_occupancy(tf);
+        }
+        Ok(())
+    }
+
+    /// Builds the occupancy grid of empty-space skipping for the primary transfer function.
+    fn update_occupancy(&mut self, tf: &crate::tf::TransferFunction) {
+        let (Some(values), Some(primary)) = (&self.skipping, self.grids.first()) else { return };
+        let grid = crate::occupancy::occupancy(primary.dims, values, tf);
+        if let Ok(texture) = VolumeTexture::upload(&self.gpu, "occupancy", &grid, Some([0.0, 1.0])) {
+            self.resources.volumes.insert("occupancy".into(), Arc::new(texture));
+        }
     }
 
     /// Records one frame of view `index` (for benchmarks: no read-back).
@@ -268,8 +303,16 @@ fn apply_view_uniforms(view: &mut SceneView, grids: &[VolumeGrid]) -> Result<(),
     Ok(())
 }
 
-/// Loads and uploads every volume and transfer function of the scene; returns the grids,
-/// primary first.
+/// What [`load_volumes`] leaves for the renderer besides the uploaded textures.
+struct Loaded {
+    /// Every volume's grid, primary first.
+    grids: Vec<VolumeGrid>,
+    /// The primary volume's values as uploaded (normalized) and its transfer function.
+    primary_values: Vec<f32>,
+    primary_tf: crate::tf::TransferFunction,
+}
+
+/// Loads and uploads every volume and transfer function of the scene.
 fn load_volumes(
     gpu: &Gpu,
     scene: &Scene,
@@ -277,8 +320,10 @@ fn load_volumes(
     resources: &mut Resources,
     notices: &mut Vec<String>,
     progress: Progress,
-) -> Result<Vec<VolumeGrid>, RuntimeError> {
+) -> Result<Loaded, RuntimeError> {
     let mut grids = Vec::new();
+    let mut primary_values = Vec::new();
+    let mut primary_tf = tf::preset(vscene::DEFAULT_TF)?;
     let primary = scene.primary();
     let ordered = std::iter::once(primary).chain(scene.volumes.iter().filter(|v| v.role.value != Role::Primary));
     for v in ordered {
@@ -304,6 +349,9 @@ fn load_volumes(
         let is_primary = v.role.value == Role::Primary;
         let binding = if is_primary { "volume".to_string() } else { format!("volume_{name}") };
         let texture = VolumeTexture::upload(gpu, name, &data, None)?;
+        if is_primary {
+            primary_values = data.normalized(None);
+        }
         grids.push(VolumeGrid { name: name.clone(), dims: data.dims, grid_to_world: data.grid_to_world });
         resources.volumes.insert(binding, Arc::new(texture));
         if let Some(tf_ref) = &v.tf {
@@ -313,9 +361,12 @@ fn load_volumes(
             };
             let binding = if is_primary { "tf".to_string() } else { format!("tf_{name}") };
             resources.tfs.insert(binding, Arc::new(TfTexture::upload(gpu, &table)));
+            if is_primary {
+                primary_tf = table;
+            }
         }
     }
-    Ok(grids)
+    Ok(Loaded { grids, primary_values, primary_tf })
 }
 
 fn uniform_json(v: &UniformValue) -> serde_json::Value {

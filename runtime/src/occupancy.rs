@@ -1,0 +1,146 @@
+//! The occupancy grid of empty-space skipping (`std::skip`): one texel per brick of about
+//! `BRICK`^3 voxels of the primary volume, 1 where the transfer function gives some value that a
+//! sample inside the brick can read a non-zero opacity, 0 where everything is invisible. It
+//! depends on the transfer function, so it is rebuilt whenever that changes.
+//!
+//! Texel `j` of an axis with `n` texels covers the normalized interval `[j/n, (j+1)/n]`: its
+//! range is taken over every voxel a trilinear sample inside that interval reads (the voxels
+//! whose centres lie within one voxel of it), so no alignment of bricks and voxels is assumed.
+
+use crate::tf::TransferFunction;
+use crate::volume::Volume;
+
+/// Voxels per brick edge.
+pub const BRICK: u32 = 8;
+
+/// The occupancy grid of `values` (the primary volume's normalized values, as uploaded) on a
+/// grid of `dims`, under `tf`.
+pub fn occupancy(dims: [u32; 3], values: &[f32], tf: &TransferFunction) -> Volume {
+    let bricks = dims.map(|d| d.div_ceil(BRICK).max(1));
+    let ranges = brick_ranges(dims, bricks, values);
+    let visible = VisibleRanges::new(tf);
+    let data = ranges.iter().map(|&(lo, hi)| if visible.any(lo, hi) { 1.0 } else { 0.0 }).collect();
+    Volume::new(bricks, glam::Mat4::IDENTITY, data)
+}
+
+/// For each texel along one axis, the voxels a trilinear sample in its interval may read.
+fn texel_voxels(voxels: u32, texels: u32) -> Vec<std::ops::RangeInclusive<u32>> {
+    (0..texels)
+        .map(|j| {
+            // The interval [j, j + 1] / texels is [j, j + 1] * scale - 0.5 in voxel-index
+            // coordinates (centres at integers); a trilinear sample at c reads floor(c) and
+            // floor(c) + 1.
+            let scale = voxels as f32 / texels as f32;
+            let first = (j as f32 * scale - 0.5).floor().max(0.0) as u32;
+            let last = (((j + 1) as f32 * scale - 0.5).floor() as i64 + 1).clamp(0, i64::from(voxels) - 1) as u32;
+            first..=last
+        })
+        .collect()
+}
+
+/// Min and max value per texel, over the voxels its samples may read.
+fn brick_ranges(dims: [u32; 3], bricks: [u32; 3], values: &[f32]) -> Vec<(f32, f32)> {
+    // Per axis first (separable): rows' ranges along x, then along y, then along z.
+    let [nx, ny, nz] = dims.map(|d| d as usize);
+    let [bx, by, bz] = bricks.map(|b| b as usize);
+    let value = |x: usize, y: usize, z: usize| values.get((z * ny + y) * nx + x).copied().unwrap_or(0.0);
+    let spans = |axis: usize| texel_voxels(dims[axis], bricks[axis]);
+    let (sx, sy, sz) = (spans(0), spans(1), spans(2));
+    let merge = |a: (f32, f32), b: (f32, f32)| (a.0.min(b.0), a.1.max(b.1));
+    let empty = (f32::INFINITY, f32::NEG_INFINITY);
+    let mut along_x = vec![empty; bx * ny * nz];
+    for z in 0..nz {
+        for y in 0..ny {
+            for (i, span) in sx.iter().enumerate() {
+                let r = span.clone().fold(empty, |r, x| merge(r, (value(x as usize, y, z), value(x as usize, y, z))));
+                along_x[(z * ny + y) * bx + i] = r;
+            }
+        }
+    }
+    let mut along_y = vec![empty; bx * by * nz];
+    for z in 0..nz {
+        for (j, span) in sy.iter().enumerate() {
+            for i in 0..bx {
+                along_y[(z * by + j) * bx + i] =
+                    span.clone().fold(empty, |r, y| merge(r, along_x[(z * ny + y as usize) * bx + i]));
+            }
+        }
+    }
+    let mut ranges = vec![empty; bx * by * bz];
+    for (k, span) in sz.iter().enumerate() {
+        for j in 0..by {
+            for i in 0..bx {
+                ranges[(k * by + j) * bx + i] =
+                    span.clone().fold(empty, |r, z| merge(r, along_y[(z as usize * by + j) * bx + i]));
+            }
+        }
+    }
+    ranges
+}
+
+/// Answers "does the transfer function give any value in [lo, hi] a non-zero opacity?" in
+/// constant time, from a prefix count of visible table entries.
+struct VisibleRanges {
+    prefix: Vec<u32>,
+}
+
+impl VisibleRanges {
+    fn new(tf: &TransferFunction) -> VisibleRanges {
+        let mut prefix = Vec::with_capacity(tf.rgba.len() + 1);
+        prefix.push(0);
+        for entry in &tf.rgba {
+            prefix.push(prefix.last().copied().unwrap_or(0) + u32::from(entry[3] > 0.0));
+        }
+        VisibleRanges { prefix }
+    }
+
+    fn any(&self, lo: f32, hi: f32) -> bool {
+        let last = self.prefix.len().saturating_sub(2);
+        if lo.is_nan() || hi.is_nan() || lo > hi {
+            return false;
+        }
+        // Lookups interpolate linearly between entries: take the entries on both sides.
+        let entry = |v: f32| v.clamp(0.0, 1.0) * last as f32;
+        let first = entry(lo).floor() as usize;
+        let end = (entry(hi).ceil() as usize).min(last) + 1;
+        self.prefix[end] > self.prefix[first]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::tf::from_points;
+
+    #[test]
+    fn only_bricks_whose_samples_can_read_a_visible_value_are_occupied() {
+        // Opacity only above 0.5.
+        let tf =
+            from_points("t", &[(0.0, [1.0; 3]), (1.0, [1.0; 3])], &[(0.0, 0.0), (0.5, 0.0), (0.6, 1.0), (1.0, 1.0)]);
+        let dims = [32, 8, 8];
+        let mut values = vec![0.1; 32 * 8 * 8];
+        values[31] = 0.9; // one bright voxel in the last brick along x
+        let grid = occupancy(dims, &values, &tf);
+        assert_eq!(grid.dims, [4, 1, 1]);
+        assert_eq!(grid.data, vec![0.0, 0.0, 0.0, 1.0], "only the bright voxel's brick");
+        // A bright voxel at a brick's edge is read by samples in the next brick too.
+        values[31] = 0.1;
+        values[8] = 0.9;
+        assert_eq!(occupancy(dims, &values, &tf).data, vec![1.0, 1.0, 0.0, 0.0]);
+    }
+
+    #[test]
+    fn transparent_everywhere_is_empty() {
+        let tf = from_points("t", &[(0.0, [1.0; 3]), (1.0, [1.0; 3])], &[(0.0, 0.0), (1.0, 0.0)]);
+        let grid = occupancy([16, 16, 16], &vec![0.7; 16 * 16 * 16], &tf);
+        assert!(grid.data.iter().all(|&v| v == 0.0));
+    }
+
+    #[test]
+    fn every_voxel_read_from_a_texel_is_in_its_span() {
+        // 20 voxels on 3 texels: texel 1 covers normalized [1/3, 2/3], voxel coordinates
+        // 6.17 ..= 12.83, so samples there read voxels 6 to 13.
+        let spans = super::texel_voxels(20, 3);
+        assert_eq!(spans, vec![0..=7, 6..=13, 12..=19]);
+    }
+}
