@@ -63,3 +63,21 @@ pub fn pathdiff(path: &Path, base: &Path) -> PathBuf {
         None => path,
     }
 }
+
+/// Every `.toml` file under `root`, sorted.
+pub fn scenes_under(root: &Path) -> Vec<PathBuf> {
+    let mut scenes = Vec::new();
+    let mut stack = vec![root.to_path_buf()];
+    while let Some(dir) = stack.pop() {
+        for entry in std::fs::read_dir(&dir).expect("folder readable").filter_map(Result::ok) {
+            let path = entry.path();
+            if path.is_dir() {
+                stack.push(path);
+            } else if path.extension().is_some_and(|x| x == "toml") {
+                scenes.push(path);
+            }
+        }
+    }
+    scenes.sort();
+    scenes
+}

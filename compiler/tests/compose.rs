@@ -1,24 +1,12 @@
 //! Composition of whole scenes: every example scene composes without errors, every view's WGSL
 //! validates in naga and parses back through naga's WGSL front end, and output is deterministic.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 
 fn example_scenes() -> Vec<PathBuf> {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples");
-    let mut scenes = Vec::new();
-    let mut stack = vec![root];
-    while let Some(dir) = stack.pop() {
-        for entry in std::fs::read_dir(&dir).expect("examples readable").filter_map(Result::ok) {
-            let path = entry.path();
-            if path.is_dir() {
-                stack.push(path);
-            } else if path.extension().is_some_and(|x| x == "toml") {
-                scenes.push(path);
-            }
-        }
-    }
-    scenes.sort();
-    scenes
+    common::scenes_under(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples"))
 }
 
 #[test]

@@ -5,25 +5,8 @@
 
 mod common;
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use vrsc::compose::build::{BuiltScene, build_scene};
-
-fn scenes_under(root: &Path) -> Vec<PathBuf> {
-    let mut scenes = Vec::new();
-    let mut stack = vec![root.to_path_buf()];
-    while let Some(dir) = stack.pop() {
-        for entry in std::fs::read_dir(&dir).expect("folder readable").filter_map(Result::ok) {
-            let path = entry.path();
-            if path.is_dir() {
-                stack.push(path);
-            } else if path.extension().is_some_and(|x| x == "toml") {
-                scenes.push(path);
-            }
-        }
-    }
-    scenes.sort();
-    scenes
-}
 
 /// `examples/ablation/scene.toml` → `ablation`; `tests/fixtures/compose/mip/scene.toml` → `mip`.
 fn snapshot_name(root: &Path, scene: &Path) -> String {
@@ -38,7 +21,7 @@ fn build(scene: &Path) -> BuiltScene {
 }
 
 fn check_scenes(root: &Path, prefix: &str) {
-    let scenes = scenes_under(root);
+    let scenes = common::scenes_under(root);
     assert!(!scenes.is_empty(), "no scenes under {}", root.display());
     for scene in scenes {
         let built = build(&scene);
@@ -89,7 +72,7 @@ fn explain_annotates_every_function() {
 #[test]
 fn every_view_translates_to_every_backend() {
     use vrsc::compose::backends::{Target, translate};
-    for scene in scenes_under(&common::fixtures().join("compose")) {
+    for scene in common::scenes_under(&common::fixtures().join("compose")) {
         let built = build(&scene);
         for view in &built.views {
             let shader = view.shader.as_ref().expect("composed");
