@@ -3,9 +3,14 @@
 //! Run: `cargo bench -p vrsc --bench compose`.
 //!
 //! Scene: `tests/fixtures/compose/bench_3vol_2lights_4clips` (three volumes, two lights, four
-//! clip-plane instances; a raycast and a slice view).
+//! clip-plane instances; a raycast and a slice view, composed in parallel), and its raycast view
+//! alone. Like the `vrsc` binary, the bench runs on mimalloc.
 
 use criterion::{Criterion, criterion_group, criterion_main};
+
+// The allocator the `vrsc` binary ships with (see compiler/cli/src/main.rs).
+#[global_allocator]
+static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
 use std::hint::black_box;
 use std::path::{Path, PathBuf};
 use vrsc::compose::build::build_scene;
@@ -31,6 +36,9 @@ fn composition(c: &mut Criterion) {
 
     let mut group = c.benchmark_group("compose_3vol_2lights_4clips");
     group.bench_function("vrsc_compose_all_views", |b| b.iter(|| build_scene(black_box(&path), None).unwrap()));
+    group.bench_function("vrsc_compose_raycast_view_only", |b| {
+        b.iter(|| build_scene(black_box(&path), Some("3d")).unwrap())
+    });
     group.bench_function("naga_parse_validate_same_wgsl", |b| {
         b.iter(|| {
             for w in &wgsl {

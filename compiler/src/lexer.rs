@@ -9,7 +9,7 @@
 use crate::diag::{Code, Diagnostic, Diagnostics};
 use crate::source::Span;
 use logos::Logos;
-use std::collections::HashMap;
+use rustc_hash::FxHashMap;
 use std::fmt;
 
 /// Deepest bracket nesting accepted: far beyond hand-written code, far below a stack overflow.
@@ -359,7 +359,7 @@ impl Token {
 pub struct Lexed {
     pub tokens: Vec<(Token, Span)>,
     /// Doc comment text (lines joined with `\n`), keyed by the start of the token it precedes.
-    pub docs: HashMap<u32, String>,
+    pub docs: FxHashMap<u32, String>,
 }
 
 /// Lexes `text`, whose first byte has global offset `base`.

@@ -3,16 +3,18 @@
 
 use crate::ast::{self, ItemKind};
 use crate::diag::{Code, Diagnostic, Diagnostics};
-use crate::source::{FileId, SourceMap, Span};
+use crate::source::{FileId, SourceFile, SourceMap, Span};
 use crate::{lexer, parser, stdlib};
-use std::collections::HashMap;
+use rustc_hash::FxHashMap;
 use std::path::{Path, PathBuf};
+use std::sync::{Arc, OnceLock};
 
 /// One loaded file.
 #[derive(Debug)]
 pub struct LoadedModule {
     pub file: FileId,
-    pub ast: ast::Module,
+    /// Shared: the standard modules are parsed once per process, user files once per build.
+    pub ast: Arc<ast::Module>,
     /// Indices (into [`ModuleGraph::modules`]) of the modules this one imports directly,
     /// in source order; an import that failed to load is left out.
     pub imports: Vec<usize>,
@@ -28,31 +30,59 @@ pub struct ModuleGraph {
     pub roots: Vec<usize>,
 }
 
+/// Files already read and parsed into one [`SourceMap`], by canonical path: the views of a scene
+/// load the same files into one map, and each is read, lexed and parsed once (its syntax errors
+/// reported once).
+#[derive(Debug, Default)]
+pub struct ParsedFiles {
+    files: FxHashMap<String, (FileId, Arc<ast::Module>)>,
+}
+
 /// Builds a [`ModuleGraph`], adding every file it reads to the source map.
 pub struct Loader<'a> {
     sources: &'a mut SourceMap,
     diags: &'a mut Diagnostics,
     graph: ModuleGraph,
+    parsed: ParsedFiles,
     /// Canonical path or `std::name` → module index.
-    loaded: HashMap<String, usize>,
+    loaded: FxHashMap<String, usize>,
     /// Modules whose imports are being followed (for cycle detection).
     in_progress: Vec<usize>,
 }
 
 impl<'a> Loader<'a> {
     pub fn new(sources: &'a mut SourceMap, diags: &'a mut Diagnostics) -> Loader<'a> {
-        Loader { sources, diags, graph: ModuleGraph::default(), loaded: HashMap::new(), in_progress: Vec::new() }
+        Loader::with_parsed(sources, diags, ParsedFiles::default())
+    }
+
+    /// A loader that reuses the files an earlier loader parsed into the same `sources`.
+    pub fn with_parsed(sources: &'a mut SourceMap, diags: &'a mut Diagnostics, parsed: ParsedFiles) -> Loader<'a> {
+        Loader {
+            sources,
+            diags,
+            graph: ModuleGraph::default(),
+            parsed,
+            loaded: FxHashMap::default(),
+            in_progress: Vec::new(),
+        }
     }
 
     /// Loads a root file from disk. An unreadable root is an `Err` (an I/O problem, exit code 2).
     pub fn load_root_file(&mut self, path: &Path) -> Result<usize, std::io::Error> {
         let key = canonical_key(path);
-        if let Some(&index) = self.loaded.get(&key) {
-            self.graph.roots.push(index);
-            return Ok(index);
-        }
-        let text = std::fs::read_to_string(path)?;
-        let index = self.add_module(path.display().to_string(), Some(path), None, text, key);
+        let index = match self.loaded.get(&key) {
+            Some(&index) => index,
+            None => {
+                let (file, ast) = match self.parsed.files.get(&key) {
+                    Some(parsed) => parsed.clone(),
+                    None => {
+                        let text = std::fs::read_to_string(path)?;
+                        self.parse_file(path.display().to_string(), Some(path), text, &key)
+                    }
+                };
+                self.add_module(file, ast, None, key)
+            }
+        };
         self.graph.roots.push(index);
         Ok(index)
     }
@@ -62,7 +92,8 @@ impl<'a> Loader<'a> {
     pub fn load_root_source(&mut self, name: &str, text: String, dir: Option<&Path>) -> usize {
         let path = dir.map(|d| d.join(name));
         let key = format!("<source {}>:{name}", self.graph.modules.len());
-        let index = self.add_module(name.to_string(), path.as_deref(), None, text, key);
+        let (file, ast) = self.parse_file(name.to_string(), path.as_deref(), text, &key);
+        let index = self.add_module(file, ast, None, key);
         self.graph.roots.push(index);
         index
     }
@@ -78,29 +109,33 @@ impl<'a> Loader<'a> {
         self.graph
     }
 
+    /// The graph, and the parsed files for the next loader over the same source map.
+    pub fn finish_keeping_files(self) -> (ModuleGraph, ParsedFiles) {
+        (self.graph, self.parsed)
+    }
+
     fn load_std(&mut self, name: &str) -> Option<usize> {
         let key = format!("std::{name}");
         if let Some(&index) = self.loaded.get(&key) {
             return Some(index);
         }
-        let text = stdlib::source(name)?;
-        Some(self.add_module(key.clone(), None, Some(name), text.to_string(), key))
+        let file = self.sources.std_file(name)?;
+        let parsed = &parsed_std()[file];
+        // Empty unless a standard module itself has a syntax error (a bug in the compiler).
+        parsed.diags.iter().cloned().for_each(|d| self.diags.push(d));
+        Some(self.add_module(file, parsed.ast.clone(), Some(name), key))
     }
 
-    fn add_module(
-        &mut self,
-        name: String,
-        path: Option<&Path>,
-        std_name: Option<&str>,
-        text: String,
-        key: String,
-    ) -> usize {
+    /// Adds a file to the source map, lexes and parses it, and remembers it under `key`.
+    fn parse_file(&mut self, name: String, path: Option<&Path>, text: String, key: &str) -> (FileId, Arc<ast::Module>) {
         let canonical = path.map(|p| p.canonicalize().unwrap_or_else(|_| p.to_path_buf()));
         let file = self.sources.add(name, canonical, text);
-        let source = self.sources.file(file);
-        let eof = source.base + source.text.len() as u32;
-        let lexed = lexer::lex(&source.text, source.base, self.diags);
-        let ast = parser::parse_module(&lexed, file, eof, self.diags);
+        let ast = Arc::new(parse_source(self.sources.file(file), file, self.diags));
+        self.parsed.files.insert(key.to_string(), (file, ast.clone()));
+        (file, ast)
+    }
+
+    fn add_module(&mut self, file: FileId, ast: Arc<ast::Module>, std_name: Option<&str>, key: String) -> usize {
         let index = self.graph.modules.len();
         self.graph.modules.push(LoadedModule { file, ast, imports: Vec::new(), std_name: std_name.map(String::from) });
         self.loaded.insert(key, index);
@@ -157,8 +192,14 @@ impl<'a> Loader<'a> {
         if let Some(&target) = self.loaded.get(&key) {
             return self.check_cycle(target, span);
         }
+        if let Some((file, ast)) = self.parsed.files.get(&key).cloned() {
+            return Some(self.add_module(file, ast, None, key));
+        }
         match std::fs::read_to_string(&full) {
-            Ok(text) => Some(self.add_module(lexical_join(shown_dir, path), Some(&full), None, text, key)),
+            Ok(text) => {
+                let (file, ast) = self.parse_file(lexical_join(shown_dir, path), Some(&full), text, &key);
+                Some(self.add_module(file, ast, None, key))
+            }
             Err(err) => {
                 self.diags.push(
                     Diagnostic::new(Code::ImportNotFound, span, format!("cannot read `{path}`: {err}"))
@@ -204,6 +245,33 @@ impl<'a> Loader<'a> {
         );
         None
     }
+}
+
+/// A standard module parsed once per process, at the offsets every [`SourceMap`] gives it.
+struct ParsedStd {
+    ast: Arc<ast::Module>,
+    diags: Vec<Diagnostic>,
+}
+
+/// The standard modules, parsed on first use, indexed by their file id.
+fn parsed_std() -> &'static [ParsedStd] {
+    static PARSED: OnceLock<Vec<ParsedStd>> = OnceLock::new();
+    PARSED.get_or_init(|| {
+        let sources = SourceMap::new();
+        (0..stdlib::modules().count())
+            .map(|file| {
+                let mut diags = Diagnostics::new();
+                let ast = Arc::new(parse_source(sources.file(file), file, &mut diags));
+                ParsedStd { ast, diags: diags.iter().cloned().collect() }
+            })
+            .collect()
+    })
+}
+
+fn parse_source(source: &SourceFile, file: FileId, diags: &mut Diagnostics) -> ast::Module {
+    let eof = source.base + source.text.len() as u32;
+    let lexed = lexer::lex(&source.text, source.base, diags);
+    parser::parse_module(&lexed, file, eof, diags)
 }
 
 enum ImportRequest {

@@ -32,7 +32,7 @@ use chumsky::error::{RichPattern, RichReason};
 use chumsky::input::{BorrowInput, InputRef, MapExtra, ValueInput};
 use chumsky::prelude::*;
 use chumsky::recursive::Indirect;
-use std::collections::{HashMap, HashSet};
+use rustc_hash::{FxHashMap, FxHashSet};
 
 /// The deepest expression tree, and the deepest statement nesting (blocks and `else if` levels),
 /// the parser builds. Deeper input is reported (E0105) and replaced by an error node.
@@ -840,7 +840,7 @@ where
 }
 
 /// Fills the `doc` of items and declarations from the doc comments the lexer kept.
-fn attach_docs(items: &mut [Item], docs: &HashMap<u32, String>) {
+fn attach_docs(items: &mut [Item], docs: &FxHashMap<u32, String>) {
     if docs.is_empty() {
         return;
     }
@@ -869,7 +869,7 @@ fn report(errors: Vec<ParseError<'_>>, tokens: &[(Token, Span)], diags: &mut Dia
         let Some(prev) = index.checked_sub(1).and_then(|i| tokens.get(i)) else { return false };
         dropped.iter().any(|d| d.start >= prev.1.end && d.start < at)
     };
-    let mut syntax_at: HashSet<u32> = HashSet::new();
+    let mut syntax_at: FxHashSet<u32> = FxHashSet::default();
     let mut others: Vec<Diagnostic> = Vec::new();
     for err in errors {
         let Some(d) = to_diagnostic(err) else { continue };

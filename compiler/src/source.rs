@@ -4,6 +4,8 @@
 //! offsets and needs no file id. That is exactly the shape of `naga::Span`, which lets lowering
 //! carry VRS spans straight into naga's span table and map validation errors back to VRS files.
 
+use crate::stdlib;
+use std::borrow::Cow;
 use std::ops::Range;
 use std::path::PathBuf;
 
@@ -53,10 +55,11 @@ pub struct SourceFile {
     pub name: String,
     /// The canonical path on disk, for files read from disk (imports resolve relative to it).
     pub path: Option<PathBuf>,
-    pub text: String,
+    /// Borrowed for the embedded standard modules, owned for everything read or generated.
+    pub text: Cow<'static, str>,
     /// Global offset of the file's first byte.
     pub base: u32,
-    line_starts: Vec<u32>,
+    line_starts: Cow<'static, [u32]>,
 }
 
 impl SourceFile {
@@ -75,6 +78,10 @@ impl SourceFile {
 }
 
 /// All files of one compilation. Files are only ever added, so spans stay valid.
+///
+/// Every map starts with the standard modules at the same offsets (file ids `0..` in
+/// [`stdlib::names`] order), so their parsed trees can be shared by every compilation of a
+/// process (see `loader::parsed_std`).
 #[derive(Debug, Default)]
 pub struct SourceMap {
     files: Vec<SourceFile>,
@@ -91,16 +98,35 @@ pub struct Position {
 impl SourceMap {
     pub fn new() -> SourceMap {
         // Offset 0 is reserved so that `Span::DUMMY` never points into a real file.
-        SourceMap { files: Vec::new(), next_base: 1 }
+        let mut map = SourceMap { files: Vec::new(), next_base: 1 };
+        for ((name, text), lines) in stdlib::modules().zip(std_line_starts()) {
+            map.push(format!("std::{name}"), None, Cow::Borrowed(text), Cow::Borrowed(lines));
+        }
+        map
     }
 
     pub fn add(&mut self, name: impl Into<String>, path: Option<PathBuf>, text: String) -> FileId {
+        let lines = line_starts(&text);
+        self.push(name.into(), path, Cow::Owned(text), Cow::Owned(lines))
+    }
+
+    fn push(
+        &mut self,
+        name: String,
+        path: Option<PathBuf>,
+        text: Cow<'static, str>,
+        line_starts: Cow<'static, [u32]>,
+    ) -> FileId {
         let base = self.next_base;
-        let line_starts = std::iter::once(0).chain(text.match_indices('\n').map(|(i, _)| i as u32 + 1)).collect();
         // One spare byte after each file, so an end-of-file span still maps to this file.
         self.next_base = base.saturating_add(text.len() as u32 + 1);
-        self.files.push(SourceFile { name: name.into(), path, text, base, line_starts });
+        self.files.push(SourceFile { name, path, text, base, line_starts });
         self.files.len() - 1
+    }
+
+    /// The file of standard module `name` (`shading` for `std::shading`).
+    pub fn std_file(&self, name: &str) -> Option<FileId> {
+        stdlib::index(name)
     }
 
     pub fn file(&self, id: FileId) -> &SourceFile {
@@ -153,6 +179,16 @@ impl SourceMap {
     }
 }
 
+fn line_starts(text: &str) -> Vec<u32> {
+    std::iter::once(0).chain(text.match_indices('\n').map(|(i, _)| i as u32 + 1)).collect()
+}
+
+/// Line starts of the standard modules, computed once per process.
+fn std_line_starts() -> &'static [Vec<u32>] {
+    static LINES: std::sync::OnceLock<Vec<Vec<u32>>> = std::sync::OnceLock::new();
+    LINES.get_or_init(|| stdlib::modules().map(|(_, text)| line_starts(text)).collect())
+}
+
 impl<'a> codespan_reporting::files::Files<'a> for SourceMap {
     type FileId = FileId;
     type Name = &'a str;
@@ -163,7 +199,7 @@ impl<'a> codespan_reporting::files::Files<'a> for SourceMap {
     }
 
     fn source(&'a self, id: FileId) -> Result<&'a str, codespan_reporting::files::Error> {
-        self.files.get(id).map(|f| f.text.as_str()).ok_or(codespan_reporting::files::Error::FileMissing)
+        self.files.get(id).map(|f| &*f.text).ok_or(codespan_reporting::files::Error::FileMissing)
     }
 
     fn line_index(&'a self, id: FileId, byte_index: usize) -> Result<usize, codespan_reporting::files::Error> {

@@ -12,3 +12,13 @@ pub fn source(name: &str) -> Option<&'static str> {
 pub fn names() -> impl Iterator<Item = &'static str> {
     STDLIB.iter().map(|(n, _)| *n)
 }
+
+/// Every standard module as (name, source), sorted by name.
+pub fn modules() -> impl Iterator<Item = (&'static str, &'static str)> {
+    STDLIB.iter().copied()
+}
+
+/// Position of standard module `name` in [`modules`].
+pub fn index(name: &str) -> Option<usize> {
+    STDLIB.iter().position(|(n, _)| *n == name)
+}

@@ -32,3 +32,34 @@ fn example_scenes_compose_to_valid_deterministic_wgsl() {
         }
     }
 }
+
+/// The views of a scene load their modules into one source map: a file both views use is parsed
+/// once, so its syntax error is reported once, not once per view.
+#[test]
+fn a_module_shared_by_two_views_reports_its_syntax_error_once() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    std::fs::write(dir.path().join("broken.vrs"), "pipeline dim after classification.primary {\n    let x = ;\n}\n")
+        .expect("write module");
+    let scene = "[render]\ncompositing = \"dvr\"\n\n[[volume]]\nname = \"head\"\nrole = \"primary\"\nphantom = \"head\"\n\n\
+                 [[module]]\npath = \"broken.vrs\"\n\n[[view]]\nname = \"3d\"\nkind = \"raycast\"\n\n\
+                 [[view]]\nname = \"axial\"\nkind = \"slice\"\naxis = \"z\"\n";
+    std::fs::write(dir.path().join("scene.toml"), scene).expect("write scene");
+    let built = vrsc::compose::build::build_scene(&dir.path().join("scene.toml"), None).expect("scene readable");
+    let syntax: Vec<_> = built.diags.iter().filter(|d| d.code.as_str() == "E0104").collect();
+    assert_eq!(syntax.len(), 1, "{}", vrsc::diag::render_plain(&built.diags.sorted(), &built.sources));
+    assert_eq!(built.views.len(), 2);
+}
+
+/// Views composed together (in parallel) give exactly the WGSL each gives composed alone.
+#[test]
+fn views_composed_together_match_views_composed_alone() {
+    let scene =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/fixtures/compose/bench_3vol_2lights_4clips/scene.toml");
+    let together = vrsc::compose::build::build_scene(&scene, None).expect("scene readable");
+    assert_eq!(together.views.len(), 2);
+    for view in &together.views {
+        let alone = vrsc::compose::build::build_scene(&scene, Some(&view.name)).expect("scene readable");
+        let wgsl = |v: &vrsc::compose::build::ViewOutput| v.shader.as_ref().map(|s| s.wgsl.clone());
+        assert_eq!(wgsl(view), wgsl(&alone.views[0]), "view {}", view.name);
+    }
+}

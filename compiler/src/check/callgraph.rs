@@ -8,7 +8,8 @@ use super::Checker;
 use super::func::{LibOut, PipeOut};
 use crate::diag::{Code, Diagnostic};
 use crate::hir;
-use std::collections::{HashSet, VecDeque};
+use rustc_hash::FxHashSet;
+use std::collections::VecDeque;
 
 /// The distinct lib fns `lib` calls directly, in order of first call.
 fn callees(lib: &Option<LibOut>, n: usize) -> Vec<usize> {
@@ -32,7 +33,7 @@ impl Checker<'_> {
             if scc.len() < 2 && !self_call {
                 continue;
             }
-            let members: HashSet<usize> = scc.iter().copied().collect();
+            let members: FxHashSet<usize> = scc.iter().copied().collect();
             let closer = scc.iter().copied().max().unwrap_or(0);
             let call = libs
                 .get(closer)
@@ -63,10 +64,16 @@ impl Checker<'_> {
     }
 
     /// The names along the cycle `closer -> callee -> ... -> closer`.
-    fn cycle_names(&self, edges: &[Vec<usize>], members: &HashSet<usize>, closer: usize, callee: usize) -> Vec<String> {
+    fn cycle_names(
+        &self,
+        edges: &[Vec<usize>],
+        members: &FxHashSet<usize>,
+        closer: usize,
+        callee: usize,
+    ) -> Vec<String> {
         let mut prev: Vec<Option<usize>> = vec![None; edges.len()];
         let mut queue = VecDeque::from([callee]);
-        let mut seen = HashSet::from([callee]);
+        let mut seen = FxHashSet::from_iter([callee]);
         while let Some(v) = queue.pop_front() {
             if v == closer {
                 break;

@@ -12,7 +12,7 @@ use crate::hir::{self, ConstValue};
 use crate::source::Span;
 use crate::steps::{Step, StepLookup, did_you_mean};
 use crate::types::{Scalar, Type};
-use std::collections::HashMap;
+use rustc_hash::FxHashMap;
 
 /// `None` for a `remove` item.
 type PlacementWord = Option<PlacementKind>;
@@ -407,13 +407,13 @@ impl Declared for hir::UniformDecl {
 /// The first declaration of each name, and the first that gives a default, with the pipeline
 /// function that holds it.
 struct Firsts<'p, T> {
-    decl: HashMap<&'p str, (&'p T, &'p str)>,
-    default: HashMap<&'p str, (&'p T, &'p str)>,
+    decl: FxHashMap<&'p str, (&'p T, &'p str)>,
+    default: FxHashMap<&'p str, (&'p T, &'p str)>,
 }
 
 impl<T> Default for Firsts<'_, T> {
     fn default() -> Self {
-        Firsts { decl: HashMap::new(), default: HashMap::new() }
+        Firsts { decl: FxHashMap::default(), default: FxHashMap::default() }
     }
 }
 

@@ -34,8 +34,8 @@ use crate::hir;
 use crate::loader::ModuleGraph;
 use crate::source::{SourceMap, Span};
 use crate::types::Type;
+use rustc_hash::{FxHashMap, FxHashSet};
 use scope::{ConstInfo, FnCx, ItemRef, LibInfo, ModuleScope};
-use std::collections::{HashMap, HashSet};
 
 /// Checks every module of the graph and builds the typed program. Errors and warnings go to
 /// `diags`; the returned program holds every function that checked cleanly (functions with
@@ -69,9 +69,9 @@ struct Checker<'a> {
     const_stack: Vec<usize>,
     /// The written type (and `@ray`) of each state field declared anywhere in the graph, to
     /// offer the missing declaration in E0501.
-    state_hints: HashMap<String, (String, bool)>,
+    state_hints: FxHashMap<String, (String, bool)>,
     /// Every uniform name declared anywhere, to explain why a lib fn cannot see one.
-    uniform_names: HashSet<String>,
+    uniform_names: FxHashSet<String>,
     /// Current nesting of expressions (across constant evaluation too: a chain of constants
     /// that refer to each other nests as deep as one expression would).
     expr_depth: u32,
@@ -96,8 +96,8 @@ impl<'a> Checker<'a> {
             libs: Vec::new(),
             consts: Vec::new(),
             const_stack: Vec::new(),
-            state_hints: HashMap::new(),
-            uniform_names: HashSet::new(),
+            state_hints: FxHashMap::default(),
+            uniform_names: FxHashSet::default(),
             expr_depth: 0,
             block_depth: 0,
             const_too_deep: false,

@@ -8,7 +8,7 @@ use crate::hir;
 use crate::source::Span;
 use crate::steps::did_you_mean;
 use crate::types::Type;
-use std::collections::{HashMap, HashSet};
+use rustc_hash::{FxHashMap, FxHashSet};
 use std::path::Path;
 
 /// What a module-level name refers to.
@@ -22,7 +22,7 @@ pub(super) enum ItemRef {
 
 #[derive(Default)]
 pub(super) struct ModuleScope {
-    pub names: HashMap<String, ItemRef>,
+    pub names: FxHashMap<String, ItemRef>,
 }
 
 /// A library function of some module, with its resolved signature.
@@ -96,7 +96,7 @@ impl Checker<'_> {
         let graph = self.graph;
         for (m, module) in graph.modules.iter().enumerate() {
             let mut scope = ModuleScope::default();
-            let mut spans: HashMap<String, (Span, Option<usize>)> = HashMap::new();
+            let mut spans: FxHashMap<String, (Span, Option<usize>)> = FxHashMap::default();
             for it in own.get(m).into_iter().flatten() {
                 if let Some(&(first, _)) = spans.get(&it.name) {
                     self.diags.push(duplicate(&it.name, "name", it.span, first));
@@ -363,7 +363,7 @@ pub(super) struct FnCx {
     /// A lib fn's return type; `Void` for pipelines and constants.
     pub ret: Type,
     /// Innermost last. Scope 0 holds parameters or uniforms and the body's top-level names.
-    scopes: Vec<HashMap<String, (Binding, Span)>>,
+    scopes: Vec<FxHashMap<String, (Binding, Span)>>,
     pub locals: Vec<hir::Local>,
     pub local_kinds: Vec<LocalKind>,
     pub params: Vec<hir::Param>,
@@ -382,7 +382,7 @@ pub(super) struct FnCx {
     pub lost_statement: bool,
     /// Missing names already reported in this function (`state.F`, names, `use`s): a missing
     /// declaration is one mistake however often it is used.
-    pub reported: HashSet<String>,
+    pub reported: FxHashSet<String>,
 }
 
 impl FnCx {
@@ -392,7 +392,7 @@ impl FnCx {
             module,
             name: name.to_string(),
             ret,
-            scopes: vec![HashMap::new()],
+            scopes: vec![FxHashMap::default()],
             locals: Vec::new(),
             local_kinds: Vec::new(),
             params: Vec::new(),
@@ -404,12 +404,12 @@ impl FnCx {
             failed: false,
             too_deep: false,
             lost_statement: false,
-            reported: HashSet::new(),
+            reported: FxHashSet::default(),
         }
     }
 
     pub fn push_scope(&mut self) {
-        self.scopes.push(HashMap::new());
+        self.scopes.push(FxHashMap::default());
     }
 
     pub fn pop_scope(&mut self) {

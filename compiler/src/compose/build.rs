@@ -6,7 +6,7 @@ use super::reflect::{self, Reflection};
 use super::view;
 use crate::check;
 use crate::diag::{Code, Diagnostic, Diagnostics};
-use crate::loader::Loader;
+use crate::loader::{Loader, ModuleGraph, ParsedFiles};
 use crate::scene::{self, ModuleRef, ModuleSource, Scene, View};
 use crate::source::{SourceMap, Span};
 use std::path::Path;
@@ -55,12 +55,17 @@ pub fn build_scene(path: &Path, only_view: Option<&str>) -> std::io::Result<Buil
         }
     };
     scene.warnings.iter().cloned().for_each(|d| diags.push(d));
-    let mut views = Vec::new();
-    for view in &scene.views {
-        if only_view.is_some_and(|v| v != view.name.name) {
-            continue;
-        }
-        views.push(compose_view(&scene, view, &mut sources, &mut diags));
+    let chosen: Vec<&View> = scene.views.iter().filter(|view| only_view.is_none_or(|v| v == view.name.name)).collect();
+    // Loading grows the source map, so it runs view after view (each file parsed once); the rest
+    // of a view's work only reads the map, so the views compose in parallel.
+    let mut parsed = ParsedFiles::default();
+    let loaded: Vec<LoadedView> =
+        chosen.iter().map(|view| load_view(&scene, view, &mut sources, &mut parsed)).collect();
+    let composed = compose_loaded_views(&scene, &chosen, loaded, &sources);
+    let mut views = Vec::with_capacity(composed.len());
+    for (output, view_diags) in composed {
+        diags.extend(view_diags);
+        views.push(output);
     }
     if let Some(name) = only_view
         && views.is_empty()
@@ -74,15 +79,29 @@ pub fn build_scene(path: &Path, only_view: Option<&str>) -> std::io::Result<Buil
     Ok(BuiltScene { sources, diags, scene: Some(scene), views })
 }
 
-/// Composes one view of a scene.
+/// Composes one view of a scene whose file is already in `sources`.
 pub fn compose_view(scene: &Scene, view: &View, sources: &mut SourceMap, diags: &mut Diagnostics) -> ViewOutput {
-    let mut view_diags = Diagnostics::new();
-    let mut loader = Loader::new(sources, &mut view_diags);
+    let loaded = load_view(scene, view, sources, &mut ParsedFiles::default());
+    let (output, view_diags) = compose_loaded(scene, view, loaded, sources);
+    diags.extend(view_diags);
+    output
+}
+
+/// A view's modules, loaded: the graph, how each root is used, and its own diagnostics so far.
+struct LoadedView {
+    graph: ModuleGraph,
+    uses: Vec<ModuleUse>,
+    diags: Diagnostics,
+}
+
+/// Loads the standard modules a view's configuration selects, then the scene's modules, then
+/// the view's own. `parsed` carries the files earlier views already parsed into `sources`.
+fn load_view(scene: &Scene, view: &View, sources: &mut SourceMap, parsed: &mut ParsedFiles) -> LoadedView {
+    let mut diags = Diagnostics::new();
+    let mut loader = Loader::with_parsed(sources, &mut diags, std::mem::take(parsed));
     let mut uses = Vec::new();
-    let mut std_modules = Vec::new();
     for std in scene.standard_modules(view) {
         if let Some(module) = loader.load_root_std(std.name) {
-            std_modules.push(module);
             let instances = (!std.instances.is_empty()).then_some(std.instances);
             uses.push(ModuleUse { module, instances, span: Span::DUMMY });
         }
@@ -98,24 +117,51 @@ pub fn compose_view(scene: &Scene, view: &View, sources: &mut SourceMap, diags: 
             Err(d) => missing.push(d),
         }
     }
-    let graph = loader.finish();
-    missing.into_iter().for_each(|d| view_diags.push(d));
-    let program = check::check_program(&graph, sources, &mut view_diags);
+    let (graph, files) = loader.finish_keeping_files();
+    *parsed = files;
+    missing.into_iter().for_each(|d| diags.push(d));
+    LoadedView { graph, uses, diags }
+}
+
+/// Composes loaded views, each on its own thread but the first, in the order given.
+fn compose_loaded_views(
+    scene: &Scene,
+    views: &[&View],
+    loaded: Vec<LoadedView>,
+    sources: &SourceMap,
+) -> Vec<(ViewOutput, Diagnostics)> {
+    let mut work = views.iter().zip(loaded);
+    let Some((first_view, first)) = work.next() else { return Vec::new() };
+    std::thread::scope(|s| {
+        let others: Vec<_> =
+            work.map(|(view, loaded)| s.spawn(move || compose_loaded(scene, view, loaded, sources))).collect();
+        let mut outputs = vec![compose_loaded(scene, first_view, first, sources)];
+        for handle in others {
+            // A panic in a view's thread is a compiler bug: let it surface as it would have here.
+            outputs.push(handle.join().unwrap_or_else(|panic| std::panic::resume_unwind(panic)));
+        }
+        outputs
+    })
+}
+
+/// Checks, places and emits one loaded view.
+fn compose_loaded(scene: &Scene, view: &View, loaded: LoadedView, sources: &SourceMap) -> (ViewOutput, Diagnostics) {
+    let LoadedView { graph, uses, mut diags } = loaded;
+    let program = check::check_program(&graph, sources, &mut diags);
     let is_std = |m: usize| graph.modules.get(m).is_some_and(|m| m.std_name.is_some());
-    let composition = place::compose(&program, &uses, is_std, ENTRY_FIELDS, &mut view_diags);
-    let shader = if view_diags.has_errors() {
+    let composition = place::compose(&program, &uses, is_std, ENTRY_FIELDS, &mut diags);
+    let shader = if diags.has_errors() {
         None
     } else {
         match emit_shader(scene, view, &program, &composition, sources) {
             Ok(shader) => Some(shader),
             Err(d) => {
-                view_diags.push(d);
+                diags.push(d);
                 None
             }
         }
     };
-    diags.extend(view_diags);
-    ViewOutput { name: view.name.name.clone(), composition, program, shader }
+    (ViewOutput { name: view.name.name.clone(), composition, program, shader }, diags)
 }
 
 fn load_module(loader: &mut Loader<'_>, module_ref: &ModuleRef) -> Result<usize, Diagnostic> {

@@ -30,7 +30,7 @@ use crate::hir::{self, ConstValue, ScalarValue};
 use crate::source::{SourceMap, Span};
 use crate::steps::{Step, did_you_mean};
 use crate::types::{Scalar, Type};
-use std::collections::HashMap;
+use rustc_hash::FxHashMap;
 use std::fmt::Write as _;
 
 /// One module given to the composer. Modules are given in placement order: standard modules
@@ -211,8 +211,13 @@ pub fn compose(
     diags: &mut Diagnostics,
 ) -> Composition {
     let units = instantiate(program, uses, diags);
-    let mut placer =
-        Placer { program, units: &units, steps: vec![Vec::new(); Step::ALL.len()], replaced: HashMap::new(), diags };
+    let mut placer = Placer {
+        program,
+        units: &units,
+        steps: vec![Vec::new(); Step::ALL.len()],
+        replaced: FxHashMap::default(),
+        diags,
+    };
     for (u, unit) in units.iter().enumerate() {
         match unit.source {
             Source::Pipeline(_) => placer.place(u),
@@ -394,7 +399,7 @@ struct Placer<'a> {
     /// Per step (in `Step::ALL` order), the units placed there, in order.
     steps: Vec<Vec<usize>>,
     /// (step, substep name) → the replacement that took its place.
-    replaced: HashMap<(Step, String), Replaced>,
+    replaced: FxHashMap<(Step, String), Replaced>,
     diags: &'a mut Diagnostics,
 }
 
@@ -664,12 +669,12 @@ impl<'a, F: Fn(usize) -> bool> Merger<'a, F> {
             Step::ALL.iter().zip(placed).flat_map(|(step, units)| units.iter().map(move |&u| (*step, u))).collect();
 
         let mut fields: Vec<FieldAcc> = Vec::new();
-        let mut field_index: HashMap<String, usize> = HashMap::new();
+        let mut field_index: FxHashMap<String, usize> = FxHashMap::default();
         let mut uniforms: Vec<(String, UniformAcc)> = Vec::new();
-        let mut uniform_index: HashMap<String, usize> = HashMap::new();
+        let mut uniform_index: FxHashMap<String, usize> = FxHashMap::default();
         // Per unit: field / uniform index of each declaration.
-        let mut unit_fields: HashMap<usize, Vec<usize>> = HashMap::new();
-        let mut unit_uniforms: HashMap<usize, Vec<usize>> = HashMap::new();
+        let mut unit_fields: FxHashMap<usize, Vec<usize>> = FxHashMap::default();
+        let mut unit_uniforms: FxHashMap<usize, Vec<usize>> = FxHashMap::default();
 
         for (position, &(step, u)) in order.iter().enumerate() {
             let decls = self.pipe(u).state.len();

@@ -1,6 +1,6 @@
 //! Lowering of one function body: expressions, statements and the emit discipline.
 
-use std::collections::HashMap;
+use rustc_hash::FxHashMap;
 
 use naga::{Expression as E, Handle, MathFunction as Mf, Statement as S};
 
@@ -112,7 +112,7 @@ struct FnCtx<'a> {
     locals: &'a [hir::Local],
     slots: Vec<Option<LocalSlot>>,
     params: Vec<ParamSlot>,
-    globals: HashMap<Handle<naga::GlobalVariable>, Ex>,
+    globals: FxHashMap<Handle<naga::GlobalVariable>, Ex>,
     /// Start of the run of expressions appended since the last pre-emitted one, not yet in a
     /// pending range.
     open: Option<u32>,
@@ -137,7 +137,7 @@ impl<'a> FnCtx<'a> {
             locals,
             slots: vec![None; locals.len()],
             params: Vec::new(),
-            globals: HashMap::new(),
+            globals: FxHashMap::default(),
             open: None,
             pending: Vec::new(),
             loop_depth: 0,

@@ -36,7 +36,7 @@ mod func;
 #[cfg(test)]
 mod tests;
 
-use std::collections::{HashMap, HashSet};
+use rustc_hash::{FxHashMap, FxHashSet};
 use std::error::Error as _;
 
 use naga::proc::{Alignment, Layouter};
@@ -60,6 +60,10 @@ pub(crate) fn internal(span: Span, message: impl Into<String>) -> Diagnostic {
 /// same, so the IR name is exactly the WGSL name: `color_$` → `color_T`, `plane_$_a` →
 /// `plane_T_a`, `$` → `_T`. A name that ends up empty becomes `unnamed`.
 pub fn emitted_name(name: &str) -> String {
+    let plain = !name.is_empty() && !name.contains('$') && !name.contains("__") && !name.ends_with('_');
+    if plain {
+        return name.to_string();
+    }
     let replaced = name.replace('$', "_T_");
     let mut out = String::with_capacity(replaced.len());
     for c in replaced.chars() {
@@ -165,10 +169,10 @@ pub struct MemberLayout {
 pub struct ModuleBuilder {
     pub module: naga::Module,
     layouter: Layouter,
-    lib_fns: HashMap<hir::LibFnId, Handle<naga::Function>>,
+    lib_fns: FxHashMap<hir::LibFnId, Handle<naga::Function>>,
     /// Library functions being lowered (to report recursion instead of overflowing the stack).
-    in_progress: HashSet<hir::LibFnId>,
-    function_names: HashSet<String>,
+    in_progress: FxHashSet<hir::LibFnId>,
+    function_names: FxHashSet<String>,
 }
 
 impl ModuleBuilder {
