@@ -1,6 +1,8 @@
 # Sourced by .ci/run and scripts/render.sh: makes sure a Vulkan driver exists, installing
 # Debian's software driver (lavapipe) when there is none, and that XDG_RUNTIME_DIR is set.
-if ! ls /usr/share/vulkan/icd.d/*.json /etc/vulkan/icd.d/*.json >/dev/null 2>&1; then
+# VULKAN_ICD_PATTERN narrows the drivers that count (`lvp_icd*` asks for lavapipe itself).
+icd_pattern="${VULKAN_ICD_PATTERN:-*.json}"
+if ! compgen -G "/usr/share/vulkan/icd.d/$icd_pattern" >/dev/null && ! compgen -G "/etc/vulkan/icd.d/$icd_pattern" >/dev/null; then
     echo "== no Vulkan driver: installing the software one (mesa-vulkan-drivers) =="
     SUDO=""
     if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi

@@ -3,8 +3,11 @@
 //! doing the same work (benches/handwritten_raycaster.wgsl), with and without early ray
 //! termination. Run: `cargo bench -p vrs-runtime --bench render`.
 //!
-//! Frames are timed from submit to completion (no read-back), median of `FRAMES`, in one run so
-//! the ratios compare like with like. Samples per second counts the samples the rays take
+//! Frames are timed from submit to completion (no read-back); the two shaders take turns for
+//! several rounds and each reports its median, in one run so the ratios compare like with like.
+//! Wall-clock times on a shared 2-core machine vary by 10-20% between runs:
+//! `scripts/bench-instructions.sh` counts the instructions lavapipe executes per frame instead
+//! (deterministic, under valgrind). Samples per second counts the samples the rays take
 //! without early termination (computed on the CPU from the same camera).
 
 use std::path::Path;
@@ -12,14 +15,36 @@ use std::time::Instant;
 use vrs_runtime::reflection::{Reflection, content_hash};
 use vrs_runtime::{AdapterChoice, Gpu, RenderOptions, SceneRenderer, ViewShader};
 
-const FRAMES: usize = 9;
-const SIZE: u32 = 512;
+/// Settings from the environment: `VRS_BENCH_SIZE` (512), `VRS_BENCH_ROUNDS` (4),
+/// `VRS_BENCH_FRAMES` (frames per round, 2), `VRS_BENCH_ONLY` (`composed` or `hand-written`: time
+/// that shader alone, without early termination, and skip the rest; for instruction counts).
+struct Config {
+    size: u32,
+    rounds: usize,
+    frames: usize,
+    only: Option<String>,
+}
 
-fn median_frame_ms(scene: &mut SceneRenderer, view: usize) -> f64 {
-    let mut times = Vec::with_capacity(FRAMES);
-    for i in 0..=FRAMES {
+impl Config {
+    fn from_env() -> Config {
+        let number = |name: &str, default: usize| {
+            std::env::var(name).ok().and_then(|v| v.parse().ok()).filter(|&n| n > 0).unwrap_or(default)
+        };
+        Config {
+            size: number("VRS_BENCH_SIZE", 512) as u32,
+            rounds: number("VRS_BENCH_ROUNDS", 4),
+            frames: number("VRS_BENCH_FRAMES", 2),
+            only: std::env::var("VRS_BENCH_ONLY").ok(),
+        }
+    }
+}
+
+/// Times `frames` frames of view 0 (after one untimed frame), in ms.
+fn frame_times(scene: &mut SceneRenderer, frames: usize) -> Vec<f64> {
+    let mut times = Vec::with_capacity(frames);
+    for i in 0..=frames {
         let mut encoder = scene.gpu().device.create_command_encoder(&Default::default());
-        scene.encode_view(view, &mut encoder).expect("encode");
+        scene.encode_view(0, &mut encoder).expect("encode");
         let start = Instant::now();
         scene.gpu().queue.submit([encoder.finish()]);
         scene.gpu().wait();
@@ -27,21 +52,39 @@ fn median_frame_ms(scene: &mut SceneRenderer, view: usize) -> f64 {
             times.push(start.elapsed().as_secs_f64() * 1e3);
         }
     }
+    times
+}
+
+fn median(mut times: Vec<f64>) -> f64 {
     times.sort_by(f64::total_cmp);
     times[times.len() / 2]
 }
 
+/// Median frame time of each shader, the shaders taking turns round after round so that a slow
+/// spell of a shared machine hits them alike.
+fn compare(scene: &mut SceneRenderer, shaders: &[ViewShader], ert_threshold: f32, config: &Config) -> Vec<f64> {
+    let mut times = vec![Vec::new(); shaders.len()];
+    for _ in 0..config.rounds {
+        for (shader, times) in shaders.iter().zip(&mut times) {
+            scene.replace_shader(0, shader.clone()).expect("pipeline");
+            scene.views[0].renderer.set_uniform("ert_threshold", ert_threshold).expect("ert uniform");
+            times.extend(frame_times(scene, config.frames));
+        }
+    }
+    times.into_iter().map(median).collect()
+}
+
 /// Samples of every ray without early termination: ceil((exit - entry) / step) per pixel.
-fn samples_per_frame(scene: &SceneRenderer) -> f64 {
+fn samples_per_frame(scene: &SceneRenderer, size: u32) -> f64 {
     let view = &scene.views[0];
     let camera = view.camera.expect("a raycast view");
     let m = camera.inv_view_proj(glam::Vec3::ONE, 1.0);
     let step = 0.0025f32;
     let mut total = 0f64;
-    for y in 0..SIZE {
-        for x in 0..SIZE {
+    for y in 0..size {
+        for x in 0..size {
             let ndc =
-                glam::Vec2::new((x as f32 + 0.5) / SIZE as f32 * 2.0 - 1.0, 1.0 - (y as f32 + 0.5) / SIZE as f32 * 2.0);
+                glam::Vec2::new((x as f32 + 0.5) / size as f32 * 2.0 - 1.0, 1.0 - (y as f32 + 0.5) / size as f32 * 2.0);
             let near = m.project_point3(ndc.extend(0.0));
             let dir = (m.project_point3(ndc.extend(1.0)) - near).normalize();
             let inv = dir.recip();
@@ -65,30 +108,42 @@ fn handwritten(composed: &ViewShader) -> ViewShader {
 }
 
 fn main() {
+    let config = Config::from_env();
+    let size = config.size;
     let gpu = Gpu::headless(AdapterChoice::Software).expect("the software adapter (mesa-vulkan-drivers)");
     println!("adapter: {}", gpu.adapter);
     let scene_path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples/basic/scene.toml");
-    let options = RenderOptions { size: Some([SIZE, SIZE]), ..RenderOptions::default() };
+    let options = RenderOptions { size: Some([size, size]), ..RenderOptions::default() };
     let mut scene = SceneRenderer::open(gpu, &scene_path, options, &mut |_, _, _| {}).expect("scene");
-    let samples = samples_per_frame(&scene);
     let composed = scene.views[0].renderer.shader().clone();
+    let shaders = [composed.clone(), handwritten(&composed)];
+    let labels = ["composed", "hand-written"];
 
-    let mut results = Vec::new();
-    for (label, shader) in [("composed", composed.clone()), ("hand-written", handwritten(&composed))] {
-        scene.replace_shader(0, shader).expect("pipeline");
-        let with_ert = median_frame_ms(&mut scene, 0);
-        scene.views[0].renderer.set_uniform("ert_threshold", 2.0f32).expect("ert uniform");
-        let without_ert = median_frame_ms(&mut scene, 0);
-        println!(
-            "{label:>12}: {with_ert:7.1} ms/frame with early termination, {without_ert:7.1} ms without \
-             ({:.2}x); {:.1} M samples/s without",
-            without_ert / with_ert,
-            samples / without_ert / 1e3
-        );
-        results.push((with_ert, without_ert));
+    if let Some(only) = &config.only {
+        let k = labels.iter().position(|l| l == only).expect("VRS_BENCH_ONLY is composed or hand-written");
+        let ms = compare(&mut scene, &shaders[k..=k], 2.0, &config)[0];
+        println!("{only}: {ms:.1} ms/frame without early termination ({size}x{size})");
+        return;
     }
-    let (c, h) = (results[0], results[1]);
-    println!("composed / hand-written: {:.3} with early termination, {:.3} without", c.0 / h.0, c.1 / h.1);
+
+    let samples = samples_per_frame(&scene, size);
+    let with_ert = compare(&mut scene, &shaders, 0.99, &config);
+    let without_ert = compare(&mut scene, &shaders, 2.0, &config);
+    for (k, label) in labels.iter().enumerate() {
+        println!(
+            "{label:>12}: {:7.1} ms/frame with early termination, {:7.1} ms without ({:.2}x); {:.1} M samples/s \
+             without",
+            with_ert[k],
+            without_ert[k],
+            without_ert[k] / with_ert[k],
+            samples / without_ert[k] / 1e3
+        );
+    }
+    println!(
+        "composed / hand-written: {:.3} with early termination, {:.3} without",
+        with_ert[0] / with_ert[1],
+        without_ert[0] / without_ert[1]
+    );
     println!("samples per frame without early termination: {samples:.0}");
 
     // Empty-space skipping: the same scene with `empty_space_skipping = true`.
@@ -99,17 +154,17 @@ fn main() {
         .replace("[render]", "[render]\nempty_space_skipping = true");
     let skip_path = dir.join("scene.toml");
     std::fs::write(&skip_path, text).expect("temp scene");
-    let options = RenderOptions { size: Some([SIZE, SIZE]), ..RenderOptions::default() };
+    let options = RenderOptions { size: Some([size, size]), ..RenderOptions::default() };
     let gpu = scene.gpu().clone();
     let mut skipping = SceneRenderer::open(gpu, &skip_path, options, &mut |_, _, _| {}).expect("skipping scene");
-    let skip_ert = median_frame_ms(&mut skipping, 0);
-    skipping.views[0].renderer.set_uniform("ert_threshold", 2.0f32).expect("ert uniform");
-    let skip_no_ert = median_frame_ms(&mut skipping, 0);
+    let skipping_shader = [skipping.views[0].renderer.shader().clone()];
+    let skip_ert = compare(&mut skipping, &skipping_shader, 0.99, &config)[0];
+    let skip_no_ert = compare(&mut skipping, &skipping_shader, 2.0, &config)[0];
     println!(
         "empty-space skipping: {skip_ert:7.1} ms/frame with early termination ({:.2}x faster), {skip_no_ert:7.1} ms \
          without ({:.2}x faster)",
-        c.0 / skip_ert,
-        c.1 / skip_no_ert
+        with_ert[0] / skip_ert,
+        without_ert[0] / skip_no_ert
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
