@@ -8,14 +8,17 @@
 //! - **Scenes** (feature `compiler`, on by default): [`SceneRenderer::open`] composes a scene
 //!   file through the compiler library, loads its volumes once and renders every view.
 //!
-//! ```no_run
+//! ```
 //! use vrs_runtime::{AdapterChoice, Gpu, RenderOptions, SceneRenderer};
+//! # let scene_file = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples/basic/scene.toml");
+//! # let out = std::env::temp_dir();
 //!
-//! let gpu = Gpu::headless(AdapterChoice::PreferHardware)?;
-//! let mut scene = SceneRenderer::open(gpu, "examples/basic/scene.toml".as_ref(), RenderOptions::default(), &mut |_, _, _| {})?;
+//! // scene_file: examples/basic/scene.toml (the built-in head phantom, a 3D and a slice view)
+//! let gpu = Gpu::headless(AdapterChoice::PreferHardware)?; // lavapipe where there is no GPU
+//! let mut scene = SceneRenderer::open(gpu, &scene_file, RenderOptions::default(), &mut |_, _, _| {})?;
 //! scene.set_uniform("ambient", 0.4)?; // typed from the reflection: a wrong type is an error
 //! for (view, image) in scene.render_all()? {
-//!     image.save(format!("{view}.png"))?;
+//!     image.save(out.join(format!("{view}.png")))?;
 //! }
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
