@@ -5,6 +5,10 @@
 //! clip-plane template of the language specification.
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
+
+// The allocator the `vrsc` binary ships with (see compiler/cli/src/main.rs).
+#[global_allocator]
+static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
 use std::fmt::Write;
 use std::hint::black_box;
 
