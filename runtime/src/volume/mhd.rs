@@ -4,41 +4,23 @@
 //! MetaImage positions are in ITK's LPS space; they are converted to RAS like every volume.
 
 use std::collections::HashMap;
-use std::io::{BufRead, BufReader, Read};
+use std::io::BufRead;
 use std::path::Path;
 
-use flate2::bufread::ZlibDecoder;
 use glam::{Mat4, Vec3};
 
+use super::raw::{self, Encoding, Placement, TextHeader};
 use super::{
-    DataSource, Layout, LoadErrorKind, MAX_HEADER_LINES, ProgressReader, ScalarType, Volume, affine, check_dims,
-    is_usable, lps_to_ras, open, parse_numbers, read_header_line, read_samples, sibling, skip_bytes,
+    Layout, LoadErrorKind, MAX_HEADER_LINES, ScalarType, Volume, affine, check_dims, is_usable, lps_to_ras,
+    parse_numbers, read_header_line,
 };
 
 /// Loads a `.mhd` or `.mha` file.
 pub(super) fn load(path: &Path, progress: &mut dyn FnMut(u64, u64)) -> Result<Volume, LoadErrorKind> {
-    let (file, len) = open(path, false)?;
-    let mut reader = BufReader::new(ProgressReader::new(file, len, &mut *progress));
-    let (fields, header_len) = read_header(&mut reader)?;
-    let header = Header::parse(&fields)?;
-    let data = match &header.data_file {
-        None => {
-            let data = read_data(&mut reader, &header, len.saturating_sub(header_len), None)?;
-            drop(reader);
-            progress(len, len);
-            data
-        }
-        Some(name) => {
-            drop(reader);
-            let data_path = sibling(path, name);
-            let (file, data_len) = open(&data_path, true)?;
-            let mut reader = BufReader::new(ProgressReader::new(file, data_len, &mut *progress));
-            let data = read_data(&mut reader, &header, data_len, Some(&data_path))?;
-            drop(reader);
-            progress(data_len, data_len);
-            data
-        }
-    };
+    let (header, data) = raw::load(path, progress, |reader| {
+        let (fields, header_len) = read_header(reader)?;
+        Ok((Header::parse(&fields)?, header_len))
+    })?;
     Ok(Volume::new(header.dims, header.grid_to_world, data))
 }
 
@@ -92,13 +74,11 @@ fn not_metaimage() -> LoadErrorKind {
 #[derive(Debug)]
 struct Header {
     dims: [u32; 3],
-    layout: Layout,
-    compressed: bool,
     grid_to_world: Mat4,
     /// `ElementDataFile`, unless it is `LOCAL`.
     data_file: Option<String>,
-    /// `HeaderSize`: bytes of the data file before the data; `None` for -1 (data at the end).
-    skip: Option<u64>,
+    /// `ElementType`, the byte order, `CompressedData` and `HeaderSize` (0 for `LOCAL` data).
+    data: Placement,
 }
 
 impl Header {
@@ -157,15 +137,31 @@ impl Header {
             }
             name => Some(name.to_string()),
         };
+        // `HeaderSize` describes a separate data file; LOCAL data starts right after the header.
+        let skip = if data_file.is_some() { skip } else { Some(0) };
         let voxels = dims.iter().map(|&d| u64::from(d)).product();
         Ok(Header {
             dims,
-            layout: Layout { ty, big_endian: big_endian.unwrap_or(false), voxels },
-            compressed,
             grid_to_world: grid_to_world(fields, ndims)?,
             data_file,
-            skip,
+            data: Placement {
+                layout: Layout { ty, big_endian: big_endian.unwrap_or(false), voxels },
+                encoding: if compressed { Encoding::Zlib } else { Encoding::Raw },
+                skip,
+                decoded_skip: 0,
+            },
         })
+    }
+}
+
+impl TextHeader for Header {
+    fn data_file(&self) -> Option<&str> {
+        self.data_file.as_deref()
+    }
+
+    fn read_data(&self, reader: &mut dyn BufRead, len: u64, file: Option<&Path>) -> Result<Vec<f32>, LoadErrorKind> {
+        let past_end = |skip| LoadErrorKind::Header(format!("`HeaderSize` {skip} is past the end of the data file"));
+        raw::read_data(reader, self.data, len, file, &past_end)
     }
 }
 
@@ -234,77 +230,17 @@ fn grid_to_world(fields: &HashMap<String, String>, ndims: usize) -> Result<Mat4,
     Ok(lps_to_ras(matrix))
 }
 
-/// Reads the samples from a stream positioned after the header (`LOCAL`) or at the start of the
-/// data file, holding `len` more bytes.
-fn read_data(
-    reader: &mut dyn BufRead,
-    header: &Header,
-    len: u64,
-    file: Option<&Path>,
-) -> Result<Vec<f32>, LoadErrorKind> {
-    let raw_source = DataSource { file, compressed: false, available: None };
-    let expected = header.layout.bytes();
-    // `HeaderSize` describes a separate data file; LOCAL data starts right after the header.
-    let skip = match (file, header.skip) {
-        (None, _) => 0,
-        (Some(_), Some(skip)) => skip,
-        (Some(_), None) => len.checked_sub(expected).ok_or_else(|| raw_source.mismatch(expected, len))?,
-    };
-    if skip_bytes(reader, skip).map_err(|e| raw_source.read_error(e))? < skip {
-        return Err(LoadErrorKind::Header(format!("`HeaderSize` {skip} is past the end of the data file")));
-    }
-    if header.compressed {
-        let source = DataSource { file, compressed: true, available: None };
-        let mut decoder = ZlibDecoder::new(reader);
-        read_samples(&mut decoder as &mut dyn Read, header.layout, &source)
-    } else {
-        let source = DataSource { available: Some(len - skip), ..raw_source };
-        read_samples(reader, header.layout, &source)
-    }
-}
-
 #[cfg(test)]
 mod tests {
-    use std::io::Write;
-
-    use flate2::Compression;
-    use flate2::write::ZlibEncoder;
     use glam::Vec4;
 
-    use super::super::tests::{assert_mat_eq, load_quiet};
+    use super::super::tests::{assert_mat_eq, load_err, load_quiet, shorts_f32, shorts_le, write, zlib};
     use super::*;
-
-    fn zlib(bytes: &[u8]) -> Vec<u8> {
-        let mut encoder = ZlibEncoder::new(Vec::new(), Compression::default());
-        encoder.write_all(bytes).unwrap();
-        encoder.finish().unwrap()
-    }
-
-    fn write(dir: &tempfile::TempDir, name: &str, bytes: &[u8]) -> std::path::PathBuf {
-        let path = dir.path().join(name);
-        std::fs::write(&path, bytes).unwrap();
-        path
-    }
 
     fn mha(header: &str, data: &[u8]) -> Vec<u8> {
         let mut bytes = format!("{header}\nElementDataFile = LOCAL\n").into_bytes();
         bytes.extend_from_slice(data);
         bytes
-    }
-
-    fn load_err(dir: &tempfile::TempDir, name: &str, bytes: &[u8]) -> (bool, String) {
-        let e = load_quiet(&write(dir, name, bytes)).unwrap_err();
-        (e.is_io(), e.kind.to_string())
-    }
-
-    const SHORTS: [i16; 12] = [-5, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 300];
-
-    fn shorts_le() -> Vec<u8> {
-        SHORTS.iter().flat_map(|v| v.to_le_bytes()).collect()
-    }
-
-    fn shorts_f32() -> Vec<f32> {
-        SHORTS.iter().map(|&v| f32::from(v)).collect()
     }
 
     const HEADER: &str = "ObjectType = Image\nNDims = 3\nDimSize = 3 2 2\nElementType = MET_SHORT";

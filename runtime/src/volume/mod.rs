@@ -12,6 +12,7 @@ mod mhd;
 mod nifti;
 mod nrrd;
 pub mod phantom;
+mod raw;
 
 use std::fmt;
 use std::fs::File;
@@ -513,6 +514,48 @@ pub(crate) mod tests {
     /// Asserts that two matrices agree to 1e-5.
     pub(crate) fn assert_mat_eq(a: Mat4, b: Mat4) {
         assert!(a.abs_diff_eq(b, 1e-5), "{a:?}\n!=\n{b:?}");
+    }
+
+    /// Writes `bytes` to the file `name` in `dir` and returns its path.
+    pub(crate) fn write(dir: &tempfile::TempDir, name: &str, bytes: &[u8]) -> PathBuf {
+        let path = dir.path().join(name);
+        std::fs::write(&path, bytes).unwrap();
+        path
+    }
+
+    /// Writes `bytes` as `name` in `dir` and loads it, expecting an error: whether it is an I/O
+    /// error, and its message without the path.
+    pub(crate) fn load_err(dir: &tempfile::TempDir, name: &str, bytes: &[u8]) -> (bool, String) {
+        let e = load_quiet(&write(dir, name, bytes)).unwrap_err();
+        (e.is_io(), e.kind.to_string())
+    }
+
+    /// `bytes` gzip-compressed (`.nii.gz`, NRRD `encoding: gzip`).
+    pub(crate) fn gzip(bytes: &[u8]) -> Vec<u8> {
+        let mut encoder = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::default());
+        io::Write::write_all(&mut encoder, bytes).unwrap();
+        encoder.finish().unwrap()
+    }
+
+    /// `bytes` zlib-compressed (MetaImage `CompressedData = True`).
+    pub(crate) fn zlib(bytes: &[u8]) -> Vec<u8> {
+        let mut encoder = flate2::write::ZlibEncoder::new(Vec::new(), flate2::Compression::default());
+        io::Write::write_all(&mut encoder, bytes).unwrap();
+        encoder.finish().unwrap()
+    }
+
+    /// The samples of the NRRD and MetaImage tests' 3 x 2 x 2 volume of `short`s: negative ones
+    /// and ones beyond a byte show that sign and byte order survive.
+    pub(crate) const SHORTS: [i16; 12] = [-5, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 300];
+
+    /// [`SHORTS`] as little-endian bytes.
+    pub(crate) fn shorts_le() -> Vec<u8> {
+        SHORTS.iter().flat_map(|v| v.to_le_bytes()).collect()
+    }
+
+    /// [`SHORTS`] as the loaders return them.
+    pub(crate) fn shorts_f32() -> Vec<f32> {
+        SHORTS.iter().map(|&v| f32::from(v)).collect()
     }
 
     fn volume(data: Vec<f32>) -> Volume {

@@ -192,13 +192,9 @@ fn qform(header: &NiftiHeader) -> Option<Mat4> {
 
 #[cfg(test)]
 mod tests {
-    use std::io::Write;
-
-    use flate2::Compression;
-    use flate2::write::GzEncoder;
     use glam::Vec4;
 
-    use super::super::tests::{assert_mat_eq, load_quiet};
+    use super::super::tests::{assert_mat_eq, gzip, load_quiet, write};
     use super::*;
 
     /// The fields of a hand-written NIfTI-1 header that the tests vary.
@@ -272,18 +268,6 @@ mod tests {
 
     fn i16_data(values: &[i16], big_endian: bool) -> Vec<u8> {
         values.iter().flat_map(|v| if big_endian { v.to_be_bytes() } else { v.to_le_bytes() }).collect()
-    }
-
-    fn gzip(bytes: &[u8]) -> Vec<u8> {
-        let mut encoder = GzEncoder::new(Vec::new(), Compression::default());
-        encoder.write_all(bytes).unwrap();
-        encoder.finish().unwrap()
-    }
-
-    fn write(dir: &tempfile::TempDir, name: &str, bytes: &[u8]) -> std::path::PathBuf {
-        let path = dir.path().join(name);
-        std::fs::write(&path, bytes).unwrap();
-        path
     }
 
     const VALUES: [i16; 12] = [0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, -11];
@@ -366,10 +350,9 @@ mod tests {
         assert_mat_eq(load_quiet(&path).unwrap().grid_to_world, Mat4::from_scale(Vec3::new(0.5, 1.0, 2.0)));
     }
 
+    /// [`super::super::tests::load_err`] in a directory of its own.
     fn load_err(name: &str, bytes: &[u8]) -> (bool, String) {
-        let dir = tempfile::tempdir().unwrap();
-        let e = load_quiet(&write(&dir, name, bytes)).unwrap_err();
-        (e.is_io(), e.kind.to_string())
+        super::super::tests::load_err(&tempfile::tempdir().unwrap(), name, bytes)
     }
 
     #[test]

@@ -6,46 +6,29 @@
 //! `content`, key/value pairs, ...) are ignored.
 
 use std::collections::HashMap;
-use std::io::{BufRead, BufReader};
+use std::io::BufRead;
 use std::path::Path;
 
-use flate2::bufread::GzDecoder;
 use glam::{Mat4, Vec3};
 
+use super::raw::{self, Encoding, Placement, TextHeader};
 use super::{
-    DataSource, Layout, LoadErrorKind, MAX_HEADER_LINES, ProgressReader, ScalarType, Volume, affine, check_dims,
-    is_usable, lps_to_ras, open, parse_numbers, read_header_line, read_samples, sibling, skip_bytes,
+    DataSource, Layout, LoadErrorKind, MAX_HEADER_LINES, ScalarType, Volume, affine, check_dims, is_usable, lps_to_ras,
+    parse_numbers, read_header_line,
 };
 
 /// Loads a `.nrrd` or `.nhdr` file.
 pub(super) fn load(path: &Path, progress: &mut dyn FnMut(u64, u64)) -> Result<Volume, LoadErrorKind> {
-    let (file, len) = open(path, false)?;
-    let mut reader = BufReader::new(ProgressReader::new(file, len, &mut *progress));
-    let (fields, header_len) = read_header(&mut reader)?;
-    let header = Header::parse(&fields)?;
-    let data = match &header.data_file {
-        None if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("nhdr")) => {
+    let (header, data) = raw::load(path, progress, |reader| {
+        let (fields, header_len) = read_header(reader)?;
+        let header = Header::parse(&fields)?;
+        if header.data_file.is_none() && path.extension().is_some_and(|e| e.eq_ignore_ascii_case("nhdr")) {
             return Err(LoadErrorKind::Header(
                 "missing field `data file` (a detached .nhdr header names its data file)".into(),
             ));
         }
-        None => {
-            let data = read_data(&mut reader, &header, len.saturating_sub(header_len), None)?;
-            drop(reader);
-            progress(len, len);
-            data
-        }
-        Some(name) => {
-            drop(reader);
-            let data_path = sibling(path, name);
-            let (file, data_len) = open(&data_path, true)?;
-            let mut reader = BufReader::new(ProgressReader::new(file, data_len, &mut *progress));
-            let data = read_data(&mut reader, &header, data_len, Some(&data_path))?;
-            drop(reader);
-            progress(data_len, data_len);
-            data
-        }
-    };
+        Ok((header, header_len))
+    })?;
     Ok(Volume::new(header.dims, header.grid_to_world, data))
 }
 
@@ -93,24 +76,15 @@ fn read_header(reader: &mut dyn BufRead) -> Result<(HashMap<String, String>, u64
     Ok((fields, consumed))
 }
 
-/// How the data is encoded.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Encoding {
-    Raw,
-    Gzip,
-}
-
 /// The validated header fields the data and its placement depend on.
 #[derive(Debug)]
 struct Header {
     dims: [u32; 3],
-    layout: Layout,
-    encoding: Encoding,
     grid_to_world: Mat4,
     /// `data file`, for a detached header.
     data_file: Option<String>,
-    /// `byte skip`; `None` for -1 (the data is at the end of the file).
-    byte_skip: Option<u64>,
+    /// `type`, `endian`, `encoding` and `byte skip`.
+    data: Placement,
     /// `line skip`: lines of the data file before the data.
     line_skip: u64,
 }
@@ -166,16 +140,43 @@ impl Header {
             Some(v) => v.parse().map_err(|_| LoadErrorKind::Header(format!("`line skip` `{v}` is not a count")))?,
         };
         let data_file = get("datafile").map(data_file).transpose()?;
+        // For gzip, `byte skip` counts bytes of the decompressed data, as NRRD specifies.
+        let (skip, decoded_skip) = match encoding {
+            Encoding::Raw => (byte_skip, 0),
+            Encoding::Gzip | Encoding::Zlib => (Some(0), byte_skip.unwrap_or_default()),
+        };
         let voxels = dims.iter().map(|&d| u64::from(d)).product();
         Ok(Header {
             dims,
-            layout: Layout { ty, big_endian, voxels },
-            encoding,
             grid_to_world: grid_to_world(fields, &sizes, axes)?,
             data_file,
-            byte_skip,
+            data: Placement { layout: Layout { ty, big_endian, voxels }, encoding, skip, decoded_skip },
             line_skip,
         })
+    }
+}
+
+impl TextHeader for Header {
+    fn data_file(&self) -> Option<&str> {
+        self.data_file.as_deref()
+    }
+
+    /// Skips `line skip` lines, then reads the data after `byte skip`.
+    fn read_data(&self, reader: &mut dyn BufRead, len: u64, file: Option<&Path>) -> Result<Vec<f32>, LoadErrorKind> {
+        let raw_source = DataSource { file, compressed: false, available: None };
+        let mut consumed = 0;
+        for _ in 0..self.line_skip {
+            let n = reader.skip_until(b'\n').map_err(|e| raw_source.read_error(e))? as u64;
+            if n == 0 {
+                return Err(LoadErrorKind::Header(format!(
+                    "`line skip` {} is more lines than the data has",
+                    self.line_skip
+                )));
+            }
+            consumed += n;
+        }
+        let past_end = |skip| LoadErrorKind::Header(format!("`byte skip` {skip} is past the end of the data"));
+        raw::read_data(reader, self.data, len.saturating_sub(consumed), file, &past_end)
     }
 }
 
@@ -304,97 +305,18 @@ fn parse_vectors(value: &str) -> Result<Vec<Option<Vec<f64>>>, String> {
     Ok(vectors)
 }
 
-/// Reads the samples from a data stream positioned after the header (attached) or at the start
-/// of the data file (detached), holding `len` more bytes: skips `line skip` lines, then
-/// `byte skip` bytes (of the decompressed data for gzip, as NRRD specifies), then reads.
-fn read_data(
-    reader: &mut dyn BufRead,
-    header: &Header,
-    len: u64,
-    file: Option<&Path>,
-) -> Result<Vec<f32>, LoadErrorKind> {
-    let raw_source = DataSource { file, compressed: false, available: None };
-    let mut consumed = 0;
-    for _ in 0..header.line_skip {
-        let n = reader.skip_until(b'\n').map_err(|e| raw_source.read_error(e))? as u64;
-        if n == 0 {
-            return Err(LoadErrorKind::Header(format!(
-                "`line skip` {} is more lines than the data has",
-                header.line_skip
-            )));
-        }
-        consumed += n;
-    }
-    let expected = header.layout.bytes();
-    let past_end = |skip: u64| LoadErrorKind::Header(format!("`byte skip` {skip} is past the end of the data"));
-    match header.encoding {
-        Encoding::Raw => {
-            let available = len.saturating_sub(consumed);
-            let skip = match header.byte_skip {
-                Some(skip) => skip,
-                None => available.checked_sub(expected).ok_or_else(|| raw_source.mismatch(expected, available))?,
-            };
-            if skip_bytes(reader, skip).map_err(|e| raw_source.read_error(e))? < skip {
-                return Err(past_end(skip));
-            }
-            let source = DataSource { available: Some(available - skip), ..raw_source };
-            read_samples(reader, header.layout, &source)
-        }
-        Encoding::Gzip => {
-            let source = DataSource { file, compressed: true, available: None };
-            let mut decoder = GzDecoder::new(reader);
-            let skip = header.byte_skip.unwrap_or_default();
-            if skip_bytes(&mut decoder, skip).map_err(|e| source.read_error(e))? < skip {
-                return Err(past_end(skip));
-            }
-            read_samples(&mut decoder, header.layout, &source)
-        }
-    }
-}
-
 #[cfg(test)]
 mod tests {
-    use std::io::Write;
-
-    use flate2::Compression;
-    use flate2::write::GzEncoder;
     use glam::Vec4;
 
-    use super::super::tests::{assert_mat_eq, load_quiet};
+    use super::super::tests::{assert_mat_eq, gzip, load_err, load_quiet, shorts_f32, shorts_le, write};
     use super::*;
-
-    fn gzip(bytes: &[u8]) -> Vec<u8> {
-        let mut encoder = GzEncoder::new(Vec::new(), Compression::default());
-        encoder.write_all(bytes).unwrap();
-        encoder.finish().unwrap()
-    }
-
-    fn write(dir: &tempfile::TempDir, name: &str, bytes: &[u8]) -> std::path::PathBuf {
-        let path = dir.path().join(name);
-        std::fs::write(&path, bytes).unwrap();
-        path
-    }
 
     /// An attached NRRD file: `header` lines (after the magic), a blank line, then `data`.
     fn attached(header: &str, data: &[u8]) -> Vec<u8> {
         let mut bytes = format!("NRRD0004\n# a comment\n{}\n\n", header.trim_end()).into_bytes();
         bytes.extend_from_slice(data);
         bytes
-    }
-
-    const SHORTS: [i16; 12] = [-5, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 300];
-
-    fn shorts_le() -> Vec<u8> {
-        SHORTS.iter().flat_map(|v| v.to_le_bytes()).collect()
-    }
-
-    fn shorts_f32() -> Vec<f32> {
-        SHORTS.iter().map(|&v| f32::from(v)).collect()
-    }
-
-    fn load_err(dir: &tempfile::TempDir, name: &str, bytes: &[u8]) -> (bool, String) {
-        let e = load_quiet(&write(dir, name, bytes)).unwrap_err();
-        (e.is_io(), e.kind.to_string())
     }
 
     #[test]

@@ -1,0 +1,163 @@
+//! The data side of the formats with a text header (NRRD, MetaImage): the samples follow the
+//! header in the same file (attached) or sit in a file the header names (detached), raw or
+//! compressed, after some bytes to skip.
+//!
+//! Each format parses its own header; finding, sizing and reading the data is done here once, so
+//! both formats keep the same limits, progress reports and error messages.
+
+use std::io::{BufRead, BufReader, Read};
+use std::path::Path;
+
+use flate2::bufread::{GzDecoder, ZlibDecoder};
+
+use super::{DataSource, Layout, LoadErrorKind, ProgressReader, open, read_samples, sibling, skip_bytes};
+
+/// A parsed text header, as far as [`load`] needs it to find and read the data.
+pub(super) trait TextHeader {
+    /// The data file a detached header names; `None` when the data follows the header.
+    fn data_file(&self) -> Option<&str>;
+
+    /// Reads the samples from a stream positioned at the start of the data: right after the
+    /// header (attached) or at the start of the data file (detached, then named by `file` for
+    /// error messages), holding `len` more bytes.
+    fn read_data(&self, reader: &mut dyn BufRead, len: u64, file: Option<&Path>) -> Result<Vec<f32>, LoadErrorKind>;
+}
+
+/// Loads a file with a text header: `read_header` parses the header from the start of the file
+/// and returns it with its length in bytes; then the data is read from the rest of the file or
+/// from the data file the header names. Returns the header and the samples.
+///
+/// Progress is about the file holding the data (so a small detached header reports nothing of
+/// its own) and ends with one report of `done == total`.
+pub(super) fn load<H: TextHeader>(
+    path: &Path,
+    progress: &mut dyn FnMut(u64, u64),
+    read_header: impl FnOnce(&mut dyn BufRead) -> Result<(H, u64), LoadErrorKind>,
+) -> Result<(H, Vec<f32>), LoadErrorKind> {
+    let (file, len) = open(path, false)?;
+    let mut reader = BufReader::new(ProgressReader::new(file, len, &mut *progress));
+    let (header, header_len) = read_header(&mut reader)?;
+    let (data, total) = match header.data_file() {
+        None => (header.read_data(&mut reader, len.saturating_sub(header_len), None)?, len),
+        Some(name) => {
+            drop(reader);
+            let data_path = sibling(path, name);
+            let (file, data_len) = open(&data_path, true)?;
+            let mut reader = BufReader::new(ProgressReader::new(file, data_len, &mut *progress));
+            (header.read_data(&mut reader, data_len, Some(&data_path))?, data_len)
+        }
+    };
+    progress(total, total);
+    Ok((header, data))
+}
+
+/// How the data is stored.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Encoding {
+    Raw,
+    /// gzip (NRRD `encoding: gzip`).
+    Gzip,
+    /// zlib (MetaImage `CompressedData = True`).
+    Zlib,
+}
+
+/// Where the samples are in the data stream and how they are stored, as the header says.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Placement {
+    pub(super) layout: Layout,
+    pub(super) encoding: Encoding,
+    /// Bytes of the stream, as stored, before the data; `None` when the data is at the end of
+    /// the stream (-1 in both formats), which only raw data allows since it needs the data's
+    /// stored size.
+    pub(super) skip: Option<u64>,
+    /// Bytes of the decompressed stream before the samples (NRRD's `byte skip` for gzip data);
+    /// ignored for raw data.
+    pub(super) decoded_skip: u64,
+}
+
+/// Reads the samples `data` places in a stream holding `len` more bytes, checking that exactly
+/// the header's number of bytes is there. `past_end` is the format's error for a skip that goes
+/// beyond the data, given the skip.
+pub(super) fn read_data(
+    reader: &mut dyn BufRead,
+    data: Placement,
+    len: u64,
+    file: Option<&Path>,
+    past_end: &dyn Fn(u64) -> LoadErrorKind,
+) -> Result<Vec<f32>, LoadErrorKind> {
+    let raw_source = DataSource { file, compressed: false, available: None };
+    let expected = data.layout.bytes();
+    let skip = match data.skip {
+        Some(skip) => skip,
+        None => len.checked_sub(expected).ok_or_else(|| raw_source.mismatch(expected, len))?,
+    };
+    if skip_bytes(reader, skip).map_err(|e| raw_source.read_error(e))? < skip {
+        return Err(past_end(skip));
+    }
+    match data.encoding {
+        Encoding::Raw => {
+            let source = DataSource { available: Some(len - skip), ..raw_source };
+            read_samples(reader, data.layout, &source)
+        }
+        Encoding::Gzip => read_decoded(&mut GzDecoder::new(reader), data, file, past_end),
+        Encoding::Zlib => read_decoded(&mut ZlibDecoder::new(reader), data, file, past_end),
+    }
+}
+
+/// Skips `data.decoded_skip` bytes of a decompressing stream, then reads the samples. The
+/// decompressed length is unknown until it is read, so [`read_samples`] grows the output with
+/// the data actually there rather than with what the header claims.
+fn read_decoded(
+    decoder: &mut dyn Read,
+    data: Placement,
+    file: Option<&Path>,
+    past_end: &dyn Fn(u64) -> LoadErrorKind,
+) -> Result<Vec<f32>, LoadErrorKind> {
+    let source = DataSource { file, compressed: true, available: None };
+    let skip = data.decoded_skip;
+    if skip_bytes(decoder, skip).map_err(|e| source.read_error(e))? < skip {
+        return Err(past_end(skip));
+    }
+    read_samples(decoder, data.layout, &source)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::ScalarType;
+    use super::super::tests::{gzip, zlib};
+    use super::*;
+
+    fn placement(encoding: Encoding, skip: Option<u64>, decoded_skip: u64) -> Placement {
+        Placement { layout: Layout { ty: ScalarType::U8, big_endian: false, voxels: 3 }, encoding, skip, decoded_skip }
+    }
+
+    fn read(bytes: &[u8], data: Placement) -> Result<Vec<f32>, String> {
+        let past_end = |skip| LoadErrorKind::Header(format!("skip {skip} is past the end"));
+        read_data(&mut &bytes[..], data, bytes.len() as u64, None, &past_end).map_err(|e| e.to_string())
+    }
+
+    #[test]
+    fn skips_stored_and_decoded_bytes() {
+        assert_eq!(read(b"xx\x01\x02\x03", placement(Encoding::Raw, Some(2), 0)), Ok(vec![1.0, 2.0, 3.0]));
+        // No skip: the data is at the end, however long what comes before it.
+        assert_eq!(read(b"xxxx\x01\x02\x03", placement(Encoding::Raw, None, 0)), Ok(vec![1.0, 2.0, 3.0]));
+        assert_eq!(
+            read(b"\x01\x02", placement(Encoding::Raw, None, 0)).unwrap_err(),
+            "header says 3 bytes of data, file has 2"
+        );
+        // The stored skip comes before the compressed stream, the decoded one inside it.
+        let mut stored = b"z".to_vec();
+        stored.extend(gzip(b"yy\x04\x05\x06"));
+        assert_eq!(read(&stored, placement(Encoding::Gzip, Some(1), 2)), Ok(vec![4.0, 5.0, 6.0]));
+        assert_eq!(read(&zlib(b"\x07\x08\x09"), placement(Encoding::Zlib, Some(0), 0)), Ok(vec![7.0, 8.0, 9.0]));
+    }
+
+    #[test]
+    fn skips_past_the_end_are_the_formats_errors() {
+        assert_eq!(read(b"\x01\x02\x03", placement(Encoding::Raw, Some(9), 0)).unwrap_err(), "skip 9 is past the end");
+        assert_eq!(
+            read(&gzip(b"\x01\x02\x03"), placement(Encoding::Gzip, Some(0), 5)).unwrap_err(),
+            "skip 5 is past the end"
+        );
+    }
+}
