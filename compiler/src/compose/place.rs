@@ -646,6 +646,15 @@ impl<'a, F: Fn(usize) -> bool> Merger<'a, F> {
         &self.pipe(u).uniforms[j]
     }
 
+    /// A uniform's doc comment, with `$` replaced by the instance as in the uniform's name.
+    fn uniform_doc(&self, r: DeclRef) -> Option<String> {
+        let doc = self.uniform(r).doc.as_ref()?;
+        Some(match &self.units[r.0].instance {
+            Some(instance) => doc.replace('$', instance),
+            None => doc.clone(),
+        })
+    }
+
     fn unit_is_std(&self, u: usize) -> bool {
         (self.is_std)(self.pipe(u).module)
     }
@@ -793,7 +802,7 @@ impl<'a, F: Fn(usize) -> bool> Merger<'a, F> {
                     ty: first.ty,
                     default: acc.first_default.and_then(|r| self.uniform(r).default.clone()),
                     range: acc.range.and_then(|r| self.uniform(r).range.clone()),
-                    doc: acc.doc.and_then(|r| self.uniform(r).doc.clone()),
+                    doc: acc.doc.and_then(|r| self.uniform_doc(r)),
                     span: first.span,
                 }
             })
@@ -1351,7 +1360,7 @@ lib fn plane_distance(plane: vec4f, p: vec3f) -> f32 {
 
 /// Clip one additional volume against a plane.
 pipeline clip_$ after classification.additional[$] when active {
-    /// The clip plane.
+    /// The clip plane of volume `$`.
     uniform clip_plane_$: vec4f = vec4f(1.0, 0.0, 0.0, -0.5) in -1.0 .. 1.0;
     state pos: vec3f;
     state color_$: vec4f;
@@ -1400,7 +1409,9 @@ pipeline blend in compositing.additional {
         assert_eq!(c.uniforms[0].ty, Type::vec(4, Scalar::F32));
         assert_eq!(c.uniforms[1].default.as_ref().map(show_const).as_deref(), Some("vec4f(1.0, 0.0, 0.0, -0.5)"));
         assert!(c.uniforms[1].range.is_some());
-        assert_eq!(c.uniforms[0].doc.as_deref().map(str::trim), Some("The clip plane."));
+        // `$` in a doc names the instance, as in the uniform's name.
+        assert_eq!(c.uniforms[0].doc.as_deref().map(str::trim), Some("The clip plane of volume `gm`."));
+        assert_eq!(c.uniforms[1].doc.as_deref().map(str::trim), Some("The clip plane of volume `wm`."));
         assert_eq!(fns[1].uniforms, [0]);
         assert_eq!(fns[3].uniforms, [1]);
         // State names are substituted; `pos` is shared.
