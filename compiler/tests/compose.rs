@@ -63,3 +63,24 @@ fn views_composed_together_match_views_composed_alone() {
         assert_eq!(wgsl(view), wgsl(&alone.views[0]), "view {}", view.name);
     }
 }
+
+/// Expressions as deep as the nesting limits allow compose in every view, even in a debug build
+/// called from a test thread with a small stack (views compose on threads with a stack of their
+/// own).
+#[test]
+fn the_deepest_allowed_expression_composes_in_every_view() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let chain = format!("state.value{}", " + 1.0".repeat(250));
+    let module = format!(
+        "pipeline deep after classification.primary {{\n    state value: f32 = 0.0;\n    \
+         state color: vec4f = vec4f(0.0);\n    state.color = vec4f({chain});\n}}\n"
+    );
+    std::fs::write(dir.path().join("deep.vrs"), module).expect("write module");
+    let scene = "[render]\ncompositing = \"dvr\"\n\n[[volume]]\nname = \"head\"\nrole = \"primary\"\nphantom = \"head\"\n\n\
+                 [[module]]\npath = \"deep.vrs\"\n\n[[view]]\nname = \"3d\"\nkind = \"raycast\"\n\n\
+                 [[view]]\nname = \"axial\"\nkind = \"slice\"\naxis = \"z\"\n";
+    std::fs::write(dir.path().join("scene.toml"), scene).expect("write scene");
+    let built = vrsc::compose::build::build_scene(&dir.path().join("scene.toml"), None).expect("scene readable");
+    assert!(!built.diags.has_errors(), "{}", vrsc::diag::render_plain(&built.diags.sorted(), &built.sources));
+    assert!(built.views.iter().all(|v| v.shader.is_some()));
+}

@@ -10,6 +10,7 @@ use crate::loader::{Loader, ModuleGraph, ParsedFiles};
 use crate::scene::{self, ModuleRef, ModuleSource, Scene, View};
 use crate::source::{SourceMap, Span};
 use std::path::Path;
+use std::sync::OnceLock;
 
 /// Fields the entry point reads or writes itself.
 pub const ENTRY_FIELDS: &[&str] = &["pixel", "terminate", "out_color"];
@@ -82,7 +83,8 @@ pub fn build_scene(path: &Path, only_view: Option<&str>) -> std::io::Result<Buil
 /// Composes one view of a scene whose file is already in `sources`.
 pub fn compose_view(scene: &Scene, view: &View, sources: &mut SourceMap, diags: &mut Diagnostics) -> ViewOutput {
     let loaded = load_view(scene, view, sources, &mut ParsedFiles::default());
-    let (output, view_diags) = compose_loaded(scene, view, loaded, sources);
+    let mut composed = compose_loaded_views(scene, &[view], vec![loaded], sources);
+    let (output, view_diags) = composed.remove(0);
     diags.extend(view_diags);
     output
 }
@@ -123,25 +125,54 @@ fn load_view(scene: &Scene, view: &View, sources: &mut SourceMap, parsed: &mut P
     LoadedView { graph, uses, diags }
 }
 
-/// Composes loaded views, each on its own thread but the first, in the order given.
+/// Checking, lowering and naga's passes recurse as deep as the nesting limits (E0105) allow,
+/// which takes more than the 2 MiB of a test or worker thread in a debug build. A view composes
+/// on a stack with at least `VIEW_STACK_MIN` left, moving to a fresh `VIEW_STACK` when the caller's
+/// has less.
+const VIEW_STACK_MIN: usize = 4 << 20;
+const VIEW_STACK: usize = 16 << 20;
+
+/// Threads for the views after the first, started once: threads that live on keep their
+/// allocator heaps warm (a fresh thread per view cost more than composing it).
+fn composer_pool() -> Option<&'static rayon::ThreadPool> {
+    static POOL: OnceLock<Option<rayon::ThreadPool>> = OnceLock::new();
+    POOL.get_or_init(|| {
+        rayon::ThreadPoolBuilder::new().thread_name(|i| format!("vrsc-compose-{i}")).stack_size(VIEW_STACK).build().ok()
+    })
+    .as_ref()
+}
+
+/// Composes loaded views, in the order given: the first on the calling thread (whose allocator
+/// also frees the result, which is much cheaper than freeing another thread's memory), the others
+/// in parallel on the composer threads, or one after the other if the system refused to start
+/// them.
 fn compose_loaded_views(
     scene: &Scene,
     views: &[&View],
     loaded: Vec<LoadedView>,
     sources: &SourceMap,
 ) -> Vec<(ViewOutput, Diagnostics)> {
+    let compose = |view: &View, loaded| {
+        stacker::maybe_grow(VIEW_STACK_MIN, VIEW_STACK, || compose_loaded(scene, view, loaded, sources))
+    };
     let mut work = views.iter().zip(loaded);
     let Some((first_view, first)) = work.next() else { return Vec::new() };
-    std::thread::scope(|s| {
-        let others: Vec<_> =
-            work.map(|(view, loaded)| s.spawn(move || compose_loaded(scene, view, loaded, sources))).collect();
-        let mut outputs = vec![compose_loaded(scene, first_view, first, sources)];
-        for handle in others {
-            // A panic in a view's thread is a compiler bug: let it surface as it would have here.
-            outputs.push(handle.join().unwrap_or_else(|panic| std::panic::resume_unwind(panic)));
+    let rest: Vec<_> = work.collect();
+    let Some(pool) = composer_pool().filter(|_| !rest.is_empty()) else {
+        let first = compose(first_view, first);
+        return std::iter::once(first).chain(rest.into_iter().map(|(view, loaded)| compose(view, loaded))).collect();
+    };
+    let mut others: Vec<Option<(ViewOutput, Diagnostics)>> = rest.iter().map(|_| None).collect();
+    let mut outputs = Vec::with_capacity(views.len());
+    pool.in_place_scope(|s| {
+        for ((view, loaded), slot) in rest.into_iter().zip(&mut others) {
+            s.spawn(move |_| *slot = Some(compose(view, loaded)));
         }
-        outputs
-    })
+        outputs.push(compose(first_view, first));
+    });
+    // Every spawned job has run when the scope ends (a panic in one resumes here).
+    outputs.extend(others.into_iter().flatten());
+    outputs
 }
 
 /// Checks, places and emits one loaded view.
