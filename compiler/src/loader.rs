@@ -69,19 +69,11 @@ impl<'a> Loader<'a> {
 
     /// Loads a root file from disk. An unreadable root is an `Err` (an I/O problem, exit code 2).
     pub fn load_root_file(&mut self, path: &Path) -> Result<usize, std::io::Error> {
-        let key = canonical_key(path);
+        let canonical = canonical_path(path);
+        let key = canonical.display().to_string();
         let index = match self.loaded.get(&key) {
             Some(&index) => index,
-            None => {
-                let (file, ast) = match self.parsed.files.get(&key) {
-                    Some(parsed) => parsed.clone(),
-                    None => {
-                        let text = std::fs::read_to_string(path)?;
-                        self.parse_file(path.display().to_string(), Some(path), text, &key)
-                    }
-                };
-                self.add_module(file, ast, None, key)
-            }
+            None => self.add_file(path, canonical, key, || path.display().to_string())?,
         };
         self.graph.roots.push(index);
         Ok(index)
@@ -90,9 +82,9 @@ impl<'a> Loader<'a> {
     /// Loads a root module from text (tests, fuzzing, embedded sources). Imports resolve
     /// relative to `dir` when given.
     pub fn load_root_source(&mut self, name: &str, text: String, dir: Option<&Path>) -> usize {
-        let path = dir.map(|d| d.join(name));
+        let path = dir.map(|d| canonical_path(&d.join(name)));
         let key = format!("<source {}>:{name}", self.graph.modules.len());
-        let (file, ast) = self.parse_file(name.to_string(), path.as_deref(), text, &key);
+        let (file, ast) = self.parse_file(name.to_string(), path, text, &key);
         let index = self.add_module(file, ast, None, key);
         self.graph.roots.push(index);
         index
@@ -126,9 +118,33 @@ impl<'a> Loader<'a> {
         Some(self.add_module(file, parsed.ast.clone(), Some(name), key))
     }
 
+    /// Adds the file at `path` as a module under `key` (its canonical path): parsed into this
+    /// source map by an earlier loader, or read and parsed now and shown as `name()`.
+    fn add_file(
+        &mut self,
+        path: &Path,
+        canonical: PathBuf,
+        key: String,
+        name: impl FnOnce() -> String,
+    ) -> std::io::Result<usize> {
+        let (file, ast) = match self.parsed.files.get(&key) {
+            Some(parsed) => parsed.clone(),
+            None => {
+                let text = std::fs::read_to_string(path)?;
+                self.parse_file(name(), Some(canonical), text, &key)
+            }
+        };
+        Ok(self.add_module(file, ast, None, key))
+    }
+
     /// Adds a file to the source map, lexes and parses it, and remembers it under `key`.
-    fn parse_file(&mut self, name: String, path: Option<&Path>, text: String, key: &str) -> (FileId, Arc<ast::Module>) {
-        let canonical = path.map(|p| p.canonicalize().unwrap_or_else(|_| p.to_path_buf()));
+    fn parse_file(
+        &mut self,
+        name: String,
+        canonical: Option<PathBuf>,
+        text: String,
+        key: &str,
+    ) -> (FileId, Arc<ast::Module>) {
         let file = self.sources.add(name, canonical, text);
         let ast = Arc::new(parse_source(self.sources.file(file), file, self.diags));
         self.parsed.files.insert(key.to_string(), (file, ast.clone()));
@@ -188,18 +204,13 @@ impl<'a> Loader<'a> {
     /// shown relative to it, so messages carry the paths the user wrote, not absolute ones.
     fn import_path(&mut self, path: &str, dir: Option<&Path>, shown_dir: &Path, span: Span) -> Option<usize> {
         let full = dir.map_or_else(|| PathBuf::from(path), |d| d.join(path));
-        let key = canonical_key(&full);
+        let canonical = canonical_path(&full);
+        let key = canonical.display().to_string();
         if let Some(&target) = self.loaded.get(&key) {
             return self.check_cycle(target, span);
         }
-        if let Some((file, ast)) = self.parsed.files.get(&key).cloned() {
-            return Some(self.add_module(file, ast, None, key));
-        }
-        match std::fs::read_to_string(&full) {
-            Ok(text) => {
-                let (file, ast) = self.parse_file(lexical_join(shown_dir, path), Some(&full), text, &key);
-                Some(self.add_module(file, ast, None, key))
-            }
+        match self.add_file(&full, canonical, key, || lexical_join(shown_dir, path)) {
+            Ok(index) => Some(index),
             Err(err) => {
                 self.diags.push(
                     Diagnostic::new(Code::ImportNotFound, span, format!("cannot read `{path}`: {err}"))
@@ -279,8 +290,9 @@ enum ImportRequest {
     Std(String),
 }
 
-fn canonical_key(path: &Path) -> String {
-    path.canonicalize().unwrap_or_else(|_| path.to_path_buf()).display().to_string()
+/// The path with links and `..` resolved, or as given when it does not exist (yet).
+fn canonical_path(path: &Path) -> PathBuf {
+    path.canonicalize().unwrap_or_else(|_| path.to_path_buf())
 }
 
 /// `base/rel` with `.` dropped and `dir/..` folded, without touching the file system.

@@ -3,11 +3,6 @@
 
 include!(concat!(env!("OUT_DIR"), "/stdlib_table.rs"));
 
-/// The source of standard module `name` (`shading` for `std::shading`).
-pub fn source(name: &str) -> Option<&'static str> {
-    STDLIB.iter().find(|(n, _)| *n == name).map(|(_, text)| *text)
-}
-
 /// Names of every standard module, sorted.
 pub fn names() -> impl Iterator<Item = &'static str> {
     STDLIB.iter().map(|(n, _)| *n)
