@@ -50,6 +50,36 @@ fn a_module_shared_by_two_views_reports_its_syntax_error_once() {
     assert_eq!(built.views.len(), 2);
 }
 
+/// The scene's module files are parsed in parallel; their syntax errors are still reported
+/// once each, in the order the scene names the files.
+#[test]
+fn module_files_parsed_in_parallel_report_in_scene_order() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    for name in ["first", "second", "third"] {
+        let text = format!("pipeline {name} after classification.primary {{\n    let x = ;\n}}\n");
+        std::fs::write(dir.path().join(format!("{name}.vrs")), text).expect("write module");
+    }
+    let scene = "[render]\ncompositing = \"dvr\"\n\n[[volume]]\nname = \"head\"\nrole = \"primary\"\nphantom = \"head\"\n\n\
+                 [[module]]\npath = \"second.vrs\"\n\n[[module]]\npath = \"first.vrs\"\n\n\
+                 [[view]]\nname = \"3d\"\nkind = \"raycast\"\nmodules = [{ path = \"third.vrs\" }]\n\n\
+                 [[view]]\nname = \"axial\"\nkind = \"slice\"\naxis = \"z\"\n";
+    std::fs::write(dir.path().join("scene.toml"), scene).expect("write scene");
+    let built = vrsc::compose::build::build_scene(&dir.path().join("scene.toml"), None).expect("scene readable");
+    let files: Vec<String> = built
+        .diags
+        .iter()
+        .filter(|d| d.code.as_str() == "E0104")
+        .filter_map(|d| built.sources.locate(d.span).map(|(file, _)| built.sources.file(file).name.clone()))
+        .collect();
+    let names: Vec<&str> = files.iter().filter_map(|f| Path::new(f).file_stem()?.to_str()).collect();
+    assert_eq!(
+        names,
+        ["second", "first", "third"],
+        "{}",
+        vrsc::diag::render_plain(&built.diags.sorted(), &built.sources)
+    );
+}
+
 /// Views composed together (in parallel) give exactly the WGSL each gives composed alone.
 #[test]
 fn views_composed_together_match_views_composed_alone() {

@@ -242,7 +242,7 @@ pub(super) fn assemble(libs: Vec<Option<LibOut>>, pipes: Vec<PipeOut>, removes: 
     hir::Program { lib_fns, pipelines, removes }
 }
 
-fn remap_block(b: &mut hir::Block, map: &[Option<usize>]) {
+pub(super) fn remap_block(b: &mut hir::Block, map: &[Option<usize>]) {
     for s in &mut b.stmts {
         remap_stmt(s, map);
     }

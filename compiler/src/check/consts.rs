@@ -16,6 +16,11 @@ impl Checker<'_> {
     /// Evaluates every `const` item, so that unused ones are checked too.
     pub(super) fn eval_all_consts(&mut self) {
         for id in 0..self.consts.len() {
+            // The standard modules' constants were checked with the cached standard library;
+            // one that a user's module refers to is still evaluated, on that use.
+            if self.consts.get(id).is_some_and(|c| self.std.as_ref().is_some_and(|std| std.has_module(c.module))) {
+                continue;
+            }
             let span = self.const_item(id).map_or(Span::DUMMY, |c| c.name.span);
             self.const_value(id, span);
         }

@@ -313,7 +313,7 @@ impl Checker<'_> {
                 let ty = type_or_placeholder(hint);
                 d = d.with_help(format!("declare it as a uniform: `uniform {name}: {ty};`"));
             }
-            FnKind::Lib if self.uniform_names.contains(name) => {
+            FnKind::Lib if self.declared_names().uniforms.contains(name) => {
                 d = d.with_note(format!(
                     "`{name}` is a uniform of a pipeline function; library functions cannot read uniforms: pass it in as a parameter"
                 ));
@@ -385,8 +385,8 @@ impl Checker<'_> {
     }
 
     /// The type (and `@ray`) a state field has elsewhere, or in the standard library's fields.
-    fn state_type_hint(&self, name: &str, guess: Hint) -> (String, bool) {
-        if let Some((ty, ray)) = self.state_hints.get(name) {
+    fn state_type_hint(&mut self, name: &str, guess: Hint) -> (String, bool) {
+        if let Some((ty, ray)) = self.declared_names().state_hints.get(name) {
             return (ty.clone(), *ray);
         }
         const STANDARD: &[(&str, &str, bool)] = &[

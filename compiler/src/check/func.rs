@@ -10,6 +10,7 @@ use crate::source::Span;
 use crate::types::Type;
 
 /// A checked lib fn, before the program is assembled (ids are still provisional).
+#[derive(Clone)]
 pub(super) struct LibOut {
     pub hir: hir::LibFn,
     /// Every lib fn call in the body, with the callee's span.
@@ -18,6 +19,7 @@ pub(super) struct LibOut {
 }
 
 /// A checked pipeline function, before the program is assembled.
+#[derive(Clone)]
 pub(super) struct PipeOut {
     pub module: usize,
     pub name: String,
@@ -37,6 +39,14 @@ impl Checker<'_> {
     /// Resolves the parameter and return types of every lib fn, before any body is checked.
     pub(super) fn resolve_signatures(&mut self) {
         for id in 0..self.libs.len() {
+            if let Some(cached) = self.std.as_ref().and_then(|std| std.signature(id))
+                && let Some(lib) = self.libs.get_mut(id)
+            {
+                lib.params = cached.params.clone();
+                lib.ret = cached.ret;
+                lib.failed |= cached.failed;
+                continue;
+            }
             let Some((_, f)) = self.lib_item(id) else { continue };
             let f: &ast::LibFn = f;
             let (params, ret) = (f.params.clone(), f.ret.clone());
@@ -85,6 +95,9 @@ impl Checker<'_> {
     fn check_lib_fn(&mut self, id: usize) -> Option<LibOut> {
         let graph = self.graph;
         let info = self.libs.get(id)?;
+        if let Some(cached) = self.std.as_ref().and_then(|std| std.lib_fn(id, info.module)) {
+            return cached;
+        }
         let (module, params, ret, sig_failed) = (info.module, info.params.clone(), info.ret, info.failed);
         let item = graph.modules.get(module)?.ast.items.get(info.item)?;
         let ItemKind::LibFn(lf) = &item.kind else { return None };
@@ -124,6 +137,11 @@ impl Checker<'_> {
         let mut pipes = Vec::new();
         let mut removes = Vec::new();
         for (m, module) in graph.modules.iter().enumerate() {
+            if let Some((cached_pipes, cached_removes)) = self.std.as_ref().and_then(|std| std.module_items(m)) {
+                pipes.extend(cached_pipes);
+                removes.extend(cached_removes);
+                continue;
+            }
             for item in &module.ast.items {
                 match &item.kind {
                     ItemKind::Pipeline(p) => pipes.push(self.check_pipeline(m, item, p)),

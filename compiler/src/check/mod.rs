@@ -24,6 +24,7 @@ mod decls;
 mod expr;
 mod func;
 mod scope;
+mod std_cache;
 mod stmt;
 
 #[cfg(test)]
@@ -34,17 +35,29 @@ use crate::hir;
 use crate::loader::ModuleGraph;
 use crate::source::{SourceMap, Span};
 use crate::types::Type;
-use rustc_hash::{FxHashMap, FxHashSet};
 use scope::{ConstInfo, FnCx, ItemRef, LibInfo, ModuleScope};
+use std_cache::StdReuse;
 
 /// Checks every module of the graph and builds the typed program. Errors and warnings go to
 /// `diags`; the returned program holds every function that checked cleanly (functions with
 /// errors are left out, so lowering only ever sees valid HIR).
+///
+/// The graph's standard modules are not checked again: their checked functions come from the
+/// standard library checked once per process ([`std_cache`]).
 pub fn check_program(graph: &ModuleGraph, sources: &SourceMap, diags: &mut Diagnostics) -> hir::Program {
+    check_graph(graph, sources, diags, std_cache::std_checked())
+}
+
+fn check_graph(
+    graph: &ModuleGraph,
+    sources: &SourceMap,
+    diags: &mut Diagnostics,
+    std: Option<&'static std_cache::StdChecked>,
+) -> hir::Program {
     let mut cx = Checker::new(graph, sources, diags);
     cx.collect_items();
+    cx.std = std.and_then(|cache| StdReuse::new(cache, graph, &cx.libs));
     cx.build_scopes();
-    cx.collect_declared_names();
     cx.resolve_signatures();
     cx.eval_all_consts();
     let mut libs = cx.check_lib_fns();
@@ -67,11 +80,11 @@ struct Checker<'a> {
     consts: Vec<ConstInfo>,
     /// Constants being evaluated, innermost last (for cycle messages).
     const_stack: Vec<usize>,
-    /// The written type (and `@ray`) of each state field declared anywhere in the graph, to
-    /// offer the missing declaration in E0501.
-    state_hints: FxHashMap<String, (String, bool)>,
-    /// Every uniform name declared anywhere, to explain why a lib fn cannot see one.
-    uniform_names: FxHashSet<String>,
+    /// The standard modules of the graph, checked once per process and copied from there.
+    std: Option<StdReuse>,
+    /// The names declared in pipeline headers, for help texts: gathered on the first error
+    /// that needs them (see [`Checker::declared_names`]).
+    declared: Option<scope::DeclaredNames>,
     /// Current nesting of expressions (across constant evaluation too: a chain of constants
     /// that refer to each other nests as deep as one expression would).
     expr_depth: u32,
@@ -96,8 +109,8 @@ impl<'a> Checker<'a> {
             libs: Vec::new(),
             consts: Vec::new(),
             const_stack: Vec::new(),
-            state_hints: FxHashMap::default(),
-            uniform_names: FxHashSet::default(),
+            std: None,
+            declared: None,
             expr_depth: 0,
             block_depth: 0,
             const_too_deep: false,

@@ -20,6 +20,16 @@ pub(super) enum ItemRef {
     Lib(usize),
 }
 
+/// Names declared in the pipeline headers of a graph.
+#[derive(Default)]
+pub(super) struct DeclaredNames {
+    /// The written type (and `@ray`) of each state field, to offer the missing declaration in
+    /// E0501.
+    pub state_hints: FxHashMap<String, (String, bool)>,
+    /// Every uniform name, to explain why a lib fn cannot see one.
+    pub uniforms: FxHashSet<String>,
+}
+
 #[derive(Default)]
 pub(super) struct ModuleScope {
     pub names: FxHashMap<String, ItemRef>,
@@ -132,28 +142,33 @@ impl Checker<'_> {
         }
     }
 
-    /// Records the names used in every pipeline header of the graph, for help texts.
-    pub(super) fn collect_declared_names(&mut self) {
-        let graph = self.graph;
-        for module in &graph.modules {
-            for item in &module.ast.items {
-                let ItemKind::Pipeline(p) = &item.kind else { continue };
-                for d in &p.decls {
-                    match &d.kind {
-                        DeclKind::State { ray, name, ty, .. } => {
-                            let written = self.sources.snippet(ty.span).to_string();
-                            if !written.is_empty() && Type::from_name(&written).is_some() {
-                                self.state_hints.entry(name.name.clone()).or_insert((written, *ray));
+    /// The names declared in every pipeline header of the graph, gathered on first use: only
+    /// help texts of errors need them.
+    pub(super) fn declared_names(&mut self) -> &DeclaredNames {
+        let (graph, sources) = (self.graph, self.sources);
+        self.declared.get_or_insert_with(|| {
+            let mut names = DeclaredNames::default();
+            for module in &graph.modules {
+                for item in &module.ast.items {
+                    let ItemKind::Pipeline(p) = &item.kind else { continue };
+                    for d in &p.decls {
+                        match &d.kind {
+                            DeclKind::State { ray, name, ty, .. } => {
+                                let written = sources.snippet(ty.span).to_string();
+                                if !written.is_empty() && Type::from_name(&written).is_some() {
+                                    names.state_hints.entry(name.name.clone()).or_insert((written, *ray));
+                                }
                             }
+                            DeclKind::Uniform { name, .. } => {
+                                names.uniforms.insert(name.name.clone());
+                            }
+                            DeclKind::Use { .. } => {}
                         }
-                        DeclKind::Uniform { name, .. } => {
-                            self.uniform_names.insert(name.name.clone());
-                        }
-                        DeclKind::Use { .. } => {}
                     }
                 }
             }
-        }
+            names
+        })
     }
 
     fn own_items(&self) -> Vec<Vec<OwnItem>> {

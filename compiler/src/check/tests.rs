@@ -550,3 +550,34 @@ fn a_missing_declaration_is_reported_once() {
         &[(Code::UndeclaredLibrary, 4), (Code::UndeclaredUniform, 4), (Code::UndeclaredState, 5)],
     );
 }
+
+#[test]
+fn the_standard_library_checks_cleanly_once() {
+    assert!(super::std_cache::std_checked().is_some(), "the standard library must check without a diagnostic");
+}
+
+/// The functions copied from the standard library checked once are exactly those checking the
+/// graph in full gives, whatever else the graph holds and in whatever order it loads them.
+#[test]
+fn reused_standard_modules_equal_checking_them_again() {
+    let user = "import std::shading;\nlib fn twice(x: f32) -> f32 { return 2.0 * x; }\n\
+                pipeline bright in shading.tone { state color: vec4f = vec4f(0.0); \
+                @ray state ray_dir: vec3f = vec3f(0.0, 0.0, 1.0); use twice, surface_normal; \
+                let n = surface_normal(vec3f(twice(0.5)), -state.ray_dir); \
+                state.color = vec4f(state.color.rgb * n.x, state.color.a); }";
+    for name in crate::stdlib::names() {
+        let mut sources = SourceMap::new();
+        let mut diags = Diagnostics::new();
+        let graph = {
+            let mut loader = Loader::new(&mut sources, &mut diags);
+            loader.load_root_source("user.vrs", user.to_string(), None);
+            loader.load_root_std(name).expect("a standard module");
+            loader.finish()
+        };
+        assert!(diags.is_empty(), "std::{name}: {:?}", diags.iter().map(|d| &d.message).collect::<Vec<_>>());
+        let reused = super::check_graph(&graph, &sources, &mut diags, super::std_cache::std_checked());
+        let again = super::check_graph(&graph, &sources, &mut diags, None);
+        assert_eq!(format!("{reused:?}"), format!("{again:?}"), "std::{name}");
+        assert!(diags.is_empty(), "std::{name}: {:?}", diags.iter().map(|d| &d.message).collect::<Vec<_>>());
+    }
+}

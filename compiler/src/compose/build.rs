@@ -57,9 +57,10 @@ pub fn build_scene(path: &Path, only_view: Option<&str>) -> std::io::Result<Buil
     };
     scene.warnings.iter().cloned().for_each(|d| diags.push(d));
     let chosen: Vec<&View> = scene.views.iter().filter(|view| only_view.is_none_or(|v| v == view.name.name)).collect();
-    // Loading grows the source map, so it runs view after view (each file parsed once); the rest
-    // of a view's work only reads the map, so the views compose in parallel.
-    let mut parsed = ParsedFiles::default();
+    // The scene's module files are read, then parsed in parallel. Loading grows the source
+    // map, so it runs view after view (each file parsed once); the rest of a view's work only
+    // reads the map, so the views compose in parallel.
+    let mut parsed = parse_module_files(&scene, &chosen, &mut sources, &mut diags);
     let loaded: Vec<LoadedView> =
         chosen.iter().map(|view| load_view(&scene, view, &mut sources, &mut parsed)).collect();
     let composed = compose_loaded_views(&scene, &chosen, loaded, &sources);
@@ -132,47 +133,97 @@ fn load_view(scene: &Scene, view: &View, sources: &mut SourceMap, parsed: &mut P
 const VIEW_STACK_MIN: usize = 4 << 20;
 const VIEW_STACK: usize = 16 << 20;
 
-/// Threads for the views after the first, started once: threads that live on keep their
-/// allocator heaps warm (a fresh thread per view cost more than composing it).
+/// Threads for composition work, started once: threads that live on keep their allocator
+/// heaps warm (a fresh thread per view cost more than composing it).
 fn composer_pool() -> Option<&'static rayon::ThreadPool> {
     static POOL: OnceLock<Option<rayon::ThreadPool>> = OnceLock::new();
     POOL.get_or_init(|| {
-        rayon::ThreadPoolBuilder::new().thread_name(|i| format!("vrsc-compose-{i}")).stack_size(VIEW_STACK).build().ok()
+        let threads = std::thread::available_parallelism().map_or(1, |n| n.get().saturating_sub(1).max(1));
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .thread_name(|i| format!("vrsc-compose-{i}"))
+            .stack_size(VIEW_STACK)
+            .build()
+            .ok()
     })
     .as_ref()
 }
 
-/// Composes loaded views, in the order given: the first on the calling thread (whose allocator
-/// also frees the result, which is much cheaper than freeing another thread's memory), the others
-/// in parallel on the composer threads, or one after the other if the system refused to start
-/// them.
+/// Runs `jobs` and gives their results in order: job `on_caller` on the calling thread, the
+/// others in parallel on the composer threads (or one after the other here if the system
+/// refused to start them).
+fn run_jobs<'j, T: Send>(jobs: Vec<Box<dyn FnOnce() -> T + Send + 'j>>, on_caller: usize) -> Vec<T> {
+    let pool = composer_pool().filter(|_| jobs.len() > 1);
+    let Some(pool) = pool else { return jobs.into_iter().map(|job| job()).collect() };
+    let mut results: Vec<Option<T>> = jobs.iter().map(|_| None).collect();
+    pool.in_place_scope(|s| {
+        let mut mine = None;
+        for (i, (job, slot)) in jobs.into_iter().zip(&mut results).enumerate() {
+            if i == on_caller {
+                mine = Some((job, slot));
+            } else {
+                s.spawn(move |_| *slot = Some(job()));
+            }
+        }
+        if let Some((job, slot)) = mine {
+            *slot = Some(job());
+        }
+    });
+    // Every spawned job has run when the scope ends (a panic in one resumes here).
+    results.into_iter().flatten().collect()
+}
+
+/// Reads the module files the chosen views name and parses them in parallel, each once;
+/// syntax errors go to `diags` in the order the scene names the files.
+fn parse_module_files(scene: &Scene, views: &[&View], sources: &mut SourceMap, diags: &mut Diagnostics) -> ParsedFiles {
+    let mut parsed = ParsedFiles::default();
+    let refs = scene.modules.iter().chain(views.iter().flat_map(|view| &view.modules));
+    let paths = refs.filter_map(|r| match &r.source {
+        ModuleSource::File(file) => Some(file.resolved.as_path()),
+        ModuleSource::Std(_) => None,
+    });
+    let unparsed = parsed.read_roots(sources, paths);
+    let map: &SourceMap = sources;
+    let jobs = unparsed
+        .iter()
+        .map(|u| {
+            let file = u.file;
+            Box::new(move || {
+                let mut file_diags = Diagnostics::new();
+                let ast = crate::loader::parse_file(map, file, &mut file_diags);
+                (ast, file_diags)
+            }) as Box<dyn FnOnce() -> _ + Send>
+        })
+        .collect();
+    let results = run_jobs(jobs, 0);
+    for (u, (ast, file_diags)) in unparsed.into_iter().zip(results) {
+        diags.extend(file_diags);
+        parsed.insert(u, ast);
+    }
+    parsed
+}
+
+/// Composes loaded views, in the order given, in parallel. The lightest view (fewest items in
+/// its modules) composes on the calling thread, which has also loaded them all and frees the
+/// results (freeing memory it allocated itself is much cheaper than freeing another thread's).
 fn compose_loaded_views(
     scene: &Scene,
     views: &[&View],
     loaded: Vec<LoadedView>,
     sources: &SourceMap,
 ) -> Vec<(ViewOutput, Diagnostics)> {
-    let compose = |view: &View, loaded| {
-        stacker::maybe_grow(VIEW_STACK_MIN, VIEW_STACK, || compose_loaded(scene, view, loaded, sources))
-    };
-    let mut work = views.iter().zip(loaded);
-    let Some((first_view, first)) = work.next() else { return Vec::new() };
-    let rest: Vec<_> = work.collect();
-    let Some(pool) = composer_pool().filter(|_| !rest.is_empty()) else {
-        let first = compose(first_view, first);
-        return std::iter::once(first).chain(rest.into_iter().map(|(view, loaded)| compose(view, loaded))).collect();
-    };
-    let mut others: Vec<Option<(ViewOutput, Diagnostics)>> = rest.iter().map(|_| None).collect();
-    let mut outputs = Vec::with_capacity(views.len());
-    pool.in_place_scope(|s| {
-        for ((view, loaded), slot) in rest.into_iter().zip(&mut others) {
-            s.spawn(move |_| *slot = Some(compose(view, loaded)));
-        }
-        outputs.push(compose(first_view, first));
-    });
-    // Every spawned job has run when the scope ends (a panic in one resumes here).
-    outputs.extend(others.into_iter().flatten());
-    outputs
+    let weight = |l: &LoadedView| -> usize { l.graph.modules.iter().map(|m| m.ast.items.len()).sum() };
+    let lightest = loaded.iter().enumerate().min_by_key(|(_, l)| weight(l)).map_or(0, |(i, _)| i);
+    let jobs = views
+        .iter()
+        .zip(loaded)
+        .map(|(&view, loaded)| {
+            Box::new(move || {
+                stacker::maybe_grow(VIEW_STACK_MIN, VIEW_STACK, || compose_loaded(scene, view, loaded, sources))
+            }) as Box<dyn FnOnce() -> _ + Send>
+        })
+        .collect();
+    run_jobs(jobs, lightest)
 }
 
 /// Checks, places and emits one loaded view.

@@ -742,7 +742,7 @@ impl<'a, F: Fn(usize) -> bool> Merger<'a, F> {
         let mut kept: Vec<Option<usize>> = vec![None; fields.len()];
         let mut out_fields = Vec::new();
         for (fi, acc) in fields.iter().enumerate() {
-            let first = self.state(acc.first).clone();
+            let first = self.state(acc.first);
             if acc.first_default.is_none() {
                 let d = Diagnostic::new(
                     Code::NoDefault,
@@ -837,8 +837,8 @@ impl<'a, F: Fn(usize) -> bool> Merger<'a, F> {
     /// Type, lifetime and default of a later declaration against the first ones. Declarations
     /// whose names are equal as written were compared by the checker already.
     fn check_state(&mut self, acc: &mut FieldAcc, later: DeclRef) {
-        let decl = self.state(later).clone();
-        let first = self.state(acc.first).clone();
+        let decl = self.state(later);
+        let first = self.state(acc.first);
         let name = &acc.name;
         if first.name != decl.name {
             let owner = self.owner(acc.first.0);
@@ -881,8 +881,8 @@ impl<'a, F: Fn(usize) -> bool> Merger<'a, F> {
             acc.first_default = Some(later);
             return;
         };
-        let earlier = self.state(earlier_ref).clone();
-        if let Some(d) = default_conflict("state field", name, &earlier, earlier.default.as_ref(), &decl, value, || {
+        let earlier = self.state(earlier_ref);
+        if let Some(d) = default_conflict("state field", name, earlier, earlier.default.as_ref(), decl, value, || {
             self.owner(earlier_ref.0)
         }) {
             self.push(later.0, d);
@@ -890,8 +890,8 @@ impl<'a, F: Fn(usize) -> bool> Merger<'a, F> {
     }
 
     fn check_uniform(&mut self, name: &str, acc: &mut UniformAcc, later: DeclRef) {
-        let decl = self.uniform(later).clone();
-        let first = self.uniform(acc.first).clone();
+        let decl = self.uniform(later);
+        let first = self.uniform(acc.first);
         if first.name != decl.name && first.ty != decl.ty {
             let owner = self.owner(acc.first.0);
             let d = Diagnostic::new(
@@ -916,8 +916,8 @@ impl<'a, F: Fn(usize) -> bool> Merger<'a, F> {
             acc.first_default = Some(later);
             return;
         };
-        let earlier = self.uniform(earlier_ref).clone();
-        let conflict = default_conflict("uniform", name, &earlier, earlier.default.as_ref(), &decl, value, || {
+        let earlier = self.uniform(earlier_ref);
+        let conflict = default_conflict("uniform", name, earlier, earlier.default.as_ref(), decl, value, || {
             self.owner(earlier_ref.0)
         });
         if let Some(d) = conflict {

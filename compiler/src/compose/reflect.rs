@@ -95,6 +95,15 @@ pub fn content_hash(text: &str) -> String {
     format!("{:016x}", xxhash_rust::xxh3::xxh3_64(text.as_bytes()))
 }
 
+/// xxh3-64 (hex) of the WGSL and the bindings' JSON, joined by a newline.
+fn structural_hash(wgsl: &str, bindings_json: &str) -> String {
+    let mut hasher = xxhash_rust::xxh3::Xxh3::new();
+    hasher.update(wgsl.as_bytes());
+    hasher.update(b"\n");
+    hasher.update(bindings_json.as_bytes());
+    format!("{:016x}", hasher.digest())
+}
+
 pub fn reflect(
     scene: &Scene,
     view: &View,
@@ -105,7 +114,10 @@ pub fn reflect(
     sources: &SourceMap,
 ) -> Reflection {
     let values = scene.uniform_values();
-    let member = |name: &str| vm.uniform_layout.members.iter().find(|m| m.name == crate::lower::emitted_name(name));
+    let member = |name: &str| {
+        let emitted = crate::lower::emitted_name(name);
+        vm.uniform_layout.members.iter().find(|m| m.name == emitted)
+    };
     let plain = vm.uniforms.iter().map(|u| (u, member(&u.name)));
     let resources = comp.uniforms.iter().filter(|u| u.ty.is_resource()).map(|u| (u, None));
     let uniforms = plain
@@ -165,7 +177,7 @@ pub fn reflect(
         entry_point: "main".into(),
         workgroup_size: super::entry::WORKGROUP_SIZE,
         wgsl_hash: content_hash(wgsl),
-        structural_hash: content_hash(&format!("{wgsl}\n{bindings_json}")),
+        structural_hash: structural_hash(wgsl, &bindings_json),
         uniform_block: UniformBlock { group: 0, binding: 0, size: vm.uniform_layout.size },
         uniforms,
         bindings: vm.bindings.clone(),
