@@ -38,47 +38,6 @@ pub struct ParsedFiles {
     files: FxHashMap<String, (FileId, Arc<ast::Module>)>,
 }
 
-/// A root file read into a [`SourceMap`] ahead of loading, waiting to be parsed (possibly on
-/// another thread: parsing only reads the map).
-pub struct UnparsedFile {
-    key: String,
-    pub file: FileId,
-}
-
-impl ParsedFiles {
-    /// Reads the root files at `paths` into `sources`, each file once: those that were not read
-    /// before and can be read. An unreadable one is left to the loader, which reports it when it
-    /// loads that root.
-    pub fn read_roots<'p>(
-        &self,
-        sources: &mut SourceMap,
-        paths: impl IntoIterator<Item = &'p Path>,
-    ) -> Vec<UnparsedFile> {
-        let mut unparsed: Vec<UnparsedFile> = Vec::new();
-        for path in paths {
-            let canonical = canonical_path(path);
-            let key = canonical.display().to_string();
-            if self.files.contains_key(&key) || unparsed.iter().any(|u| u.key == key) {
-                continue;
-            }
-            let Ok(text) = std::fs::read_to_string(path) else { continue };
-            let file = sources.add(path.display().to_string(), Some(canonical), text);
-            unparsed.push(UnparsedFile { key, file });
-        }
-        unparsed
-    }
-
-    /// Keeps the parsed tree of a file from [`ParsedFiles::read_roots`].
-    pub fn insert(&mut self, unparsed: UnparsedFile, ast: ast::Module) {
-        self.files.insert(unparsed.key, (unparsed.file, Arc::new(ast)));
-    }
-}
-
-/// Lexes and parses file `file` of `sources`.
-pub fn parse_file(sources: &SourceMap, file: FileId, diags: &mut Diagnostics) -> ast::Module {
-    parse_source(sources.file(file), file, diags)
-}
-
 /// Builds a [`ModuleGraph`], adding every file it reads to the source map.
 pub struct Loader<'a> {
     sources: &'a mut SourceMap,

@@ -50,10 +50,10 @@ fn a_module_shared_by_two_views_reports_its_syntax_error_once() {
     assert_eq!(built.views.len(), 2);
 }
 
-/// The scene's module files are parsed in parallel; their syntax errors are still reported
-/// once each, in the order the scene names the files.
+/// Syntax errors of a scene's module files are reported once each, in the order the scene
+/// names the files (scene modules, then the view's).
 #[test]
-fn module_files_parsed_in_parallel_report_in_scene_order() {
+fn syntax_errors_of_module_files_come_in_scene_order() {
     let dir = tempfile::tempdir().expect("temp dir");
     for name in ["first", "second", "third"] {
         let text = format!("pipeline {name} after classification.primary {{\n    let x = ;\n}}\n");

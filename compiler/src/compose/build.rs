@@ -57,10 +57,10 @@ pub fn build_scene(path: &Path, only_view: Option<&str>) -> std::io::Result<Buil
     };
     scene.warnings.iter().cloned().for_each(|d| diags.push(d));
     let chosen: Vec<&View> = scene.views.iter().filter(|view| only_view.is_none_or(|v| v == view.name.name)).collect();
-    // The scene's module files are read, then parsed in parallel. Loading grows the source
-    // map, so it runs view after view (each file parsed once); the rest of a view's work only
-    // reads the map, so the views compose in parallel.
-    let mut parsed = parse_module_files(&scene, &chosen, &mut sources, &mut diags);
+    // Loading grows the source map, so it runs view after view (each file parsed once); the rest
+    // of a view's work only reads the map, so the views compose in parallel. (Parsing the files in
+    // parallel too saved less than handing work to another thread costs here.)
+    let mut parsed = ParsedFiles::default();
     let loaded: Vec<LoadedView> =
         chosen.iter().map(|view| load_view(&scene, view, &mut sources, &mut parsed)).collect();
     let composed = compose_loaded_views(&scene, &chosen, loaded, &sources);
@@ -171,36 +171,6 @@ fn run_jobs<'j, T: Send>(jobs: Vec<Box<dyn FnOnce() -> T + Send + 'j>>, on_calle
     });
     // Every spawned job has run when the scope ends (a panic in one resumes here).
     results.into_iter().flatten().collect()
-}
-
-/// Reads the module files the chosen views name and parses them in parallel, each once;
-/// syntax errors go to `diags` in the order the scene names the files.
-fn parse_module_files(scene: &Scene, views: &[&View], sources: &mut SourceMap, diags: &mut Diagnostics) -> ParsedFiles {
-    let mut parsed = ParsedFiles::default();
-    let refs = scene.modules.iter().chain(views.iter().flat_map(|view| &view.modules));
-    let paths = refs.filter_map(|r| match &r.source {
-        ModuleSource::File(file) => Some(file.resolved.as_path()),
-        ModuleSource::Std(_) => None,
-    });
-    let unparsed = parsed.read_roots(sources, paths);
-    let map: &SourceMap = sources;
-    let jobs = unparsed
-        .iter()
-        .map(|u| {
-            let file = u.file;
-            Box::new(move || {
-                let mut file_diags = Diagnostics::new();
-                let ast = crate::loader::parse_file(map, file, &mut file_diags);
-                (ast, file_diags)
-            }) as Box<dyn FnOnce() -> _ + Send>
-        })
-        .collect();
-    let results = run_jobs(jobs, 0);
-    for (u, (ast, file_diags)) in unparsed.into_iter().zip(results) {
-        diags.extend(file_diags);
-        parsed.insert(u, ast);
-    }
-    parsed
 }
 
 /// Composes loaded views, in the order given, in parallel. The lightest view (fewest items in
