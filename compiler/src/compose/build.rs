@@ -10,7 +10,8 @@ use crate::loader::{Loader, ModuleGraph, ParsedFiles};
 use crate::scene::{self, ModuleRef, ModuleSource, Scene, View};
 use crate::source::{SourceMap, Span};
 use std::path::Path;
-use std::sync::OnceLock;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::{Mutex, OnceLock};
 
 /// Fields the entry point reads or writes itself.
 pub const ENTRY_FIELDS: &[&str] = &["pixel", "terminate", "out_color"];
@@ -149,33 +150,46 @@ fn composer_pool() -> Option<&'static rayon::ThreadPool> {
     .as_ref()
 }
 
-/// Runs `jobs` and gives their results in order: job `on_caller` on the calling thread, the
-/// others in parallel on the composer threads (or one after the other here if the system
-/// refused to start them).
-fn run_jobs<'j, T: Send>(jobs: Vec<Box<dyn FnOnce() -> T + Send + 'j>>, on_caller: usize) -> Vec<T> {
-    let pool = composer_pool().filter(|_| jobs.len() > 1);
-    let Some(pool) = pool else { return jobs.into_iter().map(|job| job()).collect() };
-    let mut results: Vec<Option<T>> = jobs.iter().map(|_| None).collect();
-    pool.in_place_scope(|s| {
-        let mut mine = None;
-        for (i, (job, slot)) in jobs.into_iter().zip(&mut results).enumerate() {
-            if i == on_caller {
-                mine = Some((job, slot));
-            } else {
-                s.spawn(move |_| *slot = Some(job()));
+/// A unit of composition work, and its result.
+type Job<'j, T> = Box<dyn FnOnce() -> T + Send + 'j>;
+
+/// Runs `jobs` and gives their results in order. The calling thread and the composer threads
+/// take the next job from a shared queue until none is left; the caller starts with the first.
+/// A helper thread that is slow to wake (a busy virtual machine can take milliseconds to run it)
+/// then simply finds no work left, and the caller is never worse off than running every job
+/// itself.
+fn run_jobs<T: Send>(jobs: Vec<Job<'_, T>>) -> Vec<T> {
+    let Some(pool) = composer_pool().filter(|_| jobs.len() > 1) else {
+        return jobs.into_iter().map(|job| job()).collect();
+    };
+    let helpers = pool.current_num_threads().min(jobs.len() - 1);
+    let queue: Vec<Mutex<Option<Job<'_, T>>>> = jobs.into_iter().map(|job| Mutex::new(Some(job))).collect();
+    let results: Vec<Mutex<Option<T>>> = queue.iter().map(|_| Mutex::new(None)).collect();
+    let next = AtomicUsize::new(0);
+    let work = || loop {
+        let i = next.fetch_add(1, Ordering::Relaxed);
+        let (Some(slot), Some(result)) = (queue.get(i), results.get(i)) else { break };
+        if let Some(job) = slot.lock().ok().and_then(|mut job| job.take()) {
+            let value = job();
+            if let Ok(mut result) = result.lock() {
+                *result = Some(value);
             }
         }
-        if let Some((job, slot)) = mine {
-            *slot = Some(job());
+    };
+    pool.in_place_scope(|s| {
+        for _ in 0..helpers {
+            s.spawn(|_| work());
         }
+        work();
     });
-    // Every spawned job has run when the scope ends (a panic in one resumes here).
-    results.into_iter().flatten().collect()
+    // Every job has run when the scope ends (a panic in one resumes here).
+    results.into_iter().filter_map(|r| r.into_inner().ok().flatten()).collect()
 }
 
-/// Composes loaded views, in the order given, in parallel. The lightest view (fewest items in
-/// its modules) composes on the calling thread, which has also loaded them all and frees the
-/// results (freeing memory it allocated itself is much cheaper than freeing another thread's).
+/// Composes loaded views in parallel; the results come in the order given. The calling thread,
+/// which has also loaded the views and frees the results (freeing memory it allocated itself is
+/// much cheaper than freeing another thread's), starts with the lightest view (fewest items in
+/// its modules).
 fn compose_loaded_views(
     scene: &Scene,
     views: &[&View],
@@ -184,16 +198,22 @@ fn compose_loaded_views(
 ) -> Vec<(ViewOutput, Diagnostics)> {
     let weight = |l: &LoadedView| -> usize { l.graph.modules.iter().map(|m| m.ast.items.len()).sum() };
     let lightest = loaded.iter().enumerate().min_by_key(|(_, l)| weight(l)).map_or(0, |(i, _)| i);
-    let jobs = views
+    let mut jobs: Vec<(usize, Job<'_, _>)> = views
         .iter()
         .zip(loaded)
-        .map(|(&view, loaded)| {
-            Box::new(move || {
+        .enumerate()
+        .map(|(i, (&view, loaded))| {
+            let job: Job<'_, _> = Box::new(move || {
                 stacker::maybe_grow(VIEW_STACK_MIN, VIEW_STACK, || compose_loaded(scene, view, loaded, sources))
-            }) as Box<dyn FnOnce() -> _ + Send>
+            });
+            (i, job)
         })
         .collect();
-    run_jobs(jobs, lightest)
+    jobs.swap(0, lightest);
+    let (order, jobs): (Vec<usize>, Vec<_>) = jobs.into_iter().unzip();
+    let mut outputs: Vec<(usize, _)> = order.into_iter().zip(run_jobs(jobs)).collect();
+    outputs.sort_by_key(|(i, _)| *i);
+    outputs.into_iter().map(|(_, output)| output).collect()
 }
 
 /// Checks, places and emits one loaded view.
