@@ -57,14 +57,16 @@ fn check_graph(
     let mut cx = Checker::new(graph, sources, diags);
     cx.collect_items();
     cx.std = std.and_then(|cache| StdReuse::new(cache, graph, &cx.libs));
-    cx.build_scopes();
-    cx.resolve_signatures();
-    cx.eval_all_consts();
-    let mut libs = cx.check_lib_fns();
-    let (mut pipes, removes) = cx.check_pipelines();
-    cx.check_conflicts(&mut pipes);
-    cx.check_recursion(&mut libs);
-    callgraph::assemble(libs, pipes, removes)
+    let checked = cx.check_items(true);
+    callgraph::assemble(checked.libs, checked.pipes, checked.removes)
+}
+
+/// Every function and `remove` item of a graph, checked, before the program is assembled.
+struct CheckedItems {
+    /// By provisional lib fn id (`None`: not a lib fn the checker could find again).
+    libs: Vec<Option<func::LibOut>>,
+    pipes: Vec<func::PipeOut>,
+    removes: Vec<hir::Remove>,
 }
 
 /// The state of one run of the checker, shared by every function it checks.
@@ -115,6 +117,22 @@ impl<'a> Checker<'a> {
             block_depth: 0,
             const_too_deep: false,
         }
+    }
+
+    /// Runs the passes after [`Checker::collect_items`] (and after deciding on [`Checker::std`]).
+    /// `conflicts`: whether to check the declarations of different pipeline functions against
+    /// each other.
+    fn check_items(&mut self, conflicts: bool) -> CheckedItems {
+        self.build_scopes();
+        self.resolve_signatures();
+        self.eval_all_consts();
+        let mut libs = self.check_lib_fns();
+        let (mut pipes, removes) = self.check_pipelines();
+        if conflicts {
+            self.check_conflicts(&mut pipes);
+        }
+        self.check_recursion(&mut libs);
+        CheckedItems { libs, pipes, removes }
     }
 
     /// Reports a diagnostic that belongs to the function being checked: an error marks it failed.

@@ -23,18 +23,24 @@ use std::sync::OnceLock;
 /// The checked items of every standard module, by [`stdlib::index`].
 pub(super) struct StdChecked {
     modules: Vec<StdModule>,
-    /// For each lib fn of the standard library (its id in the cached run): its module's
-    /// [`stdlib::index`] and its position among that module's lib fns.
-    lib_keys: Vec<(usize, usize)>,
+    /// How many lib fns the standard library has (ids of the cached run are below this).
+    lib_count: usize,
 }
 
 /// One standard module, checked.
 #[derive(Default)]
 struct StdModule {
+    /// The id (in the cached run) of its first lib fn; the others follow in source order.
+    first_lib: usize,
     /// Its lib fns in source order: signature and checked body (ids of the cached run).
     libs: Vec<(LibInfo, Option<LibOut>)>,
     pipes: Vec<PipeOut>,
     removes: Vec<hir::Remove>,
+}
+
+/// The [`stdlib::index`] of each module of `graph` that is a standard module.
+fn std_indices(graph: &ModuleGraph) -> Vec<Option<usize>> {
+    graph.modules.iter().map(|m| m.std_name.as_deref().and_then(stdlib::index)).collect()
 }
 
 /// The standard library checked once, or `None` if it does not check without a diagnostic (a
@@ -54,38 +60,33 @@ fn check_std() -> Option<StdChecked> {
         }
         loader.finish()
     };
-    let std_index: Vec<usize> =
-        graph.modules.iter().map(|m| m.std_name.as_deref().and_then(stdlib::index)).collect::<Option<_>>()?;
+    let std_index: Vec<usize> = std_indices(&graph).into_iter().collect::<Option<_>>()?;
     // Conflicts between declarations are left out: two standard modules that never share a view
     // may declare a field differently; each graph checks the conflicts of the modules it holds.
     let mut cx = Checker::new(&graph, &sources, &mut diags);
     cx.collect_items();
-    cx.build_scopes();
-    cx.resolve_signatures();
-    cx.eval_all_consts();
-    let mut libs = cx.check_lib_fns();
-    let (pipes, removes) = cx.check_pipelines();
-    cx.check_recursion(&mut libs);
+    let checked = cx.check_items(false);
     let infos = std::mem::take(&mut cx.libs);
     drop(cx);
     if !diags.is_empty() {
         return None;
     }
     let mut modules: Vec<StdModule> = stdlib::names().map(|_| StdModule::default()).collect();
-    let mut lib_keys = Vec::with_capacity(infos.len());
-    for (info, out) in infos.into_iter().zip(libs) {
-        let s = *std_index.get(info.module)?;
-        let module = modules.get_mut(s)?;
-        lib_keys.push((s, module.libs.len()));
+    let lib_count = infos.len();
+    for (id, (info, out)) in infos.into_iter().zip(checked.libs).enumerate() {
+        let module = modules.get_mut(*std_index.get(info.module)?)?;
+        if module.libs.is_empty() {
+            module.first_lib = id;
+        }
         module.libs.push((info, out));
     }
-    for pipe in pipes {
+    for pipe in checked.pipes {
         modules.get_mut(*std_index.get(pipe.module)?)?.pipes.push(pipe);
     }
-    for remove in removes {
+    for remove in checked.removes {
         modules.get_mut(*std_index.get(remove.module)?)?.removes.push(remove);
     }
-    Some(StdChecked { modules, lib_keys })
+    Some(StdChecked { modules, lib_count })
 }
 
 /// How one graph reuses the cached standard modules.
@@ -103,26 +104,20 @@ impl StdReuse {
     /// Matches the graph's standard modules and lib fns (`libs`, in the checker's id order)
     /// with the cached ones; `None` when they differ (the graph is then checked in full).
     pub(super) fn new(cache: &'static StdChecked, graph: &ModuleGraph, libs: &[LibInfo]) -> Option<StdReuse> {
-        let module_std: Vec<Option<usize>> =
-            graph.modules.iter().map(|m| m.std_name.as_deref().and_then(stdlib::index)).collect();
-        let mut first_of_module: Vec<Option<usize>> = vec![None; cache.modules.len()];
-        for (key, &(s, k)) in cache.lib_keys.iter().enumerate() {
-            if k == 0 {
-                first_of_module[s] = Some(key);
-            }
-        }
-        let mut lib_ids = vec![None; cache.lib_keys.len()];
+        let module_std = std_indices(graph);
+        let mut lib_ids = vec![None; cache.lib_count];
         let mut lib_keys = vec![None; libs.len()];
         let mut next_in_module: Vec<usize> = vec![0; graph.modules.len()];
         for (id, lib) in libs.iter().enumerate() {
             let Some(s) = module_std.get(lib.module).copied().flatten() else { continue };
             let k = next_in_module[lib.module];
             next_in_module[lib.module] += 1;
-            let (cached, _) = cache.modules.get(s)?.libs.get(k)?;
+            let module = cache.modules.get(s)?;
+            let (cached, _) = module.libs.get(k)?;
             if cached.name != lib.name {
                 return None;
             }
-            lib_ids[first_of_module[s]? + k] = Some(id);
+            *lib_ids.get_mut(module.first_lib + k)? = Some(id);
             lib_keys[id] = Some((s, k));
         }
         Some(StdReuse { cache, module_std, lib_ids, lib_keys })

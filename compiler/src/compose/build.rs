@@ -154,11 +154,11 @@ fn composer_pool() -> Option<&'static rayon::ThreadPool> {
 type Job<'j, T> = Box<dyn FnOnce() -> T + Send + 'j>;
 
 /// Runs `jobs` and gives their results in order. The calling thread and the composer threads
-/// take the next job from a shared queue until none is left; the caller starts with the first.
-/// A helper thread that is slow to wake (a busy virtual machine can take milliseconds to run it)
-/// then simply finds no work left, and the caller is never worse off than running every job
-/// itself.
-fn run_jobs<T: Send>(jobs: Vec<Job<'_, T>>) -> Vec<T> {
+/// take the next job from a shared queue until none is left: the queue starts at job `first`
+/// (the caller's) and wraps around. A helper thread that is slow to wake (a busy virtual
+/// machine can take milliseconds to run it) then simply finds no work left, and the caller is
+/// never worse off than running every job itself.
+fn run_jobs<T: Send>(jobs: Vec<Job<'_, T>>, first: usize) -> Vec<T> {
     let Some(pool) = composer_pool().filter(|_| jobs.len() > 1) else {
         return jobs.into_iter().map(|job| job()).collect();
     };
@@ -167,7 +167,11 @@ fn run_jobs<T: Send>(jobs: Vec<Job<'_, T>>) -> Vec<T> {
     let results: Vec<Mutex<Option<T>>> = queue.iter().map(|_| Mutex::new(None)).collect();
     let next = AtomicUsize::new(0);
     let work = || loop {
-        let i = next.fetch_add(1, Ordering::Relaxed);
+        let taken = next.fetch_add(1, Ordering::Relaxed);
+        if taken >= queue.len() {
+            break;
+        }
+        let i = (first + taken) % queue.len();
         let (Some(slot), Some(result)) = (queue.get(i), results.get(i)) else { break };
         if let Some(job) = slot.lock().ok().and_then(|mut job| job.take()) {
             let value = job();
@@ -198,22 +202,17 @@ fn compose_loaded_views(
 ) -> Vec<(ViewOutput, Diagnostics)> {
     let weight = |l: &LoadedView| -> usize { l.graph.modules.iter().map(|m| m.ast.items.len()).sum() };
     let lightest = loaded.iter().enumerate().min_by_key(|(_, l)| weight(l)).map_or(0, |(i, _)| i);
-    let mut jobs: Vec<(usize, Job<'_, _>)> = views
+    let jobs = views
         .iter()
         .zip(loaded)
-        .enumerate()
-        .map(|(i, (&view, loaded))| {
+        .map(|(&view, loaded)| {
             let job: Job<'_, _> = Box::new(move || {
                 stacker::maybe_grow(VIEW_STACK_MIN, VIEW_STACK, || compose_loaded(scene, view, loaded, sources))
             });
-            (i, job)
+            job
         })
         .collect();
-    jobs.swap(0, lightest);
-    let (order, jobs): (Vec<usize>, Vec<_>) = jobs.into_iter().unzip();
-    let mut outputs: Vec<(usize, _)> = order.into_iter().zip(run_jobs(jobs)).collect();
-    outputs.sort_by_key(|(i, _)| *i);
-    outputs.into_iter().map(|(_, output)| output).collect()
+    run_jobs(jobs, lightest)
 }
 
 /// Checks, places and emits one loaded view.
