@@ -10,7 +10,7 @@ use criterion::{Criterion, criterion_group, criterion_main};
 
 // The allocator the `vrsc` binary ships with (see compiler/cli/src/main.rs).
 #[global_allocator]
-static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
+static GLOBAL: vrsc_alloc::MiMalloc = vrsc_alloc::MiMalloc;
 use std::hint::black_box;
 use std::path::{Path, PathBuf};
 use vrsc::compose::build::build_scene;

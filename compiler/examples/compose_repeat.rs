@@ -10,7 +10,7 @@
 
 // The allocator the `vrsc` binary ships with (see compiler/cli/src/main.rs).
 #[global_allocator]
-static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
+static GLOBAL: vrsc_alloc::MiMalloc = vrsc_alloc::MiMalloc;
 
 use std::process::ExitCode;
 use std::time::Instant;

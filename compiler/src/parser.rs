@@ -11,7 +11,9 @@
 //! - **items**: a broken item is skipped to the next item keyword (`import const lib pipeline
 //!   remove`); none of them can occur inside an item, so brackets need no balancing there.
 //!
-//! Chumsky's errors become E0104 diagnostics that say what was expected and what was found; a
+//! A file is parsed first with chumsky's `EmptyErr`, which records only that an error occurred and
+//! takes about half the instructions; only a file with a syntax error is parsed again, with `Rich`
+//! errors, to report. Chumsky's errors become E0104 diagnostics that say what was expected and what was found; a
 //! syntax error right after characters the lexer dropped (E0101, E0102), or at a [`Token::Error`],
 //! is not reported again.
 //!
@@ -28,8 +30,10 @@ use crate::diag::{Code, Diagnostic, Diagnostics};
 use crate::lexer::{Lexed, Token};
 use crate::source::{FileId, Span};
 use crate::types::Type;
-use chumsky::error::{RichPattern, RichReason};
+use chumsky::error::{EmptyErr, Error, RichPattern, RichReason};
+use chumsky::input::Input;
 use chumsky::input::{BorrowInput, InputRef, MapExtra, ValueInput};
+use chumsky::label::LabelError;
 use chumsky::prelude::*;
 use chumsky::recursive::Indirect;
 use rustc_hash::{FxHashMap, FxHashSet};
@@ -48,9 +52,33 @@ const MAX_EXPECTED: usize = 6;
 /// Tokens that start an item: where item-level recovery resumes, and where an unclosed block ends.
 const ITEM_KEYWORDS: [Token; 5] = [Token::Import, Token::Const, Token::Lib, Token::Pipeline, Token::Remove];
 
-/// A chumsky error; `Custom` carries a finished diagnostic (E0105, E0106, E0107, ...).
+/// The error the grammar reports with; `Custom` carries a finished diagnostic (E0105, E0106,
+/// E0107, ...).
 type ParseError<'t> = Rich<'t, Token, SimpleSpan, Box<Diagnostic>>;
-type Extra<'t> = extra::Err<ParseError<'t>>;
+type Extra<Er> = extra::Err<Er>;
+
+/// What the grammar needs of its error type. It runs with [`EmptyErr`] first, which tracks
+/// nothing but whether an error occurred and is enough for a file without syntax errors, and
+/// again with [`ParseError`] only to report the errors of a file that has some.
+trait GrammarError<'t, I: Input<'t>>: Error<'t, I> + LabelError<'t, I, &'static str> + 't {
+    /// An error that carries one of our finished diagnostics.
+    fn diagnostic(d: Diagnostic) -> Self;
+}
+
+impl<'t, I> GrammarError<'t, I> for ParseError<'t>
+where
+    I: Input<'t, Token = Token, Span = SimpleSpan>,
+{
+    fn diagnostic(d: Diagnostic) -> Self {
+        Rich::custom(SimpleSpan::from(d.span.start as usize..d.span.end as usize), Box::new(d))
+    }
+}
+
+impl<'t, I: Input<'t>> GrammarError<'t, I> for EmptyErr {
+    fn diagnostic(_: Diagnostic) -> Self {
+        EmptyErr::default()
+    }
+}
 
 /// Parses one file's tokens. Never fails: returns the tree with every independent error reported.
 /// `eof` is the global offset of the end of the file (the span of "end of input").
@@ -58,7 +86,15 @@ pub fn parse_module(lexed: &Lexed, file: FileId, eof: u32, diags: &mut Diagnosti
     let tokens: Vec<(Token, SimpleSpan)> =
         lexed.tokens.iter().map(|(t, s)| (t.clone(), SimpleSpan::from(s.start as usize..s.end as usize))).collect();
     let eoi = SimpleSpan::from(eof as usize..eof as usize);
-    let (items, errors) = module_parser().parse(tokens.as_slice().split_token_span(eoi)).into_output_errors();
+    let input = || tokens.as_slice().split_token_span(eoi);
+    // The grammar and so the tree do not depend on the error type: a file without syntax errors
+    // needs only the fast pass (it takes half the instructions of a reporting one).
+    let fast = module_parser::<_, EmptyErr>().parse(input());
+    let (items, errors) = if fast.has_errors() {
+        module_parser::<_, ParseError>().parse(input()).into_output_errors()
+    } else {
+        (fast.into_output(), Vec::new())
+    };
     let mut items = items.unwrap_or_default();
     attach_docs(&mut items, &lexed.docs);
     report(errors, &lexed.tokens, diags);
@@ -67,10 +103,6 @@ pub fn parse_module(lexed: &Lexed, file: FileId, eof: u32, diags: &mut Diagnosti
 
 fn span_of(s: SimpleSpan) -> Span {
     Span::new(s.start as u32, s.end as u32)
-}
-
-fn diag_error<'t>(d: Diagnostic) -> ParseError<'t> {
-    Rich::custom(SimpleSpan::from(d.span.start as usize..d.span.end as usize), Box::new(d))
 }
 
 /// An expression with the depth of its tree.
@@ -126,12 +158,13 @@ fn deepen_stmt(kind: StmtKind, span: Span, inner: u32) -> (St, Option<Diagnostic
     (St { stmt: Some(Stmt { kind, span }), depth: inner + 1 }, None)
 }
 
-fn emit<'t, I>(e: &mut MapExtra<'t, '_, I, Extra<'t>>, d: Option<Diagnostic>)
+fn emit<'t, I, Er>(e: &mut MapExtra<'t, '_, I, Extra<Er>>, d: Option<Diagnostic>)
 where
     I: ValueInput<'t, Token = Token, Span = SimpleSpan> + BorrowInput<'t>,
+    Er: GrammarError<'t, I>,
 {
     if let Some(d) = d {
-        e.emit(diag_error(d));
+        e.emit(Er::diagnostic(d));
     }
 }
 
@@ -225,9 +258,10 @@ fn closer_of(t: &Token) -> Option<Token> {
 /// Recovery scans are written by hand rather than with chumsky combinators: a failed combinator
 /// leaves an "expected" error at the furthest point it reached, which would then be reported in
 /// place of the next real error.
-fn skip_group<'t, I>(inp: &mut InputRef<'t, '_, I, Extra<'t>>, stops: &[Token]) -> bool
+fn skip_group<'t, I, Er>(inp: &mut InputRef<'t, '_, I, Extra<Er>>, stops: &[Token]) -> bool
 where
     I: ValueInput<'t, Token = Token, Span = SimpleSpan> + BorrowInput<'t>,
+    Er: GrammarError<'t, I>,
 {
     let start = inp.save();
     let Some(first) = inp.next_ref().and_then(closer_of) else {
@@ -257,17 +291,18 @@ where
 
 /// The error of a recovery scan that found nothing to skip. It is never reported: `via_parser`
 /// puts the original error back when its recovery parser fails.
-fn nothing_to_skip<'t>(span: SimpleSpan) -> ParseError<'t> {
-    diag_error(Diagnostic::new(Code::Syntax, span_of(span), "nothing to skip"))
+fn nothing_to_skip<'t, I: Input<'t>, Er: GrammarError<'t, I>>(span: SimpleSpan) -> Er {
+    Er::diagnostic(Diagnostic::new(Code::Syntax, span_of(span), "nothing to skip"))
 }
 
 /// Recovery for a bracketed part of an expression: skips the balanced group at `open` within the
 /// statement.
-fn skip_expr_group<'t, I>(open: Token) -> impl Parser<'t, I, Span, Extra<'t>> + Clone
+fn skip_expr_group<'t, I, Er>(open: Token) -> impl Parser<'t, I, Span, Extra<Er>> + Clone
 where
     I: ValueInput<'t, Token = Token, Span = SimpleSpan> + BorrowInput<'t>,
+    Er: GrammarError<'t, I>,
 {
-    custom(move |inp: &mut InputRef<'t, '_, I, Extra<'t>>| {
+    custom(move |inp: &mut InputRef<'t, '_, I, Extra<Er>>| {
         let before = inp.cursor();
         if inp.peek_ref() == Some(&open) && skip_group(inp, &EXPR_STOPS) {
             Ok(span_of(inp.span_since(&before)))
@@ -279,11 +314,12 @@ where
 
 /// Recovery for a statement or declaration: skips to the next `;` (inclusive) or past the next
 /// balanced `{ ... }`, stopping before a `}` or an item keyword. Consumes at least one token.
-fn skip_statement<'t, I>() -> impl Parser<'t, I, Span, Extra<'t>> + Clone
+fn skip_statement<'t, I, Er>() -> impl Parser<'t, I, Span, Extra<Er>> + Clone
 where
     I: ValueInput<'t, Token = Token, Span = SimpleSpan> + BorrowInput<'t>,
+    Er: GrammarError<'t, I>,
 {
-    custom(|inp: &mut InputRef<'t, '_, I, Extra<'t>>| {
+    custom(|inp: &mut InputRef<'t, '_, I, Extra<Er>>| {
         let before = inp.cursor();
         let mut consumed = false;
         while let Some(t) = inp.peek_ref() {
@@ -317,11 +353,12 @@ where
 }
 
 /// Recovery for an item: skips its first token and everything up to the next item keyword.
-fn skip_item<'t, I>() -> impl Parser<'t, I, Option<Item>, Extra<'t>> + Clone
+fn skip_item<'t, I, Er>() -> impl Parser<'t, I, Option<Item>, Extra<Er>> + Clone
 where
     I: ValueInput<'t, Token = Token, Span = SimpleSpan> + BorrowInput<'t>,
+    Er: GrammarError<'t, I>,
 {
-    custom(|inp: &mut InputRef<'t, '_, I, Extra<'t>>| {
+    custom(|inp: &mut InputRef<'t, '_, I, Extra<Er>>| {
         let before = inp.cursor();
         if inp.next_ref().is_none() {
             return Err(nothing_to_skip(inp.span_since(&before)));
@@ -333,9 +370,10 @@ where
     })
 }
 
-fn module_parser<'t, I>() -> impl Parser<'t, I, Vec<Item>, Extra<'t>>
+fn module_parser<'t, I, Er>() -> impl Parser<'t, I, Vec<Item>, Extra<Er>>
 where
     I: ValueInput<'t, Token = Token, Span = SimpleSpan> + BorrowInput<'t>,
+    Er: GrammarError<'t, I>,
 {
     use Token as T;
 
@@ -524,7 +562,7 @@ where
             .map_with(|(first, rest), e| {
                 let (out, diags) = fold_binary(first, rest);
                 for d in diags {
-                    e.emit(diag_error(d));
+                    e.emit(Er::diagnostic(d));
                 }
                 out
             })
@@ -560,7 +598,7 @@ where
     // What a broken statement or declaration is skipped to.
     let stmt_skip = skip_statement().map(|span| St { stmt: Some(Stmt { kind: StmtKind::Error, span }), depth: 1 });
 
-    let mut stmt = Recursive::<Indirect<'t, 't, I, St, Extra<'t>>>::declare();
+    let mut stmt = Recursive::<Indirect<'t, 't, I, St, Extra<Er>>>::declare();
 
     let block = open
         .clone()
@@ -643,7 +681,7 @@ where
             Some((op, value)) => (StmtKind::Assign { target, op, value }, 0),
             None => {
                 if !matches!(target.kind, ExprKind::Call { .. } | ExprKind::Error) {
-                    e.emit(diag_error(
+                    e.emit(Er::diagnostic(
                         Diagnostic::new(Code::Syntax, target.span, "only a call can be used as a statement")
                             .with_label("this value is computed and never used")
                             .with_help("assign it (`let v = ...;`, `x = ...;`) or remove it"),
@@ -709,7 +747,7 @@ where
         };
         if let Some((name, at)) = attr {
             if name != "ray" {
-                e.emit(diag_error(
+                e.emit(Er::diagnostic(
                     Diagnostic::new(Code::UnknownAttribute, at, format!("unknown attribute `@{name}`"))
                         .with_label("not a VRS attribute")
                         .with_help("the only attribute is `@ray`, on `state` declarations"),
@@ -717,7 +755,7 @@ where
             } else if let Entry::Decl(Decl { kind: DeclKind::State { ray, .. }, .. }) = &mut entry {
                 *ray = true;
             } else if !matches!(&entry, Entry::Stmt(St { stmt: Some(Stmt { kind: StmtKind::Error, .. }), .. })) {
-                e.emit(diag_error(
+                e.emit(Er::diagnostic(
                     Diagnostic::new(Code::Syntax, at, "`@ray` applies only to `state` declarations")
                         .with_label("not allowed here")
                         .with_help("remove it, or declare a field: `@ray state NAME: TYPE;`"),
@@ -736,7 +774,7 @@ where
                 match entry {
                     Entry::Decl(decl) => {
                         if let Some(first) = first_stmt {
-                            e.emit(diag_error(
+                            e.emit(Er::diagnostic(
                                 Diagnostic::new(
                                     Code::DeclarationAfterStatement,
                                     decl.span,
@@ -951,6 +989,39 @@ mod tests {
         let lexed = lex(src, 0, &mut diags);
         let module = parse_module(&lexed, 0, src.len() as u32, &mut diags);
         (module, diags.iter().cloned().collect())
+    }
+
+    /// The tokens of `src` as the grammar takes them.
+    fn grammar_tokens(src: &str) -> Vec<(Token, SimpleSpan)> {
+        let lexed = lex(src, 0, &mut Diagnostics::new());
+        lexed.tokens.iter().map(|(t, s)| (t.clone(), SimpleSpan::from(s.start as usize..s.end as usize))).collect()
+    }
+
+    #[test]
+    fn the_fast_pass_builds_the_tree_the_reporting_pass_builds() {
+        let snippets = [
+            "const K: f32 = -(1.0 + 2.0) * 3.0;",
+            "lib fn f(v: vec3<f32>, m: mat4x4f) -> f32 { var s = 0.0; for i in 0..3 { s += v[i]; } return s; }",
+            "pipeline p before shading.lights[$] when active { state c: vec4f = vec4f(1.0); c = c.xyzw * 2.0; if c.x > 1.0 { return; } else if c.y < 0.0 { c.z = 0.0; } }",
+            "remove shading.lights[key]; import \"a.vrs\"; import std::math;",
+        ];
+        let std = crate::stdlib::modules().map(|(_, src)| src);
+        let broken = ["lib fn f( { }", "pipeline p after x { let a = ; }"];
+        for src in snippets.into_iter().chain(std).chain(broken) {
+            let tokens = grammar_tokens(src);
+            let input = || tokens.as_slice().split_token_span(SimpleSpan::from(src.len()..src.len()));
+            let fast = module_parser::<_, EmptyErr>().parse(input());
+            let full = module_parser::<_, ParseError>().parse(input());
+            let valid = !broken.contains(&src);
+            assert_eq!((fast.has_errors(), full.has_errors()), (!valid, !valid), "validity of {src}");
+            if valid {
+                assert_eq!(
+                    format!("{:?}", fast.output()),
+                    format!("{:?}", full.output()),
+                    "the passes disagree on {src}"
+                );
+            }
+        }
     }
 
     /// Parses input that must have no diagnostics.

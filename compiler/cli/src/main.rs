@@ -14,7 +14,7 @@ use vrsc::source::SourceMap;
 // Composition allocates many small nodes; mimalloc takes about a quarter off its instruction
 // count compared with the system allocator (see compiler/benches/compose.rs).
 #[global_allocator]
-static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
+static GLOBAL: vrsc_alloc::MiMalloc = vrsc_alloc::MiMalloc;
 
 #[derive(Parser)]
 #[command(name = "vrsc", version, about = "Compiler for VRS volume-rendering pipeline functions")]
