@@ -13,9 +13,9 @@
 //!
 //! A file is parsed first with chumsky's `EmptyErr`, which records only that an error occurred and
 //! takes about half the instructions; only a file with a syntax error is parsed again, with `Rich`
-//! errors, to report. Chumsky's errors become E0104 diagnostics that say what was expected and what was found; a
-//! syntax error right after characters the lexer dropped (E0101, E0102), or at a [`Token::Error`],
-//! is not reported again.
+//! errors, to report. Chumsky's errors become E0104 diagnostics that say what was expected and
+//! what was found; a syntax error right after characters the lexer dropped (E0101, E0102), or at a
+//! [`Token::Error`], is not reported again.
 //!
 //! Nothing recurses without bound. Brackets are nested at most [`crate::lexer::MAX_NESTING`] deep
 //! (the lexer sees to that) and the recursion through them is on a growable stack (chumsky's
@@ -31,8 +31,7 @@ use crate::lexer::{Lexed, Token};
 use crate::source::{FileId, Span};
 use crate::types::Type;
 use chumsky::error::{EmptyErr, Error, RichPattern, RichReason};
-use chumsky::input::Input;
-use chumsky::input::{BorrowInput, InputRef, MapExtra, ValueInput};
+use chumsky::input::{BorrowInput, Input, InputRef, MapExtra, ValueInput};
 use chumsky::label::LabelError;
 use chumsky::prelude::*;
 use chumsky::recursive::Indirect;
