@@ -134,12 +134,16 @@ fn load_view(scene: &Scene, view: &View, sources: &mut SourceMap, parsed: &mut P
 const VIEW_STACK_MIN: usize = 4 << 20;
 const VIEW_STACK: usize = 16 << 20;
 
-/// Threads for composition work, started once: threads that live on keep their allocator
-/// heaps warm (a fresh thread per view cost more than composing it).
+/// Threads for composition work, one per core beside the caller's, started once: threads that
+/// live on keep their allocator heaps warm (a fresh thread per view cost more than composing it).
+/// `None` on a single core, where views compose one after the other on the calling thread.
 fn composer_pool() -> Option<&'static rayon::ThreadPool> {
     static POOL: OnceLock<Option<rayon::ThreadPool>> = OnceLock::new();
     POOL.get_or_init(|| {
-        let threads = std::thread::available_parallelism().map_or(1, |n| n.get().saturating_sub(1).max(1));
+        let threads = std::thread::available_parallelism().map_or(0, |n| n.get() - 1);
+        if threads == 0 {
+            return None;
+        }
         rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
             .thread_name(|i| format!("vrsc-compose-{i}"))
