@@ -189,7 +189,7 @@ fn run_jobs<T: Send>(jobs: Vec<Job<'_, T>>, first: usize) -> Vec<T> {
     let queue: Vec<Mutex<Option<Job<'_, T>>>> = jobs.into_iter().map(|job| Mutex::new(Some(job))).collect();
     let results: Vec<Mutex<Option<T>>> = queue.iter().map(|_| Mutex::new(None)).collect();
     let next = AtomicUsize::new(0);
-    // Jobs run to the end, by any thread.
+    // Jobs completed so far, by any thread: the caller waits on this, not on the scope.
     let finished = AtomicUsize::new(0);
     let work = || loop {
         let taken = next.fetch_add(1, Ordering::Relaxed);
