@@ -36,6 +36,8 @@ pub struct ModuleGraph {
 #[derive(Debug, Default)]
 pub struct ParsedFiles {
     files: FxHashMap<String, (FileId, Arc<ast::Module>)>,
+    /// Paths as met → canonical paths: resolving one costs a system call per path component.
+    canonical: FxHashMap<PathBuf, PathBuf>,
 }
 
 /// Builds a [`ModuleGraph`], adding every file it reads to the source map.
@@ -69,7 +71,7 @@ impl<'a> Loader<'a> {
 
     /// Loads a root file from disk. An unreadable root is an `Err` (an I/O problem, exit code 2).
     pub fn load_root_file(&mut self, path: &Path) -> Result<usize, std::io::Error> {
-        let canonical = canonical_path(path);
+        let canonical = self.canonical_path(path);
         let key = canonical.display().to_string();
         let index = match self.loaded.get(&key) {
             Some(&index) => index,
@@ -82,7 +84,7 @@ impl<'a> Loader<'a> {
     /// Loads a root module from text (tests, fuzzing, embedded sources). Imports resolve
     /// relative to `dir` when given.
     pub fn load_root_source(&mut self, name: &str, text: String, dir: Option<&Path>) -> usize {
-        let path = dir.map(|d| canonical_path(&d.join(name)));
+        let path = dir.map(|d| self.canonical_path(&d.join(name)));
         let key = format!("<source {}>:{name}", self.graph.modules.len());
         let (file, ast) = self.parse_file(name.to_string(), path, text, &key);
         let index = self.add_module(file, ast, None, key);
@@ -104,6 +106,16 @@ impl<'a> Loader<'a> {
     /// The graph, and the parsed files for the next loader over the same source map.
     pub fn finish_keeping_files(self) -> (ModuleGraph, ParsedFiles) {
         (self.graph, self.parsed)
+    }
+
+    /// The path with links and `..` resolved, or as given when it does not exist (yet).
+    fn canonical_path(&mut self, path: &Path) -> PathBuf {
+        if let Some(canonical) = self.parsed.canonical.get(path) {
+            return canonical.clone();
+        }
+        let canonical = path.canonicalize().unwrap_or_else(|_| path.to_path_buf());
+        self.parsed.canonical.insert(path.to_path_buf(), canonical.clone());
+        canonical
     }
 
     fn load_std(&mut self, name: &str) -> Option<usize> {
@@ -204,7 +216,7 @@ impl<'a> Loader<'a> {
     /// shown relative to it, so messages carry the paths the user wrote, not absolute ones.
     fn import_path(&mut self, path: &str, dir: Option<&Path>, shown_dir: &Path, span: Span) -> Option<usize> {
         let full = dir.map_or_else(|| PathBuf::from(path), |d| d.join(path));
-        let canonical = canonical_path(&full);
+        let canonical = self.canonical_path(&full);
         let key = canonical.display().to_string();
         if let Some(&target) = self.loaded.get(&key) {
             return self.check_cycle(target, span);
@@ -288,11 +300,6 @@ fn parse_source(source: &SourceFile, file: FileId, diags: &mut Diagnostics) -> a
 enum ImportRequest {
     Path(String),
     Std(String),
-}
-
-/// The path with links and `..` resolved, or as given when it does not exist (yet).
-fn canonical_path(path: &Path) -> PathBuf {
-    path.canonicalize().unwrap_or_else(|_| path.to_path_buf())
 }
 
 /// `base/rel` with `.` dropped and `dir/..` folded, without touching the file system.

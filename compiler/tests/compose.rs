@@ -94,6 +94,29 @@ fn views_composed_together_match_views_composed_alone() {
     }
 }
 
+/// A build keeps each view's checked program and naga module only when asked to, and keeping
+/// them changes nothing in the output.
+#[test]
+fn a_build_keeps_the_ir_only_when_asked() {
+    use vrsc::compose::build::{Keep, build_scene, build_scene_keeping};
+    let scene =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/fixtures/compose/bench_3vol_2lights_4clips/scene.toml");
+    let lean = build_scene(&scene, None).expect("scene readable");
+    let kept = build_scene_keeping(&scene, None, Keep::Ir).expect("scene readable");
+    assert_eq!(lean.views.len(), kept.views.len());
+    for (lean, kept) in lean.views.iter().zip(&kept.views) {
+        assert!(lean.ir.is_none(), "view {}: IR kept unasked", lean.name);
+        let ir = kept.ir.as_ref().unwrap_or_else(|| panic!("view {}: IR not kept", kept.name));
+        let valid = ir.module.as_ref().expect("a module for a view that composed");
+        let rewritten =
+            naga::back::wgsl::write_string(&valid.module, &valid.info, naga::back::wgsl::WriterFlags::empty())
+                .expect("the kept module writes");
+        let wgsl = |v: &vrsc::compose::build::ViewOutput| v.shader.as_ref().map(|s| s.wgsl.clone());
+        assert_eq!(wgsl(lean), wgsl(kept), "view {}", lean.name);
+        assert_eq!(Some(rewritten), wgsl(kept), "view {}: the kept module is the one written", kept.name);
+    }
+}
+
 /// Expressions as deep as the nesting limits allow compose in every view, even in a debug build
 /// called from a test thread with a small stack (views compose on threads with a stack of their
 /// own).

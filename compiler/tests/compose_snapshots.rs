@@ -6,7 +6,7 @@
 mod common;
 
 use std::path::Path;
-use vrsc::compose::build::{BuiltScene, build_scene};
+use vrsc::compose::build::{BuiltScene, Keep, build_scene_keeping};
 
 /// `examples/ablation/scene.toml` → `ablation`; `tests/fixtures/compose/mip/scene.toml` → `mip`.
 fn snapshot_name(root: &Path, scene: &Path) -> String {
@@ -17,7 +17,7 @@ fn snapshot_name(root: &Path, scene: &Path) -> String {
 
 fn build(scene: &Path) -> BuiltScene {
     let cwd = std::env::current_dir().expect("cwd");
-    build_scene(&common::pathdiff(scene, &cwd), None).expect("scene readable")
+    build_scene_keeping(&common::pathdiff(scene, &cwd), None, Keep::Ir).expect("scene readable")
 }
 
 fn check_scenes(root: &Path, prefix: &str) {
@@ -31,7 +31,8 @@ fn check_scenes(root: &Path, prefix: &str) {
         let name = format!("{prefix}{}", snapshot_name(root, &scene));
         for view in &built.views {
             let shader = view.shader.as_ref().expect("a shader when there are no errors");
-            let map = view.composition.render_pipeline_map(&view.program, &built.sources);
+            let program = &view.ir.as_ref().expect("kept").program;
+            let map = view.composition.render_pipeline_map(program, &built.sources);
             let text = format!("== diagnostics ==\n{rendered}\n== pipeline ==\n{map}\n== wgsl ==\n{}", shader.wgsl);
             insta::assert_snapshot!(format!("{name}__{}", view.name), text);
         }
@@ -75,9 +76,9 @@ fn every_view_translates_to_every_backend() {
     for scene in common::scenes_under(&common::fixtures().join("compose")) {
         let built = build(&scene);
         for view in &built.views {
-            let shader = view.shader.as_ref().expect("composed");
+            let valid = view.ir.as_ref().and_then(|ir| ir.module.as_ref()).expect("composed");
             for target in Target::ALL {
-                let out = translate(&shader.module, &shader.info, "main", target)
+                let out = translate(&valid.module, &valid.info, "main", target)
                     .unwrap_or_else(|e| panic!("{} / {} / {}: {e}", scene.display(), view.name, target.name()));
                 assert!(out.len() > 100, "{} / {}: tiny {} output", scene.display(), view.name, target.name());
             }

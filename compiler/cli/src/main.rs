@@ -7,6 +7,7 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use vrsc::compose::backends::Target;
+use vrsc::compose::build::{Keep, build_scene_keeping};
 use vrsc::diag::Diagnostic;
 use vrsc::driver::{self, Checked};
 use vrsc::source::SourceMap;
@@ -155,7 +156,9 @@ fn run(cli: &Cli) -> Outcome {
 }
 
 fn build(printer: &Printer, scene: &std::path::Path, dir: &std::path::Path, targets: &[Target]) -> Outcome {
-    let built = match vrsc::compose::build::build_scene(scene, None) {
+    // naga's other back ends translate the view's module, which only a build keeping it has.
+    let keep = if targets.is_empty() { Keep::Outputs } else { Keep::Ir };
+    let built = match build_scene_keeping(scene, None, keep) {
         Ok(b) => b,
         Err(e) => return io_failure(&format!("cannot read `{}`: {e}", scene.display())),
     };
@@ -170,8 +173,11 @@ fn build(printer: &Printer, scene: &std::path::Path, dir: &std::path::Path, targ
         let Some(shader) = &view.shader else { continue };
         let json = serde_json::to_string_pretty(&shader.reflection).unwrap_or_default();
         let mut outputs = vec![("wgsl", shader.wgsl.as_bytes().to_vec()), ("json", json.into_bytes())];
+        // A build with targets keeps the module of every view that composed.
+        let module = view.ir.as_ref().and_then(|ir| ir.module.as_ref());
         for &target in targets {
-            match vrsc::compose::backends::translate(&shader.module, &shader.info, "main", target) {
+            let Some(valid) = module else { break };
+            match vrsc::compose::backends::translate(&valid.module, &valid.info, "main", target) {
                 Ok(bytes) => outputs.push((target.extension(), bytes)),
                 Err(e) => {
                     eprintln!("error: view `{}`: naga's {} back end failed: {e}", view.name, target.name());
@@ -192,7 +198,7 @@ fn build(printer: &Printer, scene: &std::path::Path, dir: &std::path::Path, targ
 }
 
 fn explain(printer: &Printer, scene: &std::path::Path, only: Option<&str>) -> Outcome {
-    let built = match vrsc::compose::build::build_scene(scene, only) {
+    let built = match build_scene_keeping(scene, only, Keep::Ir) {
         Ok(b) => b,
         Err(e) => return io_failure(&format!("cannot read `{}`: {e}", scene.display())),
     };
@@ -211,14 +217,16 @@ fn explain(printer: &Printer, scene: &std::path::Path, only: Option<&str>) -> Ou
 }
 
 fn pipeline(printer: &Printer, scene: &std::path::Path, only: Option<&str>) -> Outcome {
-    let built = match vrsc::compose::build::build_scene(scene, only) {
+    let built = match build_scene_keeping(scene, only, Keep::Ir) {
         Ok(b) => b,
         Err(e) => return io_failure(&format!("cannot read `{}`: {e}", scene.display())),
     };
     let outcome = printer.report(&built.diags.sorted(), &built.sources);
     for view in &built.views {
         println!("== view {} ==", view.name);
-        print!("{}", view.composition.render_pipeline_map(&view.program, &built.sources));
+        if let Some(ir) = &view.ir {
+            print!("{}", view.composition.render_pipeline_map(&ir.program, &built.sources));
+        }
     }
     outcome
 }

@@ -20,17 +20,42 @@ pub const ENTRY_FIELDS: &[&str] = &["pixel", "terminate", "out_color"];
 pub struct ViewOutput {
     pub name: String,
     pub composition: Composition,
-    pub program: crate::hir::Program,
     /// `None` when composing the view reported errors.
     pub shader: Option<ViewShader>,
+    /// What the view was composed from and into; only when the build was asked for it
+    /// ([`Keep::Ir`]).
+    pub ir: Option<ViewIr>,
 }
 
-/// The shader of a view: WGSL text, its naga module, and reflection.
+/// The shader of a view: WGSL text and reflection.
 pub struct ViewShader {
-    pub module: naga::Module,
-    pub info: naga::valid::ModuleInfo,
     pub wgsl: String,
     pub reflection: Reflection,
+}
+
+/// A view's intermediate forms, for tools that look inside it: the checked program (for the
+/// pipeline map) and the validated naga module (`explain`, naga's other back ends).
+pub struct ViewIr {
+    pub program: crate::hir::Program,
+    /// `None` when the view did not compose.
+    pub module: Option<ValidModule>,
+}
+
+/// A naga module and what validating it found out.
+pub struct ValidModule {
+    pub module: naga::Module,
+    pub info: naga::valid::ModuleInfo,
+}
+
+/// What a build keeps of each view besides its composition, WGSL and reflection.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Keep {
+    /// Nothing more: each view's intermediate forms are freed by the thread that made them, while
+    /// the other views still compose.
+    #[default]
+    Outputs,
+    /// Also each view's [`ViewIr`].
+    Ir,
 }
 
 /// The result of composing a scene.
@@ -45,6 +70,11 @@ pub struct BuiltScene {
 /// Reads and composes a scene (every view, or only `only_view`). An unreadable scene file is
 /// an I/O error; everything else is reported as diagnostics.
 pub fn build_scene(path: &Path, only_view: Option<&str>) -> std::io::Result<BuiltScene> {
+    build_scene_keeping(path, only_view, Keep::Outputs)
+}
+
+/// [`build_scene`], keeping what `keep` asks for.
+pub fn build_scene_keeping(path: &Path, only_view: Option<&str>, keep: Keep) -> std::io::Result<BuiltScene> {
     let text = std::fs::read_to_string(path)?;
     let mut sources = SourceMap::new();
     let file = sources.add(path.display().to_string(), Some(path.to_path_buf()), text);
@@ -64,7 +94,7 @@ pub fn build_scene(path: &Path, only_view: Option<&str>) -> std::io::Result<Buil
     let mut parsed = ParsedFiles::default();
     let loaded: Vec<LoadedView> =
         chosen.iter().map(|view| load_view(&scene, view, &mut sources, &mut parsed)).collect();
-    let composed = compose_loaded_views(&scene, &chosen, loaded, &sources);
+    let composed = compose_loaded_views(&scene, &chosen, loaded, &sources, keep);
     let mut views = Vec::with_capacity(composed.len());
     for (output, view_diags) in composed {
         diags.extend(view_diags);
@@ -80,15 +110,6 @@ pub fn build_scene(path: &Path, only_view: Option<&str>) -> std::io::Result<Buil
         );
     }
     Ok(BuiltScene { sources, diags, scene: Some(scene), views })
-}
-
-/// Composes one view of a scene whose file is already in `sources`.
-pub fn compose_view(scene: &Scene, view: &View, sources: &mut SourceMap, diags: &mut Diagnostics) -> ViewOutput {
-    let loaded = load_view(scene, view, sources, &mut ParsedFiles::default());
-    let mut composed = compose_loaded_views(scene, &[view], vec![loaded], sources);
-    let (output, view_diags) = composed.remove(0);
-    diags.extend(view_diags);
-    output
 }
 
 /// A view's modules, loaded: the graph, how each root is used, and its own diagnostics so far.
@@ -219,49 +240,58 @@ fn run_jobs<T: Send>(jobs: Vec<Job<'_, T>>, first: usize) -> Vec<T> {
     results.into_iter().filter_map(|r| r.into_inner().ok().flatten()).collect()
 }
 
-/// Composes loaded views in parallel; the results come in the order given. The calling thread,
-/// which has also loaded the views and frees the results (freeing memory it allocated itself is
-/// much cheaper than freeing another thread's), starts with the lightest view (fewest items in
-/// its modules).
+/// Composes loaded views in parallel; the results come in the order given. The calling thread
+/// starts at once with the heaviest view (most items in its modules), while a composer thread
+/// is still waking up for the others.
 fn compose_loaded_views(
     scene: &Scene,
     views: &[&View],
     loaded: Vec<LoadedView>,
     sources: &SourceMap,
+    keep: Keep,
 ) -> Vec<(ViewOutput, Diagnostics)> {
     let weight = |l: &LoadedView| -> usize { l.graph.modules.iter().map(|m| m.ast.items.len()).sum() };
-    let lightest = loaded.iter().enumerate().min_by_key(|(_, l)| weight(l)).map_or(0, |(i, _)| i);
+    let heaviest = loaded.iter().enumerate().max_by_key(|(_, l)| weight(l)).map_or(0, |(i, _)| i);
     let jobs = views
         .iter()
         .zip(loaded)
         .map(|(&view, loaded)| {
             let job: Job<'_, _> = Box::new(move || {
-                stacker::maybe_grow(VIEW_STACK_MIN, VIEW_STACK, || compose_loaded(scene, view, loaded, sources))
+                stacker::maybe_grow(VIEW_STACK_MIN, VIEW_STACK, || compose_loaded(scene, view, loaded, sources, keep))
             });
             job
         })
         .collect();
-    run_jobs(jobs, lightest)
+    run_jobs(jobs, heaviest)
 }
 
 /// Checks, places and emits one loaded view.
-fn compose_loaded(scene: &Scene, view: &View, loaded: LoadedView, sources: &SourceMap) -> (ViewOutput, Diagnostics) {
+fn compose_loaded(
+    scene: &Scene,
+    view: &View,
+    loaded: LoadedView,
+    sources: &SourceMap,
+    keep: Keep,
+) -> (ViewOutput, Diagnostics) {
     let LoadedView { graph, uses, mut diags } = loaded;
     let program = check::check_program(&graph, sources, &mut diags);
     let is_std = |m: usize| graph.modules.get(m).is_some_and(|m| m.std_name.is_some());
     let composition = place::compose(&program, &uses, is_std, ENTRY_FIELDS, &mut diags);
-    let shader = if diags.has_errors() {
+    let emitted = if diags.has_errors() {
         None
     } else {
         match emit_shader(scene, view, &program, &composition, sources) {
-            Ok(shader) => Some(shader),
+            Ok(emitted) => Some(emitted),
             Err(d) => {
                 diags.push(d);
                 None
             }
         }
     };
-    (ViewOutput { name: view.name.name.clone(), composition, program, shader }, diags)
+    let (shader, module) = emitted.unzip();
+    // Unless kept, the program and the module are freed here, by the thread that made them.
+    let ir = (keep == Keep::Ir).then(|| ViewIr { program, module });
+    (ViewOutput { name: view.name.name.clone(), composition, shader, ir }, diags)
 }
 
 fn load_module(loader: &mut Loader<'_>, module_ref: &ModuleRef) -> Result<usize, Diagnostic> {
@@ -284,9 +314,9 @@ fn emit_shader(
     program: &crate::hir::Program,
     composition: &Composition,
     sources: &SourceMap,
-) -> Result<ViewShader, Diagnostic> {
+) -> Result<(ViewShader, ValidModule), Diagnostic> {
     let vm = view::emit(program, composition, sources)?;
     let wgsl = crate::lower::write_wgsl(&vm.module, &vm.info)?;
     let reflection = reflect::reflect(scene, view, program, composition, &vm, &wgsl, sources);
-    Ok(ViewShader { module: vm.module, info: vm.info, wgsl, reflection })
+    Ok((ViewShader { wgsl, reflection }, ValidModule { module: vm.module, info: vm.info }))
 }

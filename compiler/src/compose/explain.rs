@@ -7,15 +7,17 @@ use crate::source::{SourceMap, Span};
 use std::collections::{HashMap, VecDeque};
 
 /// The view's WGSL with a `// from ...` comment above every function. `None` when the view did
-/// not compose. The result is still valid WGSL.
+/// not compose or was built without its IR ([`Keep::Ir`](super::build::Keep::Ir)). The result
+/// is still valid WGSL.
 pub fn explain(view: &ViewOutput, sources: &SourceMap) -> Option<String> {
     let shader = view.shader.as_ref()?;
+    let ir = view.ir.as_ref()?;
     let mut placed: HashMap<u32, VecDeque<MapEntry>> = HashMap::new();
-    for entry in view.composition.pipeline_map(&view.program, sources) {
+    for entry in view.composition.pipeline_map(&ir.program, sources) {
         placed.entry(entry.span.start).or_default().push_back(entry);
     }
     // naga's WGSL writer emits functions in arena order, then the entry points.
-    let module = &shader.module;
+    let module = &ir.module.as_ref()?.module;
     let mut notes: VecDeque<String> = module
         .functions
         .iter()
