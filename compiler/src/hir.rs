@@ -3,6 +3,14 @@
 //! The checker builds it from the AST; lowering (and the composer) consume it. Pipeline-function
 //! names, state fields and uniforms keep their `$` here: a template is instantiated by the
 //! composer, which substitutes names, never by re-checking.
+//!
+//! A function body never names another function by its [`LibFnId`]: a call names one of the
+//! calling function's call sites (`calls`), and only that table holds ids. Bodies are therefore
+//! the same in every program that holds the function (the standard library's are checked once
+//! per process and shared, [`Arc`]), and renumbering a program's functions touches only the
+//! tables.
+
+use std::sync::Arc;
 
 use crate::ast::{AssignOp, BinaryOp, PlacementKind, UnaryOp};
 use crate::source::Span;
@@ -34,8 +42,8 @@ pub struct LibFn {
     /// `Type::Void` when it returns nothing.
     pub ret: Type,
     pub locals: Vec<Local>,
-    pub body: Block,
-    /// Library functions this one calls directly.
+    pub body: Arc<Block>,
+    /// The callee of each call site of the body ([`ExprKind::CallLib::site`]).
     pub calls: Vec<LibFnId>,
     pub span: Span,
 }
@@ -71,7 +79,9 @@ pub struct PipelineFn {
     /// The declared library functions.
     pub uses: Vec<LibFnId>,
     pub locals: Vec<Local>,
-    pub body: Block,
+    pub body: Arc<Block>,
+    /// The callee of each call site of the body ([`ExprKind::CallLib::site`]).
+    pub calls: Vec<LibFnId>,
     pub span: Span,
 }
 
@@ -238,7 +248,8 @@ pub enum ExprKind {
     /// Index into the pipeline function's `state`.
     State(usize),
     CallLib {
-        func: LibFnId,
+        /// Index into the calling function's `calls`.
+        site: usize,
         args: Vec<Expr>,
     },
     CallBuiltin {

@@ -319,6 +319,7 @@ impl Checker<'_> {
             }
             FnKind::Lib => {}
         }
+        let site = f.calls.len();
         f.calls.push((id, callee.span));
         let Some(lib) = self.libs.get(id) else { return poison(f, span) };
         let (params, ret, def) = (lib.params.iter().map(|p| p.ty).collect::<Vec<_>>(), lib.ret, lib.name_span);
@@ -363,7 +364,7 @@ impl Checker<'_> {
         if !ok {
             return poison(f, span);
         }
-        mk(hir::ExprKind::CallLib { func: id, args: checked }, ret, span)
+        mk(hir::ExprKind::CallLib { site, args: checked }, ret, span)
     }
 
     /// Marks a `use` entry as called, or reports the missing `use` (E0503).

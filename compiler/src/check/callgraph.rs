@@ -1,6 +1,7 @@
 //! The call graph of lib fns: recursion (E0402, found as strongly connected components), then
 //! the [`hir::Program`]: functions that checked cleanly and whose callees did too, lib fns in
-//! callee-before-caller order, with call ids renumbered to their place in that order.
+//! callee-before-caller order, with the call-site tables renumbered to their place in that
+//! order (bodies are left as they are: they name call sites, not functions).
 //!
 //! Every walk here is iterative: a generated program may chain thousands of functions.
 
@@ -208,24 +209,22 @@ pub(super) fn assemble(libs: Vec<Option<LibOut>>, pipes: Vec<PipeOut>, removes: 
     for (i, &id) in order.iter().enumerate() {
         new_id[id] = Some(i);
     }
+    let renumber = |id: usize| new_id.get(id).copied().flatten();
     let mut slots = libs;
     let mut lib_fns = Vec::new();
     for &id in &order {
         let Some(out) = slots.get_mut(id).and_then(Option::take) else { continue };
         let mut f = out.hir;
-        remap_block(&mut f.body, &new_id);
-        f.calls = edges[id].iter().filter_map(|&c| new_id[c]).collect();
+        // A kept function's callees are kept (`kept_in_order`), so no site is left unresolved.
+        f.calls = out.calls.iter().map(|&(c, _)| renumber(c).unwrap_or(usize::MAX)).collect();
         lib_fns.push(f);
     }
     let mut pipelines = Vec::new();
     for p in pipes {
-        let kept = |c: &usize| new_id.get(*c).copied().flatten().is_some();
-        if p.failed || !p.uses.iter().chain(&p.calls).all(kept) {
+        if p.failed || !p.uses.iter().chain(&p.calls).all(|&c| renumber(c).is_some()) {
             continue;
         }
         let Some(placement) = p.placement else { continue };
-        let mut body = p.body;
-        remap_block(&mut body, &new_id);
         pipelines.push(hir::PipelineFn {
             name: p.name,
             module: p.module,
@@ -233,76 +232,12 @@ pub(super) fn assemble(libs: Vec<Option<LibOut>>, pipes: Vec<PipeOut>, removes: 
             placement,
             state: p.state,
             uniforms: p.uniforms,
-            uses: p.uses.iter().filter_map(|&u| new_id.get(u).copied().flatten()).collect(),
+            uses: p.uses.iter().filter_map(|&u| renumber(u)).collect(),
             locals: p.locals,
-            body,
+            body: p.body,
+            calls: p.calls.iter().map(|&c| renumber(c).unwrap_or(usize::MAX)).collect(),
             span: p.span,
         });
     }
     hir::Program { lib_fns, pipelines, removes }
-}
-
-pub(super) fn remap_block(b: &mut hir::Block, map: &[Option<usize>]) {
-    for s in &mut b.stmts {
-        remap_stmt(s, map);
-    }
-}
-
-fn remap_stmt(s: &mut hir::Stmt, map: &[Option<usize>]) {
-    match &mut s.kind {
-        hir::StmtKind::Let { value, .. } => value.iter_mut().for_each(|e| remap_expr(e, map)),
-        hir::StmtKind::Assign { place, value, .. } => {
-            for access in &mut place.path {
-                if let hir::Access::Index(e) = access {
-                    remap_expr(e, map);
-                }
-            }
-            remap_expr(value, map);
-        }
-        hir::StmtKind::If { cond, then, otherwise } => {
-            remap_expr(cond, map);
-            remap_block(then, map);
-            otherwise.iter_mut().for_each(|b| remap_block(b, map));
-        }
-        hir::StmtKind::For { start, end, body, .. } => {
-            remap_expr(start, map);
-            remap_expr(end, map);
-            remap_block(body, map);
-        }
-        hir::StmtKind::Return(value) => value.iter_mut().for_each(|e| remap_expr(e, map)),
-        hir::StmtKind::Expr(e) => remap_expr(e, map),
-        hir::StmtKind::Block(b) => remap_block(b, map),
-        hir::StmtKind::Break | hir::StmtKind::Continue => {}
-    }
-}
-
-/// Renumbers lib fn calls; the depth is bounded by the checker's nesting limit.
-fn remap_expr(e: &mut hir::Expr, map: &[Option<usize>]) {
-    match &mut e.kind {
-        hir::ExprKind::CallLib { func, args } => {
-            if let Some(Some(new)) = map.get(*func) {
-                *func = *new;
-            }
-            args.iter_mut().for_each(|a| remap_expr(a, map));
-        }
-        hir::ExprKind::CallBuiltin { args, .. } | hir::ExprKind::Construct { args } => {
-            args.iter_mut().for_each(|a| remap_expr(a, map));
-        }
-        hir::ExprKind::Convert { arg: x }
-        | hir::ExprKind::Unary { operand: x, .. }
-        | hir::ExprKind::Swizzle { base: x, .. } => remap_expr(x, map),
-        hir::ExprKind::Binary { lhs, rhs, .. } => {
-            remap_expr(lhs, map);
-            remap_expr(rhs, map);
-        }
-        hir::ExprKind::Index { base, index } => {
-            remap_expr(base, map);
-            remap_expr(index, map);
-        }
-        hir::ExprKind::Const(_)
-        | hir::ExprKind::Local(_)
-        | hir::ExprKind::Param(_)
-        | hir::ExprKind::Uniform(_)
-        | hir::ExprKind::State(_) => {}
-    }
 }

@@ -8,12 +8,14 @@ use crate::diag::{Code, Diagnostic};
 use crate::hir;
 use crate::source::Span;
 use crate::types::Type;
+use std::sync::Arc;
 
 /// A checked lib fn, before the program is assembled (ids are still provisional).
 #[derive(Clone)]
 pub(super) struct LibOut {
+    /// Its `calls` are filled in when the program is assembled, from `calls` here.
     pub hir: hir::LibFn,
-    /// Every lib fn call in the body, with the callee's span.
+    /// Every call site of the body, with the callee's span.
     pub calls: Vec<(usize, Span)>,
     pub failed: bool,
 }
@@ -29,7 +31,8 @@ pub(super) struct PipeOut {
     pub uniforms: Vec<hir::UniformDecl>,
     pub uses: Vec<usize>,
     pub locals: Vec<hir::Local>,
-    pub body: hir::Block,
+    pub body: Arc<hir::Block>,
+    /// The callee of every call site of the body.
     pub calls: Vec<usize>,
     pub span: Span,
     pub failed: bool,
@@ -124,7 +127,7 @@ impl Checker<'_> {
             params,
             ret,
             locals: f.locals,
-            body,
+            body: Arc::new(body),
             calls: Vec::new(),
             span: item.span,
         };
@@ -175,7 +178,7 @@ impl Checker<'_> {
             uniforms,
             uses: f.uses.iter().map(|u| u.lib).collect(),
             locals: f.locals,
-            body,
+            body: Arc::new(body),
             calls: f.calls.iter().map(|c| c.0).collect(),
             span: item.span,
         }

@@ -385,7 +385,8 @@ pub(super) struct FnCx {
     pub uniforms: Vec<UniformSlot>,
     pub state: Vec<StateSlot>,
     pub uses: Vec<UseSlot>,
-    /// Every call of a lib fn, with the callee's span (for the recursion error).
+    /// Every call site of a lib fn (`hir::ExprKind::CallLib::site` indexes it), with the
+    /// callee's span (for the recursion error).
     pub calls: Vec<(usize, Span)>,
     /// Enclosing `for` loops.
     pub loops: u32,

@@ -5,14 +5,14 @@
 //! the same offsets. So the checker checks the whole standard library once, keeps each module's
 //! lib fns, pipeline functions and `remove` items, and every later run copies them into its own
 //! graph ([`StdReuse`]) instead of checking them again: only the ids of lib fns and modules
-//! differ from graph to graph.
+//! differ from graph to graph, and bodies hold neither (they are shared, not copied).
 //!
 //! What depends on which modules a graph holds is still done per graph: item scopes (for the
 //! user's modules), conflicts between declarations, recursion and the program's assembly.
 
+use super::Checker;
 use super::func::{LibOut, PipeOut};
 use super::scope::LibInfo;
-use super::{Checker, callgraph};
 use crate::diag::Diagnostics;
 use crate::hir;
 use crate::loader::{Loader, ModuleGraph};
@@ -138,14 +138,13 @@ impl StdReuse {
         self.lib(id).map(|(info, _)| info)
     }
 
-    /// The cached body of lib fn `id`, renumbered for this graph. `None` inside means it did not
-    /// check (never the case for a clean standard library).
+    /// The cached lib fn `id`, its call sites renumbered for this graph (the body is shared).
+    /// `None` inside means it did not check (never the case for a clean standard library).
     pub(super) fn lib_fn(&self, id: usize, module: usize) -> Option<Option<LibOut>> {
         let (_, out) = self.lib(id)?;
         Some(out.as_ref().map(|out| {
             let mut out = out.clone();
             out.hir.module = module;
-            callgraph::remap_block(&mut out.hir.body, &self.lib_ids);
             for (callee, _) in &mut out.calls {
                 *callee = self.renumber(*callee);
             }
@@ -153,7 +152,8 @@ impl StdReuse {
         }))
     }
 
-    /// The pipeline functions and `remove` items of module `m`, renumbered for this graph.
+    /// The pipeline functions and `remove` items of module `m`, renumbered for this graph (the
+    /// bodies are shared).
     pub(super) fn module_items(&self, m: usize) -> Option<(Vec<PipeOut>, Vec<hir::Remove>)> {
         let s = self.module_std.get(m).copied().flatten()?;
         let module = self.cache.modules.get(s)?;
@@ -163,7 +163,6 @@ impl StdReuse {
             .map(|p| {
                 let mut p = p.clone();
                 p.module = m;
-                callgraph::remap_block(&mut p.body, &self.lib_ids);
                 p.uses.iter_mut().chain(&mut p.calls).for_each(|id| *id = self.renumber(*id));
                 p
             })

@@ -341,17 +341,19 @@ fn recursion_is_reported_once() {
 }
 
 #[test]
-fn lib_fns_are_in_callee_order_with_renumbered_calls() {
+fn lib_fns_are_in_callee_order_with_renumbered_call_sites() {
     let c = ok(
         "lib fn a(x: f32) -> f32 { return b(x) + c(x); }\nlib fn b(x: f32) -> f32 { return c(x); }\nlib fn c(x: f32) -> f32 { return x; }",
     );
     let names: Vec<&str> = c.program.lib_fns.iter().map(|f| f.name.as_str()).collect();
     assert_eq!(names, ["c", "b", "a"]);
     let a = &c.program.lib_fns[2];
-    assert_eq!(a.calls, [1, 0]);
+    assert_eq!(a.calls, [1, 0], "a calls b (now #1), then c (now #0)");
+    assert_eq!(c.program.lib_fns[1].calls, [0]);
     let hir::StmtKind::Return(Some(e)) = &a.body.stmts[0].kind else { panic!() };
-    let hir::ExprKind::Binary { lhs, .. } = &e.kind else { panic!() };
-    assert!(matches!(lhs.kind, hir::ExprKind::CallLib { func: 1, .. }));
+    let hir::ExprKind::Binary { lhs, rhs, .. } = &e.kind else { panic!() };
+    assert!(matches!(lhs.kind, hir::ExprKind::CallLib { site: 0, .. }));
+    assert!(matches!(rhs.kind, hir::ExprKind::CallLib { site: 1, .. }));
 }
 
 #[test]

@@ -229,7 +229,8 @@ fn lower_defaults(
         uniforms: Vec::new(),
         uses: Vec::new(),
         locals: Vec::new(),
-        body: hir::Block { stmts, span: Span::DUMMY },
+        body: std::sync::Arc::new(hir::Block { stmts, span: Span::DUMMY }),
+        calls: Vec::new(),
         span: Span::DUMMY,
     };
     let env = PipelineEnv {

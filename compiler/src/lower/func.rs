@@ -41,7 +41,7 @@ pub(super) fn lower_lib_fn(b: &mut ModuleBuilder, program: &hir::Program, lf: &h
     if lf.ret != Type::Void {
         func.result = Some(naga::FunctionResult { ty: b.ty(lf.ret, lf.span)?, binding: None });
     }
-    let mut cx = FnCtx::new(b, program, func, &lf.locals, Kind::Lib { ret: lf.ret });
+    let mut cx = FnCtx::new(b, program, func, &lf.locals, &lf.calls, Kind::Lib { ret: lf.ret });
     cx.params = params;
     let body = cx.block(&lf.body)?;
     if lf.ret != Type::Void && !block_returns(&lf.body) {
@@ -69,7 +69,7 @@ pub(super) fn lower_pipeline_fn(
     func.arguments.push(naga::FunctionArgument { name: Some("state".into()), ty: ptr_ty, binding: None });
     let state_ptr = func.expressions.append(E::FunctionArgument(0), pf.span.into());
     let kind = Kind::Pipeline { env, state_ptr, state: &pf.state, uniforms: &pf.uniforms };
-    let mut cx = FnCtx::new(b, program, func, &pf.locals, kind);
+    let mut cx = FnCtx::new(b, program, func, &pf.locals, &pf.calls, kind);
     cx.func.body = cx.block(&pf.body)?;
     Ok(cx.func)
 }
@@ -110,6 +110,8 @@ struct FnCtx<'a> {
     func: naga::Function,
     kind: Kind<'a>,
     locals: &'a [hir::Local],
+    /// The callee of each call site of the body.
+    calls: &'a [hir::LibFnId],
     slots: Vec<Option<LocalSlot>>,
     params: Vec<ParamSlot>,
     globals: FxHashMap<Handle<naga::GlobalVariable>, Ex>,
@@ -127,6 +129,7 @@ impl<'a> FnCtx<'a> {
         program: &'a hir::Program,
         func: naga::Function,
         locals: &'a [hir::Local],
+        calls: &'a [hir::LibFnId],
         kind: Kind<'a>,
     ) -> Self {
         FnCtx {
@@ -135,6 +138,7 @@ impl<'a> FnCtx<'a> {
             func,
             kind,
             locals,
+            calls,
             slots: vec![None; locals.len()],
             params: Vec::new(),
             globals: FxHashMap::default(),
@@ -266,8 +270,8 @@ impl<'a> FnCtx<'a> {
             }
             StmtKind::Expr(e) => {
                 match &e.kind {
-                    ExprKind::CallLib { func, args } => {
-                        self.call_lib(*func, args, e.span, block)?;
+                    ExprKind::CallLib { site, args } => {
+                        self.call_lib(*site, args, e.span, block)?;
                     }
                     // Anything else is pure: lower it for its checks; the writer drops it.
                     _ => {
@@ -466,7 +470,7 @@ impl<'a> FnCtx<'a> {
                 self.convert(v, Scalar::Bool, span)
             }
             ExprKind::State(_) => return Err(internal(span, "`state` read outside a pipeline function")),
-            ExprKind::CallLib { func, args } => match self.call_lib(*func, args, span, block)? {
+            ExprKind::CallLib { site, args } => match self.call_lib(*site, args, span, block)? {
                 Some(h) => h,
                 None => return Err(internal(span, "the result of a call that returns nothing used as a value")),
             },
@@ -722,7 +726,10 @@ impl<'a> FnCtx<'a> {
         })
     }
 
-    fn call_lib(&mut self, id: hir::LibFnId, args: &[hir::Expr], span: Span, block: &mut naga::Block) -> R<Option<Ex>> {
+    fn call_lib(&mut self, site: usize, args: &[hir::Expr], span: Span, block: &mut naga::Block) -> R<Option<Ex>> {
+        let Some(&id) = self.calls.get(site) else {
+            return Err(internal(span, format!("call site #{site} is not in the function's table")));
+        };
         let function = self.b.lower_lib_fn(self.program, id)?;
         let Some(callee) = self.program.lib_fns.get(id) else {
             return Err(internal(span, format!("library function #{id} does not exist")));

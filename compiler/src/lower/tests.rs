@@ -8,6 +8,7 @@ use crate::hir::*;
 use crate::source::{SourceMap, Span};
 use crate::steps::Step;
 use crate::types::{Scalar, Type};
+use std::sync::Arc;
 
 const F32: Type = Type::F32;
 const I32: Type = Type::I32;
@@ -21,14 +22,16 @@ fn mat(c: u8, r: u8) -> Type {
     Type::Matrix { cols: c, rows: r }
 }
 
-/// Builds HIR nodes with distinct spans inside the one test file.
+/// Builds HIR nodes with distinct spans inside the one test file. The calls built since the
+/// last function go into the next function's call-site table.
 struct H {
     next: u32,
+    calls: Vec<LibFnId>,
 }
 
 impl H {
     fn new() -> H {
-        H { next: 10 }
+        H { next: 10, calls: Vec::new() }
     }
 
     fn span(&mut self) -> Span {
@@ -77,7 +80,9 @@ impl H {
     }
 
     fn call(&mut self, func: LibFnId, args: Vec<Expr>, ty: Type) -> Expr {
-        self.e(ExprKind::CallLib { func, args }, ty)
+        let site = self.calls.len();
+        self.calls.push(func);
+        self.e(ExprKind::CallLib { site, args }, ty)
     }
 
     fn construct(&mut self, ty: Type, args: Vec<Expr>) -> Expr {
@@ -129,8 +134,9 @@ impl H {
 
     fn lib(&mut self, name: &str, params: &[(&str, Type)], ret: Type, locals: Vec<Local>, body: Vec<Stmt>) -> LibFn {
         let params = params.iter().map(|&(n, ty)| Param { name: n.into(), ty, span: self.span() }).collect();
-        let body = self.block(body);
-        LibFn { name: name.into(), module: 0, doc: None, params, ret, locals, body, calls: vec![], span: self.span() }
+        let body = Arc::new(self.block(body));
+        let calls = std::mem::take(&mut self.calls);
+        LibFn { name: name.into(), module: 0, doc: None, params, ret, locals, body, calls, span: self.span() }
     }
 
     #[allow(clippy::too_many_arguments)]
@@ -173,7 +179,7 @@ impl H {
                 span: self.span(),
             })
             .collect();
-        let body = self.block(body);
+        let body = Arc::new(self.block(body));
         PipelineFn {
             name: name.into(),
             module: 0,
@@ -184,6 +190,7 @@ impl H {
             uses,
             locals,
             body,
+            calls: std::mem::take(&mut self.calls),
             span: self.span(),
         }
     }
