@@ -7,7 +7,7 @@ use super::view;
 use crate::check;
 use crate::diag::{Code, Diagnostic, Diagnostics};
 use crate::loader::{Loader, ModuleGraph, ParsedFiles};
-use crate::scene::{self, ModuleRef, ModuleSource, Scene, View};
+use crate::scene::{self, ModuleRef, ModuleSource, Scene, SceneError, View};
 use crate::source::{SourceMap, Span};
 use std::path::Path;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -78,12 +78,24 @@ pub fn build_scene_keeping(path: &Path, only_view: Option<&str>, keep: Keep) -> 
     let text = std::fs::read_to_string(path)?;
     let mut sources = SourceMap::new();
     let file = sources.add(path.display().to_string(), Some(path.to_path_buf()), text);
+    let scene = scene::parse_scene(&sources, file);
+    Ok(compose_scene(sources, scene, only_view, keep))
+}
+
+/// Composes a scene parsed from a file of `sources` (every view, or only `only_view`); an invalid
+/// scene gives its diagnostics.
+pub fn compose_scene(
+    mut sources: SourceMap,
+    scene: Result<Scene, SceneError>,
+    only_view: Option<&str>,
+    keep: Keep,
+) -> BuiltScene {
     let mut diags = Diagnostics::new();
-    let scene = match scene::parse_scene(&sources, file) {
+    let scene = match scene {
         Ok(scene) => scene,
         Err(e) => {
             e.diagnostics.into_iter().for_each(|d| diags.push(d));
-            return Ok(BuiltScene { sources, diags, scene: None, views: Vec::new() });
+            return BuiltScene { sources, diags, scene: None, views: Vec::new() };
         }
     };
     scene.warnings.iter().cloned().for_each(|d| diags.push(d));
@@ -109,7 +121,7 @@ pub fn build_scene_keeping(path: &Path, only_view: Option<&str>, keep: Keep) -> 
                 .with_note(format!("views: {}", names.join(", "))),
         );
     }
-    Ok(BuiltScene { sources, diags, scene: Some(scene), views })
+    BuiltScene { sources, diags, scene: Some(scene), views }
 }
 
 /// A view's modules, loaded: the graph, how each root is used, and its own diagnostics so far.

@@ -4,7 +4,7 @@
 //! volumes' files or transfer functions is such a hit; it costs a scene parse and a read of the
 //! module files, not a composition.
 
-use super::build::{self, BuiltScene};
+use super::build::{self, BuiltScene, Keep};
 use super::reflect::content_hash;
 use crate::scene::{ModuleRef, ModuleSource, Scene};
 use crate::source::SourceMap;
@@ -59,9 +59,13 @@ impl CompositionCache {
         let text = std::fs::read_to_string(path)?;
         let mut sources = SourceMap::new();
         let file = sources.add(path.display().to_string(), Some(path.to_path_buf()), text);
-        let Ok(scene) = crate::scene::parse_scene(&sources, file) else {
-            self.stats.misses += 1;
-            return Ok(CachedBuild { built: Arc::new(build::build_scene(path, None)?), scene: None, hit: false });
+        let scene = match crate::scene::parse_scene(&sources, file) {
+            Ok(scene) => scene,
+            Err(e) => {
+                self.stats.misses += 1;
+                let built = build::compose_scene(sources, Err(e), None, Keep::Outputs);
+                return Ok(CachedBuild { built: Arc::new(built), scene: None, hit: false });
+            }
         };
         let key = structural_key(&scene);
         if let Some(entry) = self.entries.get(&key)
@@ -71,7 +75,7 @@ impl CompositionCache {
             return Ok(CachedBuild { built: entry.built.clone(), scene: Some(scene), hit: true });
         }
         self.stats.misses += 1;
-        let built = Arc::new(build::build_scene(path, None)?);
+        let built = Arc::new(build::compose_scene(sources, Ok(scene.clone()), None, Keep::Outputs));
         if !built.diags.has_errors() {
             let inputs = user_inputs(&built.sources, path);
             self.entries.insert(key, Entry { inputs, built: built.clone() });
@@ -160,6 +164,10 @@ mod tests {
 
         std::fs::write(dir.path().join("dim.vrs"), MODULE.replace("0.5", "0.75")).unwrap();
         assert!(!cache.build(&path).unwrap().hit, "an edited module file is composed again");
-        assert_eq!(cache.stats(), CacheStats { hits: 1, misses: 3 });
+
+        std::fs::write(&path, scene(0.25, "dvr").replace("[render]", "[render]\nshadnig = true")).unwrap();
+        let invalid = cache.build(&path).unwrap();
+        assert!(!invalid.hit && invalid.scene.is_none() && invalid.built.diags.has_errors());
+        assert_eq!(cache.stats(), CacheStats { hits: 1, misses: 4 });
     }
 }
