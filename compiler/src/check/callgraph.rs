@@ -210,13 +210,14 @@ pub(super) fn assemble(libs: Vec<Option<LibOut>>, pipes: Vec<PipeOut>, removes: 
         new_id[id] = Some(i);
     }
     let renumber = |id: usize| new_id.get(id).copied().flatten();
+    // A kept function's callees are kept (`kept_in_order`), so no site is left unresolved.
+    let site = |id: usize| renumber(id).unwrap_or(usize::MAX);
     let mut slots = libs;
     let mut lib_fns = Vec::new();
     for &id in &order {
         let Some(out) = slots.get_mut(id).and_then(Option::take) else { continue };
         let mut f = out.hir;
-        // A kept function's callees are kept (`kept_in_order`), so no site is left unresolved.
-        f.calls = out.calls.iter().map(|&(c, _)| renumber(c).unwrap_or(usize::MAX)).collect();
+        f.calls = out.calls.iter().map(|&(c, _)| site(c)).collect();
         lib_fns.push(f);
     }
     let mut pipelines = Vec::new();
@@ -235,7 +236,7 @@ pub(super) fn assemble(libs: Vec<Option<LibOut>>, pipes: Vec<PipeOut>, removes: 
             uses: p.uses.iter().filter_map(|&u| renumber(u)).collect(),
             locals: p.locals,
             body: p.body,
-            calls: p.calls.iter().map(|&c| renumber(c).unwrap_or(usize::MAX)).collect(),
+            calls: p.calls.iter().map(|&c| site(c)).collect(),
             span: p.span,
         });
     }

@@ -75,11 +75,17 @@ pub fn build_scene(path: &Path, only_view: Option<&str>) -> std::io::Result<Buil
 
 /// [`build_scene`], keeping what `keep` asks for.
 pub fn build_scene_keeping(path: &Path, only_view: Option<&str>, keep: Keep) -> std::io::Result<BuiltScene> {
+    let (sources, scene) = read_scene(path)?;
+    Ok(compose_scene(sources, scene, only_view, keep))
+}
+
+/// Reads the scene file at `path` into a new source map and parses it.
+pub fn read_scene(path: &Path) -> std::io::Result<(SourceMap, Result<Scene, SceneError>)> {
     let text = std::fs::read_to_string(path)?;
     let mut sources = SourceMap::new();
     let file = sources.add(path.display().to_string(), Some(path.to_path_buf()), text);
     let scene = scene::parse_scene(&sources, file);
-    Ok(compose_scene(sources, scene, only_view, keep))
+    Ok((sources, scene))
 }
 
 /// Composes a scene parsed from a file of `sources` (every view, or only `only_view`); an invalid

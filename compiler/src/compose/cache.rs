@@ -56,10 +56,8 @@ impl CompositionCache {
     /// Composes every view of the scene at `path`, or reuses an earlier composition of the same
     /// structure whose module files are unchanged.
     pub fn build(&mut self, path: &Path) -> std::io::Result<CachedBuild> {
-        let text = std::fs::read_to_string(path)?;
-        let mut sources = SourceMap::new();
-        let file = sources.add(path.display().to_string(), Some(path.to_path_buf()), text);
-        let scene = match crate::scene::parse_scene(&sources, file) {
+        let (sources, scene) = build::read_scene(path)?;
+        let scene = match scene {
             Ok(scene) => scene,
             Err(e) => {
                 self.stats.misses += 1;
