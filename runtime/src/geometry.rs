@@ -16,11 +16,14 @@ pub struct OrbitCamera {
     pub distance: f32,
     /// Vertical field of view in degrees.
     pub fov: f32,
+    /// The point orbited and looked at, relative to the volume's centre, in units of its
+    /// largest extent (panning moves it).
+    pub target: Vec3,
 }
 
 impl Default for OrbitCamera {
     fn default() -> OrbitCamera {
-        OrbitCamera { azimuth: 0.0, elevation: 0.0, distance: 2.5, fov: 30.0 }
+        OrbitCamera { azimuth: 0.0, elevation: 0.0, distance: 2.5, fov: 30.0, target: Vec3::ZERO }
     }
 }
 
@@ -42,12 +45,15 @@ impl OrbitCamera {
         let model = Mat4::from_scale(scale) * Mat4::from_translation(Vec3::splat(-0.5));
         let (az, el) = (self.azimuth.to_radians(), self.elevation.clamp(-89.0, 89.0).to_radians());
         let distance = self.distance.max(0.01);
-        let eye = distance * Vec3::new(az.sin() * el.cos(), az.cos() * el.cos(), el.sin());
-        let view = glam::camera::rh::view::look_at_mat4(eye, Vec3::ZERO, Vec3::Z);
-        let near = (distance - 1.0).max(distance * 0.01);
+        let eye = self.target + distance * Vec3::new(az.sin() * el.cos(), az.cos() * el.cos(), el.sin());
+        let view = glam::camera::rh::view::look_at_mat4(eye, self.target, Vec3::Z);
+        // The volume lies within 1 of the centre; keep it between the planes wherever the
+        // target has been panned to.
+        let reach = 1.0 + self.target.length();
+        let near = (distance - reach).max(distance * 0.01);
         // WebGPU clip space: depth 0..1, y up (glam's `directx` convention).
         let fov = self.fov.clamp(1.0, 170.0).to_radians();
-        let proj = glam::camera::rh::proj::directx::perspective(fov, aspect.max(1e-3), near, distance + 1.0);
+        let proj = glam::camera::rh::proj::directx::perspective(fov, aspect.max(1e-3), near, distance + reach);
         (proj * view * model).inverse()
     }
 }

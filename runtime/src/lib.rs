@@ -41,7 +41,7 @@ pub use error::RuntimeError;
 pub use geometry::{OrbitCamera, SliceAxis, SlicePlane};
 pub use gpu::{AdapterChoice, Gpu};
 #[cfg(feature = "compiler")]
-pub use scene::{RenderOptions, SceneRenderer};
+pub use scene::{Applied, RenderOptions, SceneRenderer};
 pub use shader::{PipelineCache, ViewShader};
 pub use uniforms::Value;
-pub use view::{Resources, ViewRenderer};
+pub use view::{Region, Resources, ViewRenderer};

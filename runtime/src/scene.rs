@@ -6,7 +6,6 @@
 use crate::error::RuntimeError;
 use crate::geometry::{self, OrbitCamera, SliceAxis, SlicePlane};
 use crate::gpu::Gpu;
-use crate::reflection::Reflection;
 use crate::shader::{PipelineCache, PipelineStats, ViewShader};
 use crate::textures::{TfTexture, VolumeTexture};
 use crate::view::{Resources, ViewRenderer};
@@ -15,7 +14,7 @@ use glam::Mat4;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use vrsc::compose::build::BuiltScene;
-use vrsc::compose::cache::CompositionCache;
+use vrsc::compose::cache::{CachedBuild, CompositionCache};
 use vrsc::scene::{self as vscene, Role, Scene, TfRef, UniformValue, ViewKind, VolumeSource};
 
 /// Choices a scene file does not make.
@@ -56,10 +55,25 @@ pub struct SceneRenderer {
     /// Empty-space skipping: the primary volume's normalized values, to rebuild the occupancy
     /// grid when its transfer function changes. `None` when the scene does not skip.
     skipping: Option<Vec<f32>>,
+    /// What the loaded volumes were loaded from ([`volumes_key`]).
+    volumes_key: String,
     pub views: Vec<SceneView>,
     /// Things the user should know that are not errors (a volume replaced by its fallback
     /// phantom because its file is absent).
     pub notices: Vec<String>,
+}
+
+/// What [`SceneRenderer::apply`] changed.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Applied {
+    /// The scene was composed anew (a composition-cache miss).
+    pub composed: bool,
+    /// The views whose pipeline changed (compiled, or taken from the pipeline cache).
+    pub recompiled: Vec<String>,
+    /// How many pipelines were compiled (the pipeline cache's misses).
+    pub compiled: u64,
+    /// Volumes and transfer functions were loaded again.
+    pub volumes_reloaded: bool,
 }
 
 /// Where a volume's voxels are: what `primary_to_NAME` is computed from.
@@ -83,7 +97,7 @@ impl SceneRenderer {
     ) -> Result<SceneRenderer, RuntimeError> {
         let mut compositions = CompositionCache::new();
         let cached = compositions.build(path).map_err(|error| RuntimeError::Io { path: path.to_path_buf(), error })?;
-        let scene = composed_scene(&cached.built, cached.scene)?;
+        let scene = composed_scene(&cached.built, cached.scene.clone())?;
         let mut renderer = SceneRenderer::from_built(gpu, path, &scene, &cached.built, options, progress)?;
         renderer.compositions = compositions;
         Ok(renderer)
@@ -98,10 +112,7 @@ impl SceneRenderer {
         options: RenderOptions,
         progress: Progress,
     ) -> Result<SceneRenderer, RuntimeError> {
-        let mut resources = Resources::new(&gpu);
-        let mut notices = Vec::new();
-        let loaded = load_volumes(&gpu, scene, &options, &mut resources, &mut notices, progress)?;
-        let skipping = scene.render.empty_space_skipping.then_some(loaded.primary_values);
+        let resources = Resources::new(&gpu);
         let mut renderer = SceneRenderer {
             gpu,
             path: path.to_path_buf(),
@@ -109,14 +120,30 @@ impl SceneRenderer {
             compositions: CompositionCache::new(),
             pipelines: PipelineCache::new(),
             resources,
-            grids: loaded.grids,
-            skipping,
+            grids: Vec::new(),
+            skipping: None,
+            volumes_key: String::new(),
             views: Vec::new(),
-            notices,
+            notices: Vec::new(),
         };
-        renderer.update_occupancy(&loaded.primary_tf);
+        renderer.load_scene_volumes(scene, progress)?;
         renderer.set_views(scene, built)?;
         Ok(renderer)
+    }
+
+    /// Loads every volume and transfer function of `scene` into fresh resources; on an error
+    /// the current ones stay.
+    fn load_scene_volumes(&mut self, scene: &Scene, progress: Progress) -> Result<(), RuntimeError> {
+        let mut resources = Resources::new(&self.gpu);
+        let mut notices = Vec::new();
+        let loaded = load_volumes(&self.gpu, scene, &self.options, &mut resources, &mut notices, progress)?;
+        self.resources = resources;
+        self.notices = notices;
+        self.grids = loaded.grids;
+        self.skipping = scene.render.empty_space_skipping.then_some(loaded.primary_values);
+        self.volumes_key = volumes_key(scene);
+        self.update_occupancy(&loaded.primary_tf);
+        Ok(())
     }
 
     pub fn gpu(&self) -> &Gpu {
@@ -152,17 +179,47 @@ impl SceneRenderer {
         }
     }
 
-    /// Reads the scene file again. Volumes stay loaded; a structural change composes (and
-    /// compiles) again, anything else only updates uniforms. Returns whether any view got a
-    /// new shader.
+    /// Reads the scene file again. Volumes stay loaded unless the scene's volumes changed; a
+    /// structural change composes (and compiles) again, anything else only updates uniforms.
+    /// Returns whether any view got a new shader.
     pub fn reload(&mut self) -> Result<bool, RuntimeError> {
-        let cached =
-            self.compositions.build(&self.path).map_err(|error| RuntimeError::Io { path: self.path.clone(), error })?;
-        let hit = cached.hit;
-        let scene = composed_scene(&cached.built, cached.scene)?;
+        let cached = self.compose()?;
+        Ok(self.apply(&cached)?.compiled > 0)
+    }
+
+    /// Composes the scene file as it is now, through the renderer's composition cache (a
+    /// structure composed before is a hit). Nothing changes until [`SceneRenderer::apply`].
+    pub fn compose(&mut self) -> Result<CachedBuild, RuntimeError> {
+        self.compositions.build(&self.path).map_err(|error| RuntimeError::Io { path: self.path.clone(), error })
+    }
+
+    /// Makes a composition of this renderer's scene file current: volumes and transfer
+    /// functions are loaded again when the scene's `[[volume]]`s changed, every view is set up
+    /// from the new scene. An error (the composition's errors, a volume that does not load)
+    /// leaves the renderer as it was.
+    pub fn apply(&mut self, cached: &CachedBuild) -> Result<Applied, RuntimeError> {
+        let scene = composed_scene(&cached.built, cached.scene.clone())?;
+        let key = volumes_key(&scene);
+        let volumes_reloaded = key != self.volumes_key;
+        if volumes_reloaded {
+            self.load_scene_volumes(&scene, &mut |_, _, _| {})?;
+        }
+        let old: Vec<(String, String)> = self.views.iter().map(|v| (v.name.clone(), structural_hash(v))).collect();
         let misses = self.pipelines.stats().misses;
         self.set_views(&scene, &cached.built)?;
-        Ok(!hit && self.pipelines.stats().misses > misses)
+        let recompiled = self
+            .views
+            .iter()
+            .filter(|v| !old.contains(&(v.name.clone(), structural_hash(v))))
+            .map(|v| v.name.clone())
+            .collect();
+        let compiled = self.pipelines.stats().misses - misses;
+        Ok(Applied { composed: !cached.hit, recompiled, compiled, volumes_reloaded })
+    }
+
+    /// The scene file this renderer reads.
+    pub fn path(&self) -> &Path {
+        &self.path
     }
 
     /// Renders every view; images in view order.
@@ -218,6 +275,25 @@ impl SceneRenderer {
         view.renderer.encode(&self.gpu, &self.resources, encoder)
     }
 
+    /// Records `region` of view `index` into `target` (see [`ViewRenderer::encode_into`]), with
+    /// the view's camera or slice plane applied.
+    pub fn encode_view_into(
+        &mut self,
+        index: usize,
+        encoder: &mut wgpu::CommandEncoder,
+        target: &wgpu::TextureView,
+        region: crate::view::Region,
+    ) -> Result<(), RuntimeError> {
+        let view = self.views.get_mut(index).ok_or_else(|| RuntimeError::Invalid(format!("no view {index}")))?;
+        apply_view_uniforms(view, &self.grids)?;
+        view.renderer.encode_into(&self.gpu, &self.resources, encoder, target, region)
+    }
+
+    /// The number of voxels along each axis of the primary volume (slice views step by one).
+    pub fn primary_dims(&self) -> Option<[u32; 3]> {
+        self.grids.first().map(|g| g.dims)
+    }
+
     fn set_views(&mut self, scene: &Scene, built: &BuiltScene) -> Result<(), RuntimeError> {
         let values = scene.uniform_values();
         let mut views = Vec::new();
@@ -226,11 +302,7 @@ impl SceneRenderer {
                 .shader
                 .as_ref()
                 .ok_or_else(|| RuntimeError::Invalid(format!("view `{}` did not compose", output.name)))?;
-            let reflection: Reflection = serde_json::to_value(&shader.reflection)
-                .ok()
-                .and_then(|json| serde_json::from_value(json).ok())
-                .ok_or_else(|| RuntimeError::Invalid("the compiler's reflection does not round-trip".into()))?;
-            let shader = ViewShader::new(shader.wgsl.clone(), reflection, &self.path)?;
+            let shader = ViewShader::new(shader.wgsl.clone(), shader.reflection.clone(), &self.path)?;
             let size = self.options.size.unwrap_or(view.size);
             let mut renderer = ViewRenderer::new(&self.gpu, &mut self.pipelines, shader, size)?;
             for (name, value) in &values {
@@ -258,6 +330,33 @@ impl SceneRenderer {
     }
 }
 
+/// Everything of a scene's volumes that loading reads: equal keys, same textures.
+fn volumes_key(scene: &Scene) -> String {
+    let mut key = format!("skip {}\n", scene.render.empty_space_skipping);
+    for v in &scene.volumes {
+        let source = match &v.source {
+            VolumeSource::File(f) => f.resolved.display().to_string(),
+            VolumeSource::Phantom(p) => format!("phantom {}", p.value),
+        };
+        let tf = match &v.tf {
+            Some(TfRef::Preset(p)) => format!("preset {}", p.value),
+            Some(TfRef::File(f)) => format!(
+                "file {} {:?}",
+                f.resolved.display(),
+                std::fs::metadata(&f.resolved).and_then(|m| m.modified()).ok()
+            ),
+            None => "none".into(),
+        };
+        let fallback = v.fallback.as_ref().map(|f| f.value.as_str());
+        key.push_str(&format!("{} {:?} {source} {tf} {fallback:?}\n", v.name.name, v.role.value));
+    }
+    key
+}
+
+fn structural_hash(view: &SceneView) -> String {
+    view.renderer.shader().reflection.structural_hash.clone()
+}
+
 /// The scene of a composition, or its errors rendered as text.
 fn composed_scene(built: &BuiltScene, scene: Option<Scene>) -> Result<Scene, RuntimeError> {
     let diags = built.diags.sorted();
@@ -268,7 +367,7 @@ fn composed_scene(built: &BuiltScene, scene: Option<Scene>) -> Result<Scene, Run
 }
 
 fn orbit(c: vscene::Camera) -> OrbitCamera {
-    OrbitCamera { azimuth: c.azimuth, elevation: c.elevation, distance: c.distance, fov: c.fov }
+    OrbitCamera { azimuth: c.azimuth, elevation: c.elevation, distance: c.distance, fov: c.fov, ..Default::default() }
 }
 
 /// Camera or slice plane, and the transforms from the primary volume to the others.

@@ -87,23 +87,63 @@ impl ViewRenderer {
         Ok(())
     }
 
-    /// Records the view's compute pass into `encoder`.
+    /// The texture every [`ViewRenderer::encode`] renders into: `Rgba8Unorm` with premultiplied
+    /// alpha, usable as a sampled texture, so an application can draw it without reading it back.
+    pub fn output(&self) -> &wgpu::Texture {
+        &self.output
+    }
+
+    /// Changes the output size (a new, uninitialised output texture); uniforms stay.
+    pub fn resize(&mut self, gpu: &Gpu, size: [u32; 2]) {
+        if size != self.size {
+            self.size = size;
+            self.output = create_output(gpu, size);
+        }
+    }
+
+    /// Records the view's compute pass into `encoder`: the whole image, into [`Self::output`].
     pub fn encode(
         &mut self,
         gpu: &Gpu,
         resources: &Resources,
         encoder: &mut wgpu::CommandEncoder,
     ) -> Result<(), RuntimeError> {
+        let target = self.output.create_view(&Default::default());
+        let [w, h] = self.size;
+        self.encode_into(gpu, resources, encoder, &target, Region::whole([w, h]))
+    }
+
+    /// Records a compute pass that renders `region` of the image into `target`, a texture made
+    /// by [`create_output`] (of any size: the pixel positions the pipeline sees are relative to
+    /// the target's size). Several regions may be recorded into one encoder: render a large view
+    /// in tiles, or at a lower resolution into a smaller target, with the same uniforms.
+    pub fn encode_into(
+        &mut self,
+        gpu: &Gpu,
+        resources: &Resources,
+        encoder: &mut wgpu::CommandEncoder,
+        target: &wgpu::TextureView,
+        region: Region,
+    ) -> Result<(), RuntimeError> {
         if let Some(bytes) = self.uniforms.take_changes() {
             gpu.queue.write_buffer(&self.uniform_buffer, 0, bytes);
         }
-        let bind_group = self.bind_group(gpu, resources)?;
+        let region_buffer = wgpu::util::DeviceExt::create_buffer_init(
+            &gpu.device,
+            &wgpu::util::BufferInitDescriptor {
+                label: Some("region"),
+                contents: bytemuck::cast_slice(&[region.x0, region.y0, region.x1, region.y1]),
+                usage: wgpu::BufferUsages::UNIFORM,
+            },
+        );
+        let bind_group = self.bind_group(gpu, resources, target, &region_buffer)?;
         let [wx, wy, _] = self.shader.reflection.workgroup_size;
+        let (w, h) = (region.x1.saturating_sub(region.x0), region.y1.saturating_sub(region.y0));
         let mut pass =
             encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("raycast"), timestamp_writes: None });
         pass.set_pipeline(&self.pipeline);
         pass.set_bind_group(0, &bind_group, &[]);
-        pass.dispatch_workgroups(self.size[0].div_ceil(wx.max(1)), self.size[1].div_ceil(wy.max(1)), 1);
+        pass.dispatch_workgroups(w.div_ceil(wx.max(1)), h.div_ceil(wy.max(1)), 1);
         Ok(())
     }
 
@@ -147,8 +187,13 @@ impl ViewRenderer {
         image::RgbaImage::from_raw(w, h, pixels).ok_or_else(|| RuntimeError::Invalid("image size mismatch".into()))
     }
 
-    fn bind_group(&self, gpu: &Gpu, resources: &Resources) -> Result<wgpu::BindGroup, RuntimeError> {
-        let output_view = self.output.create_view(&Default::default());
+    fn bind_group(
+        &self,
+        gpu: &Gpu,
+        resources: &Resources,
+        output_view: &wgpu::TextureView,
+        region: &wgpu::Buffer,
+    ) -> Result<wgpu::BindGroup, RuntimeError> {
         let view_name = &self.shader.reflection.view;
         let missing = |what: &str, name: &str| {
             RuntimeError::Invalid(format!("view `{view_name}` reads {what} `{name}`, but none is bound"))
@@ -157,7 +202,8 @@ impl ViewRenderer {
         for binding in &self.shader.reflection.bindings {
             let resource = match binding.kind {
                 BindingKind::UniformBlock => self.uniform_buffer.as_entire_binding(),
-                BindingKind::OutputImage => wgpu::BindingResource::TextureView(&output_view),
+                BindingKind::OutputImage => wgpu::BindingResource::TextureView(output_view),
+                BindingKind::Region => region.as_entire_binding(),
                 BindingKind::VolumeTexture => wgpu::BindingResource::TextureView(
                     &resources.volumes.get(&binding.name).ok_or_else(|| missing("volume", &binding.name))?.view,
                 ),
@@ -178,7 +224,30 @@ impl ViewRenderer {
     }
 }
 
-fn create_output(gpu: &Gpu, [w, h]: [u32; 2]) -> wgpu::Texture {
+/// Pixels `x0..x1` by `y0..y1` of a view's image (end exclusive).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Region {
+    pub x0: u32,
+    pub y0: u32,
+    pub x1: u32,
+    pub y1: u32,
+}
+
+impl Region {
+    /// The whole of an image of `size` pixels.
+    pub fn whole([w, h]: [u32; 2]) -> Region {
+        Region { x0: 0, y0: 0, x1: w, y1: h }
+    }
+
+    /// The number of pixels in the region.
+    pub fn pixels(&self) -> u64 {
+        u64::from(self.x1.saturating_sub(self.x0)) * u64::from(self.y1.saturating_sub(self.y0))
+    }
+}
+
+/// A texture a view can render into (see [`ViewRenderer::encode_into`]): `Rgba8Unorm`, written
+/// as storage, sampled by an application, copied out for read-back.
+pub fn create_output(gpu: &Gpu, [w, h]: [u32; 2]) -> wgpu::Texture {
     gpu.device.create_texture(&wgpu::TextureDescriptor {
         label: Some("view output"),
         size: wgpu::Extent3d { width: w.max(1), height: h.max(1), depth_or_array_layers: 1 },
@@ -186,7 +255,10 @@ fn create_output(gpu: &Gpu, [w, h]: [u32; 2]) -> wgpu::Texture {
         sample_count: 1,
         dimension: wgpu::TextureDimension::D2,
         format: wgpu::TextureFormat::Rgba8Unorm,
-        usage: wgpu::TextureUsages::STORAGE_BINDING | wgpu::TextureUsages::COPY_SRC,
+        usage: wgpu::TextureUsages::STORAGE_BINDING
+            | wgpu::TextureUsages::TEXTURE_BINDING
+            | wgpu::TextureUsages::COPY_SRC
+            | wgpu::TextureUsages::COPY_DST,
         view_formats: &[],
     })
 }

@@ -5,10 +5,11 @@
 //! @compute @workgroup_size(8, 8, 1)
 //! fn main(@builtin(global_invocation_id) id: vec3<u32>) {
 //!     let size = textureDimensions(output);
-//!     if id.x >= size.x || id.y >= size.y { return; }
+//!     let p = id.xy + region.xy;        // the dispatch covers `region` of the image
+//!     if p.x >= min(region.z, size.x) || p.y >= min(region.w, size.y) { return; }
 //!     var state: State;                 // zero, then `init_state` writes every default
 //!     init_state(&state);
-//!     state.pixel = (vec2f(id.xy) + 0.5) / vec2f(size);
+//!     state.pixel = (vec2f(p) + 0.5) / vec2f(size);
 //!     /* ray.setup functions */
 //!     var i = 0u;
 //!     loop {
@@ -18,7 +19,7 @@
 //!         continuing { i = i + 1u; }
 //!     }
 //!     /* ray.finish functions */
-//!     textureStore(output, id.xy, state.out_color);
+//!     textureStore(output, p, state.out_color);
 //! }
 //! ```
 //! The defaults are written by two synthetic pipeline functions lowered like any other, so the
@@ -45,6 +46,8 @@ pub struct EntryPlan {
     pub max_samples: u32,
     /// `texture_storage_2d<rgba8unorm, write>`.
     pub output: Handle<naga::GlobalVariable>,
+    /// `var<uniform> region: vec4<u32>`: the pixels the dispatch renders.
+    pub region: Handle<naga::GlobalVariable>,
 }
 
 pub const WORKGROUP_SIZE: [u32; 3] = [8, 8, 1];
@@ -101,6 +104,12 @@ impl Body {
         self.expr(E::AccessIndex { base, index })
     }
 
+    /// `v.xy`.
+    fn xy(&mut self, vector: Handle<E>) -> Handle<E> {
+        use naga::SwizzleComponent::{X, Y};
+        self.expr(E::Swizzle { size: naga::VectorSize::Bi, vector, pattern: [X, Y, X, X] })
+    }
+
     /// `if cond { break; }` (or `return`).
     fn exit_if(&mut self, block: &mut naga::Block, cond: Handle<E>, exit: S) {
         let mut accept = naga::Block::new();
@@ -135,34 +144,45 @@ pub fn build(module: &mut naga::Module, plan: &EntryPlan) -> naga::EntryPoint {
     let mut body = naga::Block::new();
     use naga::BinaryOperator as Bo;
 
-    // Pixels outside the image (the last workgroups overhang it) do nothing.
+    // The dispatch covers `region`; pixels past its end or the image's (the last workgroups
+    // overhang both) do nothing.
     let id = b.expr(E::FunctionArgument(0));
     let output = b.expr(E::GlobalVariable(plan.output));
     let size = b.expr(E::ImageQuery { image: output, query: naga::ImageQuery::Size { level: None } });
-    let (x, y) = (b.component(id, 0), b.component(id, 1));
-    let (w, h) = (b.component(size, 0), b.component(size, 1));
-    let outside_x = b.binary(Bo::GreaterEqual, x, w);
-    let outside_y = b.binary(Bo::GreaterEqual, y, h);
-    let outside = b.binary(Bo::LogicalOr, outside_x, outside_y);
-    b.exit_if(&mut body, outside, S::Return { value: None });
+    let region_pointer = b.expr(E::GlobalVariable(plan.region));
+    let region = b.expr(E::Load { pointer: region_pointer });
+    let id_xy = b.xy(id);
+    let origin = b.xy(region);
+    let p = b.binary(Bo::Add, id_xy, origin);
+    let mut outside = None;
+    for axis in 0..2 {
+        let coordinate = b.component(p, axis);
+        let region_end = b.component(region, axis + 2);
+        let image_end = b.component(size, axis);
+        let end = b.expr(E::Math {
+            fun: naga::MathFunction::Min,
+            arg: region_end,
+            arg1: Some(image_end),
+            arg2: None,
+            arg3: None,
+        });
+        let past = b.binary(Bo::GreaterEqual, coordinate, end);
+        outside = Some(match outside {
+            Some(before) => b.binary(Bo::LogicalOr, before, past),
+            None => past,
+        });
+    }
+    if let Some(outside) = outside {
+        b.exit_if(&mut body, outside, S::Return { value: None });
+    }
 
     let state = b.expr(E::LocalVariable(state_var));
     b.call(&mut body, plan.init_state, state);
     if let Some(member) = plan.pixel {
-        let xy = b.expr(E::Swizzle {
-            size: naga::VectorSize::Bi,
-            vector: id,
-            pattern: [
-                naga::SwizzleComponent::X,
-                naga::SwizzleComponent::Y,
-                naga::SwizzleComponent::X,
-                naga::SwizzleComponent::X,
-            ],
-        });
-        let xy_f = b.expr(E::As { expr: xy, kind: naga::ScalarKind::Float, convert: Some(4) });
+        let p_f = b.expr(E::As { expr: p, kind: naga::ScalarKind::Float, convert: Some(4) });
         let half = b.literal(naga::Literal::F32(0.5));
         let half = b.expr(E::Splat { size: naga::VectorSize::Bi, value: half });
-        let centre = b.binary(Bo::Add, xy_f, half);
+        let centre = b.binary(Bo::Add, p_f, half);
         let size_f = b.expr(E::As { expr: size, kind: naga::ScalarKind::Float, convert: Some(4) });
         let pixel = b.binary(Bo::Divide, centre, size_f);
         let pointer = b.component(state, member);
@@ -211,17 +231,7 @@ pub fn build(module: &mut naga::Module, plan: &EntryPlan) -> naga::EntryPoint {
             b.expr(E::ZeroValue(vec4f))
         }
     };
-    let xy = b.expr(E::Swizzle {
-        size: naga::VectorSize::Bi,
-        vector: id,
-        pattern: [
-            naga::SwizzleComponent::X,
-            naga::SwizzleComponent::Y,
-            naga::SwizzleComponent::X,
-            naga::SwizzleComponent::X,
-        ],
-    });
-    b.push(&mut body, S::ImageStore { image: output, coordinate: xy, array_index: None, value: color });
+    b.push(&mut body, S::ImageStore { image: output, coordinate: p, array_index: None, value: color });
     b.push(&mut body, S::Return { value: None });
 
     let mut func = b.func;

@@ -3,97 +3,15 @@
 //! pipeline map, and hashes that tie the JSON to its WGSL.
 
 use super::place::Composition;
-use super::view::{BindingInfo, ViewModule};
+use super::view::ViewModule;
 use crate::hir::{self, ConstValue, ScalarValue};
 use crate::scene::{Scene, UniformValue, View};
 use crate::source::SourceMap;
-use serde::Serialize;
 use serde_json::Value;
-
-/// Bumped whenever the JSON's shape changes incompatibly.
-pub const FORMAT_VERSION: u32 = 1;
-
-#[derive(Clone, Debug, Serialize)]
-pub struct Reflection {
-    pub format_version: u32,
-    pub view: String,
-    pub kind: String,
-    pub entry_point: String,
-    pub workgroup_size: [u32; 3],
-    /// xxh3-64 (hex) of the WGSL text: a runtime loading `.wgsl` + `.json` checks they belong
-    /// together.
-    pub wgsl_hash: String,
-    /// xxh3-64 (hex) of everything that shapes the shader (the WGSL and its bindings). Uniform
-    /// values do not enter it, so equal hashes mean a configuration change only needs new
-    /// uniform values, not a new pipeline.
-    pub structural_hash: String,
-    pub uniform_block: UniformBlock,
-    pub uniforms: Vec<UniformInfo>,
-    pub bindings: Vec<BindingInfo>,
-    pub state: StateInfo,
-    pub pipeline: Vec<StepInfo>,
-}
-
-#[derive(Clone, Debug, Serialize)]
-pub struct UniformBlock {
-    pub group: u32,
-    pub binding: u32,
-    pub size: u32,
-}
-
-#[derive(Clone, Debug, Serialize)]
-pub struct UniformInfo {
-    pub name: String,
-    #[serde(rename = "type")]
-    pub ty: String,
-    /// Byte offset in the uniform block; `None` for `volume` and `tf` (they are bindings).
-    pub offset: Option<u32>,
-    pub size: Option<u32>,
-    pub default: Option<Value>,
-    /// The scene's initial value, when `[uniforms]` sets one.
-    pub value: Option<Value>,
-    pub range: Option<[Value; 2]>,
-    pub doc: Option<String>,
-}
-
-#[derive(Clone, Debug, Serialize)]
-pub struct StateInfo {
-    pub size: u32,
-    pub fields: Vec<FieldInfo>,
-}
-
-#[derive(Clone, Debug, Serialize)]
-pub struct FieldInfo {
-    pub name: String,
-    #[serde(rename = "type")]
-    pub ty: String,
-    pub lifetime: &'static str,
-    pub offset: u32,
-    pub size: u32,
-    pub default: Value,
-}
-
-#[derive(Clone, Debug, Serialize)]
-pub struct StepInfo {
-    pub step: &'static str,
-    pub functions: Vec<FunctionInfo>,
-}
-
-#[derive(Clone, Debug, Serialize)]
-pub struct FunctionInfo {
-    pub name: String,
-    pub instance: Option<String>,
-    pub file: String,
-    pub line: usize,
-    pub column: usize,
-    /// Byte range in the file.
-    pub span: [u32; 2],
-}
-
-/// xxh3-64 of `text`, as 16 hex digits.
-pub fn content_hash(text: &str) -> String {
-    format!("{:016x}", xxhash_rust::xxh3::xxh3_64(text.as_bytes()))
-}
+pub use vrs_reflection::{
+    BindingInfo, BindingKind, FORMAT_VERSION, FieldInfo, FunctionInfo, Lifetime, Reflection, StateInfo, StepInfo,
+    UniformBlock, UniformInfo, content_hash,
+};
 
 /// xxh3-64 (hex) of the WGSL and the bindings' JSON, joined by a newline.
 fn structural_hash(wgsl: &str, bindings_json: &str) -> String {
@@ -140,7 +58,7 @@ pub fn reflect(
         .map(|(f, m)| FieldInfo {
             name: f.name.clone(),
             ty: f.ty.to_string(),
-            lifetime: if f.ray { "ray" } else { "sample" },
+            lifetime: if f.ray { Lifetime::Ray } else { Lifetime::Sample },
             offset: m.offset,
             size: m.size,
             default: const_json(&f.default),
@@ -151,7 +69,7 @@ pub fn reflect(
         .steps
         .iter()
         .map(|s| StepInfo {
-            step: s.step.name(),
+            step: s.step.name().to_string(),
             functions: map
                 .iter()
                 .filter(|e| e.step == s.step)

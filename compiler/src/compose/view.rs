@@ -3,8 +3,9 @@
 //! point), validated.
 //!
 //! Binding layout, all in `@group(0)`: binding 0 is the uniform block `uniforms`, binding 1 the
-//! output image (`texture_storage_2d<rgba8unorm, write>`), then every `volume` and `tf` uniform
-//! in composition order, each as its texture and then its sampler.
+//! output image (`texture_storage_2d<rgba8unorm, write>`), binding 2 the `region` of the image
+//! that a dispatch renders (`vec4<u32>`), then every `volume` and `tf` uniform in composition
+//! order, each as its texture and then its sampler.
 
 use super::entry::{self, EntryPlan};
 use super::place::{Composition, Uniform};
@@ -16,33 +17,12 @@ use crate::source::{SourceMap, Span};
 use crate::steps::Step;
 use crate::types::Type;
 use naga::{Handle, ResourceBinding};
+pub use vrs_reflection::{BindingInfo, BindingKind};
 
 /// The uniform the entry point adds when no function declares it: the sample-loop bound.
 pub const MAX_SAMPLES: &str = "max_samples";
 /// Default of [`MAX_SAMPLES`].
 pub const DEFAULT_MAX_SAMPLES: u32 = 1024;
-
-/// What a binding holds.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum BindingKind {
-    UniformBlock,
-    OutputImage,
-    VolumeTexture,
-    VolumeSampler,
-    TfTexture,
-    TfSampler,
-}
-
-/// One `@group(0) @binding(n)` of the view's shader.
-#[derive(Clone, Debug, PartialEq, Eq, serde::Serialize)]
-pub struct BindingInfo {
-    /// The uniform's name for resources; `uniforms` / `output` for the other two.
-    pub name: String,
-    pub group: u32,
-    pub binding: u32,
-    pub kind: BindingKind,
-}
 
 /// A validated view module and the layouts the runtime needs.
 pub struct ViewModule {
@@ -89,6 +69,7 @@ pub fn emit(program: &hir::Program, comp: &Composition, sources: &SourceMap) -> 
         Span::DUMMY,
     )?;
     let output = add_output_image(&mut b, bind("output", BindingKind::OutputImage));
+    let region = add_region(&mut b, bind("region", BindingKind::Region));
     let access: Vec<UniformAccess> = comp
         .uniforms
         .iter()
@@ -146,6 +127,7 @@ pub fn emit(program: &hir::Program, comp: &Composition, sources: &SourceMap) -> 
         uniforms: block,
         max_samples: uniforms.iter().position(|u| u.name == MAX_SAMPLES).unwrap_or_default() as u32,
         output,
+        region,
     };
     let state_layout = b.struct_layout(state_type).unwrap_or_else(empty_layout);
     let block_type = b.module.global_variables[block].ty;
@@ -169,6 +151,22 @@ fn add_output_image(b: &mut ModuleBuilder, binding: ResourceBinding) -> Handle<n
     let var = naga::GlobalVariable {
         name: Some("output".into()),
         space: naga::AddressSpace::Handle,
+        binding: Some(binding),
+        ty,
+        init: None,
+        memory_decorations: naga::MemoryDecorations::empty(),
+    };
+    b.module.global_variables.append(var, naga::Span::UNDEFINED)
+}
+
+/// `var<uniform> region: vec4<u32>`: the pixels `x0, y0, x1, y1` (end exclusive) of the output
+/// image that a dispatch renders, so an application can render a view in tiles or a part of it.
+fn add_region(b: &mut ModuleBuilder, binding: ResourceBinding) -> Handle<naga::GlobalVariable> {
+    let inner = naga::TypeInner::Vector { size: naga::VectorSize::Quad, scalar: naga::Scalar::U32 };
+    let ty = b.module.types.insert(naga::Type { name: None, inner }, naga::Span::UNDEFINED);
+    let var = naga::GlobalVariable {
+        name: Some("region".into()),
+        space: naga::AddressSpace::Uniform,
         binding: Some(binding),
         ty,
         init: None,

@@ -1,0 +1,170 @@
+//! Carrying out a view's [`Refiner`] schedule on the GPU without ever waiting for it: one piece
+//! of work in flight per view, its completion noticed by a thread that waits on the device in
+//! the window's stead, and the newest complete picture always ready to draw.
+
+use crate::refine::{Quality, Refiner, Work};
+use crate::session::LiveScene;
+use std::sync::mpsc::{Sender, channel};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+use vrs_runtime::RuntimeError;
+use vrs_runtime::view::{Region, create_output};
+
+/// When a submission finished (set by the [`GpuWaiter`]'s thread).
+type Done = Arc<Mutex<Option<Instant>>>;
+
+/// A thread that waits for submissions to finish, so that the thread drawing the window never
+/// has to. `wake` is called after each (to redraw).
+pub struct GpuWaiter {
+    sender: Sender<(wgpu::SubmissionIndex, Done)>,
+}
+
+impl GpuWaiter {
+    pub fn new(device: wgpu::Device, wake: impl Fn() + Send + 'static) -> GpuWaiter {
+        let (sender, submissions) = channel::<(wgpu::SubmissionIndex, Done)>();
+        let spawned = std::thread::Builder::new().name("vrs-gpu-wait".into()).spawn(move || {
+            for (index, done) in submissions {
+                let _ = device.poll(wgpu::PollType::Wait { submission_index: Some(index), timeout: None });
+                if let Ok(mut slot) = done.lock() {
+                    *slot = Some(Instant::now());
+                }
+                wake();
+            }
+        });
+        if spawned.is_err() {
+            // Without the thread nothing would ever be reported finished; say so where it shows.
+            eprintln!("warning: cannot start the GPU waiting thread; frames will not refine");
+        }
+        GpuWaiter { sender }
+    }
+
+    fn watch(&self, index: wgpu::SubmissionIndex) -> Done {
+        let done = Done::default();
+        let _ = self.sender.send((index, done.clone()));
+        done
+    }
+}
+
+/// The picture of a view to draw now.
+pub struct Shown<'a> {
+    /// `Rgba8Unorm`, premultiplied alpha; draw it over the view's whole rectangle.
+    pub texture: &'a wgpu::Texture,
+    pub quality: Quality,
+    /// How long the last piece of work took on the GPU, and what it was.
+    pub last: Option<(Work, Duration)>,
+}
+
+/// The frames of one view: its schedule, its preview target and the work in flight.
+pub struct ViewFrames {
+    refiner: Refiner,
+    preview: Option<(wgpu::Texture, [u32; 2])>,
+    pending: Option<(Work, Instant, Done)>,
+    last: Option<(Work, Duration)>,
+    /// The output texture the full-resolution tiles went into; a new one (a reload, a resize)
+    /// holds no picture yet.
+    output: Option<wgpu::Texture>,
+}
+
+impl ViewFrames {
+    /// Frames for a view, with an interactive frame budget.
+    pub fn new(budget: Duration) -> ViewFrames {
+        ViewFrames { refiner: Refiner::new([1, 1], budget), preview: None, pending: None, last: None, output: None }
+    }
+
+    pub fn refiner(&self) -> &Refiner {
+        &self.refiner
+    }
+
+    pub fn refiner_mut(&mut self) -> &mut Refiner {
+        &mut self.refiner
+    }
+
+    /// The user interacts with the view now.
+    pub fn input(&mut self, now: Instant) {
+        self.refiner.input(now);
+    }
+
+    /// Whether work is in flight or waiting to be submitted.
+    pub fn busy(&self) -> bool {
+        self.pending.is_some() || self.refiner.quality() != Quality::Full
+    }
+
+    /// Notes finished work, then submits the next piece of the schedule, if any. Never waits.
+    /// Returns whether something was submitted.
+    pub fn step(
+        &mut self,
+        live: &mut LiveScene,
+        index: usize,
+        waiter: &GpuWaiter,
+        now: Instant,
+    ) -> Result<bool, RuntimeError> {
+        self.collect();
+        if self.pending.is_some() {
+            return Ok(false);
+        }
+        self.follow_output(live, index);
+        let Some(work) = self.refiner.next(live.generation(index), now) else { return Ok(false) };
+        let gpu = live.renderer().gpu().clone();
+        let mut encoder = gpu.device.create_command_encoder(&Default::default());
+        let encoded = match work {
+            Work::Preview { size, .. } => {
+                let target = self.preview_target(&gpu, size).create_view(&Default::default());
+                live.encode(index, &mut encoder, &target, Region::whole(size))
+            }
+            Work::Tile { region, .. } => match live.output(index) {
+                Some(output) => {
+                    let target = output.create_view(&Default::default());
+                    live.encode(index, &mut encoder, &target, region)
+                }
+                None => Err(RuntimeError::Invalid(format!("no view {index}"))),
+            },
+        };
+        if let Err(e) = encoded {
+            self.refiner.abandoned();
+            return Err(e);
+        }
+        let submitted = Instant::now();
+        let submission = gpu.queue.submit([encoder.finish()]);
+        self.pending = Some((work, submitted, waiter.watch(submission)));
+        Ok(true)
+    }
+
+    /// The newest complete picture, or `None` before the first one.
+    pub fn shown<'a>(&'a self, live: &'a LiveScene, index: usize) -> Option<Shown<'a>> {
+        let quality = self.refiner.quality();
+        let texture = match quality {
+            Quality::None => return None,
+            Quality::Full | Quality::Stale => live.output(index)?,
+            Quality::Preview { .. } => &self.preview.as_ref()?.0,
+        };
+        Some(Shown { texture, quality, last: self.last })
+    }
+
+    fn collect(&mut self) {
+        let finished = self.pending.as_ref().and_then(|(_, _, done)| *done.lock().ok()?);
+        if let (Some(at), Some((work, submitted, _))) = (finished, self.pending.take()) {
+            let elapsed = at.saturating_duration_since(submitted);
+            self.refiner.finished(&work, elapsed);
+            self.last = Some((work, elapsed));
+        }
+    }
+
+    /// A new output texture (reload, resize) or size starts the full picture again.
+    fn follow_output(&mut self, live: &LiveScene, index: usize) {
+        if let Some(size) = live.size(index) {
+            self.refiner.resize(size);
+        }
+        let output = live.output(index);
+        if output != self.output.as_ref() {
+            self.refiner.output_replaced();
+            self.output = output.cloned();
+        }
+    }
+
+    fn preview_target(&mut self, gpu: &vrs_runtime::Gpu, size: [u32; 2]) -> &wgpu::Texture {
+        if self.preview.as_ref().is_none_or(|(_, s)| *s != size) {
+            self.preview = Some((create_output(gpu, size), size));
+        }
+        &self.preview.as_ref().expect("just made").0
+    }
+}

@@ -1,0 +1,20 @@
+//! vrs-live: the prototyping loop behind `vrsc view` and `vrsc watch`, without a window.
+//!
+//! - [`LiveScene`]: a scene that follows its files. An edit recomposes through the composition
+//!   cache (a uniform-only change never recompiles); a broken edit keeps the last good pipelines
+//!   and pictures and hands back the diagnostics; what the user set (uniform values, cameras,
+//!   slice positions, view sizes) survives a reload wherever it still applies.
+//! - [`FileWatcher`]: the scene file and every module file it reads, watched with a debouncer.
+//! - [`Refiner`]: progressive refinement as a pure schedule (preview at a reduced resolution
+//!   while the user interacts, full resolution in tiles when input stops), and [`ViewFrames`],
+//!   which carries the schedule out on the GPU without ever waiting for it.
+
+mod frames;
+mod refine;
+mod session;
+mod watch;
+
+pub use frames::{GpuWaiter, Shown, ViewFrames};
+pub use refine::{Quality, Refiner, Work};
+pub use session::{Failure, LiveScene, Rebuild, UserState};
+pub use watch::FileWatcher;

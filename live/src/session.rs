@@ -1,0 +1,359 @@
+//! A scene that follows its files: recomposition on demand, the last good state kept through a
+//! broken edit, and the user's own settings carried across reloads.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+use vrs_runtime::view::Region;
+use vrs_runtime::{Applied, OrbitCamera, RuntimeError, SceneRenderer, SlicePlane, Value};
+use vrsc::compose::build::BuiltScene;
+
+/// Why a rebuild did not take effect (the last good state is still shown).
+#[derive(Debug)]
+pub enum Failure {
+    /// The scene or a module has errors: see [`Rebuild::built`] for the diagnostics.
+    Compose,
+    /// The composition is fine, but the runtime could not use it (a volume that does not load,
+    /// an unreadable scene file).
+    Runtime(RuntimeError),
+}
+
+/// One attempt to follow the files.
+pub struct Rebuild {
+    /// Composing (or finding in the composition cache) every view.
+    pub compose: Duration,
+    /// Loading changed volumes, making pipelines, setting uniforms.
+    pub apply: Duration,
+    /// The composition with its diagnostics (warnings too); `None` when the scene file could
+    /// not be read at all.
+    pub built: Option<Arc<BuiltScene>>,
+    pub outcome: Result<Applied, Failure>,
+}
+
+impl Rebuild {
+    /// Whether the new state is in use.
+    pub fn succeeded(&self) -> bool {
+        self.outcome.is_ok()
+    }
+
+    /// The errors as `vrsc` prints them without colour (file:line, source excerpts), or the
+    /// runtime's message; `None` after a success.
+    pub fn error_text(&self) -> Option<String> {
+        match &self.outcome {
+            Ok(_) => None,
+            Err(Failure::Runtime(e)) => Some(format!("error: {e}")),
+            Err(Failure::Compose) => {
+                let built = self.built.as_ref()?;
+                Some(vrsc::diag::render_plain(&built.diags.sorted(), &built.sources))
+            }
+        }
+    }
+}
+
+/// What the user changed by hand, which a reload keeps wherever it still applies.
+#[derive(Clone, Debug, Default)]
+pub struct UserState {
+    /// Uniform values, with the scene's own value of that uniform when the user set it: once
+    /// the scene file's value changes, the file is the newer intent and wins.
+    uniforms: BTreeMap<String, (Value, Option<Value>)>,
+    /// Cameras by view, with the scene's camera then (the same rule).
+    cameras: BTreeMap<String, (OrbitCamera, OrbitCamera)>,
+    slices: BTreeMap<String, (SlicePlane, SlicePlane)>,
+    sizes: BTreeMap<String, [u32; 2]>,
+}
+
+/// A scene renderer that follows its files. See the crate documentation.
+pub struct LiveScene {
+    renderer: SceneRenderer,
+    user: UserState,
+    /// Each view's camera and slice plane as the scene file sets them.
+    scene_cameras: BTreeMap<String, OrbitCamera>,
+    scene_slices: BTreeMap<String, SlicePlane>,
+    /// Bumped whenever something that shapes a view's image changes, per view.
+    generations: BTreeMap<String, u64>,
+    /// Every file the last two compositions read (the last good one and the last attempt), so
+    /// fixing a file that broke the import graph is seen too.
+    files: Vec<PathBuf>,
+    last_error: Option<String>,
+}
+
+impl LiveScene {
+    /// Takes over a renderer that opened its scene.
+    pub fn new(renderer: SceneRenderer) -> LiveScene {
+        let mut live = LiveScene {
+            renderer,
+            user: UserState::default(),
+            scene_cameras: BTreeMap::new(),
+            scene_slices: BTreeMap::new(),
+            generations: BTreeMap::new(),
+            files: Vec::new(),
+            last_error: None,
+        };
+        live.note_scene_state();
+        live.files = vec![live.renderer.path().to_path_buf()];
+        if let Ok(cached) = live.renderer.compose() {
+            live.files = files_of(&cached.built, live.renderer.path());
+        }
+        live
+    }
+
+    pub fn renderer(&self) -> &SceneRenderer {
+        &self.renderer
+    }
+
+    /// The scene file and every module file the compositions read (imports included).
+    pub fn files(&self) -> &[PathBuf] {
+        &self.files
+    }
+
+    /// The errors of the last rebuild, while they stand (cleared by a good one).
+    pub fn last_error(&self) -> Option<&str> {
+        self.last_error.as_deref()
+    }
+
+    /// The names of the views, in scene order.
+    pub fn view_names(&self) -> Vec<String> {
+        self.renderer.views.iter().map(|v| v.name.clone()).collect()
+    }
+
+    /// A counter that changes whenever view `index`'s image would change.
+    pub fn generation(&self, index: usize) -> u64 {
+        self.renderer.views.get(index).and_then(|v| self.generations.get(&v.name)).copied().unwrap_or(0)
+    }
+
+    /// Recomposes from the files as they are now. On success the new pipelines, volumes and
+    /// uniforms are in use with the user's settings applied again; on failure nothing changes.
+    pub fn rebuild(&mut self) -> Rebuild {
+        let started = Instant::now();
+        let cached = self.renderer.compose();
+        let compose = started.elapsed();
+        let cached = match cached {
+            Ok(cached) => cached,
+            Err(e) => return self.failed(compose, Duration::ZERO, None, Failure::Runtime(e)),
+        };
+        let built = cached.built.clone();
+        let mut files = files_of(&built, self.renderer.path());
+        if cached.scene.is_none() || built.diags.has_errors() {
+            merge(&mut files, &self.files);
+            self.files = files;
+            return self.failed(compose, Duration::ZERO, Some(built), Failure::Compose);
+        }
+        let applying = Instant::now();
+        let applied = self.renderer.apply(&cached);
+        let apply = applying.elapsed();
+        match applied {
+            Ok(applied) => {
+                self.files = files;
+                self.note_scene_state();
+                self.restore_user_state();
+                self.bump_all();
+                self.last_error = None;
+                Rebuild { compose, apply, built: Some(built), outcome: Ok(applied) }
+            }
+            Err(e) => {
+                merge(&mut files, &self.files);
+                self.files = files;
+                self.failed(compose, apply, Some(built), Failure::Runtime(e))
+            }
+        }
+    }
+
+    fn failed(&mut self, compose: Duration, apply: Duration, built: Option<Arc<BuiltScene>>, f: Failure) -> Rebuild {
+        let rebuild = Rebuild { compose, apply, built, outcome: Err(f) };
+        self.last_error = rebuild.error_text();
+        rebuild
+    }
+
+    /// Sets a uniform in every view that reads it; it survives reloads (see [`UserState`]).
+    pub fn set_uniform(&mut self, name: &str, value: Value) -> Result<(), RuntimeError> {
+        self.renderer.set_uniform(name, value.clone())?;
+        let scene_value = self.scene_uniform(name);
+        self.user.uniforms.insert(name.to_string(), (value, scene_value));
+        self.bump_all();
+        Ok(())
+    }
+
+    /// Forgets the user's value of uniform `name`: the scene's value (or the default) is used.
+    pub fn reset_uniform(&mut self, name: &str) -> Result<(), RuntimeError> {
+        self.user.uniforms.remove(name);
+        let value = self.renderer.views.iter().find_map(|v| {
+            let info = v.renderer.shader().reflection.uniform(name)?;
+            let json = info.value.as_ref().or(info.default.as_ref())?;
+            v.renderer.uniforms().value_from_json(name, json)
+        });
+        if let Some(value) = value {
+            self.renderer.set_uniform(name, value)?;
+        }
+        self.bump_all();
+        Ok(())
+    }
+
+    /// The camera of raycast view `index`.
+    pub fn camera(&self, index: usize) -> Option<OrbitCamera> {
+        self.renderer.views.get(index)?.camera
+    }
+
+    /// Moves the camera of raycast view `index` (kept across reloads).
+    pub fn set_camera(&mut self, index: usize, camera: OrbitCamera) {
+        let Some(view) = self.renderer.views.get_mut(index) else { return };
+        if view.camera.is_none() {
+            return;
+        }
+        view.camera = Some(camera);
+        let name = view.name.clone();
+        let scene = self.scene_cameras.get(&name).copied().unwrap_or_default();
+        self.user.cameras.insert(name.clone(), (camera, scene));
+        self.bump(&name);
+    }
+
+    /// The slice plane of slice view `index`.
+    pub fn slice(&self, index: usize) -> Option<SlicePlane> {
+        self.renderer.views.get(index)?.slice.map(|(plane, _)| plane)
+    }
+
+    /// Moves the plane of slice view `index` (kept across reloads).
+    pub fn set_slice(&mut self, index: usize, plane: SlicePlane) {
+        let Some(view) = self.renderer.views.get_mut(index) else { return };
+        let Some((_, slab)) = view.slice else { return };
+        view.slice = Some((plane, slab));
+        let name = view.name.clone();
+        let scene = self.scene_slices.get(&name).copied().unwrap_or(plane);
+        self.user.slices.insert(name.clone(), (plane, scene));
+        self.bump(&name);
+    }
+
+    /// Puts view `index`'s camera or plane back where the scene file has it.
+    pub fn reset_view(&mut self, index: usize) {
+        let Some(view) = self.renderer.views.get_mut(index) else { return };
+        let name = view.name.clone();
+        if view.camera.is_some() {
+            view.camera = self.scene_cameras.get(&name).copied();
+        }
+        if let (Some((_, slab)), Some(plane)) = (view.slice, self.scene_slices.get(&name)) {
+            view.slice = Some((*plane, slab));
+        }
+        self.user.cameras.remove(&name);
+        self.user.slices.remove(&name);
+        self.bump(&name);
+    }
+
+    /// The image size of view `index`.
+    pub fn size(&self, index: usize) -> Option<[u32; 2]> {
+        Some(self.renderer.views.get(index)?.renderer.size())
+    }
+
+    /// Renders view `index` at `size` from now on (kept across reloads).
+    pub fn set_size(&mut self, index: usize, size: [u32; 2]) {
+        let size = [size[0].max(1), size[1].max(1)];
+        if self.size(index) == Some(size) {
+            return;
+        }
+        let gpu = self.renderer.gpu().clone();
+        let Some(view) = self.renderer.views.get_mut(index) else { return };
+        view.renderer.resize(&gpu, size);
+        let name = view.name.clone();
+        self.user.sizes.insert(name.clone(), size);
+        self.bump(&name);
+    }
+
+    /// Records `region` of view `index` into `target` (a texture of
+    /// [`vrs_runtime::view::create_output`], of any size).
+    pub fn encode(
+        &mut self,
+        index: usize,
+        encoder: &mut wgpu::CommandEncoder,
+        target: &wgpu::TextureView,
+        region: Region,
+    ) -> Result<(), RuntimeError> {
+        self.renderer.encode_view_into(index, encoder, target, region)
+    }
+
+    /// Renders every view at full quality and reads the images back (for `vrsc watch`).
+    pub fn render_all(&mut self) -> Result<Vec<(String, image::RgbaImage)>, RuntimeError> {
+        self.renderer.render_all()
+    }
+
+    /// The output texture of view `index`: where its full-resolution image is rendered.
+    pub fn output(&self, index: usize) -> Option<&wgpu::Texture> {
+        Some(self.renderer.views.get(index)?.renderer.output())
+    }
+
+    fn scene_uniform(&self, name: &str) -> Option<Value> {
+        self.renderer.views.iter().find_map(|v| {
+            let json = v.renderer.shader().reflection.uniform(name)?.value.as_ref()?;
+            v.renderer.uniforms().value_from_json(name, json)
+        })
+    }
+
+    /// Remembers the scene file's cameras and planes (right after a load, before the user's).
+    fn note_scene_state(&mut self) {
+        self.scene_cameras.clear();
+        self.scene_slices.clear();
+        for view in &self.renderer.views {
+            if let Some(camera) = view.camera {
+                self.scene_cameras.insert(view.name.clone(), camera);
+            }
+            if let Some((plane, _)) = view.slice {
+                self.scene_slices.insert(view.name.clone(), plane);
+            }
+        }
+    }
+
+    /// Applies the user's settings again after a reload, wherever they still apply: a uniform
+    /// that still exists with the same type, a view of the same name and kind; a setting whose
+    /// scene value changed in the meantime gives way to the file.
+    fn restore_user_state(&mut self) {
+        let uniforms = std::mem::take(&mut self.user.uniforms);
+        for (name, (value, scene_then)) in uniforms {
+            if self.scene_uniform(&name) == scene_then && self.renderer.set_uniform(&name, value.clone()).is_ok() {
+                self.user.uniforms.insert(name, (value, scene_then));
+            }
+        }
+        let gpu = self.renderer.gpu().clone();
+        for view in &mut self.renderer.views {
+            if let (Some(_), Some((camera, then))) = (view.camera, self.user.cameras.get(&view.name))
+                && self.scene_cameras.get(&view.name) == Some(then)
+            {
+                view.camera = Some(*camera);
+            }
+            if let (Some((_, slab)), Some((plane, then))) = (view.slice, self.user.slices.get(&view.name))
+                && self.scene_slices.get(&view.name) == Some(then)
+            {
+                view.slice = Some((*plane, slab));
+            }
+            if let Some(&size) = self.user.sizes.get(&view.name) {
+                view.renderer.resize(&gpu, size);
+            }
+        }
+        let names = self.view_names();
+        self.user.cameras.retain(|n, (_, then)| names.contains(n) && self.scene_cameras.get(n) == Some(then));
+        self.user.slices.retain(|n, (_, then)| names.contains(n) && self.scene_slices.get(n) == Some(then));
+    }
+
+    fn bump(&mut self, view: &str) {
+        *self.generations.entry(view.to_string()).or_default() += 1;
+    }
+
+    fn bump_all(&mut self) {
+        for name in self.view_names() {
+            self.bump(&name);
+        }
+    }
+}
+
+/// The scene file and every module file a composition read.
+fn files_of(built: &BuiltScene, scene: &Path) -> Vec<PathBuf> {
+    let mut files = vec![scene.to_path_buf()];
+    let read = built.sources.files().filter_map(|(_, f)| f.path.clone());
+    merge(&mut files, &read.collect::<Vec<_>>());
+    files
+}
+
+fn merge(into: &mut Vec<PathBuf>, more: &[PathBuf]) {
+    for path in more {
+        if !into.contains(path) {
+            into.push(path.clone());
+        }
+    }
+}
