@@ -84,6 +84,11 @@ impl ViewFrames {
         self.refiner.input(now);
     }
 
+    /// The last piece of work that finished, and how long it took on the GPU.
+    pub fn shown_last(&self) -> Option<(Work, Duration)> {
+        self.last
+    }
+
     /// Whether work is in flight or waiting to be submitted.
     pub fn busy(&self) -> bool {
         self.pending.is_some() || self.refiner.quality() != Quality::Full

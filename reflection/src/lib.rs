@@ -31,7 +31,11 @@ pub struct Reflection {
     pub uniform_block: UniformBlock,
     pub uniforms: Vec<UniformInfo>,
     pub bindings: Vec<BindingInfo>,
+    /// The state layout and the pipeline map are for tools (inspectors, probes); a runtime
+    /// needs neither, so JSON without them still loads.
+    #[serde(default)]
     pub state: StateInfo,
+    #[serde(default)]
     pub pipeline: Vec<StepInfo>,
 }
 
@@ -89,7 +93,7 @@ pub struct BindingInfo {
 }
 
 /// The layout of the view's `State` struct.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct StateInfo {
     pub size: u32,
     pub fields: Vec<FieldInfo>,

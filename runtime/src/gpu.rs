@@ -65,7 +65,9 @@ impl Gpu {
         Gpu::from_adapter(&adapter)
     }
 
-    fn from_adapter(adapter: &wgpu::Adapter) -> Result<Gpu, GpuError> {
+    /// Opens a device on `adapter` with the limits volumes need (an application that picked
+    /// the adapter itself, for example one compatible with its window's surface).
+    pub fn from_adapter(adapter: &wgpu::Adapter) -> Result<Gpu, GpuError> {
         let info = adapter.get_info();
         let limits = adapter.limits();
         let descriptor = wgpu::DeviceDescriptor {

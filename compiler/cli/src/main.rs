@@ -12,6 +12,8 @@ use vrsc::diag::Diagnostic;
 use vrsc::driver::{self, Checked};
 use vrsc::source::SourceMap;
 
+mod watch;
+
 // Composition allocates many small nodes; mimalloc takes about a quarter off its instruction
 // count compared with the system allocator (see compiler/benches/compose.rs).
 #[global_allocator]
@@ -73,6 +75,30 @@ enum Command {
         #[arg(long)]
         software: bool,
     },
+    /// Open a window with every view of a scene; follows edits of the scene and its modules.
+    View {
+        scene: PathBuf,
+        /// Use the software adapter (lavapipe) even when a GPU is present.
+        #[arg(long)]
+        software: bool,
+        /// The interactive frame budget in milliseconds (all views together): while the camera
+        /// moves, views render at the resolution that fits it, and refine when input stops.
+        #[arg(long, default_value_t = 100)]
+        budget_ms: u64,
+    },
+    /// Render every view to DIR/VIEW.png, then again on every change of the scene or a module it
+    /// reads (imports included), until Ctrl-C.
+    Watch {
+        scene: PathBuf,
+        #[arg(short, long)]
+        output: PathBuf,
+        /// Image size for every view, WxH (overrides the scene's `size`).
+        #[arg(long, value_parser = parse_size)]
+        size: Option<[u32; 2]>,
+        /// Use the software adapter (lavapipe) even when a GPU is present.
+        #[arg(long)]
+        software: bool,
+    },
     /// Print the pipeline map of a scene's views: steps, their functions, where each came from.
     Pipeline {
         scene: PathBuf,
@@ -104,6 +130,11 @@ enum Outcome {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    // A window's event loop must run on the main thread (winit); composition there grows its
+    // stack as it needs (stacker), so the viewer does without the worker below.
+    if let Command::View { scene, software, budget_ms } = &cli.command {
+        return exit_code(view(scene, *software, *budget_ms));
+    }
     // Deeply nested input recurses in the passes; a large stack keeps such input an error
     // rather than a crash. The limits in the lexer and checker bound the depth itself.
     let worker = std::thread::Builder::new().stack_size(256 << 20).spawn(move || run(&cli));
@@ -114,6 +145,10 @@ fn main() -> ExitCode {
             Outcome::Failure
         }
     };
+    exit_code(outcome)
+}
+
+fn exit_code(outcome: Outcome) -> ExitCode {
     match outcome {
         Outcome::Ok => ExitCode::SUCCESS,
         Outcome::InputErrors => ExitCode::from(1),
@@ -126,6 +161,10 @@ fn run(cli: &Cli) -> Outcome {
     match &cli.command {
         Command::Build { scene, output, emit } => build(&printer, scene, output, emit),
         Command::Render { scene, output, size, software } => render(&printer, scene, output, *size, *software),
+        Command::View { scene, software, budget_ms } => view(scene, *software, *budget_ms),
+        Command::Watch { scene, output, size, software } => {
+            watch::watch(&printer, &watch::WatchArgs { scene, dir: output, size: *size, software: *software })
+        }
         Command::Explain { scene, view } => explain(&printer, scene, view.as_deref()),
         Command::Pipeline { scene, view } => pipeline(&printer, scene, view.as_deref()),
         Command::Check { files } => match driver::check_files(files) {
@@ -229,6 +268,21 @@ fn pipeline(printer: &Printer, scene: &std::path::Path, only: Option<&str>) -> O
         }
     }
     outcome
+}
+
+fn view(scene: &Path, software: bool, budget_ms: u64) -> Outcome {
+    let options = vrs_viewer::ViewerOptions {
+        scene: scene.to_path_buf(),
+        software,
+        budget: std::time::Duration::from_millis(budget_ms.max(1)),
+    };
+    match vrs_viewer::run(options) {
+        Ok(()) => Outcome::Ok,
+        Err(e) => {
+            eprintln!("{}", e.trim_end());
+            Outcome::InputErrors
+        }
+    }
 }
 
 fn parse_size(text: &str) -> Result<[u32; 2], String> {

@@ -1,0 +1,251 @@
+//! What the window shows: every view (tiled or in tabs) with its frame time and quality, the
+//! status line, and the diagnostics of a broken edit over the last good picture.
+
+use crate::navigate;
+use crate::window::Surface;
+use egui::{Color32, Rect, Sense, Vec2};
+use std::time::Instant;
+use vrs_live::{LiveScene, Quality, ViewFrames, Work};
+use vrs_runtime::SliceAxis;
+
+/// How views share the window.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Layout {
+    Tiles,
+    /// One view at a time, by index.
+    Tab(usize),
+}
+
+/// A view's place in the window: its frames and the egui texture that shows them.
+pub struct ViewSlot {
+    pub name: String,
+    pub frames: ViewFrames,
+    /// The egui texture id, and the wgpu texture it currently shows.
+    texture: Option<(egui::TextureId, wgpu::Texture)>,
+}
+
+impl ViewSlot {
+    pub fn new(name: String, frames: ViewFrames) -> ViewSlot {
+        ViewSlot { name, frames, texture: None }
+    }
+
+    /// The same view after a reload: the schedule starts again, the texture id is kept.
+    pub fn clone_for(&self, name: &str) -> ViewSlot {
+        let budget = self.frames.refiner().budget;
+        ViewSlot { name: name.to_string(), frames: ViewFrames::new(budget), texture: self.texture.clone() }
+    }
+
+    /// Points the view's egui texture at the picture to show now (no copy: egui samples the
+    /// view's own texture).
+    pub fn show(&mut self, surface: &mut Surface, live: &LiveScene, index: usize) {
+        let Some(shown) = self.frames.shown(live, index) else { return };
+        let view = shown.texture.create_view(&Default::default());
+        let device = &surface.gpu.device;
+        let filter = wgpu::FilterMode::Linear;
+        match &self.texture {
+            Some((_, texture)) if texture == shown.texture => {}
+            Some((id, _)) => {
+                surface.painter.update_egui_texture_from_wgpu_texture(device, &view, filter, *id);
+                self.texture = Some((*id, shown.texture.clone()));
+            }
+            None => {
+                let id = surface.painter.register_native_texture(device, &view, filter);
+                self.texture = Some((id, shown.texture.clone()));
+            }
+        }
+    }
+}
+
+/// Lays out the whole window for one frame and applies the user's input to the views.
+pub fn show(
+    ui: &mut egui::Ui,
+    live: &mut LiveScene,
+    slots: &mut [ViewSlot],
+    layout: &mut Layout,
+    status: &str,
+    now: Instant,
+) {
+    egui::Panel::top("toolbar").show(ui, |ui| toolbar(ui, slots, layout));
+    egui::Panel::bottom("status").show(ui, |ui| {
+        ui.label(status);
+        if let Some(error) = live.last_error() {
+            egui::ScrollArea::vertical().max_height(220.0).show(ui, |ui| {
+                ui.label(egui::RichText::new(error).monospace().color(Color32::from_rgb(255, 110, 100)));
+            });
+        }
+    });
+    egui::CentralPanel::default().show(ui, |ui| {
+        let area = ui.available_rect_before_wrap();
+        let shown: Vec<usize> = match *layout {
+            Layout::Tiles => (0..slots.len()).collect(),
+            Layout::Tab(i) => vec![i.min(slots.len().saturating_sub(1))],
+        };
+        let cells = tiles(area, shown.len());
+        let pixels_per_point = ui.ctx().pixels_per_point();
+        for (&index, cell) in shown.iter().zip(cells) {
+            view_cell(ui, live, &mut slots[index], index, cell, pixels_per_point, now);
+        }
+    });
+}
+
+fn toolbar(ui: &mut egui::Ui, slots: &[ViewSlot], layout: &mut Layout) {
+    ui.horizontal(|ui| {
+        ui.selectable_value(layout, Layout::Tiles, "All views");
+        for (i, slot) in slots.iter().enumerate() {
+            ui.selectable_value(layout, Layout::Tab(i), &slot.name);
+        }
+        ui.separator();
+        ui.weak("3D: drag to orbit, right-drag to pan, wheel to zoom, R to reset · slices: wheel or ↑↓ to step, X/Y/Z to turn");
+    });
+}
+
+/// `n` cells filling `area`, in a grid as square as the count allows.
+fn tiles(area: Rect, n: usize) -> Vec<Rect> {
+    let columns = (n as f32).sqrt().ceil().max(1.0) as usize;
+    let rows = n.div_ceil(columns).max(1);
+    let size = Vec2::new(area.width() / columns as f32, area.height() / rows as f32);
+    (0..n)
+        .map(|i| {
+            let min = area.min + Vec2::new((i % columns) as f32 * size.x, (i / columns) as f32 * size.y);
+            Rect::from_min_size(min, size).shrink(2.0)
+        })
+        .collect()
+}
+
+fn view_cell(
+    ui: &mut egui::Ui,
+    live: &mut LiveScene,
+    slot: &mut ViewSlot,
+    index: usize,
+    cell: Rect,
+    pixels_per_point: f32,
+    now: Instant,
+) {
+    let caption_height = 18.0;
+    let mut image = Rect::from_min_max(cell.min + Vec2::new(0.0, caption_height), cell.max);
+    let is_slice = live.slice(index).is_some();
+    if is_slice {
+        // A slice maps the unit square of the plane to the image: keep it square.
+        let side = image.width().min(image.height());
+        image = Rect::from_center_size(image.center(), Vec2::splat(side));
+    }
+    let size = [(image.width() * pixels_per_point) as u32, (image.height() * pixels_per_point) as u32];
+    if size[0] >= 8 && size[1] >= 8 {
+        live.set_size(index, size);
+    }
+    let response = ui.interact(image, ui.scope_id().with(("view", index)), Sense::click_and_drag());
+    if handle_input(ui, live, index, &response) {
+        slot.frames.input(now);
+    }
+    ui.painter().rect_filled(image, 0.0, Color32::from_gray(12));
+    if let Some((id, _)) = &slot.texture {
+        let uv = Rect::from_min_max(egui::pos2(0.0, 0.0), egui::pos2(1.0, 1.0));
+        ui.painter().image(*id, image, uv, Color32::WHITE);
+    }
+    let caption = format!("{} — {}", slot.name, describe(&slot.frames, size));
+    ui.painter().text(cell.min, egui::Align2::LEFT_TOP, caption, egui::FontId::proportional(13.0), Color32::LIGHT_GRAY);
+}
+
+/// The quality of the picture and the time of the last piece of work, for the caption.
+fn describe(frames: &ViewFrames, size: [u32; 2]) -> String {
+    let quality = match frames.refiner().quality() {
+        Quality::None => "rendering…".to_string(),
+        Quality::Full => format!("full {}×{}", size[0], size[1]),
+        Quality::Stale => "full (updating)".to_string(),
+        Quality::Preview { scale, refined } if refined > 0.0 => {
+            format!("preview 1/{:.0}, refining {:.0}%", 1.0 / scale, refined * 100.0)
+        }
+        Quality::Preview { scale, .. } => format!("preview 1/{:.0}", 1.0 / scale),
+    };
+    let timing = match frames.shown_last() {
+        Some((Work::Preview { .. }, t)) => format!(" · preview frame {:.0} ms", t.as_secs_f64() * 1e3),
+        Some((Work::Tile { region, .. }, t)) => {
+            format!(" · tile of {} rows {:.0} ms", region.y1 - region.y0, t.as_secs_f64() * 1e3)
+        }
+        None => String::new(),
+    };
+    let estimate = frames
+        .refiner()
+        .full_frame_estimate()
+        .map(|t| format!(" · full frame ≈ {:.0} ms", t.as_secs_f64() * 1e3))
+        .unwrap_or_default();
+    format!("{quality}{timing}{estimate}")
+}
+
+/// Mouse and keys over a view. Returns whether the user changed it (interaction in progress).
+fn handle_input(ui: &egui::Ui, live: &mut LiveScene, index: usize, response: &egui::Response) -> bool {
+    let hovered = response.hovered() || response.dragged();
+    let (scroll, notches, keys) = ui.input(|i| {
+        let mut keys = Vec::new();
+        let (mut scroll, mut notches) = (0.0, 0);
+        for event in &i.events {
+            match event {
+                egui::Event::Key { key, pressed: true, .. } => keys.push(*key),
+                egui::Event::MouseWheel { unit, delta, .. } if delta.y != 0.0 => {
+                    scroll += delta.y
+                        * match unit {
+                            egui::MouseWheelUnit::Point => 1.0,
+                            egui::MouseWheelUnit::Line => 40.0,
+                            egui::MouseWheelUnit::Page => 400.0,
+                        };
+                    notches += delta.y.signum() as i32;
+                }
+                _ => {}
+            }
+        }
+        (scroll, notches, keys)
+    });
+    let mut changed = false;
+    if let Some(camera) = live.camera(index) {
+        let delta = response.drag_delta();
+        let drag = glam::Vec2::new(delta.x, delta.y);
+        let mut next = camera;
+        if response.dragged_by(egui::PointerButton::Primary) {
+            next = navigate::orbit(next, drag);
+        } else if response.dragged_by(egui::PointerButton::Secondary)
+            || response.dragged_by(egui::PointerButton::Middle)
+        {
+            next = navigate::pan(next, drag, response.rect.height());
+        }
+        if hovered && scroll != 0.0 {
+            next = navigate::zoom(next, scroll);
+        }
+        if next != camera {
+            live.set_camera(index, next);
+            changed = true;
+        }
+        if hovered && keys.contains(&egui::Key::R) {
+            live.reset_view(index);
+            changed = true;
+        }
+    }
+    if let (Some(plane), Some(dims)) = (live.slice(index), live.renderer().primary_dims()) {
+        let mut next = plane;
+        // One wheel notch, whatever its size in points, is one voxel.
+        let mut steps = if hovered { notches } else { 0 };
+        if hovered {
+            for key in &keys {
+                match key {
+                    egui::Key::ArrowUp | egui::Key::PageUp => steps += 1,
+                    egui::Key::ArrowDown | egui::Key::PageDown => steps -= 1,
+                    egui::Key::X => next = navigate::turn_slice(next, SliceAxis::X),
+                    egui::Key::Y => next = navigate::turn_slice(next, SliceAxis::Y),
+                    egui::Key::Z => next = navigate::turn_slice(next, SliceAxis::Z),
+                    egui::Key::R => {
+                        live.reset_view(index);
+                        return true;
+                    }
+                    _ => {}
+                }
+            }
+        }
+        if steps != 0 {
+            next = navigate::step_slice(next, steps, dims);
+        }
+        if next != plane {
+            live.set_slice(index, next);
+            changed = true;
+        }
+    }
+    changed
+}
