@@ -4,7 +4,7 @@
 use crate::check;
 use crate::diag::{Code, Diagnostic, Diagnostics};
 use crate::hir::Program;
-use crate::loader::{Loader, ModuleGraph};
+use crate::loader::{Loader, ModuleGraph, ParsedFiles};
 use crate::lower;
 use crate::source::{SourceMap, Span};
 use std::path::{Path, PathBuf};
@@ -34,9 +34,15 @@ impl std::error::Error for InputError {}
 
 /// Loads, parses and checks the given files (and everything they import).
 pub fn check_files(paths: &[PathBuf]) -> Result<Checked, InputError> {
+    check_files_with(paths, ParsedFiles::default())
+}
+
+/// [`check_files`], reading the texts of `parsed`'s overlay instead of those files on disk
+/// ([`ParsedFiles::with_overlay`]: the language server checks unsaved buffers this way).
+pub fn check_files_with(paths: &[PathBuf], parsed: ParsedFiles) -> Result<Checked, InputError> {
     let mut sources = SourceMap::new();
     let mut diags = Diagnostics::new();
-    let mut loader = Loader::new(&mut sources, &mut diags);
+    let mut loader = Loader::with_parsed(&mut sources, &mut diags, parsed);
     for path in paths {
         loader.load_root_file(path).map_err(|error| InputError { path: path.clone(), error })?;
     }
