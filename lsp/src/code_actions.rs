@@ -5,6 +5,9 @@ use lsp_types::{CodeAction, CodeActionKind, CodeActionOrCommand, Range, TextEdit
 use std::collections::HashMap;
 
 /// The fixes of every diagnostic whose range overlaps `range`.
+// lsp-types keys `WorkspaceEdit::changes` by `Uri`, whose interior `Cell` is fluent-uri's lazily
+// parsed authority: it never changes what the key hashes or compares as (its text).
+#[allow(clippy::mutable_key_type)]
 pub fn actions(analysis: &Analysis, range: Range) -> Vec<CodeActionOrCommand> {
     let overlaps = |r: &Range| r.start <= range.end && range.start <= r.end;
     analysis

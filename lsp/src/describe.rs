@@ -154,7 +154,7 @@ pub fn constant(ws: &Workspace, name: &str, modules: &[usize]) -> Option<String>
 pub fn local(analysis: &Analysis, symbol: &Symbol<'_>) -> Option<String> {
     let ws = analysis.workspace();
     let sites = symbols::locals(symbol.owner);
-    let site = sites.iter().filter(|s| s.name.name == symbol.name && s.name.span.start <= symbol.span.start).last()?;
+    let site = sites.iter().rfind(|s| s.name.name == symbol.name && s.name.span.start <= symbol.span.start)?;
     // Without a checked type or a written one, the initializer says what it is.
     let ty = checked_local_type(analysis, site.name.span)
         .or_else(|| site.ty.map(|t| ws.snippet(t.span).to_string()))

@@ -29,8 +29,7 @@ pub fn definition(analysis: &Analysis, position: Position) -> Vec<Location> {
             let local = || {
                 symbols::locals(symbol.owner)
                     .iter()
-                    .filter(|s| s.name.name == symbol.name && s.name.span.start <= symbol.span.start)
-                    .next_back()
+                    .rfind(|s| s.name.name == symbol.name && s.name.span.start <= symbol.span.start)
                     .map(|s| s.name.span)
             };
             let constant = || ws.consts(Some(&symbol.name), &ws.visible_modules()).first().map(|c| c.item.name.span);

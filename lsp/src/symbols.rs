@@ -76,7 +76,7 @@ fn in_item(item: &Item, offset: u32) -> Option<Symbol<'_>> {
             let span = first.span.to(path.last()?.span);
             // The path leaves out the leading `std`.
             let name = format!("std::{}", path.iter().map(|p| p.name.as_str()).collect::<Vec<_>>().join("::"));
-            touches(span, offset).then(|| Symbol { kind: Kind::StdModule, name, span, owner: Owner::Other })
+            touches(span, offset).then_some(Symbol { kind: Kind::StdModule, name, span, owner: Owner::Other })
         }
         ItemKind::Import(ast::Import::Path { path, span }) => touches(*span, offset).then(|| Symbol {
             kind: Kind::FileImport,
