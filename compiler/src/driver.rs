@@ -88,3 +88,23 @@ impl Checked {
 pub fn internal_error(message: impl Into<String>) -> Diagnostic {
     Diagnostic::new(Code::Internal, Span::DUMMY, message)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_overlay_stands_in_for_the_files_on_disk() {
+        let dir = tempfile::tempdir().unwrap();
+        let main = dir.path().join("main.vrs");
+        let lib = dir.path().join("lib.vrs");
+        std::fs::write(&main, "import \"lib.vrs\";\npipeline p in start {\n    use f;\n    f();\n}\n").unwrap();
+        std::fs::write(&lib, "lib fn g() {}\n").unwrap();
+        let on_disk = check_files(std::slice::from_ref(&main)).unwrap();
+        assert!(on_disk.diags.has_errors());
+        // The unsaved text of the imported file defines `f`.
+        let overlay = [(lib.canonicalize().unwrap(), String::from("lib fn f() {}\n"))];
+        let edited = check_files_with(&[main], ParsedFiles::with_overlay(overlay)).unwrap();
+        assert!(!edited.diags.has_errors(), "{:?}", edited.diags);
+    }
+}

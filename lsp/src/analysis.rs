@@ -27,7 +27,12 @@ pub struct Analysis {
     pub file: FileId,
     /// Every diagnostic shown on the document.
     pub diagnostics: Vec<Reported>,
+    /// The module files of the scenes that list the document.
     scene_modules: Vec<PathBuf>,
+    /// The scene files that list the document.
+    scenes: Vec<PathBuf>,
+    /// Every file the scenes' compositions read (modules and what they import).
+    scene_files: Vec<PathBuf>,
     overlay: Vec<(PathBuf, String)>,
     workspace: OnceCell<Workspace>,
 }
@@ -69,6 +74,8 @@ impl Analysis {
             file,
             diagnostics: Vec::new(),
             scene_modules: Vec::new(),
+            scenes: Vec::new(),
+            scene_files: Vec::new(),
             overlay,
             workspace: OnceCell::new(),
         };
@@ -76,7 +83,17 @@ impl Analysis {
         for scene in &scenes {
             analysis.report_scene(scene);
         }
+        analysis.scenes = scenes;
         analysis
+    }
+
+    /// Whether the file at `path` (canonical) went into this analysis: the document's imports,
+    /// its scenes and their modules (and what those import). A change to it needs a new analysis.
+    pub fn depends_on(&self, path: &Path) -> bool {
+        let checked = self.checked.sources.files().any(|(_, f)| f.path.as_deref() == Some(path));
+        checked
+            || self.scenes.iter().chain(&self.scene_modules).any(|p| p == path)
+            || self.scene_files.iter().any(|p| p == path)
     }
 
     /// The parsed modules around the document, loaded on first use.
@@ -117,6 +134,7 @@ impl Analysis {
         }
         let parsed = ParsedFiles::with_overlay(self.overlay.clone());
         let built = compose_scene_with(sources, scene, None, Keep::Outputs, parsed);
+        self.scene_files.extend(built.sources.files().filter_map(|(_, f)| f.path.clone()));
         for d in &built.diags.sorted() {
             if let Some(reported) = self.reported(d, &built.sources, Some(scene_path)) {
                 self.diagnostics.push(reported);

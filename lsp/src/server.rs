@@ -104,14 +104,16 @@ struct Document {
 
 struct Server {
     documents: BTreeMap<Uri, Document>,
-    /// Documents changed since their last analysis.
+    /// Documents changed since their last analysis (or reading a file that changed).
     pending: BTreeSet<Uri>,
+    /// Documents closed since diagnostics were last published.
+    closed: Vec<Uri>,
     scenes: Scenes,
 }
 
 impl Server {
     fn new(roots: Vec<PathBuf>) -> Server {
-        Server { documents: BTreeMap::new(), pending: BTreeSet::new(), scenes: Scenes::new(roots) }
+        Server { documents: BTreeMap::new(), pending: BTreeSet::new(), closed: Vec::new(), scenes: Scenes::new(roots) }
     }
 
     fn notification(&mut self, n: Notification) {
@@ -136,7 +138,9 @@ impl Server {
                     (self.documents.get_mut(&uri), params.content_changes.into_iter().last())
                 {
                     doc.text = change.text;
+                    let path = doc.path.clone();
                     self.pending.insert(uri);
+                    self.mark_dependents(path.as_deref());
                 }
             }
             DidSaveTextDocument::METHOD => {
@@ -155,16 +159,35 @@ impl Server {
             }
             DidCloseTextDocument::METHOD => {
                 if let Ok(params) = n.extract::<lsp_types::DidCloseTextDocumentParams>(DidCloseTextDocument::METHOD) {
-                    self.documents.remove(&params.text_document.uri);
-                    self.pending.remove(&params.text_document.uri);
+                    let uri = params.text_document.uri;
+                    // The file on disk counts again for the documents that read it.
+                    let path = self.documents.remove(&uri).and_then(|d| d.path);
+                    self.pending.remove(&uri);
+                    self.mark_dependents(path.as_deref());
+                    self.closed.push(uri);
                 }
             }
             _ => {}
         }
     }
 
-    /// Analyses every changed document and publishes its diagnostics.
+    /// Marks for analysis every open document whose last analysis read the file at `path`.
+    fn mark_dependents(&mut self, path: Option<&std::path::Path>) {
+        let Some(path) = path else { return };
+        for (uri, doc) in &self.documents {
+            if doc.analysis.as_ref().is_some_and(|a| a.path.as_deref() != Some(path) && a.depends_on(path)) {
+                self.pending.insert(uri.clone());
+            }
+        }
+    }
+
+    /// Analyses every changed document and publishes its diagnostics; clears those of closed
+    /// documents.
     fn analyse_pending(&mut self, connection: &Connection) {
+        for uri in std::mem::take(&mut self.closed) {
+            let params = PublishDiagnosticsParams { uri, diagnostics: Vec::new(), version: None };
+            send(connection, Notification::new(PublishDiagnostics::METHOD.to_string(), params).into());
+        }
         for uri in std::mem::take(&mut self.pending) {
             self.analyse(&uri);
             let Some(analysis) = self.documents.get(&uri).and_then(|d| d.analysis.as_ref()) else { continue };

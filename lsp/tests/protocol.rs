@@ -235,3 +235,29 @@ fn code_actions_add_the_missing_declarations() {
     assert!(errors.is_empty(), "{fixed}\n{}", client.show(&after));
     client.shutdown();
 }
+
+#[test]
+fn a_change_to_an_imported_module_checks_its_importers_again() {
+    let (_dir, root) = ablation_copy();
+    let (mut client, _) = Client::start(&root);
+    let applicator = uri_of(&root.join("applicator.vrs"));
+    let applicator_text = std::fs::read_to_string(root.join("applicator.vrs")).unwrap();
+    client.open(&applicator, &applicator_text);
+    assert_eq!(client.diagnostics(&applicator)["diagnostics"], json!([]));
+    let ellipsoid = uri_of(&root.join("ellipsoid.vrs"));
+    let ellipsoid_text = std::fs::read_to_string(root.join("ellipsoid.vrs")).unwrap();
+    client.open(&ellipsoid, &ellipsoid_text);
+    assert_eq!(client.diagnostics(&ellipsoid)["diagnostics"], json!([]));
+    // Renaming the function in the unsaved buffer breaks the module that imports it.
+    client.change(&ellipsoid, 2, &ellipsoid_text.replace("fn ellipsoid_depth", "fn ellipsoid_depth2"));
+    let codes = |answer: &Value| -> Vec<String> {
+        answer["diagnostics"].as_array().unwrap().iter().map(|d| d["code"].as_str().unwrap().to_string()).collect()
+    };
+    let broken = client.diagnostics(&applicator);
+    assert_eq!(codes(&broken), ["E0509", "E0205"], "{}", client.show(&broken));
+    // Closing the buffer brings back the file on disk, and the closed document's diagnostics go.
+    client.notify("textDocument/didClose", json!({ "textDocument": { "uri": ellipsoid } }));
+    assert_eq!(client.diagnostics(&ellipsoid)["diagnostics"], json!([]));
+    assert_eq!(client.diagnostics(&applicator)["diagnostics"], json!([]));
+    client.shutdown();
+}
