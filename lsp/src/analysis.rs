@@ -162,12 +162,12 @@ impl Analysis {
         if duplicate {
             return None;
         }
-        let module = &self.checked.graph.modules[self.checked.graph.roots[0]].ast;
+        let root = self.checked.graph.roots.first().map(|&r| &self.checked.graph.modules[r].ast);
         let base = self.checked.sources.file(self.file).base;
         // Spans of a scene's map differ from the checker's: the fix is found at the same local offset.
         let local = d.span.start - sources.file(file).base;
         let shifted = Diagnostic { span: vrsc::source::Span::new(base + local, base + local), ..d.clone() };
-        let fix = fixes::fix_for(&shifted, module, base, &self.text);
+        let fix = root.and_then(|module| fixes::fix_for(&shifted, module, base, &self.text));
         Some(Reported { diagnostic, fix, key })
     }
 }

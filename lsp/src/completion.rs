@@ -210,75 +210,76 @@ impl Cx<'_> {
     /// What an expression or statement may name here.
     fn names(&self) -> Vec<CompletionItem> {
         let global = self.global();
-        let module = self.ws.document_ast();
-        let owner = match (self.pipeline(), symbols::lib_at(module, global)) {
+        let owner = match (self.pipeline(), symbols::lib_at(self.ws.document_ast(), global)) {
             (Some(p), _) => Owner::Pipeline(p),
             (None, Some(f)) => Owner::Lib(f),
             (None, None) => return ITEM_KEYWORDS.iter().map(|k| keyword_item(k)).collect(),
         };
-        let mut items = Vec::new();
-        if let Owner::Pipeline(p) = owner {
-            let uses: Vec<String> = p
-                .decls
-                .iter()
-                .flat_map(|d| match &d.kind {
-                    DeclKind::Use { names } => names.iter().map(|n| n.name.clone()).collect(),
-                    _ => Vec::new(),
-                })
-                .collect();
-            for decl in &p.decls {
-                if let DeclKind::Uniform { name, ty, .. } = &decl.kind {
-                    items.push(CompletionItem {
-                        label: name.name.clone(),
-                        kind: Some(CompletionItemKind::VARIABLE),
-                        detail: Some(format!("uniform {}: {}", name.name, self.ws.snippet(ty.span))),
-                        documentation: describe::uniform(self.ws, &name.name, name.span).map(markdown),
-                        ..Default::default()
-                    });
-                }
-            }
-            items.extend(self.lib_fns(Some(&uses)));
-            let before_body = p.body.stmts.first().is_none_or(|s| global <= s.span.start);
-            if before_body {
-                items.extend(DECL_KEYWORDS.iter().map(|k| keyword_item(k)));
-            }
-            items.push(keyword_item("state"));
-        } else {
-            items.extend(self.lib_fns(None));
-        }
+        let mut items = match owner {
+            Owner::Pipeline(p) => self.pipeline_names(p),
+            _ => self.lib_fns(None),
+        };
         for site in symbols::locals(owner).iter().filter(|s| s.name.span.end <= global) {
             items.push(simple(&site.name.name, CompletionItemKind::VARIABLE, None));
         }
         for c in self.ws.consts(None, &self.ws.visible_modules()) {
+            let detail = Some(describe::const_decl(self.ws, c.item));
             items.push(CompletionItem {
                 label: c.item.name.name.clone(),
                 kind: Some(CompletionItemKind::CONSTANT),
-                detail: describe::constant(self.ws, &c.item.name.name, &[c.module])
-                    .and_then(|t| t.lines().nth(1).map(String::from)),
+                detail,
                 ..Default::default()
             });
         }
-        for (builtin, name) in vrsc::check::rules::builtins() {
-            let (call, accepts) = describe::builtin_call(*builtin);
-            items.push(CompletionItem {
-                label: name.to_string(),
-                kind: Some(CompletionItemKind::FUNCTION),
-                detail: Some(call),
-                documentation: Some(markdown(format!("Built-in: {accepts}."))),
-                ..Default::default()
-            });
-        }
-        items.extend(
-            TYPES
-                .iter()
-                .filter(|t| !matches!(**t, "volume" | "tf"))
-                .map(|t| simple(t, CompletionItemKind::CLASS, None)),
-        );
+        items.extend(builtin_items());
+        let types = TYPES.iter().filter(|t| !matches!(**t, "volume" | "tf"));
+        items.extend(types.map(|t| simple(t, CompletionItemKind::CLASS, None)));
         items.extend(BODY_KEYWORDS.iter().map(|k| keyword_item(k)));
         let mut seen = std::collections::HashSet::new();
         items.retain(|i| seen.insert(i.label.clone()));
         items
     }
+
+    /// What a pipeline function's body may name beyond locals and constants: its uniforms, the
+    /// library functions it uses, `state`, and the declaration keywords before the first
+    /// statement.
+    fn pipeline_names(&self, p: &ast::PipelineFn) -> Vec<CompletionItem> {
+        let mut items = Vec::new();
+        let mut uses = Vec::new();
+        for decl in &p.decls {
+            match &decl.kind {
+                DeclKind::Uniform { name, ty, .. } => items.push(CompletionItem {
+                    label: name.name.clone(),
+                    kind: Some(CompletionItemKind::VARIABLE),
+                    detail: Some(format!("uniform {}: {}", name.name, self.ws.snippet(ty.span))),
+                    documentation: describe::uniform(self.ws, &name.name, name.span).map(markdown),
+                    ..Default::default()
+                }),
+                DeclKind::Use { names } => uses.extend(names.iter().map(|n| n.name.clone())),
+                DeclKind::State { .. } => {}
+            }
+        }
+        items.extend(self.lib_fns(Some(&uses)));
+        if p.body.stmts.first().is_none_or(|s| self.global() <= s.span.start) {
+            items.extend(DECL_KEYWORDS.iter().map(|k| keyword_item(k)));
+        }
+        items.push(keyword_item("state"));
+        items
+    }
+}
+
+/// Every built-in, with how it is called and what it accepts.
+fn builtin_items() -> impl Iterator<Item = CompletionItem> {
+    vrsc::check::rules::builtins().iter().map(|(builtin, name)| {
+        let (call, accepts) = describe::builtin_call(*builtin);
+        CompletionItem {
+            label: name.to_string(),
+            kind: Some(CompletionItemKind::FUNCTION),
+            detail: Some(call),
+            documentation: Some(markdown(format!("Built-in: {accepts}."))),
+            ..Default::default()
+        }
+    })
 }
 
 fn markdown(value: String) -> Documentation {

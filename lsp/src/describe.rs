@@ -140,12 +140,17 @@ pub fn builtin(name: &str) -> Option<String> {
     Some(format!("{}\n\nBuilt-in: {accepts} (WGSL's meaning).", code(&call)))
 }
 
+/// A constant's declaration as written: `const PI: f32 = 3.14159265`.
+pub fn const_decl(ws: &Workspace, c: &ast::ConstItem) -> String {
+    let ty = c.ty.as_ref().map_or_else(String::new, |t| format!(": {}", ws.snippet(t.span)));
+    format!("const {}{ty} = {}", c.name.name, ws.snippet(c.value.span))
+}
+
 /// A constant in `modules`.
 pub fn constant(ws: &Workspace, name: &str, modules: &[usize]) -> Option<String> {
     let found = ws.consts(Some(name), modules);
     let c = found.first()?;
-    let ty = c.item.ty.as_ref().map_or_else(String::new, |t| format!(": {}", ws.snippet(t.span)));
-    let decl = format!("const {name}{ty} = {}", ws.snippet(c.item.value.span));
+    let decl = const_decl(ws, c.item);
     Some(format!("{}\n\nConstant of {}.", with_doc(code(&decl), c.doc), ws.module_label(c.module)))
 }
 
@@ -268,11 +273,7 @@ pub fn step_summary(step: Step) -> String {
 pub fn step_path(ws: &Workspace, path: &ast::StepPath, placement: Option<PlacementKind>) -> String {
     let step_name = path.step_name();
     let mut out = format!("`{}`", ws.snippet(path.span));
-    let resolved = match Step::lookup(&step_name) {
-        StepLookup::Step(step) => Some(step),
-        StepLookup::Group { first, last } => Some(if placement == Some(PlacementKind::Before) { first } else { last }),
-        StepLookup::Unknown => None,
-    };
+    let resolved = workspace::resolve_step(&step_name, placement);
     if let Some(step) = resolved {
         out.push_str(&format!(": {}.", step_summary(step)));
     }

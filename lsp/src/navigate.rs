@@ -3,8 +3,10 @@
 use crate::analysis::Analysis;
 use crate::describe;
 use crate::symbols::{self, Kind, Owner};
+use crate::workspace::{self, Workspace};
 use crate::{scenes, uri};
 use lsp_types::{Location, Position, Range};
+use vrsc::ast;
 use vrsc::source::Span;
 
 /// Where the name at `position` is defined. A state field has no single definition: its
@@ -15,26 +17,9 @@ pub fn definition(analysis: &Analysis, position: Position) -> Vec<Location> {
     let offset = ws.document_offset(analysis.offset(position));
     let Some(symbol) = symbols::at(ws.document_ast(), offset) else { return Vec::new() };
     let spans: Vec<Span> = match &symbol.kind {
-        Kind::State => {
-            let decls = ws.state_decls(&symbol.name);
-            let with_default: Vec<Span> = decls.iter().filter(|d| d.default.is_some()).map(|d| d.name_span).collect();
-            if with_default.is_empty() { decls.iter().map(|d| d.name_span).collect() } else { with_default }
-        }
+        Kind::State => state_definitions(ws, &symbol.name),
         Kind::UniformDecl | Kind::ConstDecl | Kind::LocalDecl | Kind::PipelineName => vec![symbol.span],
-        Kind::Name => {
-            let uniform = match symbol.owner {
-                Owner::Pipeline(p) => describe::uniform_span_in(p, &symbol.name),
-                _ => None,
-            };
-            let local = || {
-                symbols::locals(symbol.owner)
-                    .iter()
-                    .rfind(|s| s.name.name == symbol.name && s.name.span.start <= symbol.span.start)
-                    .map(|s| s.name.span)
-            };
-            let constant = || ws.consts(Some(&symbol.name), &ws.visible_modules()).first().map(|c| c.item.name.span);
-            uniform.or_else(local).or_else(constant).into_iter().collect()
-        }
+        Kind::Name => name_definition(ws, &symbol).into_iter().collect(),
         Kind::Function => {
             let visible = ws.visible_modules();
             let mut found = ws.lib_fns(Some(&symbol.name), Some(&visible));
@@ -43,35 +28,53 @@ pub fn definition(analysis: &Analysis, position: Position) -> Vec<Location> {
             }
             found.iter().map(|f| f.item.name.span).collect()
         }
-        Kind::Step { path, placement } => {
-            let step = match vrsc::steps::Step::lookup(&path.step_name()) {
-                vrsc::steps::StepLookup::Step(s) => Some(s),
-                vrsc::steps::StepLookup::Group { first, last } => {
-                    Some(if *placement == Some(vrsc::ast::PlacementKind::Before) { first } else { last })
-                }
-                vrsc::steps::StepLookup::Unknown => None,
-            };
-            // The function this placement belongs to is not where the step is defined.
-            let mut placed = step.map(|s| ws.placed_in(s)).unwrap_or_default();
-            placed.retain(|f| f.item.placement.target.span != path.span);
-            let named: Vec<Span> = placed
-                .iter()
-                .filter(|f| path.substep.as_ref().is_some_and(|sub| sub.name == f.item.name.name))
-                .map(|f| f.item.name.span)
-                .collect();
-            if named.is_empty() { placed.iter().map(|f| f.item.name.span).collect() } else { named }
-        }
+        Kind::Step { path, placement } => step_definitions(ws, path, *placement),
         Kind::StdModule => {
-            let Some(module) = symbol.name.strip_prefix("std::").and_then(|n| ws.std_module(n)) else {
-                return Vec::new();
-            };
-            let base = ws.sources.file(ws.graph.modules[module].file).base;
-            vec![Span::new(base, base)]
+            let module = symbol.name.strip_prefix("std::").and_then(|n| ws.std_module(n));
+            let base = module.map(|m| ws.sources.file(ws.graph.modules[m].file).base);
+            base.map(|b| Span::new(b, b)).into_iter().collect()
         }
         Kind::FileImport => return file_import(analysis, &symbol.name).into_iter().collect(),
         Kind::Type | Kind::Member => Vec::new(),
     };
     spans.into_iter().filter_map(|span| ws.location(span, &analysis.uri)).collect()
+}
+
+/// The declarations of a state field that give a default, else all of them.
+fn state_definitions(ws: &Workspace, name: &str) -> Vec<Span> {
+    let decls = ws.state_decls(name);
+    let with_default: Vec<Span> = decls.iter().filter(|d| d.default.is_some()).map(|d| d.name_span).collect();
+    if with_default.is_empty() { decls.iter().map(|d| d.name_span).collect() } else { with_default }
+}
+
+/// A plain name: the enclosing function's uniform, else the nearest local before it, else a
+/// constant in scope.
+fn name_definition(ws: &Workspace, symbol: &symbols::Symbol<'_>) -> Option<Span> {
+    let uniform = match symbol.owner {
+        Owner::Pipeline(p) => describe::uniform_span_in(p, &symbol.name),
+        _ => None,
+    };
+    let local = || {
+        symbols::locals(symbol.owner)
+            .iter()
+            .rfind(|s| s.name.name == symbol.name && s.name.span.start <= symbol.span.start)
+            .map(|s| s.name.span)
+    };
+    let constant = || ws.consts(Some(&symbol.name), &ws.visible_modules()).first().map(|c| c.item.name.span);
+    uniform.or_else(local).or_else(constant)
+}
+
+/// The functions placed in the step a path names (its substep's function when it names one),
+/// leaving out the function whose placement the path is.
+fn step_definitions(ws: &Workspace, path: &ast::StepPath, placement: Option<ast::PlacementKind>) -> Vec<Span> {
+    let Some(step) = workspace::resolve_step(&path.step_name(), placement) else { return Vec::new() };
+    let placed: Vec<_> = ws.placed_in(step).into_iter().filter(|f| f.item.placement.target.span != path.span).collect();
+    let named: Vec<Span> = placed
+        .iter()
+        .filter(|f| path.substep.as_ref().is_some_and(|sub| sub.name == f.item.name.name))
+        .map(|f| f.item.name.span)
+        .collect();
+    if named.is_empty() { placed.iter().map(|f| f.item.name.span).collect() } else { named }
 }
 
 /// The start of an imported file, relative to the document.

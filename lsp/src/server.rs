@@ -17,6 +17,7 @@ use lsp_types::{
     TextDocumentSyncOptions, TextDocumentSyncSaveOptions, Uri,
 };
 use std::collections::{BTreeMap, BTreeSet};
+use std::panic::AssertUnwindSafe;
 use std::path::PathBuf;
 
 /// Runs the server on standard input and output until the client says `exit`.
@@ -65,7 +66,12 @@ pub fn serve(connection: &Connection) -> Result<(), ProtocolError> {
                 if connection.handle_shutdown(&request)? {
                     return Ok(());
                 }
-                let response = server.request(request, connection);
+                let id = request.id.clone();
+                // A bug in a feature fails its request, not the session.
+                let response = std::panic::catch_unwind(AssertUnwindSafe(|| server.request(request, connection)))
+                    .unwrap_or_else(|_| {
+                        Response::new_err(id, ErrorCode::InternalError as i32, "internal error in vrsc lsp".into())
+                    });
                 send(connection, response.into());
             }
             Message::Notification(notification) => server.notification(notification),
@@ -209,7 +215,11 @@ impl Server {
         }
         let scenes = doc.path.as_deref().map(|p| self.scenes.listing(p)).unwrap_or_default();
         let context = Context { path: doc.path.clone(), scenes, overlay };
-        doc.analysis = Some(Analysis::new(uri.clone(), doc.text.clone(), context));
+        // A compiler bug on this text leaves the document without analysis rather than ending the
+        // session.
+        let analysed =
+            std::panic::catch_unwind(AssertUnwindSafe(|| Analysis::new(uri.clone(), doc.text.clone(), context)));
+        doc.analysis = analysed.ok();
     }
 
     /// The analysis of `uri`, brought up to date first.

@@ -284,13 +284,18 @@ fn pipelines(module: &ast::Module) -> impl Iterator<Item = &ast::PipelineFn> {
 
 /// The step a placement targets (a group resolved as `before`/`after` do).
 pub fn placement_step(placement: &ast::Placement) -> Option<vrsc::steps::Step> {
+    resolve_step(&placement.target.step_name(), Some(placement.kind))
+}
+
+/// The step a dotted name means under a placement (`None` for `remove`): a group stands for its
+/// first step with `before` and its last otherwise (the checker rejects a group with `in`,
+/// `replace` and `remove`; hover and navigation still point somewhere useful).
+pub fn resolve_step(name: &str, placement: Option<ast::PlacementKind>) -> Option<vrsc::steps::Step> {
     use vrsc::steps::{Step, StepLookup};
-    match Step::lookup(&placement.target.step_name()) {
+    match Step::lookup(name) {
         StepLookup::Step(step) => Some(step),
-        StepLookup::Group { first, last } => Some(match placement.kind {
-            ast::PlacementKind::Before => first,
-            _ => last,
-        }),
+        StepLookup::Group { first, .. } if placement == Some(ast::PlacementKind::Before) => Some(first),
+        StepLookup::Group { last, .. } => Some(last),
         StepLookup::Unknown => None,
     }
 }
