@@ -21,6 +21,6 @@ pub mod stdlib_files;
 mod symbols;
 mod text;
 pub mod uri;
-pub mod workspace;
+mod workspace;
 
 pub use server::{capabilities, run_stdio, serve};

@@ -33,7 +33,6 @@ pub struct StateDecl<'a> {
 
 /// A `uniform` declaration found somewhere in the workspace.
 pub struct UniformDecl<'a> {
-    pub module: usize,
     pub ty: &'a ast::TypeExpr,
     pub default: Option<&'a ast::Expr>,
     pub range: Option<&'a (ast::Expr, ast::Expr)>,
@@ -168,8 +167,7 @@ impl Workspace {
             .collect()
     }
 
-    /// The `uniform NAME` declarations of the document's pipeline function `pipeline`, or of any
-    /// module when `pipeline` is `None`.
+    /// Every `uniform NAME` declaration, the document's first.
     pub fn uniform_decls(&self, name: &str) -> Vec<UniformDecl<'_>> {
         let mut out = Vec::new();
         for module in self.modules() {
@@ -180,7 +178,6 @@ impl Workspace {
                     {
                         let doc = decl.doc.as_deref();
                         out.push(UniformDecl {
-                            module,
                             ty,
                             default: default.as_ref(),
                             range: range.as_ref(),
@@ -210,19 +207,11 @@ impl Workspace {
         })
     }
 
-    /// Pipeline functions whose placement targets step `step` (by its dotted name), in module
+    /// Pipeline functions whose placement targets `step`, the document's first, then in load
     /// order (standard modules included).
     pub fn placed_in(&self, step: vrsc::steps::Step) -> Vec<Found<'_, ast::PipelineFn>> {
         self.items(None, |kind| match kind {
             ItemKind::Pipeline(p) if placement_step(&p.placement) == Some(step) => Some(p),
-            _ => None,
-        })
-    }
-
-    /// Pipeline functions called `name`.
-    pub fn pipelines_named(&self, name: &str) -> Vec<Found<'_, ast::PipelineFn>> {
-        self.items(None, |kind| match kind {
-            ItemKind::Pipeline(p) if p.name.name == name => Some(p),
             _ => None,
         })
     }
