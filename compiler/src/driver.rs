@@ -4,7 +4,7 @@
 use crate::check;
 use crate::diag::{Code, Diagnostic, Diagnostics};
 use crate::hir::Program;
-use crate::loader::{Loader, ModuleGraph};
+use crate::loader::{Loader, ModuleGraph, ParsedFiles};
 use crate::lower;
 use crate::source::{SourceMap, Span};
 use std::path::{Path, PathBuf};
@@ -34,9 +34,15 @@ impl std::error::Error for InputError {}
 
 /// Loads, parses and checks the given files (and everything they import).
 pub fn check_files(paths: &[PathBuf]) -> Result<Checked, InputError> {
+    check_files_with(paths, ParsedFiles::default())
+}
+
+/// [`check_files`], reading the texts of `parsed`'s overlay instead of those files on disk
+/// ([`ParsedFiles::with_overlay`]: the language server checks unsaved buffers this way).
+pub fn check_files_with(paths: &[PathBuf], parsed: ParsedFiles) -> Result<Checked, InputError> {
     let mut sources = SourceMap::new();
     let mut diags = Diagnostics::new();
-    let mut loader = Loader::new(&mut sources, &mut diags);
+    let mut loader = Loader::with_parsed(&mut sources, &mut diags, parsed);
     for path in paths {
         loader.load_root_file(path).map_err(|error| InputError { path: path.clone(), error })?;
     }
@@ -81,4 +87,24 @@ impl Checked {
 /// An internal error not tied to any source position.
 pub fn internal_error(message: impl Into<String>) -> Diagnostic {
     Diagnostic::new(Code::Internal, Span::DUMMY, message)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_overlay_stands_in_for_the_files_on_disk() {
+        let dir = tempfile::tempdir().unwrap();
+        let main = dir.path().join("main.vrs");
+        let lib = dir.path().join("lib.vrs");
+        std::fs::write(&main, "import \"lib.vrs\";\npipeline p in start {\n    use f;\n    f();\n}\n").unwrap();
+        std::fs::write(&lib, "lib fn g() {}\n").unwrap();
+        let on_disk = check_files(std::slice::from_ref(&main)).unwrap();
+        assert!(on_disk.diags.has_errors());
+        // The unsaved text of the imported file defines `f`.
+        let overlay = [(lib.canonicalize().unwrap(), String::from("lib fn f() {}\n"))];
+        let edited = check_files_with(&[main], ParsedFiles::with_overlay(overlay)).unwrap();
+        assert!(!edited.diags.has_errors(), "{:?}", edited.diags);
+    }
 }

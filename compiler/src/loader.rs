@@ -38,6 +38,16 @@ pub struct ParsedFiles {
     files: FxHashMap<String, (FileId, Arc<ast::Module>)>,
     /// Paths as met → canonical paths: resolving one costs a system call per path component.
     canonical: FxHashMap<PathBuf, PathBuf>,
+    /// Texts that stand in for files on disk, by canonical path (see [`ParsedFiles::with_overlay`]).
+    overlay: FxHashMap<PathBuf, String>,
+}
+
+impl ParsedFiles {
+    /// Nothing parsed yet, and `texts` (canonical path → text) read instead of those files on
+    /// disk: an editor's unsaved buffers, so a check sees what the user is typing.
+    pub fn with_overlay(texts: impl IntoIterator<Item = (PathBuf, String)>) -> ParsedFiles {
+        ParsedFiles { overlay: texts.into_iter().collect(), ..ParsedFiles::default() }
+    }
 }
 
 /// Builds a [`ModuleGraph`], adding every file it reads to the source map.
@@ -142,7 +152,10 @@ impl<'a> Loader<'a> {
         let (file, ast) = match self.parsed.files.get(&key) {
             Some(parsed) => parsed.clone(),
             None => {
-                let text = std::fs::read_to_string(path)?;
+                let text = match self.parsed.overlay.get(&canonical) {
+                    Some(text) => text.clone(),
+                    None => std::fs::read_to_string(path)?,
+                };
                 self.parse_file(name(), Some(canonical), text, &key)
             }
         };

@@ -106,6 +106,8 @@ enum Command {
         #[arg(long)]
         view: Option<String>,
     },
+    /// Run the language server on standard input and output (for editors: editors/README.md).
+    Lsp,
 }
 
 #[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -167,6 +169,10 @@ fn run(cli: &Cli) -> Outcome {
         }
         Command::Explain { scene, view } => explain(&printer, scene, view.as_deref()),
         Command::Pipeline { scene, view } => pipeline(&printer, scene, view.as_deref()),
+        Command::Lsp => match vrsc_lsp::run_stdio() {
+            Ok(()) => Outcome::Ok,
+            Err(e) => io_failure(&format!("language server: {e}")),
+        },
         Command::Check { files } => match driver::check_files(files) {
             Ok(checked) => printer.finish(&checked),
             Err(e) => io_failure(&e),

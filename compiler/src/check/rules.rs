@@ -185,6 +185,14 @@ pub fn builtin_name(builtin: Builtin) -> &'static str {
     BUILTINS.iter().find(|(b, _)| *b == builtin).map_or("", |(_, n)| n)
 }
 
+/// How a built-in is called and what it accepts, for editors: (`clamp(e, low, high)`, "takes
+/// three values of the same float or integer type"); the first is the bare name where the
+/// arguments need no names (`abs`).
+pub fn builtin_usage(builtin: Builtin) -> (&'static str, &'static str) {
+    let sig = signature(builtin, &[]);
+    (sig.usage.unwrap_or_else(|| builtin_name(builtin)), sig.accepts)
+}
+
 /// Result type of a built-in call, or a message explaining which overloads exist.
 pub fn builtin_result(builtin: Builtin, args: &[Type]) -> Result<Type, String> {
     if args.iter().any(|t| t.is_error()) {

@@ -91,10 +91,22 @@ pub fn read_scene(path: &Path) -> std::io::Result<(SourceMap, Result<Scene, Scen
 /// Composes a scene parsed from a file of `sources` (every view, or only `only_view`); an invalid
 /// scene gives its diagnostics.
 pub fn compose_scene(
+    sources: SourceMap,
+    scene: Result<Scene, SceneError>,
+    only_view: Option<&str>,
+    keep: Keep,
+) -> BuiltScene {
+    compose_scene_with(sources, scene, only_view, keep, ParsedFiles::default())
+}
+
+/// [`compose_scene`], loading modules through `parsed` (whose overlay stands in for files on
+/// disk: the language server composes a scene with the user's unsaved buffers this way).
+pub fn compose_scene_with(
     mut sources: SourceMap,
     scene: Result<Scene, SceneError>,
     only_view: Option<&str>,
     keep: Keep,
+    mut parsed: ParsedFiles,
 ) -> BuiltScene {
     let mut diags = Diagnostics::new();
     let scene = match scene {
@@ -109,7 +121,6 @@ pub fn compose_scene(
     // Loading grows the source map, so it runs view after view (each file parsed once); the rest
     // of a view's work only reads the map, so the views compose in parallel. (Parsing the files in
     // parallel too saved less than handing work to another thread costs here.)
-    let mut parsed = ParsedFiles::default();
     let loaded: Vec<LoadedView> =
         chosen.iter().map(|view| load_view(&scene, view, &mut sources, &mut parsed)).collect();
     let composed = compose_loaded_views(&scene, &chosen, loaded, &sources, keep);
