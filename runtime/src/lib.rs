@@ -27,6 +27,7 @@ pub mod error;
 pub mod geometry;
 pub mod gpu;
 pub mod occupancy;
+pub mod probe;
 pub mod reflection;
 #[cfg(feature = "compiler")]
 pub mod scene;
@@ -41,7 +42,7 @@ pub use error::RuntimeError;
 pub use geometry::{OrbitCamera, SliceAxis, SlicePlane};
 pub use gpu::{AdapterChoice, Gpu};
 #[cfg(feature = "compiler")]
-pub use scene::{RenderOptions, SceneRenderer};
+pub use scene::{ProbeAt, ProbeImage, ProbeSpec, RenderOptions, SceneRenderer};
 pub use shader::{PipelineCache, ViewShader};
 pub use uniforms::Value;
 pub use view::{Resources, ViewRenderer};

@@ -18,6 +18,9 @@ use vrsc::compose::build::BuiltScene;
 use vrsc::compose::cache::CompositionCache;
 use vrsc::scene::{self as vscene, Role, Scene, TfRef, UniformValue, ViewKind, VolumeSource};
 
+mod probe;
+pub use probe::{ProbeAt, ProbeImage, ProbeSpec};
+
 /// Choices a scene file does not make.
 #[derive(Clone, Debug)]
 pub struct RenderOptions {
@@ -60,6 +63,8 @@ pub struct SceneRenderer {
     /// Things the user should know that are not errors (a volume replaced by its fallback
     /// phantom because its file is absent).
     pub notices: Vec<String>,
+    /// Probe variants composed so far ([`SceneRenderer::render_probe`]).
+    probes: probe::ProbeCache,
 }
 
 /// Where a volume's voxels are: what `primary_to_NAME` is computed from.
@@ -113,6 +118,7 @@ impl SceneRenderer {
             skipping,
             views: Vec::new(),
             notices,
+            probes: probe::ProbeCache::default(),
         };
         renderer.update_occupancy(&loaded.primary_tf);
         renderer.set_views(scene, built)?;

@@ -91,10 +91,30 @@ pub fn read_scene(path: &Path) -> std::io::Result<(SourceMap, Result<Scene, Scen
 /// Composes a scene parsed from a file of `sources` (every view, or only `only_view`); an invalid
 /// scene gives its diagnostics.
 pub fn compose_scene(
+    sources: SourceMap,
+    scene: Result<Scene, SceneError>,
+    only_view: Option<&str>,
+    keep: Keep,
+) -> BuiltScene {
+    compose_scene_with(sources, scene, only_view, keep, &[])
+}
+
+/// A module made by the compiler itself rather than read from a file (the probe variant of a
+/// view, `compose/probe.rs`). It is placed after every module of the scene and the view.
+#[derive(Clone, Debug)]
+pub struct GeneratedModule {
+    /// The name diagnostics show for it.
+    pub name: String,
+    pub text: String,
+}
+
+/// [`compose_scene`], with `extra` modules placed last in every view composed.
+pub fn compose_scene_with(
     mut sources: SourceMap,
     scene: Result<Scene, SceneError>,
     only_view: Option<&str>,
     keep: Keep,
+    extra: &[GeneratedModule],
 ) -> BuiltScene {
     let mut diags = Diagnostics::new();
     let scene = match scene {
@@ -111,7 +131,7 @@ pub fn compose_scene(
     // parallel too saved less than handing work to another thread costs here.)
     let mut parsed = ParsedFiles::default();
     let loaded: Vec<LoadedView> =
-        chosen.iter().map(|view| load_view(&scene, view, &mut sources, &mut parsed)).collect();
+        chosen.iter().map(|view| load_view(&scene, view, extra, &mut sources, &mut parsed)).collect();
     let composed = compose_loaded_views(&scene, &chosen, loaded, &sources, keep);
     let mut views = Vec::with_capacity(composed.len());
     for (output, view_diags) in composed {
@@ -138,8 +158,15 @@ struct LoadedView {
 }
 
 /// Loads the standard modules a view's configuration selects, then the scene's modules, then
-/// the view's own. `parsed` carries the files earlier views already parsed into `sources`.
-fn load_view(scene: &Scene, view: &View, sources: &mut SourceMap, parsed: &mut ParsedFiles) -> LoadedView {
+/// the view's own, then the `extra` ones. `parsed` carries the files earlier views already
+/// parsed into `sources`.
+fn load_view(
+    scene: &Scene,
+    view: &View,
+    extra: &[GeneratedModule],
+    sources: &mut SourceMap,
+    parsed: &mut ParsedFiles,
+) -> LoadedView {
     let mut diags = Diagnostics::new();
     let mut loader = Loader::with_parsed(sources, &mut diags, std::mem::take(parsed));
     let mut uses = Vec::new();
@@ -159,6 +186,10 @@ fn load_view(scene: &Scene, view: &View, sources: &mut SourceMap, parsed: &mut P
             }),
             Err(d) => missing.push(d),
         }
+    }
+    for generated in extra {
+        let module = loader.load_root_source(&generated.name, generated.text.clone(), None);
+        uses.push(ModuleUse { module, instances: None, span: Span::DUMMY });
     }
     let (graph, files) = loader.finish_keeping_files();
     *parsed = files;
