@@ -173,7 +173,9 @@ pub fn views_with_field(built: &BuiltScene, field: &str) -> Result<Vec<usize>, D
         )
         .with_label(format!("view `{}` declares `{field}: {}`", built.views[i].name, f.ty))
         .with_note("a probe shows a scalar through a colormap, a vector as RGB and a bool as black and white")
-        .with_help(format!("probe a field that holds a column or a product of `{field}` instead")));
+        .with_help(format!(
+            "declare a vector field that holds the part of `{field}` to see (a column, or `{field}` times a vector) and probe that"
+        )));
     }
     Ok(having)
 }
@@ -198,9 +200,19 @@ fn unknown_field(field: &str, views: &[(&str, Span, &[DeclaredField])]) -> Diagn
     if let Some(best) = did_you_mean(field, candidates) {
         d = d.with_help(format!("did you mean `{best}`?"));
     }
+    // Views with the same fields share one note.
+    let mut groups: Vec<(Vec<&str>, Vec<&str>)> = Vec::new();
     for (name, _, fields) in views {
         let list: Vec<&str> = fields.iter().map(|f| f.name.as_str()).collect();
-        d = d.with_note(format!("fields of view `{name}`: {}", list.join(", ")));
+        match groups.iter_mut().find(|(l, _)| *l == list) {
+            Some((_, names)) => names.push(name),
+            None => groups.push((list, vec![name])),
+        }
+    }
+    for (list, names) in groups {
+        let names: Vec<String> = names.iter().map(|n| format!("`{n}`")).collect();
+        let views = if names.len() == 1 { "view" } else { "views" };
+        d = d.with_note(format!("fields of {views} {}: {}", names.join(", "), list.join(", ")));
     }
     d
 }
@@ -280,9 +292,11 @@ pub fn probe_source(layout: &ProbeLayout) -> String {
     capture.line(MODE_UNIFORM, format!("uniform {MODE_UNIFORM}: u32 = {default_mode}u;"));
     if layout.opacity {
         capture.line(THRESHOLD_UNIFORM, format!("uniform {THRESHOLD_UNIFORM}: f32 = {DEFAULT_THRESHOLD:?} in 0.0 .. 1.0;"));
-        capture.line(ACCUM, format!("@ray state {ACCUM}: vec4f;"));
     }
     capture.line(SAMPLE_UNIFORM, format!("uniform {SAMPLE_UNIFORM}: u32 = 0u;"));
+    if layout.opacity {
+        capture.line(ACCUM, format!("@ray state {ACCUM}: vec4f;"));
+    }
     capture.line(name, format!("{lifetime}state {name}: {ty};"));
     capture.line("terminate", "@ray state terminate: bool;".into());
     capture.line("probe_value", format!("@ray state probe_value: {ty} = {};", zero(ty)));
