@@ -43,8 +43,7 @@ fn every_field_of_every_view_has_a_probe_variant() {
                 });
                 assert!(!built.diags.has_errors(), "{rendered}");
                 assert_eq!(&variant.layout.field, field);
-                let uniforms: Vec<&str> =
-                    variant.shader.reflection.uniforms.iter().map(|u| u.name.as_str()).collect();
+                let uniforms: Vec<&str> = variant.shader.reflection.uniforms.iter().map(|u| u.name.as_str()).collect();
                 for name in [probe::MODE_UNIFORM, probe::PASS_UNIFORM] {
                     assert!(uniforms.contains(&name), "{view}.{}: no uniform {name}", field.name);
                 }

@@ -156,12 +156,8 @@ pub fn views_with_field(built: &BuiltScene, field: &str) -> Result<Vec<usize>, D
         views.iter().find(|v| v.name.name == name).map_or(Span::DUMMY, |v| v.name.span)
     };
     if having.is_empty() {
-        let named: Vec<(&str, Span, &[DeclaredField])> = built
-            .views
-            .iter()
-            .zip(&fields)
-            .map(|(v, f)| (v.name.as_str(), view_span(&v.name), f.as_slice()))
-            .collect();
+        let named: Vec<(&str, Span, &[DeclaredField])> =
+            built.views.iter().zip(&fields).map(|(v, f)| (v.name.as_str(), view_span(&v.name), f.as_slice())).collect();
         return Err(unknown_field(field, &named));
     }
     if let Some(f) = having.iter().flat_map(|&i| &fields[i]).find(|f| f.name == field && !showable(f.ty)) {
@@ -291,7 +287,10 @@ pub fn probe_source(layout: &ProbeLayout) -> String {
     let mut capture = Decls::default();
     capture.line(MODE_UNIFORM, format!("uniform {MODE_UNIFORM}: u32 = {default_mode}u;"));
     if layout.opacity {
-        capture.line(THRESHOLD_UNIFORM, format!("uniform {THRESHOLD_UNIFORM}: f32 = {DEFAULT_THRESHOLD:?} in 0.0 .. 1.0;"));
+        capture.line(
+            THRESHOLD_UNIFORM,
+            format!("uniform {THRESHOLD_UNIFORM}: f32 = {DEFAULT_THRESHOLD:?} in 0.0 .. 1.0;"),
+        );
     }
     capture.line(SAMPLE_UNIFORM, format!("uniform {SAMPLE_UNIFORM}: u32 = 0u;"));
     if layout.opacity {
@@ -346,7 +345,9 @@ pub fn probe_source(layout: &ProbeLayout) -> String {
     }
     let words: Vec<String> = (0..4)
         .map(|i| match ty {
-            Type::Vector { size, .. } if i < size => word(scalar, &format!("value.{}", ['x', 'y', 'z', 'w'][i as usize])),
+            Type::Vector { size, .. } if i < size => {
+                word(scalar, &format!("value.{}", ['x', 'y', 'z', 'w'][i as usize]))
+            }
             Type::Scalar(_) if i == 0 => word(scalar, "value"),
             _ => "0u".into(),
         })

@@ -10,8 +10,8 @@ use crate::reflection::Reflection;
 use crate::shader::ViewShader;
 use crate::view::ViewRenderer;
 use std::collections::HashMap;
-use vrsc::compose::probe::{self as cprobe, DeclaredField, ProbeLayout};
 pub use vrsc::compose::probe::ProbeAt;
+use vrsc::compose::probe::{self as cprobe, DeclaredField, ProbeLayout};
 use vrsc::types::{Scalar, Type};
 
 /// What to probe: a state field of the view, and where along the ray (`None`: a `@ray` field
@@ -50,14 +50,7 @@ impl ProbeImage {
     /// Two lines for people: what the probe is, then how to read it (range and mapping).
     pub fn legend(&self) -> String {
         let lifetime = if self.ray { "@ray field" } else { "sample field" };
-        format!(
-            "{}.{}: {} {lifetime} {}\n{}",
-            self.view,
-            self.field,
-            self.ty,
-            self.at.describe(),
-            self.values.legend()
-        )
+        format!("{}.{}: {} {lifetime} {}\n{}", self.view, self.field, self.ty, self.at.describe(), self.values.legend())
     }
 }
 
