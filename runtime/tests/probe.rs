@@ -87,10 +87,10 @@ fn probe_settings_need_no_new_pipeline() {
 fn wrong_requests_are_errors() {
     let mut renderer = open("tests/fixtures/render/head_dvr.toml");
     let index = view_index(&renderer, "3d");
-    let unknown = renderer.render_probe(index, &ProbeSpec::of("gradiant")).err().expect("an error").to_string();
+    let unknown = renderer.render_probe(index, &ProbeSpec::of("gradiant")).expect_err("an error").to_string();
     assert!(unknown.contains("E0801") && unknown.contains("did you mean `gradient`?"), "{unknown}");
     let at_finish = ProbeSpec { field: "t".into(), at: Some(ProbeAt::Finish) };
-    let finish = renderer.render_probe(index, &at_finish).err().expect("an error").to_string();
+    let finish = renderer.render_probe(index, &at_finish).expect_err("an error").to_string();
     assert!(finish.contains("sample field"), "{finish}");
     let fields = renderer.probe_fields(index).expect("fields");
     assert!(fields.iter().any(|f| f.name == "gradient" && !f.ray));
