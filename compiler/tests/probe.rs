@@ -7,7 +7,6 @@ mod common;
 use std::path::{Path, PathBuf};
 use vrsc::compose::build::{Keep, build_scene_keeping};
 use vrsc::compose::probe::{self, DeclaredField};
-use vrsc::types::Type;
 
 fn relative(scene: &Path) -> PathBuf {
     common::pathdiff(scene, &std::env::current_dir().expect("cwd"))
@@ -35,7 +34,7 @@ fn every_field_of_every_view_has_a_probe_variant() {
     let mut probed = 0;
     for scene in scenes {
         for (view, fields) in view_fields(&scene) {
-            for field in fields.iter().filter(|f| !matches!(f.ty, Type::Matrix { .. })) {
+            for field in fields.iter().filter(|f| f.showable()) {
                 let built = probe::build_probe(&relative(&scene), &view, &field.name).expect("scene readable");
                 let rendered = vrsc::diag::render_plain(&built.diags.sorted(), &built.sources);
                 let variant = built.variant.unwrap_or_else(|| {

@@ -7,6 +7,9 @@
 //!   [`Resources`], set uniforms by name and render with [`ViewRenderer`].
 //! - **Scenes** (feature `compiler`, on by default): [`SceneRenderer::open`] composes a scene
 //!   file through the compiler library, loads its volumes once and renders every view.
+//! - **Probes** (feature `compiler`): [`SceneRenderer::render_probe`] shows one state field of a
+//!   view as an image (the view's probe variant, composed by the compiler), with its exact values
+//!   and a legend; [`probe`] decodes and colours them.
 //!
 //! ```
 //! use vrs_runtime::{AdapterChoice, Gpu, RenderOptions, SceneRenderer};

@@ -89,6 +89,13 @@ pub struct DeclaredField {
     pub ray: bool,
 }
 
+impl DeclaredField {
+    /// Whether a probe can show the field: scalars and vectors, not matrices (E0802).
+    pub fn showable(&self) -> bool {
+        matches!(self.ty, Type::Scalar(_) | Type::Vector { .. })
+    }
+}
+
 /// Every field the placed functions of `comp` declare, in the order of their first declaration
 /// along the pipeline, with template names instantiated.
 pub fn declared_fields(program: &hir::Program, comp: &Composition) -> Vec<DeclaredField> {
@@ -160,7 +167,7 @@ pub fn views_with_field(built: &BuiltScene, field: &str) -> Result<Vec<usize>, D
             built.views.iter().zip(&fields).map(|(v, f)| (v.name.as_str(), view_span(&v.name), f.as_slice())).collect();
         return Err(unknown_field(field, &named));
     }
-    if let Some(f) = having.iter().flat_map(|&i| &fields[i]).find(|f| f.name == field && !showable(f.ty)) {
+    if let Some(f) = having.iter().flat_map(|&i| &fields[i]).find(|f| f.name == field && !f.showable()) {
         let i = having[0];
         return Err(Diagnostic::new(
             Code::ProbeUnshowable,
@@ -174,11 +181,6 @@ pub fn views_with_field(built: &BuiltScene, field: &str) -> Result<Vec<usize>, D
         )));
     }
     Ok(having)
-}
-
-/// Whether an image can show a field of this type: scalars and vectors.
-fn showable(ty: Type) -> bool {
-    matches!(ty, Type::Scalar(_) | Type::Vector { .. })
 }
 
 /// E0801 for a field no view in `views` (name, span of its name, its fields) declares.
