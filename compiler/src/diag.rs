@@ -93,6 +93,9 @@ codes! {
     SceneSyntax = "E0701", Error, "a scene file that is not valid TOML";
     SceneInvalid = "E0702", Error, "a scene value that is missing, of the wrong type, out of range or in conflict with another";
     SceneUnknownKey = "E0703", Error, "a key the scene format does not know";
+    // Probes.
+    ProbeUnknownField = "E0801", Error, "a probe of a state field that the view does not declare";
+    ProbeUnshowable = "E0802", Error, "a probe of a field whose type an image cannot show (a matrix)";
     // Internal.
     Internal = "E0901", Error, "a compiler bug: the generated IR did not validate";
     // Warnings.

@@ -2,6 +2,7 @@
 #![allow(dead_code)]
 
 use std::path::{Path, PathBuf};
+use vrsc::compose::build::{Keep, build_scene_keeping};
 use vrsc::driver::{self, Checked};
 
 /// The workspace's `tests/fixtures` folder.
@@ -46,10 +47,17 @@ pub fn check_fixture(path: &Path) -> Checked {
     driver::check_source(name, &text, path.parent())
 }
 
-/// Composes a scene fixture; returns its rendered diagnostics and their codes.
+/// Composes a scene fixture; returns its rendered diagnostics and their codes. A file `probe`
+/// beside the scene names a field to probe (as `vrsc render --probe` does): its diagnostic is
+/// added.
 pub fn build_fixture(path: &Path) -> (String, Vec<String>) {
     let cwd = std::env::current_dir().expect("cwd");
-    let built = vrsc::compose::build::build_scene(&pathdiff(path, &cwd), None).expect("fixture readable");
+    let probe = std::fs::read_to_string(path.with_file_name("probe")).ok();
+    let keep = if probe.is_some() { Keep::Ir } else { Keep::Outputs };
+    let mut built = build_scene_keeping(&pathdiff(path, &cwd), None, keep).expect("fixture readable");
+    if let Some(Err(d)) = probe.map(|field| vrsc::compose::probe::views_with_field(&built, field.trim())) {
+        built.diags.push(d);
+    }
     let diags = built.diags.sorted();
     let codes = diags.iter().map(|d| d.code.as_str().to_string()).collect();
     (vrsc::diag::render_plain(&diags, &built.sources), codes)

@@ -133,7 +133,7 @@ impl Analysis {
             }
         }
         let parsed = ParsedFiles::with_overlay(self.overlay.clone());
-        let built = compose_scene_with(sources, scene, None, Keep::Outputs, parsed);
+        let built = compose_scene_with(sources, scene, None, Keep::Outputs, parsed, &[]);
         self.scene_files.extend(built.sources.files().filter_map(|(_, f)| f.path.clone()));
         for d in &built.diags.sorted() {
             if let Some(reported) = self.reported(d, &built.sources, Some(scene_path)) {

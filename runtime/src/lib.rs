@@ -7,6 +7,9 @@
 //!   [`Resources`], set uniforms by name and render with [`ViewRenderer`].
 //! - **Scenes** (feature `compiler`, on by default): [`SceneRenderer::open`] composes a scene
 //!   file through the compiler library, loads its volumes once and renders every view.
+//! - **Probes** (feature `compiler`): [`SceneRenderer::render_probe`] shows one state field of a
+//!   view as an image (the view's probe variant, composed by the compiler), with its exact values
+//!   and a legend; [`probe`] decodes and colours them.
 //!
 //! ```
 //! use vrs_runtime::{AdapterChoice, Gpu, RenderOptions, SceneRenderer};
@@ -27,6 +30,7 @@ pub mod error;
 pub mod geometry;
 pub mod gpu;
 pub mod occupancy;
+pub mod probe;
 pub mod reflection;
 #[cfg(feature = "compiler")]
 pub mod scene;
@@ -41,7 +45,7 @@ pub use error::RuntimeError;
 pub use geometry::{OrbitCamera, SliceAxis, SlicePlane};
 pub use gpu::{AdapterChoice, Gpu};
 #[cfg(feature = "compiler")]
-pub use scene::{Applied, RenderOptions, SceneRenderer};
+pub use scene::{Applied, ProbeAt, ProbeImage, ProbeSpec, RenderOptions, SceneRenderer};
 pub use shader::{PipelineCache, ViewShader};
 pub use uniforms::Value;
 pub use view::{Region, Resources, ViewRenderer};

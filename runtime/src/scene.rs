@@ -17,6 +17,9 @@ use vrsc::compose::build::BuiltScene;
 use vrsc::compose::cache::{CachedBuild, CompositionCache};
 use vrsc::scene::{self as vscene, Role, Scene, TfRef, UniformValue, ViewKind, VolumeSource};
 
+mod probe;
+pub use probe::{ProbeAt, ProbeImage, ProbeSpec};
+
 /// Choices a scene file does not make.
 #[derive(Clone, Debug)]
 pub struct RenderOptions {
@@ -61,6 +64,8 @@ pub struct SceneRenderer {
     /// Things the user should know that are not errors (a volume replaced by its fallback
     /// phantom because its file is absent).
     pub notices: Vec<String>,
+    /// Probe variants composed so far ([`SceneRenderer::render_probe`]).
+    probes: probe::ProbeCache,
 }
 
 /// What [`SceneRenderer::apply`] changed.
@@ -125,6 +130,7 @@ impl SceneRenderer {
             volumes_key: String::new(),
             views: Vec::new(),
             notices: Vec::new(),
+            probes: probe::ProbeCache::default(),
         };
         renderer.load_scene_volumes(scene, progress)?;
         renderer.set_views(scene, built)?;

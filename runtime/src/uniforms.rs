@@ -270,6 +270,23 @@ impl UniformBlock {
         Ok(())
     }
 
+    /// The current value of uniform `name`; `None` for an unknown name or a resource.
+    pub fn get(&self, name: &str) -> Option<Value> {
+        let member = self.members.iter().find(|m| m.name == name)?;
+        let shape = member.shape?;
+        let words = (0..shape.components()).map(|i| {
+            let (col, row) = (i / shape.rows as usize, i % shape.rows as usize);
+            let at = member.offset + col * shape.column_stride() + row * 4;
+            self.bytes.get(at..at + 4).and_then(|b| b.try_into().ok()).unwrap_or([0; 4])
+        });
+        Some(match shape.kind {
+            Kind::Float => Value::Float(words.map(f32::from_le_bytes).collect()),
+            Kind::Int => Value::Int(words.map(i32::from_le_bytes).collect()),
+            Kind::Uint => Value::Uint(words.map(u32::from_le_bytes).collect()),
+            Kind::Bool => Value::Bool(words.map(|w| u32::from_le_bytes(w) != 0).collect()),
+        })
+    }
+
     /// Whether uniform `name` exists (as a value in the block).
     pub fn has(&self, name: &str) -> bool {
         self.members.iter().any(|m| m.name == name && m.shape.is_some())
@@ -316,6 +333,18 @@ mod tests {
 
     fn f32_at(block: &UniformBlock, at: usize) -> f32 {
         f32::from_le_bytes(block.bytes()[at..at + 4].try_into().unwrap())
+    }
+
+    #[test]
+    fn get_reads_back_what_set_wrote() {
+        let mut block = UniformBlock::new(&reflection());
+        let n: Vec<f32> = (0..9).map(|i| i as f32).collect();
+        block.set("n", Value::Float(n.clone())).unwrap();
+        assert_eq!(block.get("n"), Some(Value::Float(n)));
+        assert_eq!(block.get("c"), Some(Value::Float(vec![1.0, 2.0, 3.0])));
+        assert_eq!(block.get("flag"), Some(Value::Bool(vec![true])));
+        assert_eq!(block.get("volume"), None);
+        assert_eq!(block.get("nope"), None);
     }
 
     #[test]

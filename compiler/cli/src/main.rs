@@ -74,6 +74,8 @@ enum Command {
         /// Use the software adapter (lavapipe) even when a GPU is present.
         #[arg(long)]
         software: bool,
+        #[command(flatten)]
+        probe: ProbeArgs,
     },
     /// Open a window with every view of a scene; follows edits of the scene and its modules.
     View {
@@ -108,6 +110,31 @@ enum Command {
     },
     /// Run the language server on standard input and output (for editors: editors/README.md).
     Lsp,
+}
+
+/// `vrsc render --probe`: a state field shown as an image instead of the views' pictures.
+#[derive(clap::Args)]
+struct ProbeArgs {
+    /// Write DIR/VIEW.FIELD.png for every view that declares state field FIELD (and print each
+    /// image's value range and mapping) instead of DIR/VIEW.png.
+    #[arg(long, value_name = "FIELD")]
+    probe: Option<String>,
+    /// Read the field at the first sample whose accumulated opacity (accum.a) reaches A
+    /// (default for sample fields: 0.5; `@ray` fields are read at ray.finish unless this or
+    /// --probe-sample is given).
+    #[arg(long, value_name = "A", requires = "probe", conflicts_with = "probe_sample")]
+    probe_threshold: Option<f32>,
+    /// Read the field at sample N of each ray (0-based).
+    #[arg(long, value_name = "N", requires = "probe")]
+    probe_sample: Option<u32>,
+}
+
+impl ProbeArgs {
+    /// Where the probe reads its field; `None` leaves it to the field's lifetime.
+    fn at(&self) -> Option<vrs_runtime::ProbeAt> {
+        use vrs_runtime::ProbeAt;
+        self.probe_threshold.map(ProbeAt::Opacity).or(self.probe_sample.map(ProbeAt::Sample))
+    }
 }
 
 #[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -162,7 +189,9 @@ fn run(cli: &Cli) -> Outcome {
     let printer = Printer { format: cli.message_format, color: cli.color };
     match &cli.command {
         Command::Build { scene, output, emit } => build(&printer, scene, output, emit),
-        Command::Render { scene, output, size, software } => render(&printer, scene, output, *size, *software),
+        Command::Render { scene, output, size, software, probe } => {
+            render(&printer, scene, output, RenderArgs { size: *size, software: *software, probe })
+        }
         Command::View { scene, software, budget_ms } => view(scene, *software, *budget_ms),
         Command::Watch { scene, output, size, software } => {
             watch::watch(&printer, &watch::WatchArgs { scene, dir: output, size: *size, software: *software })
@@ -300,28 +329,47 @@ fn parse_size(text: &str) -> Result<[u32; 2], String> {
     }
 }
 
-fn render(printer: &Printer, scene_path: &Path, dir: &Path, size: Option<[u32; 2]>, software: bool) -> Outcome {
+/// What `vrsc render` was asked for besides the scene and the folder.
+struct RenderArgs<'a> {
+    size: Option<[u32; 2]>,
+    software: bool,
+    probe: &'a ProbeArgs,
+}
+
+fn render(printer: &Printer, scene_path: &Path, dir: &Path, args: RenderArgs) -> Outcome {
     use vrs_runtime::{AdapterChoice, Gpu, RenderOptions, SceneRenderer};
-    let built = match vrsc::compose::build::build_scene(scene_path, None) {
+    // A probe needs each view's program to know the fields it declares.
+    let keep = if args.probe.probe.is_some() { Keep::Ir } else { Keep::Outputs };
+    let built = match build_scene_keeping(scene_path, None, keep) {
         Ok(b) => b,
         Err(e) => return io_failure(&format!("cannot read `{}`: {e}", scene_path.display())),
     };
     let outcome = printer.report(&built.diags.sorted(), &built.sources);
     let Some(scene) = built.scene.as_ref().filter(|_| matches!(outcome, Outcome::Ok)) else { return outcome };
-    let choice = if software { AdapterChoice::Software } else { AdapterChoice::PreferHardware };
+    let probed = match &args.probe.probe {
+        Some(field) => match vrsc::compose::probe::views_with_field(&built, field) {
+            Ok(views) => Some((field.as_str(), views)),
+            Err(d) => return printer.report(&[d], &built.sources),
+        },
+        None => None,
+    };
+    let choice = if args.software { AdapterChoice::Software } else { AdapterChoice::PreferHardware };
     let gpu = match Gpu::headless(choice) {
         Ok(gpu) => gpu,
         Err(e) => return io_failure(&e),
     };
     eprintln!("rendering on {}", gpu.adapter);
-    let options = RenderOptions { size, ..RenderOptions::default() };
+    let options = RenderOptions { size: args.size, ..RenderOptions::default() };
     let mut bar = ProgressBar::default();
     let renderer = SceneRenderer::from_built(gpu, scene_path, scene, &built, options, &mut |name, done, total| {
         bar.update(name, done, total)
     });
     let result = renderer.and_then(|mut r| {
         r.notices.iter().for_each(|n| eprintln!("note: {n}"));
-        r.render_all()
+        match probed {
+            Some((field, views)) => render_probes(&mut r, field, &views, args.probe.at()),
+            None => r.render_all(),
+        }
     });
     let images = match result {
         Ok(images) => images,
@@ -333,14 +381,31 @@ fn render(printer: &Printer, scene_path: &Path, dir: &Path, size: Option<[u32; 2
     if let Err(e) = std::fs::create_dir_all(dir) {
         return io_failure(&format!("cannot create `{}`: {e}", dir.display()));
     }
-    for (view, image) in images {
-        let path = dir.join(format!("{view}.png"));
+    for (name, image) in images {
+        let path = dir.join(format!("{name}.png"));
         if let Err(e) = image.save(&path) {
             return io_failure(&format!("cannot write `{}`: {e}", path.display()));
         }
         eprintln!("wrote {} ({}x{})", path.display(), image.width(), image.height());
     }
     Outcome::Ok
+}
+
+/// Probes of `field` in the views with these indices, named `VIEW.FIELD`; prints each legend.
+fn render_probes(
+    renderer: &mut vrs_runtime::SceneRenderer,
+    field: &str,
+    views: &[usize],
+    at: Option<vrs_runtime::ProbeAt>,
+) -> Result<Vec<(String, image::RgbaImage)>, vrs_runtime::RuntimeError> {
+    let spec = vrs_runtime::ProbeSpec { field: field.to_string(), at };
+    let mut images = Vec::new();
+    for &index in views {
+        let probe = renderer.render_probe(index, &spec)?;
+        println!("{}", probe.legend());
+        images.push((format!("{}.{field}", probe.view), probe.image));
+    }
+    Ok(images)
 }
 
 /// A one-line progress bar on stderr for volumes large enough to take a while to read.

@@ -96,17 +96,28 @@ pub fn compose_scene(
     only_view: Option<&str>,
     keep: Keep,
 ) -> BuiltScene {
-    compose_scene_with(sources, scene, only_view, keep, ParsedFiles::default())
+    compose_scene_with(sources, scene, only_view, keep, ParsedFiles::default(), &[])
+}
+
+/// A module made by the compiler itself rather than read from a file (the probe variant of a
+/// view, `compose/probe.rs`). It is placed after every module of the scene and the view.
+#[derive(Clone, Debug)]
+pub struct GeneratedModule {
+    /// The name diagnostics show for it.
+    pub name: String,
+    pub text: String,
 }
 
 /// [`compose_scene`], loading modules through `parsed` (whose overlay stands in for files on
-/// disk: the language server composes a scene with the user's unsaved buffers this way).
+/// disk: the language server composes a scene with the user's unsaved buffers this way), with
+/// `extra` modules placed last in every view composed.
 pub fn compose_scene_with(
     mut sources: SourceMap,
     scene: Result<Scene, SceneError>,
     only_view: Option<&str>,
     keep: Keep,
     mut parsed: ParsedFiles,
+    extra: &[GeneratedModule],
 ) -> BuiltScene {
     let mut diags = Diagnostics::new();
     let scene = match scene {
@@ -122,7 +133,7 @@ pub fn compose_scene_with(
     // of a view's work only reads the map, so the views compose in parallel. (Parsing the files in
     // parallel too saved less than handing work to another thread costs here.)
     let loaded: Vec<LoadedView> =
-        chosen.iter().map(|view| load_view(&scene, view, &mut sources, &mut parsed)).collect();
+        chosen.iter().map(|view| load_view(&scene, view, extra, &mut sources, &mut parsed)).collect();
     let composed = compose_loaded_views(&scene, &chosen, loaded, &sources, keep);
     let mut views = Vec::with_capacity(composed.len());
     for (output, view_diags) in composed {
@@ -149,8 +160,15 @@ struct LoadedView {
 }
 
 /// Loads the standard modules a view's configuration selects, then the scene's modules, then
-/// the view's own. `parsed` carries the files earlier views already parsed into `sources`.
-fn load_view(scene: &Scene, view: &View, sources: &mut SourceMap, parsed: &mut ParsedFiles) -> LoadedView {
+/// the view's own, then the `extra` ones. `parsed` carries the files earlier views already
+/// parsed into `sources`.
+fn load_view(
+    scene: &Scene,
+    view: &View,
+    extra: &[GeneratedModule],
+    sources: &mut SourceMap,
+    parsed: &mut ParsedFiles,
+) -> LoadedView {
     let mut diags = Diagnostics::new();
     let mut loader = Loader::with_parsed(sources, &mut diags, std::mem::take(parsed));
     let mut uses = Vec::new();
@@ -170,6 +188,10 @@ fn load_view(scene: &Scene, view: &View, sources: &mut SourceMap, parsed: &mut P
             }),
             Err(d) => missing.push(d),
         }
+    }
+    for generated in extra {
+        let module = loader.load_root_source(&generated.name, generated.text.clone(), None);
+        uses.push(ModuleUse { module, instances: None, span: Span::DUMMY });
     }
     let (graph, files) = loader.finish_keeping_files();
     *parsed = files;

@@ -10,5 +10,6 @@ pub mod cache;
 pub mod entry;
 pub mod explain;
 pub mod place;
+pub mod probe;
 pub mod reflect;
 pub mod view;

@@ -253,7 +253,7 @@ impl Unit {
 }
 
 /// `name` with every `$` replaced by the instance.
-fn subst(name: &str, instance: Option<&str>) -> String {
+pub(crate) fn subst(name: &str, instance: Option<&str>) -> String {
     match instance {
         Some(i) => name.replace('$', i),
         None => name.to_string(),

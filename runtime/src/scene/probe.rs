@@ -1,0 +1,193 @@
+//! Probes of a scene's views (see [`crate::probe`] and "Probes" in `docs/reference.md`): the
+//! compiler composes a view's probe variant in process, the renderer keeps it (with its pipeline)
+//! per view shader and field, renders its passes with the view's current uniforms, camera and
+//! slice, and decodes them into an image.
+
+use super::{SceneRenderer, SceneView, apply_view_uniforms};
+use crate::error::RuntimeError;
+use crate::probe::{ComponentKind, ProbeFormat, ProbeValues};
+use crate::reflection::Reflection;
+use crate::shader::ViewShader;
+use crate::view::ViewRenderer;
+use std::collections::HashMap;
+pub use vrsc::compose::probe::ProbeAt;
+use vrsc::compose::probe::{self as cprobe, DeclaredField, ProbeLayout};
+use vrsc::types::{Scalar, Type};
+
+/// What to probe: a state field of the view, and where along the ray (`None`: a `@ray` field
+/// at `ray.finish`, a sample field at accumulated opacity 0.5).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ProbeSpec {
+    pub field: String,
+    pub at: Option<ProbeAt>,
+}
+
+impl ProbeSpec {
+    /// A probe of `field` where its lifetime says.
+    pub fn of(field: impl Into<String>) -> ProbeSpec {
+        ProbeSpec { field: field.into(), at: None }
+    }
+}
+
+/// A probe image and what it shows.
+#[derive(Clone, Debug)]
+pub struct ProbeImage {
+    /// The view's name.
+    pub view: String,
+    /// The field's name, VRS type and lifetime (`true` for `@ray`).
+    pub field: String,
+    pub ty: String,
+    pub ray: bool,
+    /// Where the value was read.
+    pub at: ProbeAt,
+    /// The coloured image (straight alpha; transparent where a pixel has no value).
+    pub image: image::RgbaImage,
+    /// The exact values behind it, for a value under the mouse and for tests.
+    pub values: ProbeValues,
+}
+
+impl ProbeImage {
+    /// Two lines for people: what the probe is, then how to read it (range and mapping).
+    pub fn legend(&self) -> String {
+        let lifetime = if self.ray { "@ray field" } else { "sample field" };
+        format!("{}.{}: {} {lifetime} {}\n{}", self.view, self.field, self.ty, self.at.describe(), self.values.legend())
+    }
+}
+
+/// The probe variants a renderer has composed, by the structural hash of the view's shader and
+/// the field: a view whose shader changes (a reload) gets new variants.
+#[derive(Default)]
+pub(super) struct ProbeCache {
+    variants: HashMap<(String, String), Probe>,
+}
+
+/// A composed probe variant, ready to render.
+struct Probe {
+    layout: ProbeLayout,
+    view: SceneView,
+}
+
+impl SceneRenderer {
+    /// The state fields view `index` declares, each of which [`SceneRenderer::render_probe`]
+    /// can show (except matrices), in pipeline order.
+    pub fn probe_fields(&self, index: usize) -> Result<Vec<DeclaredField>, RuntimeError> {
+        let name = &self.views.get(index).ok_or_else(|| no_view(index))?.name;
+        let built = vrsc::compose::build::build_scene_keeping(&self.path, Some(name), vrsc::compose::build::Keep::Ir)
+            .map_err(|error| RuntimeError::Io { path: self.path.clone(), error })?;
+        let view = built.views.first().filter(|_| !built.diags.has_errors());
+        let fields = view.and_then(|v| v.ir.as_ref().map(|ir| cprobe::declared_fields(&ir.program, &v.composition)));
+        fields.ok_or_else(|| compose_error(&built.diags, &built.sources))
+    }
+
+    /// Renders a probe of view `index`: the field's value per pixel, as its view shows it now
+    /// (uniforms, camera, slice), coloured as [`crate::probe`] says. The first probe of a field
+    /// composes the view's probe variant from the scene file (a few milliseconds, plus a
+    /// pipeline); later ones only render. An unknown field is an error with the closest name.
+    pub fn render_probe(&mut self, index: usize, spec: &ProbeSpec) -> Result<ProbeImage, RuntimeError> {
+        let view = self.views.get(index).ok_or_else(|| no_view(index))?;
+        let key = (view.renderer.shader().reflection.structural_hash.clone(), spec.field.clone());
+        let size = view.renderer.size();
+        if self.probes.variants.get(&key).is_none_or(|p| p.view.renderer.size() != size) {
+            let probe = self.compose_probe(index, &spec.field)?;
+            self.probes.variants.insert(key.clone(), probe);
+        }
+        let (view, probe) = match (self.views.get(index), self.probes.variants.get_mut(&key)) {
+            (Some(view), Some(probe)) => (view, probe),
+            _ => return Err(no_view(index)),
+        };
+        let field = &probe.layout.field;
+        let at = spec.at.unwrap_or(ProbeAt::default_for(field.ray));
+        check_at(&probe.layout, at)?;
+        let r = &mut probe.view.renderer;
+        for u in &view.renderer.shader().reflection.uniforms {
+            if r.has_uniform(&u.name)
+                && let Some(value) = view.renderer.uniforms().get(&u.name)
+            {
+                r.set_uniform(&u.name, value)?;
+            }
+        }
+        r.set_uniform(cprobe::MODE_UNIFORM, at.mode())?;
+        match at {
+            ProbeAt::Opacity(a) => r.set_uniform(cprobe::THRESHOLD_UNIFORM, a)?,
+            ProbeAt::Sample(n) => r.set_uniform(cprobe::SAMPLE_UNIFORM, n)?,
+            ProbeAt::Finish => {}
+        }
+        probe.view.camera = view.camera;
+        probe.view.slice = view.slice;
+        apply_view_uniforms(&mut probe.view, &self.grids)?;
+        let mut passes = Vec::with_capacity(probe.layout.passes as usize);
+        for pass in 0..probe.layout.passes {
+            probe.view.renderer.set_uniform(cprobe::PASS_UNIFORM, pass)?;
+            passes.push(probe.view.renderer.render(&self.gpu, &self.resources)?);
+        }
+        let values = ProbeValues::decode(format(&probe.layout)?, &passes).map_err(RuntimeError::Invalid)?;
+        Ok(ProbeImage {
+            view: view.name.clone(),
+            field: field.name.clone(),
+            ty: field.ty.to_string(),
+            ray: field.ray,
+            at,
+            image: values.to_image(),
+            values,
+        })
+    }
+
+    /// Composes the probe variant of view `index` for `field` and makes its renderer.
+    fn compose_probe(&mut self, index: usize, field: &str) -> Result<Probe, RuntimeError> {
+        let view = self.views.get(index).ok_or_else(|| no_view(index))?;
+        let built = cprobe::build_probe(&self.path, &view.name, field)
+            .map_err(|error| RuntimeError::Io { path: self.path.clone(), error })?;
+        let Some(variant) = built.variant else { return Err(compose_error(&built.diags, &built.sources)) };
+        let reflection: Reflection = serde_json::to_value(&variant.shader.reflection)
+            .ok()
+            .and_then(|json| serde_json::from_value(json).ok())
+            .ok_or_else(|| RuntimeError::Invalid("the compiler's reflection does not round-trip".into()))?;
+        let shader = ViewShader::new(variant.shader.wgsl, reflection, &self.path)?;
+        let renderer = ViewRenderer::new(&self.gpu, &mut self.pipelines, shader, view.renderer.size())?;
+        let view = SceneView { name: view.name.clone(), renderer, camera: view.camera, slice: view.slice };
+        Ok(Probe { layout: variant.layout, view })
+    }
+}
+
+/// Whether the probe can read its field `at` that place.
+fn check_at(layout: &ProbeLayout, at: ProbeAt) -> Result<(), RuntimeError> {
+    let field = &layout.field.name;
+    match at {
+        ProbeAt::Finish if !layout.field.ray => Err(RuntimeError::Invalid(format!(
+            "`{field}` is a sample field: it has a value at a sample, not at ray.finish \
+             (probe it at an opacity threshold or a sample index)"
+        ))),
+        ProbeAt::Opacity(_) if !layout.opacity => Err(RuntimeError::Invalid(format!(
+            "view `{}` has no `@ray accum: vec4f` to take an opacity threshold from; probe `{field}` at a sample index",
+            layout.view
+        ))),
+        ProbeAt::Opacity(a) if !a.is_finite() => {
+            Err(RuntimeError::Invalid(format!("the opacity threshold must be a number, not {a}")))
+        }
+        _ => Ok(()),
+    }
+}
+
+/// The decoder's view of a probe layout.
+fn format(layout: &ProbeLayout) -> Result<ProbeFormat, RuntimeError> {
+    let kind = match layout.field.ty.scalar() {
+        Some(Scalar::F32) => ComponentKind::Float,
+        Some(Scalar::I32) => ComponentKind::Int,
+        Some(Scalar::U32) => ComponentKind::Uint,
+        Some(Scalar::Bool) => ComponentKind::Bool,
+        None => return Err(RuntimeError::Invalid(format!("a probe cannot show a `{}`", layout.field.ty))),
+    };
+    let format = ProbeFormat { kind, components: layout.words };
+    if matches!(layout.field.ty, Type::Matrix { .. }) || format.passes() != layout.passes {
+        return Err(RuntimeError::Invalid(format!("a probe cannot show a `{}`", layout.field.ty)));
+    }
+    Ok(format)
+}
+
+fn no_view(index: usize) -> RuntimeError {
+    RuntimeError::Invalid(format!("the scene has no view {index}"))
+}
+
+fn compose_error(diags: &vrsc::diag::Diagnostics, sources: &vrsc::source::SourceMap) -> RuntimeError {
+    RuntimeError::Compose { rendered: vrsc::diag::render_plain(&diags.sorted(), sources) }
+}
