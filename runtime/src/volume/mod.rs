@@ -1,4 +1,5 @@
-//! Volumes on the CPU: loading NIfTI-1, NRRD and MetaImage files, and generating phantoms.
+//! Volumes on the CPU: loading NIfTI-1, NRRD and MetaImage files and DICOM series, and
+//! generating phantoms.
 //!
 //! Every loader validates the header before it reads or allocates the data, so a hostile or
 //! broken file costs at most the memory its actual data needs, and every problem is reported as
@@ -8,6 +9,7 @@
 //! `space: left-posterior-superior`) have their x and y axes negated, so that volumes loaded from
 //! different formats line up.
 
+mod dicom;
 mod mhd;
 mod nifti;
 mod nrrd;
@@ -201,6 +203,9 @@ pub enum LoadErrorKind {
     Corrupt(String),
     /// The samples (as `f32`) do not fit in memory.
     OutOfMemory { bytes: u64 },
+    /// A DICOM series is unusable: a file of it (`file`) or the series as a whole (`None`: several
+    /// series in one folder, missing slices, unequal spacing).
+    Dicom { file: Option<PathBuf>, message: String },
 }
 
 impl fmt::Display for LoadErrorKind {
@@ -210,9 +215,9 @@ impl fmt::Display for LoadErrorKind {
             LoadErrorKind::Io { file: Some(file), error } => {
                 write!(f, "cannot read the data file `{}`: {error}", file.display())
             }
-            LoadErrorKind::UnknownFormat => {
-                f.write_str("unknown volume format (expected .nii, .nii.gz, .nrrd, .nhdr, .mhd or .mha)")
-            }
+            LoadErrorKind::UnknownFormat => f.write_str(
+                "unknown volume format (expected .nii, .nii.gz, .nrrd, .nhdr, .mhd, .mha or a folder of DICOM files)",
+            ),
             LoadErrorKind::Header(message) => f.write_str(message),
             LoadErrorKind::TooLarge { dims, voxels } => {
                 let dims: Vec<String> = dims.iter().map(u64::to_string).collect();
@@ -228,18 +233,23 @@ impl fmt::Display for LoadErrorKind {
             LoadErrorKind::OutOfMemory { bytes } => {
                 write!(f, "not enough memory for the volume ({} MiB as 32-bit floats)", bytes >> 20)
             }
+            LoadErrorKind::Dicom { file: None, message } => f.write_str(message),
+            LoadErrorKind::Dicom { file: Some(file), message } => write!(f, "`{}`: {message}", file.display()),
         }
     }
 }
 
-/// Loads a volume, picking the format by the file name: `.nii`, `.nii.gz` (NIfTI-1), `.nrrd`,
-/// `.nhdr` (NRRD), `.mhd`, `.mha` (MetaImage).
+/// Loads a volume: a folder is a DICOM series (one image per file); a file's format is picked
+/// by its name: `.nii`, `.nii.gz` (NIfTI-1), `.nrrd`, `.nhdr` (NRRD), `.mhd`, `.mha` (MetaImage).
 ///
 /// `progress(done_bytes, total_bytes)` is called as the file holding the data is read (about
-/// every 1% of it), and once with `done == total` at the end, so a caller can draw a progress bar.
+/// every 1% of it; for a DICOM series, after each slice), and once with `done == total` at the
+/// end, so a caller can draw a progress bar.
 pub fn load(path: &Path, progress: &mut dyn FnMut(u64, u64)) -> Result<Volume, LoadError> {
     let name = path.file_name().map(|n| n.to_string_lossy().to_ascii_lowercase()).unwrap_or_default();
-    let result = if name.ends_with(".nii.gz") {
+    let result = if path.is_dir() {
+        dicom::load(path, progress)
+    } else if name.ends_with(".nii.gz") {
         nifti::load(path, true, progress)
     } else if name.ends_with(".nii") {
         nifti::load(path, false, progress)
