@@ -53,9 +53,9 @@ pub struct SceneRenderer {
     resources: Resources,
     /// Grid and transform of each volume, primary first.
     grids: Vec<VolumeGrid>,
-    /// Empty-space skipping: the primary volume's normalized values, to rebuild the occupancy
-    /// grid when its transfer function changes. `None` when the scene does not skip.
-    skipping: Option<Vec<f32>>,
+    /// Empty-space skipping: the primary volume (its stored samples, no copy), to rebuild the
+    /// occupancy grid when its transfer function changes. `None` when the scene does not skip.
+    skipping: Option<volume::Volume>,
     pub views: Vec<SceneView>,
     /// Things the user should know that are not errors (a volume replaced by its fallback
     /// phantom because its file is absent).
@@ -101,7 +101,7 @@ impl SceneRenderer {
         let mut resources = Resources::new(&gpu);
         let mut notices = Vec::new();
         let loaded = load_volumes(&gpu, scene, &options, &mut resources, &mut notices, progress)?;
-        let skipping = scene.render.empty_space_skipping.then_some(loaded.primary_values);
+        let skipping = loaded.primary;
         let mut renderer = SceneRenderer {
             gpu,
             path: path.to_path_buf(),
@@ -204,8 +204,8 @@ impl SceneRenderer {
 
     /// Builds the occupancy grid of empty-space skipping for the primary transfer function.
     fn update_occupancy(&mut self, tf: &crate::tf::TransferFunction) {
-        let (Some(values), Some(primary)) = (&self.skipping, self.grids.first()) else { return };
-        let grid = crate::occupancy::occupancy(primary.dims, values, tf);
+        let Some(primary) = &self.skipping else { return };
+        let grid = crate::occupancy::occupancy(primary, None, tf);
         if let Ok(texture) = VolumeTexture::upload(&self.gpu, "occupancy", &grid, Some([0.0, 1.0])) {
             self.resources.volumes.insert("occupancy".into(), Arc::new(texture));
         }
@@ -307,8 +307,9 @@ fn apply_view_uniforms(view: &mut SceneView, grids: &[VolumeGrid]) -> Result<(),
 struct Loaded {
     /// Every volume's grid, primary first.
     grids: Vec<VolumeGrid>,
-    /// The primary volume's values as uploaded (normalized) and its transfer function.
-    primary_values: Vec<f32>,
+    /// The primary volume when empty-space skipping needs it (else it was streamed or dropped
+    /// once uploaded), and its transfer function.
+    primary: Option<volume::Volume>,
     primary_tf: crate::tf::TransferFunction,
 }
 
@@ -322,7 +323,7 @@ fn load_volumes(
     progress: Progress,
 ) -> Result<Loaded, RuntimeError> {
     let mut grids = Vec::new();
-    let mut primary_values = Vec::new();
+    let mut primary_volume = None;
     let mut primary_tf = tf::preset(vscene::DEFAULT_TF)?;
     let primary = scene.primary();
     let ordered = std::iter::once(primary).chain(scene.volumes.iter().filter(|v| v.role.value != Role::Primary));
@@ -332,27 +333,36 @@ fn load_volumes(
             volume::phantom::phantom(p, options.phantom_size)
                 .map_err(|e| RuntimeError::Invalid(format!("volume `{name}`: {e}")))
         };
-        let data = match (&v.source, &v.fallback) {
+        let is_primary = v.role.value == Role::Primary;
+        // Only empty-space skipping reads the samples again (its occupancy grid); any other
+        // volume file is streamed into its texture without a copy in memory.
+        let keep = is_primary && scene.render.empty_space_skipping;
+        let uploaded = |data: volume::Volume| -> Result<_, RuntimeError> {
+            Ok((VolumeTexture::upload(gpu, name, &data, None)?, Some(data)))
+        };
+        let (texture, data) = match (&v.source, &v.fallback) {
             (VolumeSource::File(file), Some(fallback)) if !file.resolved.exists() => {
                 notices.push(format!(
                     "volume `{name}`: `{}` is absent; using the built-in `{}` phantom instead",
                     file.resolved.display(),
                     fallback.value
                 ));
-                phantom(&fallback.value)?
+                uploaded(phantom(&fallback.value)?)?
+            }
+            (VolumeSource::File(file), _) if keep => {
+                uploaded(volume::load(&file.resolved, &mut |done, total| progress(name, done, total))?)?
             }
             (VolumeSource::File(file), _) => {
-                volume::load(&file.resolved, &mut |done, total| progress(name, done, total))?
+                let report = &mut |done, total| progress(name, done, total);
+                (VolumeTexture::stream_file(gpu, name, &file.resolved, None, report)?.0, None)
             }
-            (VolumeSource::Phantom(p), _) => phantom(&p.value)?,
+            (VolumeSource::Phantom(p), _) => uploaded(phantom(&p.value)?)?,
         };
-        let is_primary = v.role.value == Role::Primary;
         let binding = if is_primary { "volume".to_string() } else { format!("volume_{name}") };
-        let texture = VolumeTexture::upload(gpu, name, &data, None)?;
-        if is_primary {
-            primary_values = data.normalized(None);
+        grids.push(VolumeGrid { name: name.clone(), dims: texture.dims, grid_to_world: texture.grid_to_world });
+        if keep {
+            primary_volume = data;
         }
-        grids.push(VolumeGrid { name: name.clone(), dims: data.dims, grid_to_world: data.grid_to_world });
         resources.volumes.insert(binding, Arc::new(texture));
         if let Some(tf_ref) = &v.tf {
             let table = match tf_ref {
@@ -366,7 +376,7 @@ fn load_volumes(
             }
         }
     }
-    Ok(Loaded { grids, primary_values, primary_tf })
+    Ok(Loaded { grids, primary: primary_volume, primary_tf })
 }
 
 fn uniform_json(v: &UniformValue) -> serde_json::Value {

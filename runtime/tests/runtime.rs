@@ -180,3 +180,35 @@ fn empty_space_skipping_keeps_the_image() {
         reference.pixels().zip(skipped.pixels()).flat_map(|(a, b)| (0..4).map(move |c| a[c].abs_diff(b[c]))).max();
     assert!(worst.unwrap_or(0) <= 3, "largest channel difference {worst:?}");
 }
+
+/// A volume file is streamed into its texture (no copy of its samples is kept); the picture is
+/// the one of the same samples uploaded from memory. The head phantom, written as a NRRD file
+/// of floats on the phantom's own grid, against the built-in phantom.
+#[test]
+fn a_streamed_file_renders_like_the_same_volume_uploaded_from_memory() {
+    let dims = [40, 36, 32];
+    let phantom = vrs_runtime::volume::phantom("head", dims).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let centre = dims.map(|d| (d as f32 - 1.0) / 2.0);
+    let mut nrrd = format!(
+        "NRRD0004\ntype: float\ndimension: 3\nsizes: {} {} {}\nspace directions: (1,0,0) (0,1,0) (0,0,1)\n\
+         space origin: ({},{},{})\nendian: little\nencoding: raw\n\n",
+        dims[0], dims[1], dims[2], -centre[0], -centre[1], -centre[2]
+    )
+    .into_bytes();
+    nrrd.extend(phantom.values().iter().flat_map(|v| v.to_le_bytes()));
+    std::fs::write(dir.path().join("head.nrrd"), nrrd).unwrap();
+    let view = "\n[[view]]\nname = \"3d\"\nkind = \"raycast\"\nsize = [96, 96]\n\
+                camera = { azimuth = 30.0, elevation = 20.0 }\n";
+    let render = |source: &str| {
+        let text = format!("[[volume]]\nname = \"head\"\nrole = \"primary\"\n{source}\ntf = \"mr_default\"\n{view}");
+        let scene = temp_scene(dir.path(), &text);
+        let options = RenderOptions { phantom_size: dims, ..RenderOptions::default() };
+        let mut renderer = SceneRenderer::open(common::software_gpu(), &scene, options, &mut |_, _, _| {}).unwrap();
+        renderer.render_all().unwrap().remove(0).1
+    };
+    let streamed = render("path = \"head.nrrd\"");
+    let uploaded = render("phantom = \"head\"");
+    assert!(streamed.pixels().any(|p| p[3] > 0), "the head is visible");
+    assert_eq!(streamed, uploaded);
+}

@@ -20,18 +20,22 @@ use std::path::{Path, PathBuf};
 use dicom_dictionary_std::tags;
 use dicom_object::Tag;
 use dicom_object::{DefaultDicomObject, OpenFileOptions};
-use dicom_pixeldata::PixelDecoder;
+use dicom_pixeldata::{DecodedPixelData, PixelDecoder, PixelRepresentation};
 use dicom_transfer_syntax_registry::{TransferSyntaxIndex, TransferSyntaxRegistry};
 use glam::{DVec3, Mat4};
 
-use super::{LoadErrorKind, Volume, affine, check_dims, lps_to_ras};
+use super::{LoadErrorKind, SampleSink, Samples, Scaling, VolumeInfo, affine, check_dims, lps_to_ras};
 
 /// Relative tolerance of slice spacing: gaps that differ from the series' spacing by more than
 /// this fraction are missing slices or unequal spacing.
 const SPACING_TOLERANCE: f64 = 0.01;
 
-/// Loads the series in the folder `dir`.
-pub(super) fn load(dir: &Path, progress: &mut dyn FnMut(u64, u64)) -> Result<Volume, LoadErrorKind> {
+/// Reads the series in the folder `dir` into `sink`, slice by slice.
+pub(super) fn load(
+    dir: &Path,
+    progress: &mut dyn FnMut(u64, u64),
+    sink: &mut dyn SampleSink,
+) -> Result<VolumeInfo, LoadErrorKind> {
     let files = list_files(dir)?;
     let headers = files.iter().map(|file| SliceHeader::read(file)).collect::<Result<Vec<_>, _>>()?;
     one_series(&headers)?;
@@ -40,30 +44,106 @@ pub(super) fn load(dir: &Path, progress: &mut dyn FnMut(u64, u64)) -> Result<Vol
     let dims = check_dims("the series", [u64::from(geometry.columns), u64::from(geometry.rows), slices.len() as u64])?;
     let per_slice = geometry.columns as usize * geometry.rows as usize;
     let total: u64 = slices.iter().map(|s| s.bytes).sum();
+    // One rescale for the whole series keeps the stored samples (2 bytes a voxel for CT);
+    // slices rescaled differently are converted to data units one by one.
+    let uniform = slices.iter().all(|s| s.rescale == slices[0].rescale);
+    let [slope, intercept] = if uniform { slices[0].rescale.map(|v| v as f32) } else { [1.0, 0.0] };
+    let info =
+        VolumeInfo { dims, grid_to_world: geometry.grid_to_world(&slices), scaling: Scaling { slope, intercept } };
+    sink.begin(&info)?;
+    sink.reserve(per_slice * slices.len())?;
+    let mut series_type = None;
     let mut done = 0;
-    let mut data = Vec::new();
-    data.try_reserve_exact(per_slice * slices.len())
-        .map_err(|_| LoadErrorKind::OutOfMemory { bytes: (per_slice * slices.len() * 4) as u64 })?;
     for slice in &slices {
-        let values = decode(&slice.file)?;
-        if values.len() != per_slice {
+        let object = dicom_object::open_file(&slice.file)
+            .map_err(|e| file_error(&slice.file, format!("not a readable DICOM file: {}", chain(&e))))?;
+        let decoded = decode(&object, &slice.file)?;
+        let stored = if uniform { StoredType::of(&decoded, &slice.file)? } else { StoredType::F32 };
+        if *series_type.get_or_insert(stored) != stored {
+            return Err(file_error(
+                &slice.file,
+                "its sample type (Bits Allocated, Bits Stored, Pixel Representation) differs from the other slices'"
+                    .into(),
+            ));
+        }
+        let samples = stored.decode(&decoded).map_err(|message| file_error(&slice.file, message))?;
+        if samples.len() != per_slice {
             return Err(file_error(
                 &slice.file,
                 format!(
                     "the pixel data holds {} values, expected {} x {}",
-                    values.len(),
+                    samples.len(),
                     geometry.columns,
                     geometry.rows
                 ),
             ));
         }
-        data.extend(values);
+        sink.samples(&samples)?;
         done += slice.bytes;
         progress(done, total);
     }
     progress(total, total);
-    let grid_to_world = geometry.grid_to_world(&slices);
-    Ok(Volume::new(dims, grid_to_world, data))
+    Ok(info)
+}
+
+/// How a slice's samples are kept: as stored (a uniform rescale), or in data units.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum StoredType {
+    U8,
+    I8,
+    U16 {
+        bits: u16,
+    },
+    I16 {
+        bits: u16,
+    },
+    U32,
+    I32,
+    /// Rescaled to data units as `f32` (slices of one series with different rescales).
+    F32,
+}
+
+impl StoredType {
+    /// The stored type of a decoded slice from Bits Allocated, Bits Stored and Pixel
+    /// Representation.
+    fn of(decoded: &DecodedPixelData, file: &Path) -> Result<StoredType, LoadErrorKind> {
+        let signed = decoded.pixel_representation() == PixelRepresentation::Signed;
+        let bits = decoded.bits_stored();
+        Ok(match (decoded.bits_allocated(), signed) {
+            (8, false) => StoredType::U8,
+            (8, true) => StoredType::I8,
+            (16, false) => StoredType::U16 { bits },
+            (16, true) => StoredType::I16 { bits },
+            (32, false) => StoredType::U32,
+            (32, true) => StoredType::I32,
+            (other, _) => {
+                return Err(file_error(file, format!("{other} bits allocated per sample; 8, 16 or 32 are supported")));
+            }
+        })
+    }
+
+    /// The slice's samples in this type.
+    fn decode(self, decoded: &DecodedPixelData) -> Result<Samples, String> {
+        let data = decoded.frame_data(0).map_err(|e| chain(&e))?;
+        let words = || data.as_chunks::<2>().0.iter().map(|&b| u16::from_le_bytes(b));
+        let dwords = || data.as_chunks::<4>().0.iter().map(|&b| u32::from_le_bytes(b));
+        Ok(match self {
+            StoredType::U8 => Samples::U8(data.to_vec()),
+            StoredType::I8 => Samples::I8(data.iter().map(|&b| b as i8).collect()),
+            StoredType::U16 { bits } => {
+                let mask = if bits >= 16 { u16::MAX } else { (1u16 << bits) - 1 };
+                Samples::U16(words().map(|w| w & mask).collect())
+            }
+            StoredType::I16 { bits } => {
+                // Sign-extend from Bits Stored: shift the sign bit to the top and back.
+                let shift = 16 - bits.clamp(1, 16);
+                Samples::I16(words().map(|w| ((w as i16) << shift) >> shift).collect())
+            }
+            StoredType::U32 => Samples::U32(dwords().collect()),
+            StoredType::I32 => Samples::I32(dwords().map(|d| d as i32).collect()),
+            StoredType::F32 => Samples::F32(decoded.to_vec_frame::<f32>(0).map_err(|e| chain(&e))?),
+        })
+    }
 }
 
 /// The files of the folder that may be DICOM: every regular file except hidden ones and the
@@ -124,6 +204,8 @@ struct SliceHeader {
     pixel_spacing: [f64; 2],
     /// Slice Thickness or Spacing Between Slices, for a series of one slice.
     thickness: Option<f64>,
+    /// Rescale Slope and Intercept (1 and 0 when absent).
+    rescale: [f64; 2],
 }
 
 impl SliceHeader {
@@ -170,6 +252,10 @@ impl SliceHeader {
             position: DVec3::new(position[0], position[1], position[2]),
             pixel_spacing: [spacing[0], spacing[1]],
             thickness,
+            rescale: [
+                header.optional_float(tags::RESCALE_SLOPE).filter(|&s| s != 0.0).unwrap_or(1.0),
+                header.optional_float(tags::RESCALE_INTERCEPT).unwrap_or(0.0),
+            ],
         })
     }
 }
@@ -349,20 +435,16 @@ fn median(values: &[f64]) -> Option<f64> {
     sorted.get(sorted.len() / 2).copied()
 }
 
-/// Decodes the pixel data of one slice file in data units (its rescale slope and intercept
-/// applied).
-fn decode(file: &Path) -> Result<Vec<f32>, LoadErrorKind> {
-    let object = dicom_object::open_file(file)
-        .map_err(|e| file_error(file, format!("not a readable DICOM file: {}", chain(&e))))?;
+/// Decodes the pixel data of one slice (native or encapsulated), naming the transfer syntax when
+/// it cannot.
+fn decode<'o>(object: &'o DefaultDicomObject, file: &Path) -> Result<DecodedPixelData<'o>, LoadErrorKind> {
     let syntax = object.meta().transfer_syntax().trim_end_matches('\0').to_string();
-    let unsupported = |e: &dyn std::error::Error| {
+    object.decode_pixel_data().map_err(|e| {
         let name = TransferSyntaxRegistry
             .get(&syntax)
             .map_or_else(|| syntax.clone(), |ts| format!("{} ({syntax})", ts.name()));
-        file_error(file, format!("cannot decode the pixel data of transfer syntax {name}: {}", chain(e)))
-    };
-    let decoded = object.decode_pixel_data().map_err(|e| unsupported(&e))?;
-    decoded.to_vec_frame::<f32>(0).map_err(|e| unsupported(&e))
+        file_error(file, format!("cannot decode the pixel data of transfer syntax {name}: {}", chain(&e)))
+    })
 }
 
 #[cfg(test)]
@@ -571,7 +653,7 @@ pub(crate) mod tests {
         let mut calls = Vec::new();
         let v = super::super::load(dir.path(), &mut |d, t| calls.push((d, t))).unwrap();
         assert_eq!(v.dims, [4, 3, 5]);
-        assert_eq!(v.data, expected_values(&slices));
+        assert_eq!(v.values(), expected_values(&slices));
         assert_eq!(v.spacing, [0.75, 0.5, 2.5]);
         // LPS axes (0.75, 0, 0), (0, 0.5, 0), (0, 0, 2.5), origin (-20, -30, 10); RAS negates x, y.
         assert_mat_eq(
@@ -587,13 +669,32 @@ pub(crate) mod tests {
     }
 
     #[test]
+    fn one_rescale_keeps_the_stored_samples_and_several_convert_to_data_units() {
+        let dir = tempfile::tempdir().unwrap();
+        let slices = axial(3, Storage::Uncompressed);
+        write_shuffled(dir.path(), &slices);
+        let v = load_quiet(dir.path()).unwrap();
+        assert!(matches!(v.samples, Samples::I16(_)), "{v:?}");
+        assert_eq!(v.scaling, Scaling { slope: 2.0, intercept: -1024.0 });
+
+        let dir = tempfile::tempdir().unwrap();
+        let mut slices = axial(3, Storage::Uncompressed);
+        slices[1].rescale = [1.0, -1000.0];
+        write_shuffled(dir.path(), &slices);
+        let v = load_quiet(dir.path()).unwrap();
+        assert!(matches!(v.samples, Samples::F32(_)), "{v:?}");
+        assert_eq!(v.scaling, Scaling::IDENTITY);
+        assert_eq!(v.values(), expected_values(&slices));
+    }
+
+    #[test]
     fn rle_series_matches_uncompressed() {
         let dir = tempfile::tempdir().unwrap();
         let slices = axial(3, Storage::Rle);
         write_shuffled(dir.path(), &slices);
         assert_eq!(syntaxes(dir.path()), [uids::RLE_LOSSLESS]);
         let v = load_quiet(dir.path()).unwrap();
-        assert_eq!(v.data, expected_values(&slices));
+        assert_eq!(v.values(), expected_values(&slices));
     }
 
     #[test]
@@ -608,8 +709,8 @@ pub(crate) mod tests {
         let v = load_quiet(dir.path()).unwrap();
         let expected = expected_values(&slices);
         // Stored values within a few grey levels (rescale slope 2).
-        let worst = v.data.iter().zip(&expected).map(|(a, b)| (a - b).abs()).fold(0.0, f32::max);
-        assert!(worst <= 2.0 * 8.0, "worst difference {worst}: {:?} vs {expected:?}", v.data);
+        let worst = v.values().iter().zip(&expected).map(|(a, b)| (a - b).abs()).fold(0.0, f32::max);
+        assert!(worst <= 2.0 * 8.0, "worst difference {worst}: {:?} vs {expected:?}", v.values());
     }
 
     #[test]
@@ -626,7 +727,7 @@ pub(crate) mod tests {
             .collect();
         write_shuffled(dir.path(), &slices);
         let v = load_quiet(dir.path()).unwrap();
-        assert_eq!(v.data, expected_values(&slices));
+        assert_eq!(v.values(), expected_values(&slices));
         // LPS: i -> (0, 0.75, 0), j -> (0, 0, -0.5), k -> (-3, 0, 0); RAS negates x, y.
         assert_mat_eq(
             v.grid_to_world,

@@ -9,7 +9,7 @@ use std::fmt;
 
 use glam::{Mat4, Quat, Vec2, Vec3};
 
-use super::Volume;
+use super::{Samples, Scaling, Volume};
 
 /// The phantoms [`phantom`] knows.
 pub const PHANTOMS: &[&str] = &["head", "abdomen"];
@@ -62,7 +62,14 @@ pub fn phantom(name: &str, dims: [u32; 3]) -> Result<Volume, UnknownPhantom> {
         mirror_xy(&mut data, dims);
     }
     let centre = Vec3::from_array(dims.map(|d| (d as f32 - 1.0) / 2.0));
-    Ok(Volume { dims, spacing: [1.0; 3], grid_to_world: Mat4::from_translation(-centre), data, range: [0.0, 1.0] })
+    Ok(Volume {
+        dims,
+        spacing: [1.0; 3],
+        grid_to_world: Mat4::from_translation(-centre),
+        samples: Samples::F32(data),
+        scaling: Scaling::IDENTITY,
+        range: [0.0, 1.0],
+    })
 }
 
 /// Reverses the x and y axes of a grid (a half turn about z).
@@ -388,7 +395,7 @@ mod tests {
     /// The value at normalized position `p`: the voxel whose centre is nearest.
     fn at(v: &Volume, p: [f32; 3]) -> f32 {
         let [x, y, z] = [0, 1, 2].map(|a| (((p[a] + 1.0) * v.dims[a] as f32 / 2.0) as u32).min(v.dims[a] - 1));
-        v.data[((z * v.dims[1] + y) * v.dims[0] + x) as usize]
+        v.value(((z * v.dims[1] + y) * v.dims[0] + x) as usize).unwrap()
     }
 
     #[test]
@@ -404,9 +411,9 @@ mod tests {
         for &name in PHANTOMS {
             let v = phantom(name, [40, 32, 24]).unwrap();
             assert_eq!(v.dims, [40, 32, 24]);
-            assert_eq!(v.data.len(), 40 * 32 * 24);
+            assert_eq!(v.samples.len(), 40 * 32 * 24);
             assert_eq!(v.range, [0.0, 1.0]);
-            assert!(v.data.iter().all(|x| (0.0..=1.0).contains(x)), "{name}");
+            assert!(v.values().iter().all(|x| (0.0..=1.0).contains(x)), "{name}");
             assert_eq!(v.spacing, [1.0; 3]);
             // The first and last voxel centres are symmetric about the origin.
             let first = v.grid_to_world.transform_point3(Vec3::ZERO);
@@ -419,7 +426,7 @@ mod tests {
     fn dims_are_clamped() {
         let v = phantom("head", [0, 2, 1]).unwrap();
         assert_eq!(v.dims, [1, 2, 1]);
-        assert_eq!(v.data.len(), 2);
+        assert_eq!(v.samples.len(), 2);
     }
 
     #[test]
@@ -436,7 +443,7 @@ mod tests {
         assert!((at(&v, [0.22, 0.0, -0.25]) - 0.12).abs() < 1e-6, "ventricle");
         assert!(at(&v, [0.0, -0.1, -0.25]) > 0.6, "bright lesion");
         // Edges are smooth: some voxels lie strictly between air and skull.
-        assert!(v.data.iter().any(|&x| x > 0.05 && x < 0.95 && x != 0.3 && x != 0.4));
+        assert!(v.values().iter().any(|&x| x > 0.05 && x < 0.95 && x != 0.3 && x != 0.4));
     }
 
     #[test]
