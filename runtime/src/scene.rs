@@ -9,6 +9,7 @@ use crate::gpu::Gpu;
 use crate::reflection::Reflection;
 use crate::shader::{PipelineCache, PipelineStats, ViewShader};
 use crate::textures::{TfTexture, VolumeTexture};
+use crate::tf::TfDomain;
 use crate::view::{Resources, ViewRenderer};
 use crate::{tf, volume};
 use glam::Mat4;
@@ -67,6 +68,8 @@ struct VolumeGrid {
     name: String,
     dims: [u32; 3],
     grid_to_world: Mat4,
+    /// The data values its texture's [0, 1] stands for; transfer functions are resampled over it.
+    window: [f32; 2],
 }
 
 /// Progress of loading a volume: (volume name, bytes done, bytes in all).
@@ -190,6 +193,8 @@ impl SceneRenderer {
         volume: &str,
         tf: &crate::tf::TransferFunction,
     ) -> Result<(), RuntimeError> {
+        let grid = self.grids.iter().find(|g| g.name == volume);
+        let tf = &grid.map_or_else(|| tf.clone(), |g| tf.over_window(g.window));
         let is_primary = self.grids.first().is_some_and(|g| g.name == volume);
         let binding = if is_primary { "tf".to_string() } else { format!("tf_{volume}") };
         let texture = self.resources.tfs.get(&binding).ok_or_else(|| {
@@ -204,8 +209,8 @@ impl SceneRenderer {
 
     /// Builds the occupancy grid of empty-space skipping for the primary transfer function.
     fn update_occupancy(&mut self, tf: &crate::tf::TransferFunction) {
-        let Some(primary) = &self.skipping else { return };
-        let grid = crate::occupancy::occupancy(primary, None, tf);
+        let (Some(primary), Some(window)) = (&self.skipping, self.grids.first().map(|g| g.window)) else { return };
+        let grid = crate::occupancy::occupancy(primary, Some(window), tf);
         if let Ok(texture) = VolumeTexture::upload(&self.gpu, "occupancy", &grid, Some([0.0, 1.0])) {
             self.resources.volumes.insert("occupancy".into(), Arc::new(texture));
         }
@@ -337,10 +342,22 @@ fn load_volumes(
         // Only empty-space skipping reads the samples again (its occupancy grid); any other
         // volume file is streamed into its texture without a copy in memory.
         let keep = is_primary && scene.render.empty_space_skipping;
-        let uploaded = |data: volume::Volume| -> Result<_, RuntimeError> {
-            Ok((VolumeTexture::upload(gpu, name, &data, None)?, Some(data)))
+        let table = match &v.tf {
+            Some(TfRef::Preset(p)) => Some(tf::preset(&p.value)?),
+            Some(TfRef::File(file)) => Some(tf::from_paraview_json(&file.resolved)?),
+            None => None,
         };
-        let (texture, data) = match (&v.source, &v.fallback) {
+        // The scene's window, else the domain of a transfer function in data units (a CT
+        // preset's Hounsfield range, a ParaView colormap's), else percentiles of the data.
+        let fixed = v.window.as_ref().map(|w| w.value).or(match table.as_ref().map(|t| t.domain) {
+            Some(TfDomain::Data(domain)) => Some(domain),
+            _ => None,
+        });
+        let uploaded = |data: volume::Volume| -> Result<_, RuntimeError> {
+            let window = fixed.unwrap_or_else(|| volume::auto_window(&data));
+            Ok((VolumeTexture::upload(gpu, name, &data, Some(window))?, window, Some(data)))
+        };
+        let (texture, window, data) = match (&v.source, &v.fallback) {
             (VolumeSource::File(file), Some(fallback)) if !file.resolved.exists() => {
                 notices.push(format!(
                     "volume `{name}`: `{}` is absent; using the built-in `{}` phantom instead",
@@ -354,21 +371,27 @@ fn load_volumes(
             }
             (VolumeSource::File(file), _) => {
                 let report = &mut |done, total| progress(name, done, total);
-                (VolumeTexture::stream_file(gpu, name, &file.resolved, None, report)?.0, None)
+                let (texture, window) = VolumeTexture::stream_file(gpu, name, &file.resolved, fixed, report)?;
+                (texture, window, None)
             }
             (VolumeSource::Phantom(p), _) => uploaded(phantom(&p.value)?)?,
         };
+        if fixed.is_none() {
+            let [lo, hi] = volume::histogram::AUTO_PERCENTILES;
+            notices.push(format!(
+                "volume `{name}`: automatic window [{:.4}, {:.4}] (the {lo}th to {hi}th percentile of its values); \
+                 `window = [LO, HI]` in its [[volume]] table sets another",
+                window[0], window[1]
+            ));
+        }
         let binding = if is_primary { "volume".to_string() } else { format!("volume_{name}") };
-        grids.push(VolumeGrid { name: name.clone(), dims: texture.dims, grid_to_world: texture.grid_to_world });
+        grids.push(VolumeGrid { name: name.clone(), dims: texture.dims, grid_to_world: texture.grid_to_world, window });
         if keep {
             primary_volume = data;
         }
         resources.volumes.insert(binding, Arc::new(texture));
-        if let Some(tf_ref) = &v.tf {
-            let table = match tf_ref {
-                TfRef::Preset(p) => tf::preset(&p.value)?,
-                TfRef::File(file) => tf::from_paraview_json(&file.resolved)?,
-            };
+        if let Some(table) = table {
+            let table = table.over_window(window);
             let binding = if is_primary { "tf".to_string() } else { format!("tf_{name}") };
             resources.tfs.insert(binding, Arc::new(TfTexture::upload(gpu, &table)));
             if is_primary {

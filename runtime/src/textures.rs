@@ -4,7 +4,7 @@
 use crate::error::RuntimeError;
 use crate::gpu::Gpu;
 use crate::tf::{TF_WIDTH, TransferFunction};
-use crate::volume::{LoadErrorKind, RangeSink, SampleSink, Samples, Volume, VolumeInfo, Window};
+use crate::volume::{Histogram, LoadErrorKind, RangeSink, SampleSink, Samples, Volume, VolumeInfo, Window};
 use glam::Mat4;
 
 /// A volume as a 3D `R16Float` texture of values normalized to [0, 1], uploaded a slab at a time.
@@ -31,39 +31,46 @@ impl VolumeTexture {
         writer.finish()
     }
 
-    /// Uploads the volume file `path` without keeping its samples: a first pass finds the value
-    /// range when no `window` is given, a second converts and writes the texture as the file is
-    /// read. Loading then holds only the texture (and a slab), never the file's data.
-    /// `progress(done, total)` covers both passes.
+    /// Uploads the volume file `path` without keeping its samples, mapping `window` (data
+    /// units) to [0, 1]; without one, the automatic window ([`crate::volume::auto_window`]):
+    /// a first pass finds the value range, a second the percentiles. The last pass converts and
+    /// writes the texture as the file is read, so loading holds only the texture (and a slab),
+    /// never the file's data. `progress(done, total)` covers every pass. Returns the texture
+    /// and the window it was normalized by.
     pub fn stream_file(
         gpu: &Gpu,
         name: &str,
         path: &std::path::Path,
         window: Option<[f32; 2]>,
         progress: &mut dyn FnMut(u64, u64),
-    ) -> Result<(VolumeTexture, VolumeInfo), RuntimeError> {
-        let passes = if window.is_some() { 1 } else { 2 };
+    ) -> Result<(VolumeTexture, [f32; 2]), RuntimeError> {
+        let passes = if window.is_some() { 1 } else { 3 };
         let mut pass = 0;
-        let mut report = |done: u64, total: u64| progress(pass * total + done, passes * total);
+        let mut stream = |sink: &mut dyn SampleSink| {
+            let mut report = |done: u64, total: u64| progress(pass * total + done, passes * total);
+            let info = crate::volume::stream(path, &mut report, sink);
+            pass += 1;
+            info
+        };
         let window = match window {
             Some(window) => window,
             None => {
                 let mut range = RangeSink::default();
-                crate::volume::stream(path, &mut report, &mut range)?;
-                pass = 1;
-                range.range()
+                let info = stream(&mut range)?;
+                let mut histogram = Histogram::new(range.range(), info.scaling);
+                stream(&mut histogram)?;
+                histogram.auto_window()
             }
         };
-        let mut report = |done: u64, total: u64| progress(pass * total + done, passes * total);
         let mut writer: Option<TextureWriter> = None;
         let mut sink = LazyWriter { gpu, name, window, writer: &mut writer, error: None };
-        let info = crate::volume::stream(path, &mut report, &mut sink);
+        let loaded = stream(&mut sink);
         if let Some(error) = sink.error.take() {
             return Err(error);
         }
-        let info = info?;
+        loaded?;
         let writer = writer.ok_or_else(|| RuntimeError::Invalid(format!("volume `{name}`: no samples were read")))?;
-        Ok((writer.finish()?, info))
+        Ok((writer.finish()?, window))
     }
 }
 

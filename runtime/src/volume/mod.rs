@@ -10,6 +10,7 @@
 //! different formats line up.
 
 mod dicom;
+pub mod histogram;
 mod mhd;
 mod nifti;
 mod nrrd;
@@ -25,6 +26,7 @@ use std::path::{Path, PathBuf};
 
 use glam::{Mat4, Vec3, Vec4};
 
+pub use histogram::{Histogram, auto_window};
 pub use phantom::{PHANTOMS, UnknownPhantom, phantom};
 pub use samples::{Samples, Scaling};
 
