@@ -687,7 +687,7 @@ impl Cx<'_> {
             (None, Some(l), Some(w)) => {
                 let (level, width) = (*l.get_ref(), *w.get_ref());
                 let span = self.span(w);
-                if !(width > 0.0) {
+                if width.is_nan() || width <= 0.0 {
                     self.emit(self.invalid(span, format!("the window `width` must be positive, not {width}")));
                     return None;
                 }
