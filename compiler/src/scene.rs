@@ -13,6 +13,7 @@
 //! - `compositing = "iso"` requires `iso_value` (an error, not a silent default).
 //! - `render.step_size`, `max_samples`, `jitter`, `background` and `iso_value` are initial values
 //!   of the uniforms of the same names; setting one both there and in `[uniforms]` is an error.
+//! - A volume's `window = [lo, hi]` (or `level` and `width`) is in data units; `lo < hi`.
 //! - A volume's `tf` is a preset name when it is an identifier (`grayscale`), else a file path.
 //!   It defaults to `grayscale` (`labels` for a tag volume) and is ignored for a mask volume.
 //! - A module path `std::NAME` names a standard module; any other path is a file relative to the
@@ -152,6 +153,11 @@ pub struct Volume {
     pub fallback: Option<Located<String>>,
     /// The transfer function; `None` only for mask volumes, which have none.
     pub tf: Option<TfRef>,
+    /// `window = [lo, hi]`, or `level` and `width` (as `[level - width / 2, level + width / 2]`):
+    /// the data values (Hounsfield units for CT) that map to the ends of a window-relative
+    /// transfer function. `None`: the runtime picks one (a data-unit transfer function's domain,
+    /// else percentiles of the data).
+    pub window: Option<Located<[f32; 2]>>,
     /// The whole `[[volume]]` table.
     pub span: Span,
 }
@@ -601,8 +607,11 @@ struct RawVolume {
     phantom: Option<Spanned<String>>,
     fallback: Option<Spanned<String>>,
     tf: Option<Spanned<String>>,
+    window: Option<Spanned<[f32; 2]>>,
+    level: Option<Spanned<f32>>,
+    width: Option<Spanned<f32>>,
 }
-const VOLUME_KEYS: &[&str] = &["name", "role", "path", "phantom", "fallback", "tf"];
+const VOLUME_KEYS: &[&str] = &["name", "role", "path", "phantom", "fallback", "tf", "window", "level", "width"];
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -664,6 +673,53 @@ impl Cx<'_> {
 
     fn invalid(&self, span: Span, message: impl Into<String>) -> Diagnostic {
         Diagnostic::new(Code::SceneInvalid, span, message)
+    }
+
+    /// A volume's value window from `window`, or from `level` and `width` (never both).
+    fn window(
+        &mut self,
+        window: &Option<Spanned<[f32; 2]>>,
+        level: &Option<Spanned<f32>>,
+        width: &Option<Spanned<f32>>,
+    ) -> Option<Located<[f32; 2]>> {
+        let located = match (window, level, width) {
+            (Some(w), None, None) => Located { value: *w.get_ref(), span: self.span(w) },
+            (None, Some(l), Some(w)) => {
+                let (level, width) = (*l.get_ref(), *w.get_ref());
+                let span = self.span(w);
+                if width.is_nan() || width <= 0.0 {
+                    self.emit(self.invalid(span, format!("the window `width` must be positive, not {width}")));
+                    return None;
+                }
+                Located { value: [level - width / 2.0, level + width / 2.0], span }
+            }
+            (None, None, None) => return None,
+            (Some(w), _, _) => {
+                let d = self.invalid(self.span(w), "a volume has either `window` or `level` and `width`, not both");
+                self.emit(d);
+                return None;
+            }
+            (None, Some(l), None) => {
+                self.emit(
+                    self.invalid(self.span(l), "`level` needs `width`").with_help("add `width = W` (data units)"),
+                );
+                return None;
+            }
+            (None, None, Some(w)) => {
+                self.emit(
+                    self.invalid(self.span(w), "`width` needs `level`").with_help("add `level = L` (data units)"),
+                );
+                return None;
+            }
+        };
+        let [lo, hi] = located.value;
+        if !(lo.is_finite() && hi.is_finite() && lo < hi) {
+            self.emit(
+                self.invalid(located.span, format!("the window [{lo}, {hi}] must have its low end below its high end")),
+            );
+            return None;
+        }
+        Some(located)
     }
 
     fn ignored<T>(&mut self, value: &Spanned<T>, key: &str, why: &str) {
@@ -1036,7 +1092,8 @@ impl Cx<'_> {
                 (None, Role::Tag) => Some(TfRef::Preset(Located { value: DEFAULT_TAG_TF.into(), span: Span::DUMMY })),
                 (None, _) => Some(TfRef::Preset(Located { value: DEFAULT_TF.into(), span: Span::DUMMY })),
             };
-            out.push(Volume { name, role, source, fallback, tf, span });
+            let window = self.window(&v.window, &v.level, &v.width);
+            out.push(Volume { name, role, source, fallback, tf, window, span });
         }
         if !out.iter().any(|v| v.role.value == Role::Primary) {
             let span = out.first().map_or(Span::new(self.base, self.base), |v| v.role.span);
@@ -1680,6 +1737,27 @@ modules = [{ path = "compose_2d.vrs" }]
         assert!(matches!(&scene.views[0].modules[0].source, ModuleSource::Std(n) if n.value == "tone"));
         let errs = errors(&(MINIMAL.to_string() + "modules = [{ path = \"std::no such\" }]\n"));
         assert_eq!(errs[0].3, "`std::no such` does not name a standard module");
+    }
+
+    #[test]
+    fn a_volume_window_is_lo_hi_or_level_width_in_data_units() {
+        let with = |keys: &str| MINIMAL.replace("phantom = \"sphere\"", &format!("phantom = \"sphere\"\n{keys}"));
+        let window = |keys: &str| {
+            let (_, result) = parse(&with(keys));
+            result.unwrap_or_else(|e| panic!("{:?}", e.diagnostics)).primary().window.as_ref().map(|w| w.value)
+        };
+        assert_eq!(window(""), None);
+        assert_eq!(window("window = [-1000, 400.5]"), Some([-1000.0, 400.5]));
+        assert_eq!(window("level = 40\nwidth = 400"), Some([-160.0, 240.0]));
+        let message = |keys: &str| errors(&with(keys))[0].3.clone();
+        assert_eq!(message("window = [5, 5]"), "the window [5, 5] must have its low end below its high end");
+        assert_eq!(message("level = 40"), "`level` needs `width`");
+        assert_eq!(message("width = 40"), "`width` needs `level`");
+        assert_eq!(message("level = 40\nwidth = 0"), "the window `width` must be positive, not 0");
+        assert_eq!(
+            message("window = [0, 1]\nlevel = 1\nwidth = 2"),
+            "a volume has either `window` or `level` and `width`, not both"
+        );
     }
 
     #[test]

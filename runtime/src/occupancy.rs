@@ -13,11 +13,13 @@ use crate::volume::Volume;
 /// Voxels per brick edge.
 pub const BRICK: u32 = 8;
 
-/// The occupancy grid of `values` (the primary volume's normalized values, as uploaded) on a
-/// grid of `dims`, under `tf`.
-pub fn occupancy(dims: [u32; 3], values: &[f32], tf: &TransferFunction) -> Volume {
+/// The occupancy grid of the primary volume under `tf`, with its values normalized by `window`
+/// as they are uploaded ([`Volume::normalized`]). Reads the volume a row at a time: no copy of
+/// its values is made.
+pub fn occupancy(volume: &Volume, window: Option<[f32; 2]>, tf: &TransferFunction) -> Volume {
+    let dims = volume.dims;
     let bricks = dims.map(|d| d.div_ceil(BRICK).max(1));
-    let ranges = brick_ranges(dims, bricks, values);
+    let ranges = brick_ranges(volume, window, bricks);
     let visible = VisibleRanges::new(tf);
     let data = ranges.iter().map(|&(lo, hi)| if visible.any(lo, hi) { 1.0 } else { 0.0 }).collect();
     Volume::new(bricks, glam::Mat4::IDENTITY, data)
@@ -38,12 +40,13 @@ fn texel_voxels(voxels: u32, texels: u32) -> Vec<std::ops::RangeInclusive<u32>> 
         .collect()
 }
 
-/// Min and max value per texel, over the voxels its samples may read.
-fn brick_ranges(dims: [u32; 3], bricks: [u32; 3], values: &[f32]) -> Vec<(f32, f32)> {
+/// Min and max normalized value per texel, over the voxels its samples may read.
+fn brick_ranges(volume: &Volume, window: Option<[f32; 2]>, bricks: [u32; 3]) -> Vec<(f32, f32)> {
     // Per axis first (separable): rows' ranges along x, then along y, then along z.
+    let dims = volume.dims;
     let [nx, ny, nz] = dims.map(|d| d as usize);
     let [bx, by, bz] = bricks.map(|b| b as usize);
-    let value = |x: usize, y: usize, z: usize| values.get((z * ny + y) * nx + x).copied().unwrap_or(0.0);
+    let mut row = Vec::with_capacity(nx);
     let spans = |axis: usize| texel_voxels(dims[axis], bricks[axis]);
     let (sx, sy, sz) = (spans(0), spans(1), spans(2));
     let merge = |a: (f32, f32), b: (f32, f32)| (a.0.min(b.0), a.1.max(b.1));
@@ -51,8 +54,11 @@ fn brick_ranges(dims: [u32; 3], bricks: [u32; 3], values: &[f32]) -> Vec<(f32, f
     let mut along_x = vec![empty; bx * ny * nz];
     for z in 0..nz {
         for y in 0..ny {
+            let start = (z * ny + y) * nx;
+            row.clear();
+            volume.for_each_normalized(window, start..start + nx, |t| row.push(t));
             for (i, span) in sx.iter().enumerate() {
-                let r = span.clone().fold(empty, |r, x| merge(r, (value(x as usize, y, z), value(x as usize, y, z))));
+                let r = span.clone().fold(empty, |r, x| merge(r, (row[x as usize], row[x as usize])));
                 along_x[(z * ny + y) * bx + i] = r;
             }
         }
@@ -120,20 +126,24 @@ mod tests {
         let dims = [32, 8, 8];
         let mut values = vec![0.1; 32 * 8 * 8];
         values[31] = 0.9; // one bright voxel in the last brick along x
-        let grid = occupancy(dims, &values, &tf);
+        let volume = |values: &[f32]| Volume::new(dims, glam::Mat4::IDENTITY, values.to_vec());
+        let grid = occupancy(&volume(&values), Some([0.0, 1.0]), &tf);
         assert_eq!(grid.dims, [4, 1, 1]);
-        assert_eq!(grid.data, vec![0.0, 0.0, 0.0, 1.0], "only the bright voxel's brick");
+        assert_eq!(grid.values(), vec![0.0, 0.0, 0.0, 1.0], "only the bright voxel's brick");
         // A bright voxel at a brick's edge is read by samples in the next brick too.
         values[31] = 0.1;
         values[8] = 0.9;
-        assert_eq!(occupancy(dims, &values, &tf).data, vec![1.0, 1.0, 0.0, 0.0]);
+        assert_eq!(occupancy(&volume(&values), Some([0.0, 1.0]), &tf).values(), vec![1.0, 1.0, 0.0, 0.0]);
+        // The window normalizes as the upload does: 0.9 in a window [0, 2] is 0.45, invisible.
+        assert_eq!(occupancy(&volume(&values), Some([0.0, 2.0]), &tf).values(), vec![0.0; 4]);
     }
 
     #[test]
     fn transparent_everywhere_is_empty() {
         let tf = from_points("t", &[(0.0, [1.0; 3]), (1.0, [1.0; 3])], &[(0.0, 0.0), (1.0, 0.0)]);
-        let grid = occupancy([16, 16, 16], &vec![0.7; 16 * 16 * 16], &tf);
-        assert!(grid.data.iter().all(|&v| v == 0.0));
+        let volume = Volume::new([16, 16, 16], glam::Mat4::IDENTITY, vec![0.7; 16 * 16 * 16]);
+        let grid = occupancy(&volume, None, &tf);
+        assert!(grid.values().iter().all(|&v| v == 0.0));
     }
 
     #[test]

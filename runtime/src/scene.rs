@@ -8,6 +8,7 @@ use crate::geometry::{self, OrbitCamera, SliceAxis, SlicePlane};
 use crate::gpu::Gpu;
 use crate::shader::{PipelineCache, PipelineStats, ViewShader};
 use crate::textures::{TfTexture, VolumeTexture};
+use crate::tf::TfDomain;
 use crate::view::{Resources, ViewRenderer};
 use crate::{tf, volume};
 use glam::Mat4;
@@ -55,9 +56,9 @@ pub struct SceneRenderer {
     resources: Resources,
     /// Grid and transform of each volume, primary first.
     grids: Vec<VolumeGrid>,
-    /// Empty-space skipping: the primary volume's normalized values, to rebuild the occupancy
-    /// grid when its transfer function changes. `None` when the scene does not skip.
-    skipping: Option<Vec<f32>>,
+    /// Empty-space skipping: the primary volume (its stored samples, no copy), to rebuild the
+    /// occupancy grid when its transfer function changes. `None` when the scene does not skip.
+    skipping: Option<volume::Volume>,
     /// What the loaded volumes were loaded from ([`volumes_key`]).
     volumes_key: String,
     pub views: Vec<SceneView>,
@@ -86,6 +87,8 @@ struct VolumeGrid {
     name: String,
     dims: [u32; 3],
     grid_to_world: Mat4,
+    /// The data values its texture's [0, 1] stands for; transfer functions are resampled over it.
+    window: [f32; 2],
 }
 
 /// Progress of loading a volume: (volume name, bytes done, bytes in all).
@@ -146,7 +149,7 @@ impl SceneRenderer {
         self.resources = resources;
         self.notices = notices;
         self.grids = loaded.grids;
-        self.skipping = scene.render.empty_space_skipping.then_some(loaded.primary_values);
+        self.skipping = loaded.primary;
         self.volumes_key = volumes_key(scene);
         self.update_occupancy(&loaded.primary_tf);
         Ok(())
@@ -253,6 +256,8 @@ impl SceneRenderer {
         volume: &str,
         tf: &crate::tf::TransferFunction,
     ) -> Result<(), RuntimeError> {
+        let grid = self.grids.iter().find(|g| g.name == volume);
+        let tf = &grid.map_or_else(|| tf.clone(), |g| tf.over_window(g.window));
         let is_primary = self.grids.first().is_some_and(|g| g.name == volume);
         let binding = if is_primary { "tf".to_string() } else { format!("tf_{volume}") };
         let texture = self.resources.tfs.get(&binding).ok_or_else(|| {
@@ -267,8 +272,8 @@ impl SceneRenderer {
 
     /// Builds the occupancy grid of empty-space skipping for the primary transfer function.
     fn update_occupancy(&mut self, tf: &crate::tf::TransferFunction) {
-        let (Some(values), Some(primary)) = (&self.skipping, self.grids.first()) else { return };
-        let grid = crate::occupancy::occupancy(primary.dims, values, tf);
+        let (Some(primary), Some(window)) = (&self.skipping, self.grids.first().map(|g| g.window)) else { return };
+        let grid = crate::occupancy::occupancy(primary, Some(window), tf);
         if let Ok(texture) = VolumeTexture::upload(&self.gpu, "occupancy", &grid, Some([0.0, 1.0])) {
             self.resources.volumes.insert("occupancy".into(), Arc::new(texture));
         }
@@ -354,7 +359,8 @@ fn volumes_key(scene: &Scene) -> String {
             None => "none".into(),
         };
         let fallback = v.fallback.as_ref().map(|f| f.value.as_str());
-        key.push_str(&format!("{} {:?} {source} {tf} {fallback:?}\n", v.name.name, v.role.value));
+        let window = format!("{:?}", v.window);
+        key.push_str(&format!("{} {:?} {source} {tf} {fallback:?} {window}\n", v.name.name, v.role.value));
     }
     key
 }
@@ -412,8 +418,9 @@ fn apply_view_uniforms(view: &mut SceneView, grids: &[VolumeGrid]) -> Result<(),
 struct Loaded {
     /// Every volume's grid, primary first.
     grids: Vec<VolumeGrid>,
-    /// The primary volume's values as uploaded (normalized) and its transfer function.
-    primary_values: Vec<f32>,
+    /// The primary volume when empty-space skipping needs it (else it was streamed or dropped
+    /// once uploaded), and its transfer function.
+    primary: Option<volume::Volume>,
     primary_tf: crate::tf::TransferFunction,
 }
 
@@ -427,7 +434,7 @@ fn load_volumes(
     progress: Progress,
 ) -> Result<Loaded, RuntimeError> {
     let mut grids = Vec::new();
-    let mut primary_values = Vec::new();
+    let mut primary_volume = None;
     let mut primary_tf = tf::preset(vscene::DEFAULT_TF)?;
     let primary = scene.primary();
     let ordered = std::iter::once(primary).chain(scene.volumes.iter().filter(|v| v.role.value != Role::Primary));
@@ -437,33 +444,60 @@ fn load_volumes(
             volume::phantom::phantom(p, options.phantom_size)
                 .map_err(|e| RuntimeError::Invalid(format!("volume `{name}`: {e}")))
         };
-        let data = match (&v.source, &v.fallback) {
+        let is_primary = v.role.value == Role::Primary;
+        // Only empty-space skipping reads the samples again (its occupancy grid); any other
+        // volume file is streamed into its texture without a copy in memory.
+        let keep = is_primary && scene.render.empty_space_skipping;
+        let table = match &v.tf {
+            Some(TfRef::Preset(p)) => Some(tf::preset(&p.value)?),
+            Some(TfRef::File(file)) => Some(tf::from_paraview_json(&file.resolved)?),
+            None => None,
+        };
+        // The scene's window, else the domain of a transfer function in data units (a CT
+        // preset's Hounsfield range, a ParaView colormap's), else percentiles of the data.
+        let fixed = v.window.as_ref().map(|w| w.value).or(match table.as_ref().map(|t| t.domain) {
+            Some(TfDomain::Data(domain)) => Some(domain),
+            _ => None,
+        });
+        let uploaded = |data: volume::Volume| -> Result<_, RuntimeError> {
+            let window = fixed.unwrap_or_else(|| volume::auto_window(&data));
+            Ok((VolumeTexture::upload(gpu, name, &data, Some(window))?, window, Some(data)))
+        };
+        let (texture, window, data) = match (&v.source, &v.fallback) {
             (VolumeSource::File(file), Some(fallback)) if !file.resolved.exists() => {
                 notices.push(format!(
                     "volume `{name}`: `{}` is absent; using the built-in `{}` phantom instead",
                     file.resolved.display(),
                     fallback.value
                 ));
-                phantom(&fallback.value)?
+                uploaded(phantom(&fallback.value)?)?
+            }
+            (VolumeSource::File(file), _) if keep => {
+                uploaded(volume::load(&file.resolved, &mut |done, total| progress(name, done, total))?)?
             }
             (VolumeSource::File(file), _) => {
-                volume::load(&file.resolved, &mut |done, total| progress(name, done, total))?
+                let report = &mut |done, total| progress(name, done, total);
+                let (texture, window) = VolumeTexture::stream_file(gpu, name, &file.resolved, fixed, report)?;
+                (texture, window, None)
             }
-            (VolumeSource::Phantom(p), _) => phantom(&p.value)?,
+            (VolumeSource::Phantom(p), _) => uploaded(phantom(&p.value)?)?,
         };
-        let is_primary = v.role.value == Role::Primary;
-        let binding = if is_primary { "volume".to_string() } else { format!("volume_{name}") };
-        let texture = VolumeTexture::upload(gpu, name, &data, None)?;
-        if is_primary {
-            primary_values = data.normalized(None);
+        if fixed.is_none() {
+            let [lo, hi] = volume::histogram::AUTO_PERCENTILES;
+            notices.push(format!(
+                "volume `{name}`: automatic window [{:.4}, {:.4}] (the {lo}th to {hi}th percentile of its values); \
+                 `window = [LO, HI]` in its [[volume]] table sets another",
+                window[0], window[1]
+            ));
         }
-        grids.push(VolumeGrid { name: name.clone(), dims: data.dims, grid_to_world: data.grid_to_world });
+        let binding = if is_primary { "volume".to_string() } else { format!("volume_{name}") };
+        grids.push(VolumeGrid { name: name.clone(), dims: texture.dims, grid_to_world: texture.grid_to_world, window });
+        if keep {
+            primary_volume = data;
+        }
         resources.volumes.insert(binding, Arc::new(texture));
-        if let Some(tf_ref) = &v.tf {
-            let table = match tf_ref {
-                TfRef::Preset(p) => tf::preset(&p.value)?,
-                TfRef::File(file) => tf::from_paraview_json(&file.resolved)?,
-            };
+        if let Some(table) = table {
+            let table = table.over_window(window);
             let binding = if is_primary { "tf".to_string() } else { format!("tf_{name}") };
             resources.tfs.insert(binding, Arc::new(TfTexture::upload(gpu, &table)));
             if is_primary {
@@ -471,7 +505,7 @@ fn load_volumes(
             }
         }
     }
-    Ok(Loaded { grids, primary_values, primary_tf })
+    Ok(Loaded { grids, primary: primary_volume, primary_tf })
 }
 
 fn uniform_json(v: &UniformValue) -> serde_json::Value {

@@ -4,10 +4,10 @@
 use crate::error::RuntimeError;
 use crate::gpu::Gpu;
 use crate::tf::{TF_WIDTH, TransferFunction};
-use crate::volume::Volume;
+use crate::volume::{Histogram, LoadErrorKind, RangeSink, SampleSink, Samples, Volume, VolumeInfo, Window};
 use glam::Mat4;
 
-/// A volume as a 3D `R16Float` texture of values normalized to [0, 1].
+/// A volume as a 3D `R16Float` texture of values normalized to [0, 1], uploaded a slab at a time.
 pub struct VolumeTexture {
     pub texture: wgpu::Texture,
     pub view: wgpu::TextureView,
@@ -25,18 +25,133 @@ impl VolumeTexture {
         volume: &Volume,
         window: Option<[f32; 2]>,
     ) -> Result<VolumeTexture, RuntimeError> {
+        let info = VolumeInfo { dims: volume.dims, grid_to_world: volume.grid_to_world, scaling: volume.scaling };
+        let mut writer = TextureWriter::new(gpu, name, &info, window.unwrap_or(volume.range))?;
+        volume.samples.for_each(0..volume.samples.len(), |s| writer.push(s));
+        writer.finish()
+    }
+
+    /// Uploads the volume file `path` without keeping its samples, mapping `window` (data
+    /// units) to [0, 1]; without one, the automatic window ([`crate::volume::auto_window`]):
+    /// a first pass finds the value range, a second the percentiles. The last pass converts and
+    /// writes the texture as the file is read, so loading holds only the texture (and a slab),
+    /// never the file's data. `progress(done, total)` covers every pass. Returns the texture
+    /// and the window it was normalized by.
+    pub fn stream_file(
+        gpu: &Gpu,
+        name: &str,
+        path: &std::path::Path,
+        window: Option<[f32; 2]>,
+        progress: &mut dyn FnMut(u64, u64),
+    ) -> Result<(VolumeTexture, [f32; 2]), RuntimeError> {
+        let passes = if window.is_some() { 1 } else { 3 };
+        let mut pass = 0;
+        let mut stream = |sink: &mut dyn SampleSink| {
+            let mut report = |done: u64, total: u64| progress(pass * total + done, passes * total);
+            let info = crate::volume::stream(path, &mut report, sink);
+            pass += 1;
+            info
+        };
+        let window = match window {
+            Some(window) => window,
+            None => {
+                let mut range = RangeSink::default();
+                let info = stream(&mut range)?;
+                let mut histogram = Histogram::new(range.range(), info.scaling);
+                stream(&mut histogram)?;
+                histogram.auto_window()
+            }
+        };
+        let mut writer: Option<TextureWriter> = None;
+        let mut sink = LazyWriter { gpu, name, window, writer: &mut writer, error: None };
+        let loaded = stream(&mut sink);
+        if let Some(error) = sink.error.take() {
+            return Err(error);
+        }
+        loaded?;
+        let writer = writer.ok_or_else(|| RuntimeError::Invalid(format!("volume `{name}`: no samples were read")))?;
+        Ok((writer.finish()?, window))
+    }
+}
+
+/// Creates its [`TextureWriter`] when the loader announces the grid (`begin`), so one pass
+/// both reads the header and fills the texture.
+struct LazyWriter<'g, 'w> {
+    gpu: &'g Gpu,
+    name: &'w str,
+    window: [f32; 2],
+    writer: &'w mut Option<TextureWriter<'g>>,
+    /// A GPU-side refusal (a grid beyond the device's limits), reported instead of the load
+    /// error that stops the loader.
+    error: Option<RuntimeError>,
+}
+
+impl SampleSink for LazyWriter<'_, '_> {
+    fn begin(&mut self, info: &VolumeInfo) -> Result<(), LoadErrorKind> {
+        match TextureWriter::new(self.gpu, self.name, info, self.window) {
+            Ok(writer) => {
+                *self.writer = Some(writer);
+                Ok(())
+            }
+            Err(error) => {
+                let message = error.to_string();
+                self.error = Some(error);
+                Err(LoadErrorKind::Header(message))
+            }
+        }
+    }
+
+    fn samples(&mut self, chunk: &Samples) -> Result<(), LoadErrorKind> {
+        match self.writer.as_mut() {
+            Some(writer) => writer.samples(chunk),
+            None => Ok(()),
+        }
+    }
+}
+
+/// Half floats converted and written per `write_texture` call: bounds the upload's extra memory
+/// (the converted slab and the queue's staging copy of it) whatever the volume's size.
+const SLAB_TEXELS: usize = 1 << 20;
+
+/// Pending uploads are submitted and waited for after this many bytes, so the queue's staging
+/// buffers (freed only once the GPU has copied them) never add up to a second copy of the volume.
+const FLUSH_BYTES: usize = 8 << 20;
+
+/// Fills a volume texture from stored samples in voxel order, converting and writing whole z
+/// slices a slab at a time: the upload never holds more than a slab besides the texture.
+pub struct TextureWriter<'g> {
+    gpu: &'g Gpu,
+    name: String,
+    texture: wgpu::Texture,
+    info: VolumeInfo,
+    window: Window,
+    /// Normalized texels of the slices not yet written.
+    slab: Vec<half::f16>,
+    /// The first z slice of `slab`.
+    z: u32,
+    /// Bytes written since the last submit.
+    pending: usize,
+}
+
+impl<'g> TextureWriter<'g> {
+    /// An empty texture for a volume of `info`'s shape whose values `window` (data units) maps
+    /// to [0, 1]. Refuses grids beyond the device's 3D texture limit.
+    pub fn new(
+        gpu: &'g Gpu,
+        name: &str,
+        info: &VolumeInfo,
+        window: [f32; 2],
+    ) -> Result<TextureWriter<'g>, RuntimeError> {
         let max = gpu.device.limits().max_texture_dimension_3d;
-        if volume.dims.iter().any(|&d| d == 0 || d > max) {
+        let [w, h, d] = info.dims;
+        if info.dims.iter().any(|&n| n == 0 || n > max) {
             return Err(RuntimeError::Invalid(format!(
-                "volume `{name}`: a {}x{}x{} grid exceeds this device's 3D texture limit of {max} per axis",
-                volume.dims[0], volume.dims[1], volume.dims[2]
+                "volume `{name}`: a {w}x{h}x{d} grid exceeds this device's 3D texture limit of {max} per axis"
             )));
         }
-        let size =
-            wgpu::Extent3d { width: volume.dims[0], height: volume.dims[1], depth_or_array_layers: volume.dims[2] };
         let texture = gpu.device.create_texture(&wgpu::TextureDescriptor {
             label: Some(name),
-            size,
+            size: wgpu::Extent3d { width: w, height: h, depth_or_array_layers: d },
             mip_level_count: 1,
             sample_count: 1,
             dimension: wgpu::TextureDimension::D3,
@@ -44,19 +159,91 @@ impl VolumeTexture {
             usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
             view_formats: &[],
         });
-        let texels = volume.normalized_f16(window);
-        gpu.queue.write_texture(
-            texture.as_image_copy(),
-            bytemuck::cast_slice(&texels),
-            wgpu::TexelCopyBufferLayout {
-                offset: 0,
-                bytes_per_row: Some(volume.dims[0] * 2),
-                rows_per_image: Some(volume.dims[1]),
+        let slice = w as usize * h as usize;
+        let capacity = SLAB_TEXELS.max(slice) + slice;
+        Ok(TextureWriter {
+            gpu,
+            name: name.to_string(),
+            texture,
+            info: *info,
+            window: Window::new(window, info.scaling),
+            slab: Vec::with_capacity(capacity),
+            z: 0,
+            pending: 0,
+        })
+    }
+
+    /// The next stored sample.
+    pub fn push(&mut self, stored: f32) {
+        self.slab.push(half::f16::from_f32(self.window.apply(stored)));
+        if self.slab.len() >= SLAB_TEXELS.max(self.slice()) {
+            self.write();
+        }
+    }
+
+    fn slice(&self) -> usize {
+        self.info.dims[0] as usize * self.info.dims[1] as usize
+    }
+
+    /// Writes the whole slices in `slab`.
+    fn write(&mut self) {
+        let [w, h, d] = self.info.dims;
+        let depth = ((self.slab.len() / self.slice()) as u32).min(d.saturating_sub(self.z));
+        if depth == 0 {
+            return;
+        }
+        let texels = depth as usize * self.slice();
+        self.gpu.queue.write_texture(
+            wgpu::TexelCopyTextureInfo {
+                texture: &self.texture,
+                mip_level: 0,
+                origin: wgpu::Origin3d { x: 0, y: 0, z: self.z },
+                aspect: wgpu::TextureAspect::All,
             },
-            size,
+            bytemuck::cast_slice(&self.slab[..texels]),
+            wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(w * 2), rows_per_image: Some(h) },
+            wgpu::Extent3d { width: w, height: h, depth_or_array_layers: depth },
         );
-        let view = texture.create_view(&wgpu::TextureViewDescriptor::default());
-        Ok(VolumeTexture { texture, view, dims: volume.dims, grid_to_world: volume.grid_to_world })
+        self.slab.drain(..texels);
+        self.z += depth;
+        self.pending += texels * 2;
+        if self.pending >= FLUSH_BYTES {
+            self.gpu.queue.submit([]);
+            self.gpu.wait();
+            self.pending = 0;
+        }
+    }
+
+    /// Writes what is left and returns the texture; an error when fewer samples came than the
+    /// grid has (more are ignored: the loaders check the count).
+    pub fn finish(mut self) -> Result<VolumeTexture, RuntimeError> {
+        self.write();
+        if self.z < self.info.dims[2] {
+            return Err(RuntimeError::Invalid(format!(
+                "volume `{}`: {} of {} slices arrived",
+                self.name, self.z, self.info.dims[2]
+            )));
+        }
+        let view = self.texture.create_view(&wgpu::TextureViewDescriptor::default());
+        Ok(VolumeTexture { texture: self.texture, view, dims: self.info.dims, grid_to_world: self.info.grid_to_world })
+    }
+}
+
+/// A [`TextureWriter`] fed by a loader: the second pass of loading a volume that is not kept.
+impl SampleSink for TextureWriter<'_> {
+    fn begin(&mut self, info: &VolumeInfo) -> Result<(), LoadErrorKind> {
+        if info.dims != self.info.dims {
+            return Err(LoadErrorKind::Header(format!(
+                "the file changed while it was read: its grid is now {:?}, was {:?}",
+                info.dims, self.info.dims
+            )));
+        }
+        Ok(())
+    }
+
+    fn samples(&mut self, chunk: &Samples) -> Result<(), LoadErrorKind> {
+        chunk.for_each(0..chunk.len(), |s| self.push(s));
+        Ok(())
     }
 }
 

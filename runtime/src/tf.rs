@@ -1,14 +1,19 @@
-//! Transfer functions: a colour and an opacity for each normalized sample value in [0, 1].
+//! Transfer functions: a colour and an opacity for each sample value.
 //!
 //! A transfer function is a table of [`TF_WIDTH`] RGBA entries with straight (not premultiplied)
-//! alpha, uploaded as a 1D texture. The opacity of an entry is the opacity of one sample at the
+//! alpha, uploaded as a 1D texture, and the [`TfDomain`] its entries stand for: data values
+//! (Hounsfield units for the CT presets, the file's values for a ParaView colormap), or the
+//! window of the volume it classifies (the MR and generic presets). Before upload the table is
+//! resampled over the volume's window ([`TransferFunction::over_window`]), which is also what
+//! the volume's texture is normalized by, so the shader's `lookup(tf, value)` of a normalized
+//! value reads the entry of that data value. The opacity of an entry is the opacity of one sample at the
 //! compositor's reference step (`ref_step` in `std::composite_dvr`, 1/400 of the volume), so a
 //! value that fills a region should have a small opacity (a few hundredths) to stay
 //! see-through, and only surfaces meant to look solid should approach 1.
 //!
-//! Presets are defined over normalized values, so they fit any volume once its window maps the
-//! interesting values to [0, 1]; their levels match the phantoms (`crate::volume::phantom`) and
-//! normalized CT and MRI.
+//! CT presets (`ct_*`) are defined in Hounsfield units over [`CT_DOMAIN`], whatever the window;
+//! the others over the window, so they fit any volume (an MR, a probability map) once its
+//! window picks the interesting values.
 
 use std::fmt;
 use std::path::{Path, PathBuf};
@@ -18,17 +23,49 @@ use serde_json::Value;
 /// Entries in a transfer function table.
 pub const TF_WIDTH: u32 = 1024;
 
+/// What the first and last entries of a transfer function's table stand for.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum TfDomain {
+    /// The low and high ends of the window of the volume it classifies.
+    Window,
+    /// These data values (lo < hi): Hounsfield units for CT presets, a colormap's own values.
+    Data([f32; 2]),
+}
+
+/// The Hounsfield range the CT presets are defined over: the 12-bit range scanners store.
+pub const CT_DOMAIN: [f32; 2] = [-1024.0, 3071.0];
+
 /// A transfer function table.
 #[derive(Clone, Debug, PartialEq)]
 pub struct TransferFunction {
     /// The preset's name, the colormap's `Name`, or the file stem.
     pub name: String,
-    /// [`TF_WIDTH`] entries over the normalized value [0, 1]: r, g, b and straight alpha, each in
-    /// [0, 1].
+    /// [`TF_WIDTH`] entries evenly over `domain`: r, g, b and straight alpha, each in [0, 1].
     pub rgba: Vec<[f32; 4]>,
+    /// What the first and last entries stand for.
+    pub domain: TfDomain,
 }
 
 impl TransferFunction {
+    /// The table over `window` (data units): entry i stands for the value
+    /// `lo + i / (TF_WIDTH - 1) * (hi - lo)`, read from this table by linear interpolation (its
+    /// end entries held beyond its domain). A window-relative function is already over any
+    /// window and comes back as it is.
+    pub fn over_window(&self, [lo, hi]: [f32; 2]) -> TransferFunction {
+        let TfDomain::Data([d0, d1]) = self.domain else { return self.clone() };
+        let last = (TF_WIDTH - 1) as f32;
+        let rgba = (0..TF_WIDTH)
+            .map(|i| {
+                let value = lo + (hi - lo) * i as f32 / last;
+                let at = ((value - d0) / (d1 - d0)).clamp(0.0, 1.0) * last;
+                let (below, t) = (at.floor() as usize, at.fract());
+                let (a, b) = (self.rgba[below], self.rgba[(below + 1).min(TF_WIDTH as usize - 1)]);
+                std::array::from_fn(|c| a[c] + (b[c] - a[c]) * t)
+            })
+            .collect();
+        TransferFunction { name: self.name.clone(), rgba, domain: TfDomain::Window }
+    }
+
     /// The table as 8-bit RGBA (4 bytes per entry), for an `Rgba8Unorm` texture.
     pub fn to_rgba8(&self) -> Vec<u8> {
         self.rgba.iter().flatten().map(|&c| (c.clamp(0.0, 1.0) * 255.0).round() as u8).collect()
@@ -41,9 +78,26 @@ pub type ColorPoint = (f32, [f32; 3]);
 /// An opacity control point: normalized value, then opacity in [0, 1].
 pub type OpacityPoint = (f32, f32);
 
-/// The built-in transfer functions.
-pub const PRESETS: &[&str] =
-    &["grayscale", "ct_bone", "ct_soft_tissue", "mr_default", "vessel_red", "vessel_blue", "hot_metal", "labels"];
+/// The built-in transfer functions: the window-relative ones, then the CT presets in
+/// Hounsfield units.
+pub const PRESETS: &[&str] = &[
+    "grayscale",
+    "mr_default",
+    "vessel_red",
+    "vessel_blue",
+    "hot_metal",
+    "labels",
+    "ct_bone",
+    "ct_soft_tissue",
+    "ct_lung",
+    "ct_angio",
+    "ct_cardiac",
+    "ct_coronary",
+    "ct_muscle",
+    "ct_fat",
+    "ct_skin",
+    "ct_mip",
+];
 
 /// Why a transfer function could not be made.
 #[derive(Debug)]
@@ -84,46 +138,19 @@ impl std::error::Error for TfError {
 
 /// The preset `name` (one of [`PRESETS`]).
 pub fn preset(name: &str) -> Result<TransferFunction, TfError> {
+    if let Some((color, opacity)) = ct_preset(name) {
+        return Ok(from_data_points(name, color, opacity, CT_DOMAIN));
+    }
     let (color, opacity): (&[ColorPoint], &[OpacityPoint]) = match name {
         // A grey ramp; opacity grows with the value so dense material hides what is behind it.
         "grayscale" => (&[(0.0, [0.0; 3]), (1.0, [1.0; 3])], &[(0.05, 0.0), (1.0, 0.25)]),
-        // Bone only (CT above ~0.7 of the window): ivory turning white, nearly opaque.
-        "ct_bone" => (
-            &[(0.0, [0.0; 3]), (0.68, [0.55, 0.45, 0.35]), (0.8, [0.92, 0.85, 0.72]), (1.0, [1.0, 1.0, 0.97])],
-            &[(0.68, 0.0), (0.74, 0.35), (0.85, 0.7), (1.0, 0.9)],
-        ),
-        // Fat faint yellow, soft tissue (0.3-0.45) reddish beige and see-through, vessels
-        // (~0.65) bright red-white, bone white and dense.
-        "ct_soft_tissue" => (
-            &[
-                (0.0, [0.0; 3]),
-                (0.12, [0.6, 0.45, 0.25]),
-                (0.2, [0.85, 0.7, 0.4]),
-                (0.3, [0.8, 0.38, 0.3]),
-                (0.45, [0.95, 0.68, 0.55]),
-                (0.58, [1.0, 0.35, 0.25]),
-                (0.7, [1.0, 0.75, 0.7]),
-                (0.85, [1.0, 1.0, 0.95]),
-                (1.0, [1.0; 3]),
-            ],
-            &[
-                (0.1, 0.0),
-                (0.15, 0.004),
-                (0.22, 0.004),
-                (0.28, 0.012),
-                (0.45, 0.035),
-                (0.55, 0.05),
-                (0.62, 0.3),
-                (0.75, 0.45),
-                (1.0, 0.8),
-            ],
-        ),
         // Grey to white, transparent below ~0.15 (background noise in MRI), moderate above.
         "mr_default" => (
             &[(0.0, [0.1; 3]), (0.15, [0.35; 3]), (0.6, [0.8, 0.8, 0.78]), (1.0, [1.0; 3])],
             &[(0.15, 0.0), (0.4, 0.03), (0.7, 0.12), (1.0, 0.3)],
         ),
-        // Contrast-filled vessels (above ~0.55): dark to bright red (or blue), nearly opaque.
+        // Bright structures (above ~0.55 of the window: contrast-filled vessels, a probability
+        // map's likely voxels): dark to bright red (or blue), nearly opaque.
         "vessel_red" => (
             &[(0.0, [0.0; 3]), (0.55, [0.5, 0.03, 0.03]), (0.7, [0.9, 0.12, 0.1]), (1.0, [1.0, 0.55, 0.5])],
             &[(0.55, 0.0), (0.62, 0.4), (0.75, 0.75), (1.0, 0.9)],
@@ -141,6 +168,97 @@ pub fn preset(name: &str) -> Result<TransferFunction, TfError> {
         _ => return Err(TfError::UnknownPreset { name: name.to_string() }),
     };
     Ok(from_points(name, color, opacity))
+}
+
+/// The control points of the CT presets, in Hounsfield units. Reference levels: air -1000,
+/// lung -900 to -500, fat -120 to -60, water 0, soft tissue and blood 20 to 80, contrast-filled
+/// vessels 150 to 500, cancellous bone 300 to 700, cortical bone above 700.
+#[allow(clippy::type_complexity)]
+fn ct_preset(name: &str) -> Option<(&'static [ColorPoint], &'static [OpacityPoint])> {
+    Some(match name {
+        // Bone only: ivory turning white, nearly opaque; soft tissue and contrast below 180 HU
+        // are invisible.
+        "ct_bone" => (
+            &[
+                (-1024.0, [0.0; 3]),
+                (180.0, [0.55, 0.45, 0.35]),
+                (500.0, [0.92, 0.85, 0.72]),
+                (1500.0, [1.0, 1.0, 0.97]),
+            ],
+            &[(180.0, 0.0), (300.0, 0.4), (600.0, 0.75), (1200.0, 0.9)],
+        ),
+        // Fat faint yellow, soft tissue reddish beige and see-through, contrast-filled vessels
+        // bright red-white, bone white and dense.
+        "ct_soft_tissue" => (
+            &[
+                (-1024.0, [0.0; 3]),
+                (-150.0, [0.6, 0.45, 0.25]),
+                (-60.0, [0.85, 0.7, 0.4]),
+                (20.0, [0.8, 0.38, 0.3]),
+                (80.0, [0.95, 0.68, 0.55]),
+                (200.0, [1.0, 0.35, 0.25]),
+                (400.0, [1.0, 0.75, 0.7]),
+                (800.0, [1.0, 1.0, 0.95]),
+            ],
+            &[
+                (-200.0, 0.0),
+                (-120.0, 0.004),
+                (-60.0, 0.004),
+                (0.0, 0.012),
+                (80.0, 0.035),
+                (150.0, 0.05),
+                (220.0, 0.3),
+                (400.0, 0.45),
+                (1000.0, 0.8),
+            ],
+        ),
+        // Lung parenchyma pink and translucent; air, soft tissue and bone invisible.
+        "ct_lung" => (
+            &[(-1000.0, [0.35, 0.2, 0.2]), (-800.0, [0.9, 0.6, 0.55]), (-500.0, [1.0, 0.85, 0.8])],
+            &[(-950.0, 0.0), (-850.0, 0.03), (-600.0, 0.06), (-450.0, 0.0)],
+        ),
+        // Angiography (vessels, aortic aneurysms): contrast-filled vessels red, bone white.
+        "ct_angio" => (
+            &[
+                (100.0, [0.6, 0.05, 0.05]),
+                (200.0, [0.9, 0.15, 0.1]),
+                (400.0, [1.0, 0.6, 0.5]),
+                (700.0, [1.0, 1.0, 0.95]),
+            ],
+            &[(120.0, 0.0), (180.0, 0.4), (300.0, 0.7), (700.0, 0.85)],
+        ),
+        // Heart: myocardium faint red, contrast-filled chambers bright red, bone white.
+        "ct_cardiac" => (
+            &[
+                (0.0, [0.5, 0.1, 0.1]),
+                (80.0, [0.8, 0.3, 0.25]),
+                (200.0, [1.0, 0.25, 0.2]),
+                (400.0, [1.0, 0.8, 0.7]),
+                (800.0, [1.0; 3]),
+            ],
+            &[(20.0, 0.0), (80.0, 0.02), (150.0, 0.1), (250.0, 0.5), (800.0, 0.8)],
+        ),
+        // Coronary arteries: only the densest contrast (250-600 HU) orange-red, bone white.
+        "ct_coronary" => (
+            &[(200.0, [0.8, 0.2, 0.05]), (350.0, [1.0, 0.45, 0.15]), (600.0, [1.0, 0.9, 0.8])],
+            &[(220.0, 0.0), (300.0, 0.6), (600.0, 0.9)],
+        ),
+        // Muscle red and fairly opaque, fat faint yellow, bone white.
+        "ct_muscle" => (
+            &[(-100.0, [0.8, 0.7, 0.4]), (20.0, [0.75, 0.2, 0.15]), (80.0, [0.9, 0.3, 0.25]), (300.0, [1.0, 0.9, 0.8])],
+            &[(-150.0, 0.0), (-80.0, 0.01), (-30.0, 0.0), (20.0, 0.05), (80.0, 0.2), (700.0, 0.7)],
+        ),
+        // Fat only, yellow.
+        "ct_fat" => (
+            &[(-150.0, [0.9, 0.75, 0.3]), (-50.0, [1.0, 0.9, 0.5])],
+            &[(-200.0, 0.0), (-120.0, 0.15), (-60.0, 0.15), (-30.0, 0.0)],
+        ),
+        // The body's surface: the step from air to skin, beige and opaque.
+        "ct_skin" => (&[(-500.0, [0.8, 0.6, 0.5]), (0.0, [0.95, 0.8, 0.7])], &[(-500.0, 0.0), (-300.0, 0.8)]),
+        // For maximum intensity projections: a grey ramp from soft tissue to dense bone.
+        "ct_mip" => (&[(-200.0, [0.0; 3]), (1500.0, [1.0; 3])], &[(-200.0, 0.0), (1500.0, 1.0)]),
+        _ => return None,
+    })
 }
 
 /// Distinct colours for the label bins 1..=16 (bin 0 is the transparent background).
@@ -182,8 +300,22 @@ fn labels() -> TransferFunction {
     from_points("labels", &color, &opacity)
 }
 
-/// Builds a table by piecewise-linear interpolation between control points `(x, value)` over
-/// [0, 1], holding the end values beyond the first and last points. Points need not be sorted;
+/// A transfer function over data values `domain` from control points in data units.
+pub fn from_data_points(
+    name: &str,
+    color: &[ColorPoint],
+    opacity: &[OpacityPoint],
+    domain: [f32; 2],
+) -> TransferFunction {
+    let [lo, hi] = domain;
+    let to_unit = |x: f32| (x - lo) / (hi - lo);
+    let color: Vec<ColorPoint> = color.iter().map(|&(x, c)| (to_unit(x), c)).collect();
+    let opacity: Vec<OpacityPoint> = opacity.iter().map(|&(x, o)| (to_unit(x), o)).collect();
+    TransferFunction { domain: TfDomain::Data(domain), ..from_points(name, &color, &opacity) }
+}
+
+/// Builds a window-relative table by piecewise-linear interpolation between control points
+/// `(x, value)` over [0, 1] of the window, holding the end values beyond the first and last points. Points need not be sorted;
 /// two points at the same x make a step (the later one applies from x on). Without colour points
 /// the colour is white; without opacity points the opacity is a linear ramp from 0 to 1.
 /// Values are clamped to [0, 1].
@@ -199,7 +331,7 @@ pub fn from_points(name: &str, color: &[ColorPoint], opacity: &[OpacityPoint]) -
             [r, g, b, a].map(|c| if c.is_nan() { 0.0 } else { c.clamp(0.0, 1.0) })
         })
         .collect();
-    TransferFunction { name: name.to_string(), rgba }
+    TransferFunction { name: name.to_string(), rgba, domain: TfDomain::Window }
 }
 
 /// Control points sorted by x (stably, so steps keep their order), non-finite x dropped.
@@ -233,7 +365,9 @@ impl<const N: usize> Table<N> {
 /// Reads a ParaView colormap (`File > Export` in the colour map editor): a JSON array of objects
 /// (the first with `RGBPoints` is used) or one object, with `RGBPoints` `[x, r, g, b, ...]` and
 /// optionally `Points` `[x, opacity, midpoint, sharpness, ...]` (used as linear `x, opacity`).
-/// The x range of `RGBPoints` maps to [0, 1]; without `Points` the opacity is a linear ramp.
+/// The points are in data units, as ParaView writes them: the table spans the smallest to the
+/// largest x of both lists ([`TfDomain::Data`]), and is resampled over each volume's window
+/// when uploaded. Without `Points` the opacity is a linear ramp over the colour points' range.
 pub fn from_paraview_json(path: &Path) -> Result<TransferFunction, TfError> {
     let text = std::fs::read_to_string(path).map_err(|error| TfError::Io { path: path.to_path_buf(), error })?;
     let stem = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
@@ -262,16 +396,21 @@ fn parse_paraview(text: &str, fallback_name: &str) -> Result<TransferFunction, S
             points.len()
         ));
     }
-    let (lo, hi) =
-        rgb.chunks_exact(4).fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), p| (lo.min(p[0]), hi.max(p[0])));
-    let to_unit = |x: f32| if hi > lo { (x - lo) / (hi - lo) } else { 0.0 };
-    let color: Vec<ColorPoint> = rgb.chunks_exact(4).map(|p| (to_unit(p[0]), [p[1], p[2], p[3]])).collect();
+    let xs = rgb.chunks_exact(4).chain(opacity.iter().flat_map(|p| p.chunks_exact(4))).map(|p| p[0]);
+    let (lo, hi) = xs.fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), x| (lo.min(x), hi.max(x)));
+    let color: Vec<ColorPoint> = rgb.chunks_exact(4).map(|p| (p[0], [p[1], p[2], p[3]])).collect();
+    let (rgb_lo, rgb_hi) = (
+        color.iter().map(|p| p.0).fold(f32::INFINITY, f32::min),
+        color.iter().map(|p| p.0).fold(f32::NEG_INFINITY, f32::max),
+    );
     let opacity: Vec<OpacityPoint> = match &opacity {
-        Some(points) => points.chunks_exact(4).map(|p| (to_unit(p[0]), p[1])).collect(),
-        None => vec![(0.0, 0.0), (1.0, 1.0)],
+        Some(points) => points.chunks_exact(4).map(|p| (p[0], p[1])).collect(),
+        None => vec![(rgb_lo, 0.0), (rgb_hi, 1.0)],
     };
     let name = colormap.get("Name").and_then(Value::as_str).unwrap_or(fallback_name);
-    Ok(from_points(name, &color, &opacity))
+    // One x for every point: a step at that value, over a domain of one unit around it.
+    let domain = if hi > lo { [lo, hi] } else { [lo - 0.5, lo + 0.5] };
+    Ok(from_data_points(name, &color, &opacity, domain))
 }
 
 /// The array of finite numbers under `key`, if the key is present.
@@ -344,15 +483,53 @@ mod tests {
         }
     }
 
+    /// The entry of a CT preset for `hu` Hounsfield units.
+    fn at_hu(tf: &TransferFunction, hu: f32) -> [f32; 4] {
+        assert_eq!(tf.domain, TfDomain::Data(CT_DOMAIN), "{}", tf.name);
+        at(tf, (hu - CT_DOMAIN[0]) / (CT_DOMAIN[1] - CT_DOMAIN[0]))
+    }
+
     #[test]
-    fn presets_pick_their_tissues() {
+    fn ct_presets_pick_their_tissues_in_hounsfield_units() {
         let bone = preset("ct_bone").unwrap();
-        assert_eq!(at(&bone, 0.38)[3], 0.0, "liver is invisible");
-        assert!(at(&bone, 0.85)[3] > 0.5, "bone is dense");
+        assert_eq!(at_hu(&bone, 60.0)[3], 0.0, "liver is invisible");
+        assert_eq!(at_hu(&bone, 150.0)[3], 0.0, "so is contrast below 180 HU");
+        assert!(at_hu(&bone, 700.0)[3] > 0.5, "bone is dense");
         let soft = preset("ct_soft_tissue").unwrap();
-        let (fat, liver, vessel) = (at(&soft, 0.15), at(&soft, 0.38), at(&soft, 0.65));
+        let (fat, liver, vessel) = (at_hu(&soft, -100.0), at_hu(&soft, 60.0), at_hu(&soft, 250.0));
         assert!(fat[3] < liver[3] && liver[3] < 0.1 && vessel[3] > 0.2);
         assert!(liver[0] > liver[2], "soft tissue is reddish");
+        let lung = preset("ct_lung").unwrap();
+        assert!(at_hu(&lung, -700.0)[3] > 0.0 && at_hu(&lung, 40.0)[3] == 0.0 && at_hu(&lung, -1000.0)[3] == 0.0);
+        let angio = preset("ct_angio").unwrap();
+        assert!(at_hu(&angio, 40.0)[3] == 0.0 && at_hu(&angio, 300.0)[3] > 0.5);
+        let v = at_hu(&angio, 250.0);
+        assert!(v[0] > 2.0 * v[2], "contrast is red");
+        assert!(at_hu(&preset("ct_fat").unwrap(), -100.0)[3] > 0.0);
+        assert_eq!(at_hu(&preset("ct_fat").unwrap(), 40.0)[3], 0.0);
+        let ct = PRESETS.iter().filter(|p| p.starts_with("ct_")).count();
+        assert!(ct >= 10, "{ct} CT presets");
+    }
+
+    #[test]
+    fn over_window_resamples_data_domains_and_keeps_window_ones() {
+        let bone = preset("ct_bone").unwrap();
+        // Over a window of [0, 1000] HU, entry i stands for i / 1023 * 1000 HU.
+        let windowed = bone.over_window([0.0, 1000.0]);
+        assert_eq!(windowed.domain, TfDomain::Window);
+        for hu in [0.0, 250.0, 600.0, 1000.0] {
+            let a = at(&windowed, hu / 1000.0);
+            let b = at_hu(&bone, hu);
+            assert!(a.iter().zip(&b).all(|(x, y)| (x - y).abs() < 0.01), "{hu} HU: {a:?} vs {b:?}");
+        }
+        // Beyond the domain the end entries hold.
+        assert_eq!(bone.over_window([4000.0, 5000.0]).rgba[0], bone.rgba[1023]);
+        let grey = preset("grayscale").unwrap();
+        assert_eq!(grey.over_window([-5.0, 5.0]), grey);
+    }
+
+    #[test]
+    fn window_presets_pick_their_levels() {
         let red = preset("vessel_red").unwrap();
         assert_eq!(at(&red, 0.5)[3], 0.0);
         let v = at(&red, 0.65);
@@ -384,7 +561,7 @@ mod tests {
         assert!(
             e.starts_with("unknown transfer function preset `ct_bnoe` (did you mean `ct_bone`?); the presets are: ")
         );
-        assert!(e.ends_with("hot_metal, labels"), "{e}");
+        assert!(e.ends_with("ct_skin, ct_mip"), "{e}");
         let e = preset("rainbow").unwrap_err().to_string();
         assert!(!e.contains("did you mean"), "{e}");
     }
@@ -417,9 +594,28 @@ mod tests {
             "Points": [-100, 0, 0.5, 0, 0, 0.5, 0.5, 0, 100, 1, 0.5, 0]}]"#;
         let tf = from_paraview_json(&write(&dir, text)).unwrap();
         assert_eq!(tf.name, "Cool");
+        assert_eq!(tf.domain, TfDomain::Data([-100.0, 100.0]));
         assert_eq!(tf.rgba[0], [0.0, 0.0, 1.0, 0.0]);
         assert_eq!(tf.rgba[1023], [1.0, 0.0, 0.0, 1.0]);
         assert!((tf.rgba[511][3] - 0.5).abs() < 0.01);
+        // Over a window of [0, 200]: the value 0 (half opaque) is entry 0, 100 and above opaque.
+        let windowed = tf.over_window([0.0, 200.0]);
+        assert!((windowed.rgba[0][3] - 0.5).abs() < 0.01);
+        assert_eq!(windowed.rgba[600][3], 1.0);
+    }
+
+    #[test]
+    fn paraview_points_are_data_units() {
+        // A bone colormap from 300 HU on: soft tissue at 40 HU takes the first point's colour
+        // and opacity (transparent), as in ParaView, instead of being stretched onto the map.
+        let dir = tempfile::tempdir().unwrap();
+        let text =
+            r#"{"RGBPoints": [300, 0.9, 0.8, 0.7, 1500, 1, 1, 1], "Points": [300, 0, 0.5, 0, 1500, 0.9, 0.5, 0]}"#;
+        let tf = from_paraview_json(&write(&dir, text)).unwrap();
+        let windowed = tf.over_window([-1000.0, 2000.0]);
+        let entry = |hu: f32| windowed.rgba[((hu + 1000.0) / 3000.0 * 1023.0).round() as usize];
+        assert_eq!(entry(40.0)[3], 0.0);
+        assert!(entry(1000.0)[3] > 0.5);
     }
 
     #[test]
@@ -427,6 +623,7 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let tf = from_paraview_json(&write(&dir, r#"{"RGBPoints": [0, 0, 0, 0, 0.5, 1, 1, 1]}"#)).unwrap();
         assert_eq!(tf.name, "map");
+        assert_eq!(tf.domain, TfDomain::Data([0.0, 0.5]));
         assert_eq!(tf.rgba[0], [0.0; 4]);
         assert_eq!(tf.rgba[1023], [1.0; 4]);
         assert!((tf.rgba[256][3] - 256.0 / 1023.0).abs() < 1e-6);

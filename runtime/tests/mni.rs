@@ -2,6 +2,8 @@
 //! spacing, orientation and value range as the NIfTI headers say. Skipped, saying why, when the
 //! folder is absent (it is not part of the project).
 
+mod common;
+
 use std::path::Path;
 
 const FILES: [&str; 3] = [
@@ -29,4 +31,40 @@ fn mni152_volumes_load_on_one_grid() {
         grids.push((volume.dims, volume.grid_to_world));
     }
     assert!(grids.windows(2).all(|w| w[0] == w[1]), "the three volumes share one grid");
+}
+
+/// The MNI T1 template as a user opens it: the automatic window (percentiles, stated as a
+/// note), a 3D view and an axial slice, against golden images. Skipped, saying why, without
+/// the data.
+#[test]
+fn mni152_t1_renders_with_its_automatic_window() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/mni152");
+    if !dir.is_dir() {
+        println!("skipped: {} is absent (see ../shared/data/README.md for how to get it)", dir.display());
+        return;
+    }
+    let scene_dir = tempfile::tempdir().unwrap();
+    let text = format!(
+        "[[volume]]\nname = \"t1\"\nrole = \"primary\"\npath = \"{}\"\ntf = \"mr_default\"\n\n\
+         [[view]]\nname = \"3d\"\nkind = \"raycast\"\nsize = [128, 128]\ncamera = {{ azimuth = 30.0, elevation = 15.0 }}\n\n\
+         [[view]]\nname = \"axial\"\nkind = \"slice\"\nsize = [128, 128]\naxis = \"z\"\nposition = 0.55\n",
+        dir.join(FILES[0]).display()
+    );
+    let scene = scene_dir.path().join("scene.toml");
+    std::fs::write(&scene, text).unwrap();
+    let mut renderer = vrs_runtime::SceneRenderer::open(
+        common::software_gpu(),
+        &scene,
+        vrs_runtime::RenderOptions::default(),
+        &mut |_, _, _| {},
+    )
+    .unwrap();
+    assert!(renderer.notices.iter().any(|n| n.contains("automatic window")), "{:?}", renderer.notices);
+    let failures: Vec<String> = renderer
+        .render_all()
+        .unwrap()
+        .into_iter()
+        .filter_map(|(view, image)| common::check_golden(&format!("mni152_t1__{view}"), &image).err())
+        .collect();
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
 }

@@ -180,3 +180,88 @@ fn empty_space_skipping_keeps_the_image() {
         reference.pixels().zip(skipped.pixels()).flat_map(|(a, b)| (0..4).map(move |c| a[c].abs_diff(b[c]))).max();
     assert!(worst.unwrap_or(0) <= 3, "largest channel difference {worst:?}");
 }
+
+/// A volume file is streamed into its texture (no copy of its samples is kept); the picture is
+/// the one of the same samples uploaded from memory. The head phantom, written as a NRRD file
+/// of floats on the phantom's own grid, against the built-in phantom.
+#[test]
+fn a_streamed_file_renders_like_the_same_volume_uploaded_from_memory() {
+    let dims = [40, 36, 32];
+    let phantom = vrs_runtime::volume::phantom("head", dims).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let centre = dims.map(|d| (d as f32 - 1.0) / 2.0);
+    let mut nrrd = format!(
+        "NRRD0004\ntype: float\ndimension: 3\nsizes: {} {} {}\nspace directions: (1,0,0) (0,1,0) (0,0,1)\n\
+         space origin: ({},{},{})\nendian: little\nencoding: raw\n\n",
+        dims[0], dims[1], dims[2], -centre[0], -centre[1], -centre[2]
+    )
+    .into_bytes();
+    nrrd.extend(phantom.values().iter().flat_map(|v| v.to_le_bytes()));
+    std::fs::write(dir.path().join("head.nrrd"), nrrd).unwrap();
+    let view = "\n[[view]]\nname = \"3d\"\nkind = \"raycast\"\nsize = [96, 96]\n\
+                camera = { azimuth = 30.0, elevation = 20.0 }\n";
+    let render = |source: &str| {
+        let text = format!("[[volume]]\nname = \"head\"\nrole = \"primary\"\n{source}\ntf = \"mr_default\"\n{view}");
+        let scene = temp_scene(dir.path(), &text);
+        let options = RenderOptions { phantom_size: dims, ..RenderOptions::default() };
+        let mut renderer = SceneRenderer::open(common::software_gpu(), &scene, options, &mut |_, _, _| {}).unwrap();
+        renderer.render_all().unwrap().remove(0).1
+    };
+    let streamed = render("path = \"head.nrrd\"");
+    let uploaded = render("phantom = \"head\"");
+    assert!(streamed.pixels().any(|p| p[3] > 0), "the head is visible");
+    assert_eq!(streamed, uploaded);
+}
+
+/// Writes `volume`'s values as an int16 NRRD of its grid (world = RAS, the phantom's own).
+fn write_int16_nrrd(path: &Path, volume: &vrs_runtime::volume::Volume) {
+    let [x, y, z] = volume.dims;
+    let o = volume.grid_to_world.w_axis;
+    let mut bytes = format!(
+        "NRRD0004\ntype: short\ndimension: 3\nsizes: {x} {y} {z}\nspace directions: (1,0,0) (0,1,0) (0,0,1)\n\
+         space origin: ({},{},{})\nendian: little\nencoding: raw\n\n",
+        o.x, o.y, o.z
+    )
+    .into_bytes();
+    bytes.extend(volume.values().iter().flat_map(|v| (v.round() as i16).to_le_bytes()));
+    std::fs::write(path, bytes).unwrap();
+}
+
+/// A CT with one 30000 HU voxel (metal) renders like the same CT without it, with a CT preset
+/// (its Hounsfield domain is the window) and with the automatic window (percentiles).
+#[test]
+fn an_outlier_voxel_does_not_change_the_picture() {
+    let dims = [48, 48, 40];
+    let mut ct = vrs_runtime::volume::phantom("abdomen", dims).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    write_int16_nrrd(&dir.path().join("ct.nrrd"), &ct);
+    let mut values = ct.values();
+    values[(20 * 48 + 24) * 48 + 24] = 30_000.0;
+    ct = vrs_runtime::volume::Volume::new(ct.dims, ct.grid_to_world, values);
+    write_int16_nrrd(&dir.path().join("metal.nrrd"), &ct);
+    for tf in ["ct_bone", "ct_soft_tissue", "grayscale"] {
+        let render = |file: &str| {
+            let text = format!(
+                "[[volume]]\nname = \"ct\"\nrole = \"primary\"\npath = \"{file}\"\ntf = \"{tf}\"\n\n\
+                 [[view]]\nname = \"3d\"\nkind = \"raycast\"\nsize = [96, 96]\ncamera = {{ elevation = 30.0 }}\n"
+            );
+            let scene = temp_scene(dir.path(), &text);
+            let mut r =
+                SceneRenderer::open(common::software_gpu(), &scene, RenderOptions::default(), &mut |_, _, _| {})
+                    .unwrap();
+            (r.render_all().unwrap().remove(0).1, r.notices.clone())
+        };
+        let ((clean, clean_notes), (metal, metal_notes)) = (render("ct.nrrd"), render("metal.nrrd"));
+        assert!(clean.pixels().filter(|p| p[3] > 0).count() > 500, "{tf}: the body is visible");
+        let (matching, mean, _) = common::compare(&metal, &clean);
+        assert!(matching >= common::MIN_MATCHING && mean <= common::MAX_MEAN_DIFF, "{tf}: {matching} {mean}");
+        // A CT preset's window is its Hounsfield domain: nothing automatic to state.
+        assert_eq!(clean_notes.is_empty(), tf != "grayscale", "{tf}: {clean_notes:?}");
+        if tf == "grayscale" {
+            assert!(
+                metal_notes[0].contains("automatic window [-99") || metal_notes[0].contains("automatic window [-1000")
+            );
+            assert!(clean_notes[0].contains("percentile"), "{clean_notes:?}");
+        }
+    }
+}

@@ -11,17 +11,21 @@ use glam::{Mat4, Vec3};
 
 use super::raw::{self, Encoding, Placement, TextHeader};
 use super::{
-    Layout, LoadErrorKind, MAX_HEADER_LINES, ScalarType, Volume, affine, check_dims, is_usable, lps_to_ras,
-    parse_numbers, read_header_line,
+    Layout, LoadErrorKind, MAX_HEADER_LINES, SampleSink, ScalarType, Scaling, VolumeInfo, affine, check_dims,
+    is_usable, lps_to_ras, parse_numbers, read_header_line,
 };
 
 /// Loads a `.mhd` or `.mha` file.
-pub(super) fn load(path: &Path, progress: &mut dyn FnMut(u64, u64)) -> Result<Volume, LoadErrorKind> {
-    let (header, data) = raw::load(path, progress, |reader| {
+pub(super) fn load(
+    path: &Path,
+    progress: &mut dyn FnMut(u64, u64),
+    sink: &mut dyn SampleSink,
+) -> Result<VolumeInfo, LoadErrorKind> {
+    let parse = |reader: &mut dyn BufRead| {
         let (fields, header_len) = read_header(reader)?;
         Ok((Header::parse(&fields)?, header_len))
-    })?;
-    Ok(Volume::new(header.dims, header.grid_to_world, data))
+    };
+    raw::load(path, progress, parse, sink)
 }
 
 /// Reads `Key = Value` lines up to and including `ElementDataFile`, which MetaImage requires
@@ -159,9 +163,19 @@ impl TextHeader for Header {
         self.data_file.as_deref()
     }
 
-    fn read_data(&self, reader: &mut dyn BufRead, len: u64, file: Option<&Path>) -> Result<Vec<f32>, LoadErrorKind> {
+    fn info(&self) -> VolumeInfo {
+        VolumeInfo { dims: self.dims, grid_to_world: self.grid_to_world, scaling: Scaling::IDENTITY }
+    }
+
+    fn read_data(
+        &self,
+        reader: &mut dyn BufRead,
+        len: u64,
+        file: Option<&Path>,
+        sink: &mut dyn SampleSink,
+    ) -> Result<(), LoadErrorKind> {
         let past_end = |skip| LoadErrorKind::Header(format!("`HeaderSize` {skip} is past the end of the data file"));
-        raw::read_data(reader, self.data, len, file, &past_end)
+        raw::read_data(reader, self.data, len, file, &past_end, sink)
     }
 }
 
@@ -258,7 +272,7 @@ mod tests {
         );
         let v = load_quiet(&write(&dir, "v.mhd", header.as_bytes())).unwrap();
         assert_eq!(v.dims, [3, 2, 2]);
-        assert_eq!(v.data, shorts_f32());
+        assert_eq!(v.values(), shorts_f32());
         assert_eq!(v.spacing, [0.5, 0.25, 2.0]);
         // LPS axes (0, 0.5, 0), (-0.25, 0, 0), (0, 0, 2), origin (1, 2, 3); RAS negates x and y.
         assert_mat_eq(
@@ -273,7 +287,7 @@ mod tests {
 
         // HeaderSize -1: the data is at the end.
         let header = header.replace("HeaderSize = 6", "HeaderSize = -1");
-        assert_eq!(load_quiet(&write(&dir, "w.mhd", header.as_bytes())).unwrap().data, shorts_f32());
+        assert_eq!(load_quiet(&write(&dir, "w.mhd", header.as_bytes())).unwrap().values(), shorts_f32());
     }
 
     #[test]
@@ -285,7 +299,7 @@ mod tests {
         let mut calls = Vec::new();
         let path = write(&dir, "v.mha", &mha(&header, &data));
         let v = super::super::load(&path, &mut |d, t| calls.push((d, t))).unwrap();
-        assert_eq!(v.data, values);
+        assert_eq!(v.values(), values);
         assert_mat_eq(v.grid_to_world, Mat4::from_scale(Vec3::new(-1.0, -1.0, 1.0)));
         let len = std::fs::metadata(&path).unwrap().len();
         assert_eq!(calls.last(), Some(&(len, len)));
@@ -297,11 +311,11 @@ mod tests {
         let bytes: Vec<u8> = (0..12).map(|i| i * 20).collect();
         let header = HEADER.replace("MET_SHORT", "MET_UCHAR") + "\nCompressedData = True\nCompressedDataSize = 99";
         let v = load_quiet(&write(&dir, "v.mha", &mha(&header, &zlib(&bytes)))).unwrap();
-        assert_eq!(v.data, bytes.iter().map(|&b| f32::from(b)).collect::<Vec<_>>());
+        assert_eq!(v.values(), bytes.iter().map(|&b| f32::from(b)).collect::<Vec<_>>());
 
         write(&dir, "v.zraw", &zlib(&shorts_le()));
         let header = format!("{HEADER}\nCompressedData = True\nElementDataFile = v.zraw");
-        assert_eq!(load_quiet(&write(&dir, "v.mhd", header.as_bytes())).unwrap().data, shorts_f32());
+        assert_eq!(load_quiet(&write(&dir, "v.mhd", header.as_bytes())).unwrap().values(), shorts_f32());
     }
 
     #[test]

@@ -1,4 +1,5 @@
-//! Volumes on the CPU: loading NIfTI-1, NRRD and MetaImage files, and generating phantoms.
+//! Volumes on the CPU: loading NIfTI-1, NRRD and MetaImage files and DICOM series, and
+//! generating phantoms.
 //!
 //! Every loader validates the header before it reads or allocates the data, so a hostile or
 //! broken file costs at most the memory its actual data needs, and every problem is reported as
@@ -8,62 +9,133 @@
 //! `space: left-posterior-superior`) have their x and y axes negated, so that volumes loaded from
 //! different formats line up.
 
+mod dicom;
+pub mod histogram;
 mod mhd;
 mod nifti;
 mod nrrd;
 pub mod phantom;
 mod raw;
+mod samples;
 
 use std::fmt;
 use std::fs::File;
 use std::io::{self, BufRead, Read};
+use std::ops::Range;
 use std::path::{Path, PathBuf};
 
 use glam::{Mat4, Vec3, Vec4};
 
+pub use histogram::{Histogram, auto_window};
 pub use phantom::{PHANTOMS, UnknownPhantom, phantom};
+pub use samples::{Samples, Scaling};
 
-/// The most voxels a volume may have: 2^31 (8 GiB as `f32`, 4 GiB on the GPU as half floats).
+/// Streams a volume's finite value range: the sink of a first pass over a file when the volume
+/// is not kept.
+#[derive(Debug, Default)]
+pub struct RangeSink {
+    scaling: Option<Scaling>,
+    stored: Option<[f32; 2]>,
+}
+
+impl RangeSink {
+    /// The finite range in data units (`[0, 0]` without finite samples), as [`Volume::range`].
+    pub fn range(&self) -> [f32; 2] {
+        self.scaling.unwrap_or(Scaling::IDENTITY).range(self.stored)
+    }
+}
+
+impl SampleSink for RangeSink {
+    fn begin(&mut self, info: &VolumeInfo) -> Result<(), LoadErrorKind> {
+        self.scaling = Some(info.scaling);
+        Ok(())
+    }
+
+    fn samples(&mut self, chunk: &Samples) -> Result<(), LoadErrorKind> {
+        if let Some([lo, hi]) = chunk.finite_range() {
+            let [a, b] = self.stored.unwrap_or([lo, hi]);
+            self.stored = Some([a.min(lo), b.max(hi)]);
+        }
+        Ok(())
+    }
+}
+
+/// The most voxels a volume may have: 2^31 (4 GiB as 16-bit samples, 4 GiB on the GPU as half
+/// floats).
 pub const MAX_VOXELS: u64 = 1 << 31;
 
-/// A scalar volume in memory, as `f32` with the file's value scaling applied.
+/// A scalar volume in memory: the samples as the file stores them, and how they map to data
+/// units (the file's value scaling).
+///
+/// Nothing here holds a second copy of the samples: data values are computed from the stored
+/// ones where they are needed (the GPU upload, the occupancy grid, percentiles), a chunk at a
+/// time.
 #[derive(Clone, PartialEq)]
 pub struct Volume {
-    /// Samples per axis; x varies fastest in `data`.
+    /// Samples per axis; x varies fastest in `samples`.
     pub dims: [u32; 3],
     /// World units (mm) per voxel along each axis.
     pub spacing: [f32; 3],
     /// Voxel index (i, j, k) of a voxel centre -> world position (mm, RAS+), from the header.
     pub grid_to_world: Mat4,
-    /// The samples, `dims[0] * dims[1] * dims[2]` of them, x fastest, then y, then z.
-    pub data: Vec<f32>,
-    /// Minimum and maximum of the finite samples (`[0, 0]` when there are none).
+    /// The stored samples, `dims[0] * dims[1] * dims[2]` of them, x fastest, then y, then z.
+    pub samples: Samples,
+    /// Stored samples to data units (NIfTI `scl_slope`/`scl_inter`, DICOM rescale).
+    pub scaling: Scaling,
+    /// Minimum and maximum of the finite samples in data units (`[0, 0]` when there are none).
     pub range: [f32; 2],
 }
 
 impl Volume {
-    /// Builds a volume from samples in physical units, deriving `spacing` from the lengths of the
+    /// Builds a volume from samples in data units, deriving `spacing` from the lengths of the
     /// voxel axes in `grid_to_world` and `range` from the data.
     pub fn new(dims: [u32; 3], grid_to_world: Mat4, data: Vec<f32>) -> Volume {
-        let range = finite_range(&data);
-        Volume { dims, spacing: spacing_of(&grid_to_world), grid_to_world, data, range }
+        Volume::from_samples(dims, grid_to_world, Samples::F32(data), Scaling::IDENTITY)
     }
 
-    /// Values mapped to [0, 1] by `window` (lo, hi), or by `range` when `None`; clamped; NaN -> 0.
+    /// Builds a volume from stored samples and their scaling to data units.
+    pub fn from_samples(dims: [u32; 3], grid_to_world: Mat4, samples: Samples, scaling: Scaling) -> Volume {
+        let range = scaling.range(samples.finite_range());
+        Volume { dims, spacing: spacing_of(&grid_to_world), grid_to_world, samples, scaling, range }
+    }
+
+    /// The data value of voxel `index` (x fastest); `None` beyond the end.
+    pub fn value(&self, index: usize) -> Option<f32> {
+        self.samples.get(index).map(|s| self.scaling.apply(s))
+    }
+
+    /// Every value in data units: a full `f32` copy, for tests and small volumes; loading and
+    /// rendering never make one.
+    pub fn values(&self) -> Vec<f32> {
+        let mut out = Vec::with_capacity(self.samples.len());
+        self.samples.for_each(0..self.samples.len(), |s| out.push(self.scaling.apply(s)));
+        out
+    }
+
+    /// Values mapped to [0, 1] by `window` (lo, hi, data units), or by `range` when `None`;
+    /// clamped; NaN -> 0.
     ///
-    /// This is what the GPU samples: transfer functions are defined over [0, 1], so one preset
-    /// fits any data once a window picks the interesting values. A window with `hi <= lo` is a
-    /// threshold: values above `lo` become 1.
+    /// This is what the GPU samples: the transfer function's table spans the same window. A
+    /// window with `hi <= lo` is a threshold: values above `lo` become 1.
     pub fn normalized(&self, window: Option<[f32; 2]>) -> Vec<f32> {
-        let window = Window::new(window.unwrap_or(self.range));
-        self.data.iter().map(|&v| window.apply(v)).collect()
+        let mut out = Vec::with_capacity(self.samples.len());
+        self.for_each_normalized(window, 0..self.samples.len(), |t| out.push(t));
+        out
     }
 
-    /// [`Volume::normalized`] as IEEE half floats, for an `R16Float` texture upload (half the
-    /// memory of `f32`, and filterable on every backend).
-    pub fn normalized_f16(&self, window: Option<[f32; 2]>) -> Vec<half::f16> {
-        let window = Window::new(window.unwrap_or(self.range));
-        self.data.iter().map(|&v| half::f16::from_f32(window.apply(v))).collect()
+    /// Calls `f` with the normalized value ([`Volume::normalized`]) of each voxel in `voxels`,
+    /// in order, without a copy of the volume.
+    pub fn for_each_normalized(&self, window: Option<[f32; 2]>, voxels: Range<usize>, f: impl FnMut(f32)) {
+        let window = Window::new(window.unwrap_or(self.range), self.scaling);
+        let mut f = f;
+        self.samples.for_each(voxels, |s| f(window.apply(s)));
+    }
+
+    /// Appends the normalized values of the voxels in `voxels` to `out` as IEEE half floats, for
+    /// an `R16Float` texture upload (half the memory of `f32`, and filterable on every backend).
+    pub fn normalized_f16_into(&self, window: Option<[f32; 2]>, voxels: Range<usize>, out: &mut Vec<half::f16>) {
+        out.reserve(voxels.len());
+        self.for_each_normalized(window, voxels, |t| out.push(half::f16::from_f32(t)));
     }
 
     /// The number of voxels, `dims[0] * dims[1] * dims[2]`.
@@ -71,7 +143,7 @@ impl Volume {
         self.dims.iter().map(|&d| u64::from(d)).product()
     }
 
-    /// Bytes the volume takes on the GPU at 2 bytes per voxel (see [`Volume::normalized_f16`]).
+    /// Bytes the volume takes on the GPU at 2 bytes per voxel (see [`Volume::normalized_f16_into`]).
     pub fn gpu_bytes(&self) -> u64 {
         self.voxel_count() * 2
     }
@@ -84,43 +156,47 @@ impl fmt::Debug for Volume {
             .field("dims", &self.dims)
             .field("spacing", &self.spacing)
             .field("grid_to_world", &self.grid_to_world)
-            .field("data", &format_args!("[{} samples]", self.data.len()))
+            .field(
+                "samples",
+                &format_args!("[{} samples of {} bytes]", self.samples.len(), self.samples.sample_bytes()),
+            )
+            .field("scaling", &self.scaling)
             .field("range", &self.range)
             .finish()
     }
 }
 
-/// A value window, precomputed so normalizing a sample is one multiply-add.
-#[derive(Clone, Copy)]
-struct Window {
+/// A value window over stored samples, precomputed so normalizing a sample is one
+/// multiply-add: `(stored * slope + intercept - lo) / (hi - lo)`, clamped to [0, 1], NaN -> 0
+/// (see [`Volume::normalized`]).
+#[derive(Clone, Copy, Debug)]
+pub struct Window {
+    /// `slope / (hi - lo)` and `(intercept - lo) / (hi - lo)`; `None` for a degenerate window
+    /// (a threshold at `lo`).
+    linear: Option<(f32, f32)>,
     lo: f32,
-    /// `1 / (hi - lo)`, or `None` for a degenerate window (a threshold at `lo`).
-    scale: Option<f32>,
+    scaling: Scaling,
 }
 
 impl Window {
-    fn new([lo, hi]: [f32; 2]) -> Window {
-        Window { lo, scale: (hi > lo).then(|| 1.0 / (hi - lo)) }
+    /// The window `[lo, hi]` (data units) over samples stored with `scaling`.
+    pub fn new([lo, hi]: [f32; 2], scaling: Scaling) -> Window {
+        let linear = (hi > lo).then(|| {
+            let scale = 1.0 / (hi - lo);
+            (scaling.slope * scale, (scaling.intercept - lo) * scale)
+        });
+        Window { linear, lo, scaling }
     }
 
-    fn apply(self, v: f32) -> f32 {
-        let t = match self.scale {
-            Some(scale) => (v - self.lo) * scale,
-            None if v > self.lo => 1.0,
+    /// The normalized value of a stored sample.
+    pub fn apply(self, stored: f32) -> f32 {
+        let t = match self.linear {
+            Some((a, b)) => stored * a + b,
+            None if self.scaling.apply(stored) > self.lo => 1.0,
             None => 0.0,
         };
         if t.is_nan() { 0.0 } else { t.clamp(0.0, 1.0) }
     }
-}
-
-/// Minimum and maximum of the finite values; `[0, 0]` when there are none, so a window built
-/// from it is always finite.
-fn finite_range(data: &[f32]) -> [f32; 2] {
-    let (lo, hi) = data
-        .iter()
-        .filter(|v| v.is_finite())
-        .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &v| (lo.min(v), hi.max(v)));
-    if lo <= hi { [lo, hi] } else { [0.0, 0.0] }
 }
 
 /// The length of each voxel axis (the first three columns of the matrix); 1 where that length
@@ -199,8 +275,11 @@ pub enum LoadErrorKind {
     SizeMismatch { expected: u64, found: u64, compressed: bool },
     /// Compressed data could not be decompressed.
     Corrupt(String),
-    /// The samples (as `f32`) do not fit in memory.
+    /// The samples do not fit in memory.
     OutOfMemory { bytes: u64 },
+    /// A DICOM series is unusable: a file of it (`file`) or the series as a whole (`None`: several
+    /// series in one folder, missing slices, unequal spacing).
+    Dicom { file: Option<PathBuf>, message: String },
 }
 
 impl fmt::Display for LoadErrorKind {
@@ -210,9 +289,9 @@ impl fmt::Display for LoadErrorKind {
             LoadErrorKind::Io { file: Some(file), error } => {
                 write!(f, "cannot read the data file `{}`: {error}", file.display())
             }
-            LoadErrorKind::UnknownFormat => {
-                f.write_str("unknown volume format (expected .nii, .nii.gz, .nrrd, .nhdr, .mhd or .mha)")
-            }
+            LoadErrorKind::UnknownFormat => f.write_str(
+                "unknown volume format (expected .nii, .nii.gz, .nrrd, .nhdr, .mhd, .mha or a folder of DICOM files)",
+            ),
             LoadErrorKind::Header(message) => f.write_str(message),
             LoadErrorKind::TooLarge { dims, voxels } => {
                 let dims: Vec<String> = dims.iter().map(u64::to_string).collect();
@@ -226,34 +305,114 @@ impl fmt::Display for LoadErrorKind {
             }
             LoadErrorKind::Corrupt(message) => write!(f, "corrupt or truncated compressed data: {message}"),
             LoadErrorKind::OutOfMemory { bytes } => {
-                write!(f, "not enough memory for the volume ({} MiB as 32-bit floats)", bytes >> 20)
+                write!(f, "not enough memory for the volume ({} MiB)", bytes >> 20)
             }
+            LoadErrorKind::Dicom { file: None, message } => f.write_str(message),
+            LoadErrorKind::Dicom { file: Some(file), message } => write!(f, "`{}`: {message}", file.display()),
         }
     }
 }
 
-/// Loads a volume, picking the format by the file name: `.nii`, `.nii.gz` (NIfTI-1), `.nrrd`,
-/// `.nhdr` (NRRD), `.mhd`, `.mha` (MetaImage).
+/// Loads a volume: a folder is a DICOM series (one image per file); a file's format is picked
+/// by its name: `.nii`, `.nii.gz` (NIfTI-1), `.nrrd`, `.nhdr` (NRRD), `.mhd`, `.mha` (MetaImage).
 ///
 /// `progress(done_bytes, total_bytes)` is called as the file holding the data is read (about
-/// every 1% of it), and once with `done == total` at the end, so a caller can draw a progress bar.
+/// every 1% of it; for a DICOM series, after each slice), and once with `done == total` at the
+/// end, so a caller can draw a progress bar.
 pub fn load(path: &Path, progress: &mut dyn FnMut(u64, u64)) -> Result<Volume, LoadError> {
+    let mut collected = Collect::default();
+    let info = stream(path, progress, &mut collected)?;
+    let samples = collected.samples.unwrap_or(Samples::F32(Vec::new()));
+    Ok(Volume::from_samples(info.dims, info.grid_to_world, samples, info.scaling))
+}
+
+/// Reads a volume like [`load`], but hands its samples to `sink` a chunk at a time instead of
+/// keeping them: a caller that only needs them once (a GPU upload, a histogram) holds no copy
+/// of the volume. Returns the volume's shape, placement and scaling.
+pub fn stream(
+    path: &Path,
+    progress: &mut dyn FnMut(u64, u64),
+    sink: &mut dyn SampleSink,
+) -> Result<VolumeInfo, LoadError> {
     let name = path.file_name().map(|n| n.to_string_lossy().to_ascii_lowercase()).unwrap_or_default();
-    let result = if name.ends_with(".nii.gz") {
-        nifti::load(path, true, progress)
+    let result = if path.is_dir() {
+        dicom::load(path, progress, sink)
+    } else if name.ends_with(".nii.gz") {
+        nifti::load(path, true, progress, sink)
     } else if name.ends_with(".nii") {
-        nifti::load(path, false, progress)
+        nifti::load(path, false, progress, sink)
     } else if name.ends_with(".nrrd") || name.ends_with(".nhdr") {
-        nrrd::load(path, progress)
+        nrrd::load(path, progress, sink)
     } else if name.ends_with(".mhd") || name.ends_with(".mha") {
-        mhd::load(path, progress)
+        mhd::load(path, progress, sink)
     } else {
         Err(LoadErrorKind::UnknownFormat)
     };
     result.map_err(|kind| LoadError { path: path.to_path_buf(), kind })
 }
 
-/// The sample types the loaders accept; all are converted to `f32`.
+/// A volume's shape, placement and value scaling: everything but its samples.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct VolumeInfo {
+    /// Samples per axis.
+    pub dims: [u32; 3],
+    /// Voxel index to world (mm, RAS+).
+    pub grid_to_world: Mat4,
+    /// Stored samples to data units.
+    pub scaling: Scaling,
+}
+
+/// Receives a volume's stored samples as a loader reads them ([`stream`]).
+pub trait SampleSink {
+    /// Called once, after the header is validated and before any sample.
+    fn begin(&mut self, info: &VolumeInfo) -> Result<(), LoadErrorKind>;
+
+    /// The file holds exactly the `voxels` samples its header declares (an uncompressed file of
+    /// the right length): a sink may allocate for all of them now.
+    fn reserve(&mut self, voxels: usize) -> Result<(), LoadErrorKind> {
+        let _ = voxels;
+        Ok(())
+    }
+
+    /// The next stored samples in voxel order (x fastest, then y, then z), in the file's type
+    /// (the same type for every chunk of a volume).
+    fn samples(&mut self, chunk: &Samples) -> Result<(), LoadErrorKind>;
+}
+
+/// The sink of [`load`]: keeps every sample in the file's type, growing with the data actually
+/// read (so a small compressed file claiming a huge volume costs only what it holds) unless the
+/// loader says the size is known.
+#[derive(Default)]
+struct Collect {
+    voxels: usize,
+    reserve: usize,
+    samples: Option<Samples>,
+}
+
+impl SampleSink for Collect {
+    fn begin(&mut self, info: &VolumeInfo) -> Result<(), LoadErrorKind> {
+        self.voxels = info.dims.iter().map(|&d| d as usize).product();
+        self.reserve = self.voxels.min(1 << 22);
+        Ok(())
+    }
+
+    fn reserve(&mut self, voxels: usize) -> Result<(), LoadErrorKind> {
+        self.reserve = voxels.min(self.voxels);
+        Ok(())
+    }
+
+    fn samples(&mut self, chunk: &Samples) -> Result<(), LoadErrorKind> {
+        let out_of_memory = |_| LoadErrorKind::OutOfMemory { bytes: (self.voxels * chunk.sample_bytes()) as u64 };
+        let samples = match &mut self.samples {
+            Some(samples) => samples,
+            None => self.samples.insert(Samples::empty_like(chunk, self.reserve).map_err(out_of_memory)?),
+        };
+        samples.reserve_up_to(chunk.len(), self.voxels).map_err(out_of_memory)?;
+        samples.append(chunk).map_err(LoadErrorKind::Header)
+    }
+}
+
+/// The sample types the loaders accept; `f64` is kept as `f32`, the others as they are.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum ScalarType {
     U8,
@@ -274,30 +433,6 @@ impl ScalarType {
             ScalarType::U16 | ScalarType::I16 => 2,
             ScalarType::U32 | ScalarType::I32 | ScalarType::F32 => 4,
             ScalarType::F64 => 8,
-        }
-    }
-
-    /// Appends the samples in `bytes` (a whole number of them) to `out` as `f32`.
-    fn decode(self, bytes: &[u8], big_endian: bool, out: &mut Vec<f32>) {
-        macro_rules! convert {
-            ($t:ty, $n:literal) => {{
-                let (samples, _) = bytes.as_chunks::<$n>();
-                if big_endian {
-                    out.extend(samples.iter().map(|&s| <$t>::from_be_bytes(s) as f32));
-                } else {
-                    out.extend(samples.iter().map(|&s| <$t>::from_le_bytes(s) as f32));
-                }
-            }};
-        }
-        match self {
-            ScalarType::U8 => out.extend(bytes.iter().map(|&b| f32::from(b))),
-            ScalarType::I8 => out.extend(bytes.iter().map(|&b| f32::from(b as i8))),
-            ScalarType::U16 => convert!(u16, 2),
-            ScalarType::I16 => convert!(i16, 2),
-            ScalarType::U32 => convert!(u32, 4),
-            ScalarType::I32 => convert!(i32, 4),
-            ScalarType::F32 => convert!(f32, 4),
-            ScalarType::F64 => convert!(f64, 8),
         }
     }
 }
@@ -362,22 +497,23 @@ impl DataSource<'_> {
 const CHUNK_BYTES: usize = 1 << 20;
 
 /// Reads exactly the samples `layout` describes from `reader` (positioned at the first sample)
-/// and checks that nothing follows them.
-///
-/// The output grows with the data actually read (it is reserved up front only when the source's
-/// length is known and right), so a small compressed file claiming a huge volume cannot make
-/// this allocate more than the data it really holds.
-fn read_samples(reader: &mut dyn Read, layout: Layout, source: &DataSource) -> Result<Vec<f32>, LoadErrorKind> {
+/// into `sink`, a chunk at a time, and checks that nothing follows them.
+fn read_samples(
+    reader: &mut dyn Read,
+    layout: Layout,
+    source: &DataSource,
+    sink: &mut dyn SampleSink,
+) -> Result<(), LoadErrorKind> {
     let expected = layout.bytes();
-    if let Some(available) = source.available
-        && available != expected
-    {
-        return Err(source.mismatch(expected, available));
+    if let Some(available) = source.available {
+        if available != expected {
+            return Err(source.mismatch(expected, available));
+        }
+        sink.reserve(usize::try_from(layout.voxels).unwrap_or(usize::MAX))?;
     }
-    let reserve = if source.available.is_some() { layout.voxels } else { layout.voxels.min(1 << 22) };
-    let mut out = Vec::new();
-    out.try_reserve_exact(usize::try_from(reserve).unwrap_or(usize::MAX))
-        .map_err(|_| LoadErrorKind::OutOfMemory { bytes: reserve * 4 })?;
+    let sample_bytes = layout.ty.size() as usize;
+    let out_of_memory = |_| LoadErrorKind::OutOfMemory { bytes: CHUNK_BYTES as u64 };
+    let mut chunk = Samples::with_capacity(layout.ty, CHUNK_BYTES / sample_bytes).map_err(out_of_memory)?;
     let mut buf = vec![0u8; CHUNK_BYTES];
     let mut remaining = expected;
     while remaining > 0 {
@@ -386,14 +522,16 @@ fn read_samples(reader: &mut dyn Read, layout: Layout, source: &DataSource) -> R
         if got < want {
             return Err(source.mismatch(expected, expected - remaining + got as u64));
         }
-        layout.ty.decode(&buf[..want], layout.big_endian, &mut out);
+        chunk.clear();
+        chunk.extend_decoded(layout.ty, &buf[..want], layout.big_endian);
+        sink.samples(&chunk)?;
         remaining -= want as u64;
     }
     let extra = io::copy(reader, &mut io::sink()).map_err(|e| source.read_error(e))?;
     if extra > 0 {
         return Err(source.mismatch(expected, expected + extra));
     }
-    Ok(out)
+    Ok(())
 }
 
 /// Fills `buf` as far as the stream allows; returns how many bytes were read (less than
@@ -577,8 +715,9 @@ pub(crate) mod tests {
         assert_eq!(v.normalized(Some([5.0, 7.5])), vec![0.0, 0.0, 1.0, 0.0, 1.0, 0.0]);
         // A degenerate window thresholds.
         assert_eq!(v.normalized(Some([5.0, 5.0]))[..3], [0.0, 0.0, 1.0]);
-        let halves = v.normalized_f16(None);
-        assert_eq!(halves[1], half::f16::from_f32(0.5));
+        let mut halves = Vec::new();
+        v.normalized_f16_into(None, 1..3, &mut halves);
+        assert_eq!(halves, [half::f16::from_f32(0.5), half::f16::ONE]);
         assert_eq!(v.voxel_count(), 6);
         assert_eq!(v.gpu_bytes(), 12);
     }
@@ -609,15 +748,51 @@ pub(crate) mod tests {
     #[test]
     fn decode_all_types_both_endians() {
         let mut out = Vec::new();
-        ScalarType::I8.decode(&[0xff, 0x02], false, &mut out);
-        ScalarType::U16.decode(&[0x01, 0x02], true, &mut out);
-        ScalarType::I16.decode(&(-300i16).to_le_bytes(), false, &mut out);
-        ScalarType::U32.decode(&70000u32.to_be_bytes(), true, &mut out);
-        ScalarType::I32.decode(&(-70000i32).to_le_bytes(), false, &mut out);
-        ScalarType::F32.decode(&1.5f32.to_be_bytes(), true, &mut out);
-        ScalarType::F64.decode(&(-2.25f64).to_le_bytes(), false, &mut out);
-        ScalarType::U8.decode(&[200], false, &mut out);
+        let mut decode = |ty: ScalarType, bytes: &[u8], big_endian: bool, bytes_per_sample: usize| {
+            let mut samples = Samples::with_capacity(ty, 0).unwrap();
+            samples.extend_decoded(ty, bytes, big_endian);
+            assert_eq!(samples.sample_bytes(), bytes_per_sample, "{ty:?} is stored in its own type");
+            out.extend(samples.to_f32());
+        };
+        decode(ScalarType::I8, &[0xff, 0x02], false, 1);
+        decode(ScalarType::U16, &[0x01, 0x02], true, 2);
+        decode(ScalarType::I16, &(-300i16).to_le_bytes(), false, 2);
+        decode(ScalarType::U32, &70000u32.to_be_bytes(), true, 4);
+        decode(ScalarType::I32, &(-70000i32).to_le_bytes(), false, 4);
+        decode(ScalarType::F32, &1.5f32.to_be_bytes(), true, 4);
+        decode(ScalarType::F64, &(-2.25f64).to_le_bytes(), false, 4);
+        decode(ScalarType::U8, &[200], false, 1);
         assert_eq!(out, vec![-1.0, 2.0, 258.0, -300.0, 70000.0, -70000.0, 1.5, -2.25, 200.0]);
+    }
+
+    #[test]
+    fn scaling_maps_stored_samples_to_data_units() {
+        // Stored 0..=4, slope -2, intercept 10: data 10, 8, ..., 2.
+        let v = Volume::from_samples(
+            [5, 1, 1],
+            Mat4::IDENTITY,
+            Samples::I16(vec![0, 1, 2, 3, 4]),
+            Scaling { slope: -2.0, intercept: 10.0 },
+        );
+        assert_eq!(v.range, [2.0, 10.0]);
+        assert_eq!(v.values(), [10.0, 8.0, 6.0, 4.0, 2.0]);
+        assert_eq!(v.value(1), Some(8.0));
+        assert_eq!(v.normalized(Some([4.0, 8.0])), [1.0, 1.0, 0.5, 0.0, 0.0]);
+        assert_eq!(v.normalized(Some([6.0, 6.0])), [1.0, 1.0, 0.0, 0.0, 0.0]);
+    }
+
+    #[test]
+    fn reserve_up_to_never_passes_the_limit() {
+        let mut samples = Samples::with_capacity(ScalarType::I16, 4).unwrap();
+        samples.reserve_up_to(4, 10).unwrap();
+        samples.extend_decoded(ScalarType::I16, &[0; 8], false);
+        samples.reserve_up_to(4, 10).unwrap();
+        let Samples::I16(v) = &samples else { panic!("i16 samples") };
+        assert_eq!(v.capacity(), 8);
+        samples.extend_decoded(ScalarType::I16, &[0; 8], false);
+        samples.reserve_up_to(2, 10).unwrap();
+        let Samples::I16(v) = &samples else { panic!("i16 samples") };
+        assert_eq!(v.capacity(), 10, "doubling stops at the limit");
     }
 
     #[test]

@@ -12,28 +12,33 @@ use glam::{DMat3, DQuat, Mat4, Vec3};
 use nifti::{Endianness, NiftiError, NiftiHeader};
 
 use super::{
-    DataSource, Layout, LoadErrorKind, ProgressReader, ScalarType, Volume, affine, check_dims, is_usable, open,
-    read_samples, skip_bytes,
+    DataSource, Layout, LoadErrorKind, ProgressReader, SampleSink, ScalarType, Scaling, VolumeInfo, affine, check_dims,
+    is_usable, open, read_samples, skip_bytes,
 };
 
 /// Bytes in a NIfTI-1 header; the extensions (if any) and the data follow it.
 const HEADER_BYTES: u64 = 348;
 
 /// Loads a `.nii` (or, with `gz`, a `.nii.gz`) file.
-pub(super) fn load(path: &Path, gz: bool, progress: &mut dyn FnMut(u64, u64)) -> Result<Volume, LoadErrorKind> {
+pub(super) fn load(
+    path: &Path,
+    gz: bool,
+    progress: &mut dyn FnMut(u64, u64),
+    sink: &mut dyn SampleSink,
+) -> Result<VolumeInfo, LoadErrorKind> {
     let (file, len) = open(path, false)?;
-    let volume = {
+    let info = {
         let buffered = BufReader::new(ProgressReader::new(file, len, progress));
         let mut reader: Box<dyn Read + '_> = if gz { Box::new(GzDecoder::new(buffered)) } else { Box::new(buffered) };
-        read(&mut reader, gz, len)?
+        read(&mut reader, gz, len, sink)?
     };
     progress(len, len);
-    Ok(volume)
+    Ok(info)
 }
 
 /// Reads a NIfTI-1 stream: header, extensions (skipped) and data. `len` is the file's length,
 /// which bounds the data of an uncompressed file.
-fn read(reader: &mut dyn Read, gz: bool, len: u64) -> Result<Volume, LoadErrorKind> {
+fn read(reader: &mut dyn Read, gz: bool, len: u64, sink: &mut dyn SampleSink) -> Result<VolumeInfo, LoadErrorKind> {
     let source = DataSource { file: None, compressed: gz, available: None };
     let header = NiftiHeader::from_reader(&mut *reader).map_err(|e| header_error(e, &source))?;
     let (dims, layout) = layout(&header)?;
@@ -45,9 +50,10 @@ fn read(reader: &mut dyn Read, gz: bool, len: u64) -> Result<Volume, LoadErrorKi
         )));
     }
     let source = DataSource { available: (!gz).then(|| len.saturating_sub(offset)), ..source };
-    let mut data = read_samples(reader, layout, &source)?;
-    apply_scaling(&header, &mut data);
-    Ok(Volume::new(dims, grid_to_world(&header), data))
+    let info = VolumeInfo { dims, grid_to_world: grid_to_world(&header), scaling: scaling(&header) };
+    sink.begin(&info)?;
+    read_samples(reader, layout, &source, sink)?;
+    Ok(info)
 }
 
 /// Turns the `nifti` crate's header errors into messages for users.
@@ -132,14 +138,12 @@ fn data_offset(header: &NiftiHeader) -> Result<u64, LoadErrorKind> {
     }
 }
 
-/// Applies `scl_slope` and `scl_inter`; a slope of 0 (or not a number) means "no scaling", as
-/// the NIfTI-1 standard says.
-fn apply_scaling(header: &NiftiHeader, data: &mut [f32]) {
+/// `scl_slope` and `scl_inter`; a slope of 0 (or not a number) means "no scaling", as the
+/// NIfTI-1 standard says.
+fn scaling(header: &NiftiHeader) -> Scaling {
     let slope = header.scl_slope;
-    let inter = if header.scl_inter.is_finite() { header.scl_inter } else { 0.0 };
-    if slope.is_finite() && slope != 0.0 && (slope != 1.0 || inter != 0.0) {
-        data.iter_mut().for_each(|v| *v = *v * slope + inter);
-    }
+    let intercept = if header.scl_inter.is_finite() { header.scl_inter } else { 0.0 };
+    if slope.is_finite() && slope != 0.0 { Scaling { slope, intercept } } else { Scaling::IDENTITY }
 }
 
 /// The voxel-to-world matrix by NIfTI-1's three methods, in order of preference: the sform
@@ -288,7 +292,7 @@ mod tests {
         let v = super::super::load(&path, &mut |done, total| calls.push((done, total))).unwrap();
         assert_eq!(v.dims, [3, 2, 2]);
         let expected: Vec<f32> = VALUES.iter().map(|&x| f32::from(x) * 2.0 + 1.0).collect();
-        assert_eq!(v.data, expected);
+        assert_eq!(v.values(), expected);
         assert_eq!(v.range, [-21.0, 21.0]);
         assert_mat_eq(
             v.grid_to_world,
@@ -323,7 +327,7 @@ mod tests {
         let data: Vec<u8> = values.iter().flat_map(|v| v.to_be_bytes()).collect();
         let path = write(&dir, "v.nii.gz", &gzip(&header.file(&data)));
         let v = load_quiet(&path).unwrap();
-        assert_eq!(v.data, values);
+        assert_eq!(v.values(), values);
         assert_mat_eq(
             v.grid_to_world,
             Mat4::from_cols(

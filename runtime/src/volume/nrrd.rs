@@ -13,13 +13,17 @@ use glam::{Mat4, Vec3};
 
 use super::raw::{self, Encoding, Placement, TextHeader};
 use super::{
-    DataSource, Layout, LoadErrorKind, MAX_HEADER_LINES, ScalarType, Volume, affine, check_dims, is_usable, lps_to_ras,
-    parse_numbers, read_header_line,
+    DataSource, Layout, LoadErrorKind, MAX_HEADER_LINES, SampleSink, ScalarType, Scaling, VolumeInfo, affine,
+    check_dims, is_usable, lps_to_ras, parse_numbers, read_header_line,
 };
 
 /// Loads a `.nrrd` or `.nhdr` file.
-pub(super) fn load(path: &Path, progress: &mut dyn FnMut(u64, u64)) -> Result<Volume, LoadErrorKind> {
-    let (header, data) = raw::load(path, progress, |reader| {
+pub(super) fn load(
+    path: &Path,
+    progress: &mut dyn FnMut(u64, u64),
+    sink: &mut dyn SampleSink,
+) -> Result<VolumeInfo, LoadErrorKind> {
+    let parse = |reader: &mut dyn BufRead| {
         let (fields, header_len) = read_header(reader)?;
         let header = Header::parse(&fields)?;
         if header.data_file.is_none() && path.extension().is_some_and(|e| e.eq_ignore_ascii_case("nhdr")) {
@@ -28,8 +32,8 @@ pub(super) fn load(path: &Path, progress: &mut dyn FnMut(u64, u64)) -> Result<Vo
             ));
         }
         Ok((header, header_len))
-    })?;
-    Ok(Volume::new(header.dims, header.grid_to_world, data))
+    };
+    raw::load(path, progress, parse, sink)
 }
 
 /// Reads the magic line and the fields up to the blank line that ends an attached header (or
@@ -162,7 +166,17 @@ impl TextHeader for Header {
     }
 
     /// Skips `line skip` lines, then reads the data after `byte skip`.
-    fn read_data(&self, reader: &mut dyn BufRead, len: u64, file: Option<&Path>) -> Result<Vec<f32>, LoadErrorKind> {
+    fn info(&self) -> VolumeInfo {
+        VolumeInfo { dims: self.dims, grid_to_world: self.grid_to_world, scaling: Scaling::IDENTITY }
+    }
+
+    fn read_data(
+        &self,
+        reader: &mut dyn BufRead,
+        len: u64,
+        file: Option<&Path>,
+        sink: &mut dyn SampleSink,
+    ) -> Result<(), LoadErrorKind> {
         let raw_source = DataSource { file, compressed: false, available: None };
         let mut consumed = 0;
         for _ in 0..self.line_skip {
@@ -176,7 +190,7 @@ impl TextHeader for Header {
             consumed += n;
         }
         let past_end = |skip| LoadErrorKind::Header(format!("`byte skip` {skip} is past the end of the data"));
-        raw::read_data(reader, self.data, len.saturating_sub(consumed), file, &past_end)
+        raw::read_data(reader, self.data, len.saturating_sub(consumed), file, &past_end, sink)
     }
 }
 
@@ -320,6 +334,20 @@ mod tests {
     }
 
     #[test]
+    fn streaming_gives_the_range_and_info_of_a_load_without_keeping_samples() {
+        let dir = tempfile::tempdir().unwrap();
+        let header = "type: short\ndimension: 3\nsizes: 3 2 2\nendian: little\nencoding: gzip\nspacings: 1 2 3\n";
+        let path = write(&dir, "v.nrrd", &attached(header, &gzip(&shorts_le())));
+        let loaded = load_quiet(&path).unwrap();
+        let mut range = super::super::RangeSink::default();
+        let info = super::super::stream(&path, &mut |_, _| {}, &mut range).unwrap();
+        assert_eq!(range.range(), loaded.range);
+        assert_eq!(range.range(), [-5.0, 300.0]);
+        assert_eq!((info.dims, info.grid_to_world, info.scaling), (loaded.dims, loaded.grid_to_world, loaded.scaling));
+        assert!(matches!(loaded.samples, super::super::Samples::I16(_)), "shorts stay shorts: {loaded:?}");
+    }
+
+    #[test]
     fn raw_little_endian_with_space_directions() {
         let dir = tempfile::tempdir().unwrap();
         let header = "type: short\ndimension: 3\nspace: left-posterior-superior\nsizes: 3 2 2\n\
@@ -328,7 +356,7 @@ mod tests {
         let path = write(&dir, "v.nrrd", &attached(header, &shorts_le()));
         let v = load_quiet(&path).unwrap();
         assert_eq!(v.dims, [3, 2, 2]);
-        assert_eq!(v.data, shorts_f32());
+        assert_eq!(v.values(), shorts_f32());
         assert_eq!(v.range, [-5.0, 300.0]);
         assert_eq!(v.spacing, [0.5, 2.0, 3.0]);
         // LPS -> RAS negates x and y.
@@ -353,7 +381,7 @@ mod tests {
         let path = write(&dir, "v.nrrd", &attached(header, &gzip(&data)));
         let v = super::super::load(&path, &mut |d, t| calls.push((d, t))).unwrap();
         assert_eq!(v.dims, [2, 3, 2]);
-        assert_eq!(v.data, values);
+        assert_eq!(v.values(), values);
         assert_mat_eq(v.grid_to_world, Mat4::from_scale(Vec3::new(1.5, 2.0, 2.5)));
         let len = std::fs::metadata(&path).unwrap().len();
         assert_eq!(calls.last(), Some(&(len, len)));
@@ -370,14 +398,14 @@ mod tests {
                       data file: data.raw\nline skip: 1\nbyte skip: 3\n";
         let mut calls = Vec::new();
         let v = super::super::load(&write(&dir, "v.nhdr", header.as_bytes()), &mut |d, t| calls.push((d, t))).unwrap();
-        assert_eq!(v.data, values.iter().map(|&v| f32::from(v)).collect::<Vec<_>>());
+        assert_eq!(v.values(), values.iter().map(|&v| f32::from(v)).collect::<Vec<_>>());
         // Progress is about the data file only.
         assert_eq!(calls, vec![(data.len() as u64, data.len() as u64)]);
         assert_mat_eq(v.grid_to_world, Mat4::IDENTITY);
 
         // byte skip -1: the data is at the end of the file.
         let header = header.replace("line skip: 1\nbyte skip: 3", "byte skip: -1");
-        assert_eq!(load_quiet(&write(&dir, "w.nhdr", header.as_bytes())).unwrap().data, v.data);
+        assert_eq!(load_quiet(&write(&dir, "w.nhdr", header.as_bytes())).unwrap().values(), v.values());
     }
 
     #[test]
@@ -388,7 +416,7 @@ mod tests {
                       space: RAS\nspace directions: none (1,0,0) (0,1,0) (0,0,2)\ndatafile: data.raw.gz\n";
         let v = load_quiet(&write(&dir, "v.nhdr", header.as_bytes())).unwrap();
         assert_eq!(v.dims, [3, 2, 2]);
-        assert_eq!(v.data, shorts_f32());
+        assert_eq!(v.values(), shorts_f32());
         assert_mat_eq(v.grid_to_world, Mat4::from_scale(Vec3::new(1.0, 1.0, 2.0)));
     }
 

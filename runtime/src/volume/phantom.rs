@@ -3,13 +3,18 @@
 //! A phantom is a list of shapes painted in order over the box [-1, 1]^3 (x fastest, y down the
 //! image, z up), each with its own value: a later shape replaces what it covers. Edges are
 //! anti-aliased with a smoothstep over one voxel of (approximate) signed distance, so gradients
-//! and iso-surfaces look smooth. Values are already in [0, 1], the transfer functions' domain.
+//! and iso-surfaces look smooth. Values are Hounsfield units, as in a CT: air -1000 around the
+//! body, soft tissue a few tens, bone several hundred, so the CT presets show them as they show
+//! a patient's CT.
 
 use std::fmt;
 
 use glam::{Mat4, Quat, Vec2, Vec3};
 
 use super::Volume;
+
+/// Air around the body, in Hounsfield units.
+pub const AIR: f32 = -1000.0;
 
 /// The phantoms [`phantom`] knows.
 pub const PHANTOMS: &[&str] = &["head", "abdomen"];
@@ -39,11 +44,11 @@ impl std::error::Error for UnknownPhantom {}
 /// Generates the phantom `name` (one of [`PHANTOMS`]) with `dims` voxels of 1 mm, centred at the
 /// world origin. Each axis is clamped to 1..=[`MAX_PHANTOM_DIM`]. Deterministic.
 ///
-/// - `head`: the 3D Shepp-Logan phantom (Kak & Slaney's ellipsoids) with values like a CT:
-///   skull 1.0, brain 0.3, ventricles 0.12, a few bright small lesions.
-/// - `abdomen`: a body cross-section: skin/fat 0.15-0.2, muscle and soft tissue ~0.3, liver
-///   0.38 (image left, the patient's right) with hepatic vessels 0.65 and a tumour 0.32 with a
-///   bright rim, kidneys 0.45, aorta 0.65, spine and ribs 0.85.
+/// - `head`: the 3D Shepp-Logan phantom (Kak & Slaney's ellipsoids) with CT values: skull
+///   1000 HU, brain 35, ventricles 5, a few hyperdense small lesions (75-90).
+/// - `abdomen`: a body cross-section after contrast: skin 30 HU, fat -100, muscle 55, soft
+///   tissue 40, liver 65 (image left, the patient's right) with hepatic vessels 250 and a
+///   tumour 45 with an enhancing rim 150, kidneys 160, aorta 250, spine and ribs 700.
 pub fn phantom(name: &str, dims: [u32; 3]) -> Result<Volume, UnknownPhantom> {
     let shapes = match name {
         "head" => head(),
@@ -52,7 +57,7 @@ pub fn phantom(name: &str, dims: [u32; 3]) -> Result<Volume, UnknownPhantom> {
     };
     let dims = dims.map(|d| d.clamp(1, MAX_PHANTOM_DIM));
     let grid = Grid::new(dims);
-    let mut data = vec![0.0; grid.len()];
+    let mut data = vec![AIR; grid.len()];
     for shape in &shapes {
         grid.paint(&mut data, shape);
     }
@@ -62,7 +67,7 @@ pub fn phantom(name: &str, dims: [u32; 3]) -> Result<Volume, UnknownPhantom> {
         mirror_xy(&mut data, dims);
     }
     let centre = Vec3::from_array(dims.map(|d| (d as f32 - 1.0) / 2.0));
-    Ok(Volume { dims, spacing: [1.0; 3], grid_to_world: Mat4::from_translation(-centre), data, range: [0.0, 1.0] })
+    Ok(Volume::new(dims, Mat4::from_translation(-centre), data))
 }
 
 /// Reverses the x and y axes of a grid (a half turn about z).
@@ -246,16 +251,16 @@ fn bounds(region: &Region, scale: Vec3) -> (Vec3, Vec3) {
 fn head() -> Vec<Shape> {
     #[rustfmt::skip]
     let ellipsoids: [([f32; 3], [f32; 3], f32, f32); 10] = [
-        ([0.0, 0.0, 0.0], [0.69, 0.92, 0.9], 0.0, 1.0),             // skull
-        ([0.0, -0.0184, 0.0], [0.6624, 0.874, 0.88], 0.0, 0.3),     // brain
-        ([-0.22, 0.0, -0.25], [0.41, 0.16, 0.21], 108.0, 0.12),     // right ventricle
-        ([0.22, 0.0, -0.25], [0.31, 0.11, 0.22], 72.0, 0.12),       // left ventricle
-        ([0.0, 0.35, -0.25], [0.21, 0.25, 0.5], 0.0, 0.4),          // grey matter
-        ([0.0, 0.1, -0.25], [0.046, 0.046, 0.046], 0.0, 0.7),       // lesion
-        ([-0.08, -0.65, -0.25], [0.046, 0.023, 0.02], 0.0, 0.8),    // lesion
-        ([0.06, -0.65, -0.25], [0.046, 0.023, 0.02], 90.0, 0.8),    // lesion
-        ([0.06, -0.105, 0.625], [0.056, 0.04, 0.1], 90.0, 0.75),    // lesion
-        ([0.0, 0.1, 0.625], [0.056, 0.056, 0.1], 0.0, 0.18),        // dark spot
+        ([0.0, 0.0, 0.0], [0.69, 0.92, 0.9], 0.0, 1000.0),          // skull
+        ([0.0, -0.0184, 0.0], [0.6624, 0.874, 0.88], 0.0, 35.0),    // brain
+        ([-0.22, 0.0, -0.25], [0.41, 0.16, 0.21], 108.0, 5.0),      // right ventricle
+        ([0.22, 0.0, -0.25], [0.31, 0.11, 0.22], 72.0, 5.0),        // left ventricle
+        ([0.0, 0.35, -0.25], [0.21, 0.25, 0.5], 0.0, 45.0),         // grey matter
+        ([0.0, 0.1, -0.25], [0.046, 0.046, 0.046], 0.0, 75.0),      // lesion
+        ([-0.08, -0.65, -0.25], [0.046, 0.023, 0.02], 0.0, 90.0),   // lesion
+        ([0.06, -0.65, -0.25], [0.046, 0.023, 0.02], 90.0, 90.0),   // lesion
+        ([0.06, -0.105, 0.625], [0.056, 0.04, 0.1], 90.0, 80.0),    // lesion
+        ([0.0, 0.1, 0.625], [0.056, 0.056, 0.1], 0.0, 15.0),        // dark spot
     ];
     // The table's y axis points up the image; ours points down, so y and the angles are mirrored.
     ellipsoids
@@ -264,20 +269,20 @@ fn head() -> Vec<Shape> {
         .collect()
 }
 
-/// Tissue values of the abdomen phantom.
+/// Tissue values of the abdomen phantom, in Hounsfield units after intravenous contrast.
 mod level {
-    pub const SKIN: f32 = 0.2;
-    pub const FAT: f32 = 0.15;
-    pub const MUSCLE: f32 = 0.33;
-    pub const SOFT_TISSUE: f32 = 0.3;
-    pub const LIVER: f32 = 0.38;
-    pub const VESSEL: f32 = 0.65;
-    pub const TUMOUR: f32 = 0.32;
-    pub const TUMOUR_RIM: f32 = 0.55;
-    pub const KIDNEY: f32 = 0.45;
-    pub const BONE: f32 = 0.85;
-    pub const DISC: f32 = 0.35;
-    pub const CSF: f32 = 0.25;
+    pub const SKIN: f32 = 30.0;
+    pub const FAT: f32 = -100.0;
+    pub const MUSCLE: f32 = 55.0;
+    pub const SOFT_TISSUE: f32 = 40.0;
+    pub const LIVER: f32 = 65.0;
+    pub const VESSEL: f32 = 250.0;
+    pub const TUMOUR: f32 = 45.0;
+    pub const TUMOUR_RIM: f32 = 150.0;
+    pub const KIDNEY: f32 = 160.0;
+    pub const BONE: f32 = 700.0;
+    pub const DISC: f32 = 90.0;
+    pub const CSF: f32 = 10.0;
 }
 
 /// The liver: a large right lobe and a smaller left lobe reaching across the midline.
@@ -388,7 +393,7 @@ mod tests {
     /// The value at normalized position `p`: the voxel whose centre is nearest.
     fn at(v: &Volume, p: [f32; 3]) -> f32 {
         let [x, y, z] = [0, 1, 2].map(|a| (((p[a] + 1.0) * v.dims[a] as f32 / 2.0) as u32).min(v.dims[a] - 1));
-        v.data[((z * v.dims[1] + y) * v.dims[0] + x) as usize]
+        v.value(((z * v.dims[1] + y) * v.dims[0] + x) as usize).unwrap()
     }
 
     #[test]
@@ -404,9 +409,9 @@ mod tests {
         for &name in PHANTOMS {
             let v = phantom(name, [40, 32, 24]).unwrap();
             assert_eq!(v.dims, [40, 32, 24]);
-            assert_eq!(v.data.len(), 40 * 32 * 24);
-            assert_eq!(v.range, [0.0, 1.0]);
-            assert!(v.data.iter().all(|x| (0.0..=1.0).contains(x)), "{name}");
+            assert_eq!(v.samples.len(), 40 * 32 * 24);
+            assert_eq!(v.range[0], AIR, "{name}: air around the body");
+            assert!(v.range[1] >= 700.0 && v.range[1] <= 1000.0, "{name}: bone at the top, {:?}", v.range);
             assert_eq!(v.spacing, [1.0; 3]);
             // The first and last voxel centres are symmetric about the origin.
             let first = v.grid_to_world.transform_point3(Vec3::ZERO);
@@ -419,7 +424,7 @@ mod tests {
     fn dims_are_clamped() {
         let v = phantom("head", [0, 2, 1]).unwrap();
         assert_eq!(v.dims, [1, 2, 1]);
-        assert_eq!(v.data.len(), 2);
+        assert_eq!(v.samples.len(), 2);
     }
 
     #[test]
@@ -430,13 +435,13 @@ mod tests {
     #[test]
     fn head_levels() {
         let v = phantom("head", [64, 64, 64]).unwrap();
-        assert_eq!(at(&v, [0.95, 0.95, 0.95]), 0.0, "air in the corner");
-        assert!((at(&v, [0.0, 0.0, 0.0]) - 0.3).abs() < 1e-6, "brain in the centre");
-        assert!((at(&v, [0.0, -0.9, 0.0]) - 1.0).abs() < 1e-6, "skull at the top");
-        assert!((at(&v, [0.22, 0.0, -0.25]) - 0.12).abs() < 1e-6, "ventricle");
-        assert!(at(&v, [0.0, -0.1, -0.25]) > 0.6, "bright lesion");
+        assert_eq!(at(&v, [0.95, 0.95, 0.95]), AIR, "air in the corner");
+        assert!((at(&v, [0.0, 0.0, 0.0]) - 35.0).abs() < 1e-3, "brain in the centre");
+        assert!((at(&v, [0.0, -0.9, 0.0]) - 1000.0).abs() < 1e-3, "skull at the top");
+        assert!((at(&v, [0.22, 0.0, -0.25]) - 5.0).abs() < 1e-3, "ventricle");
+        assert!(at(&v, [0.0, -0.1, -0.25]) > 60.0, "hyperdense lesion");
         // Edges are smooth: some voxels lie strictly between air and skull.
-        assert!(v.data.iter().any(|&x| x > 0.05 && x < 0.95 && x != 0.3 && x != 0.4));
+        assert!(v.values().iter().any(|&x| x > -950.0 && x < 950.0 && ![5.0, 35.0, 45.0].contains(&x)));
     }
 
     #[test]
@@ -445,9 +450,9 @@ mod tests {
         let close = |p: [f32; 3], want: f32, what: &str| {
             // The shapes' image layout, mirrored into the RAS grid.
             let got = at(&v, [-p[0], -p[1], p[2]]);
-            assert!((got - want).abs() < 0.02, "{what} at {p:?}: {got}, expected {want}");
+            assert!((got - want).abs() < 2.0, "{what} at {p:?}: {got}, expected {want}");
         };
-        close([0.95, 0.95, 0.0], 0.0, "air");
+        close([0.95, 0.95, 0.0], AIR, "air");
         close([0.0, -0.54, 0.0], level::MUSCLE, "abdominal wall");
         close([0.0, -0.605, 0.0], level::FAT, "subcutaneous fat");
         close([0.3, -0.1, -0.5], level::SOFT_TISSUE, "abdominal cavity");

@@ -10,7 +10,9 @@ use std::path::Path;
 
 use flate2::bufread::{GzDecoder, ZlibDecoder};
 
-use super::{DataSource, Layout, LoadErrorKind, ProgressReader, open, read_samples, sibling, skip_bytes};
+use super::{
+    DataSource, Layout, LoadErrorKind, ProgressReader, SampleSink, VolumeInfo, open, read_samples, sibling, skip_bytes,
+};
 
 /// A parsed text header, as far as [`load`] needs it to find and read the data.
 pub(super) trait TextHeader {
@@ -20,12 +22,21 @@ pub(super) trait TextHeader {
     /// Reads the samples from a stream positioned at the start of the data: right after the
     /// header (attached) or at the start of the data file (detached, then named by `file` for
     /// error messages), holding `len` more bytes.
-    fn read_data(&self, reader: &mut dyn BufRead, len: u64, file: Option<&Path>) -> Result<Vec<f32>, LoadErrorKind>;
+    fn read_data(
+        &self,
+        reader: &mut dyn BufRead,
+        len: u64,
+        file: Option<&Path>,
+        sink: &mut dyn SampleSink,
+    ) -> Result<(), LoadErrorKind>;
+
+    /// The volume's shape, placement and scaling.
+    fn info(&self) -> VolumeInfo;
 }
 
 /// Loads a file with a text header: `read_header` parses the header from the start of the file
 /// and returns it with its length in bytes; then the data is read from the rest of the file or
-/// from the data file the header names. Returns the header and the samples.
+/// from the data file the header names into `sink`. Returns the volume's shape.
 ///
 /// Progress is about the file holding the data (so a small detached header reports nothing of
 /// its own) and ends with one report of `done == total`.
@@ -33,22 +44,28 @@ pub(super) fn load<H: TextHeader>(
     path: &Path,
     progress: &mut dyn FnMut(u64, u64),
     read_header: impl FnOnce(&mut dyn BufRead) -> Result<(H, u64), LoadErrorKind>,
-) -> Result<(H, Vec<f32>), LoadErrorKind> {
+    sink: &mut dyn SampleSink,
+) -> Result<VolumeInfo, LoadErrorKind> {
     let (file, len) = open(path, false)?;
     let mut reader = BufReader::new(ProgressReader::new(file, len, &mut *progress));
     let (header, header_len) = read_header(&mut reader)?;
-    let (data, total) = match header.data_file() {
-        None => (header.read_data(&mut reader, len.saturating_sub(header_len), None)?, len),
+    sink.begin(&header.info())?;
+    let total = match header.data_file() {
+        None => {
+            header.read_data(&mut reader, len.saturating_sub(header_len), None, sink)?;
+            len
+        }
         Some(name) => {
             drop(reader);
             let data_path = sibling(path, name);
             let (file, data_len) = open(&data_path, true)?;
             let mut reader = BufReader::new(ProgressReader::new(file, data_len, &mut *progress));
-            (header.read_data(&mut reader, data_len, Some(&data_path))?, data_len)
+            header.read_data(&mut reader, data_len, Some(&data_path), sink)?;
+            data_len
         }
     };
     progress(total, total);
-    Ok((header, data))
+    Ok(header.info())
 }
 
 /// How the data is stored.
@@ -84,7 +101,8 @@ pub(super) fn read_data(
     len: u64,
     file: Option<&Path>,
     past_end: &dyn Fn(u64) -> LoadErrorKind,
-) -> Result<Vec<f32>, LoadErrorKind> {
+    sink: &mut dyn SampleSink,
+) -> Result<(), LoadErrorKind> {
     let raw_source = DataSource { file, compressed: false, available: None };
     let expected = data.layout.bytes();
     let skip = match data.skip {
@@ -97,10 +115,10 @@ pub(super) fn read_data(
     match data.encoding {
         Encoding::Raw => {
             let source = DataSource { available: Some(len - skip), ..raw_source };
-            read_samples(reader, data.layout, &source)
+            read_samples(reader, data.layout, &source, sink)
         }
-        Encoding::Gzip => read_decoded(&mut GzDecoder::new(reader), data, file, past_end),
-        Encoding::Zlib => read_decoded(&mut ZlibDecoder::new(reader), data, file, past_end),
+        Encoding::Gzip => read_decoded(&mut GzDecoder::new(reader), data, file, past_end, sink),
+        Encoding::Zlib => read_decoded(&mut ZlibDecoder::new(reader), data, file, past_end, sink),
     }
 }
 
@@ -112,13 +130,14 @@ fn read_decoded(
     data: Placement,
     file: Option<&Path>,
     past_end: &dyn Fn(u64) -> LoadErrorKind,
-) -> Result<Vec<f32>, LoadErrorKind> {
+    sink: &mut dyn SampleSink,
+) -> Result<(), LoadErrorKind> {
     let source = DataSource { file, compressed: true, available: None };
     let skip = data.decoded_skip;
     if skip_bytes(decoder, skip).map_err(|e| source.read_error(e))? < skip {
         return Err(past_end(skip));
     }
-    read_samples(decoder, data.layout, &source)
+    read_samples(decoder, data.layout, &source, sink)
 }
 
 #[cfg(test)]
@@ -133,7 +152,15 @@ mod tests {
 
     fn read(bytes: &[u8], data: Placement) -> Result<Vec<f32>, String> {
         let past_end = |skip| LoadErrorKind::Header(format!("skip {skip} is past the end"));
-        read_data(&mut &bytes[..], data, bytes.len() as u64, None, &past_end).map_err(|e| e.to_string())
+        let mut sink = super::super::Collect::default();
+        let info = VolumeInfo {
+            dims: [3, 1, 1],
+            grid_to_world: glam::Mat4::IDENTITY,
+            scaling: super::super::Scaling::IDENTITY,
+        };
+        sink.begin(&info).map_err(|e| e.to_string())?;
+        read_data(&mut &bytes[..], data, bytes.len() as u64, None, &past_end, &mut sink).map_err(|e| e.to_string())?;
+        Ok(sink.samples.map(|s| s.to_f32()).unwrap_or_default())
     }
 
     #[test]
