@@ -8,6 +8,7 @@ use std::time::{Duration, Instant};
 use vrs_runtime::view::Region;
 use vrs_runtime::{Applied, OrbitCamera, RuntimeError, SceneRenderer, SlicePlane, Value};
 use vrsc::compose::build::BuiltScene;
+use vrsc::scene::UniformValue;
 
 /// Why a rebuild did not take effect (the last good state is still shown).
 #[derive(Debug)]
@@ -56,7 +57,7 @@ impl Rebuild {
 pub struct UserState {
     /// Uniform values, with the scene's own value of that uniform when the user set it: once
     /// the scene file's value changes, the file is the newer intent and wins.
-    uniforms: BTreeMap<String, (Value, Option<Value>)>,
+    uniforms: BTreeMap<String, (Value, Option<UniformValue>)>,
     /// Cameras by view, with the scene's camera then (the same rule).
     cameras: BTreeMap<String, (OrbitCamera, OrbitCamera)>,
     slices: BTreeMap<String, (SlicePlane, SlicePlane)>,
@@ -67,6 +68,8 @@ pub struct UserState {
 pub struct LiveScene {
     renderer: SceneRenderer,
     user: UserState,
+    /// The scene file's `[uniforms]` (and `[render]` settings) as of the last good rebuild.
+    scene_values: BTreeMap<String, UniformValue>,
     /// Each view's camera and slice plane as the scene file sets them.
     scene_cameras: BTreeMap<String, OrbitCamera>,
     scene_slices: BTreeMap<String, SlicePlane>,
@@ -84,6 +87,7 @@ impl LiveScene {
         let mut live = LiveScene {
             renderer,
             user: UserState::default(),
+            scene_values: BTreeMap::new(),
             scene_cameras: BTreeMap::new(),
             scene_slices: BTreeMap::new(),
             generations: BTreeMap::new(),
@@ -94,6 +98,7 @@ impl LiveScene {
         live.files = vec![live.renderer.path().to_path_buf()];
         if let Ok(cached) = live.renderer.compose() {
             live.files = files_of(&cached.built, live.renderer.path());
+            live.scene_values = cached.scene.map(|s| s.uniform_values()).unwrap_or_default();
         }
         live
     }
@@ -139,12 +144,14 @@ impl LiveScene {
             self.files = files;
             return self.failed(compose, Duration::ZERO, Some(built), Failure::Compose);
         }
+        let scene_values = cached.scene.as_ref().map(|s| s.uniform_values()).unwrap_or_default();
         let applying = Instant::now();
         let applied = self.renderer.apply(&cached);
         let apply = applying.elapsed();
         match applied {
             Ok(applied) => {
                 self.files = files;
+                self.scene_values = scene_values;
                 self.note_scene_state();
                 self.restore_user_state();
                 self.bump_all();
@@ -279,11 +286,9 @@ impl LiveScene {
         Some(self.renderer.views.get(index)?.renderer.output())
     }
 
-    fn scene_uniform(&self, name: &str) -> Option<Value> {
-        self.renderer.views.iter().find_map(|v| {
-            let json = v.renderer.shader().reflection.uniform(name)?.value.as_ref()?;
-            v.renderer.uniforms().value_from_json(name, json)
-        })
+    /// The scene file's value of uniform `name` (`None` when it leaves it to the default).
+    fn scene_uniform(&self, name: &str) -> Option<UniformValue> {
+        self.scene_values.get(name).cloned()
     }
 
     /// Remembers the scene file's cameras and planes (right after a load, before the user's).

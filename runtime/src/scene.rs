@@ -359,7 +359,7 @@ fn volumes_key(scene: &Scene) -> String {
             None => "none".into(),
         };
         let fallback = v.fallback.as_ref().map(|f| f.value.as_str());
-        let window = format!("{:?}", v.window);
+        let window = format!("{:?}", v.window.as_ref().map(|w| w.value));
         key.push_str(&format!("{} {:?} {source} {tf} {fallback:?} {window}\n", v.name.name, v.role.value));
     }
     key

@@ -1,0 +1,134 @@
+//! The live loop on the software adapter, without a window: recomposition after edits, the last
+//! good state through a broken edit, and the user's settings across reloads.
+
+use std::path::Path;
+use vrs_live::{Failure, LiveScene};
+use vrs_runtime::{AdapterChoice, Gpu, OrbitCamera, RenderOptions, SceneRenderer, Value};
+
+const MODULE: &str = "pipeline dim after classification.primary {\n    uniform k: f32 = 0.5 in 0.0 .. 1.0;\n    \
+                      state color: vec4f;\n    state.color = state.color * k;\n}\n";
+
+fn scene(k: f32, extra_view: bool) -> String {
+    let mut text = format!(
+        "[render]\ncompositing = \"dvr\"\n\n[[volume]]\nname = \"v\"\nrole = \"primary\"\nphantom = \"head\"\n\
+         tf = \"ct_bone\"\n\n[[module]]\npath = \"dim.vrs\"\n\n[uniforms]\nk = {k:.2}\n\n\
+         [[view]]\nname = \"3d\"\nkind = \"raycast\"\nsize = [32, 32]\n"
+    );
+    if extra_view {
+        text.push_str("\n[[view]]\nname = \"axial\"\nkind = \"slice\"\naxis = \"z\"\nsize = [32, 32]\n");
+    }
+    text
+}
+
+fn open(dir: &Path) -> LiveScene {
+    std::fs::write(dir.join("dim.vrs"), MODULE).unwrap();
+    std::fs::write(dir.join("scene.toml"), scene(0.5, false)).unwrap();
+    let gpu = Gpu::headless(AdapterChoice::Software).expect("the software adapter (lavapipe) is required");
+    let options = RenderOptions { phantom_size: [32, 32, 32], ..RenderOptions::default() };
+    let renderer = SceneRenderer::open(gpu, &dir.join("scene.toml"), options, &mut |_, _, _| {}).unwrap();
+    LiveScene::new(renderer)
+}
+
+fn uniform(live: &LiveScene, name: &str) -> Option<Value> {
+    let view = live.renderer().views.first()?;
+    view.renderer.uniforms().get(name)
+}
+
+#[test]
+fn the_watched_files_are_the_scene_and_its_modules() {
+    let dir = tempfile::tempdir().unwrap();
+    let live = open(dir.path());
+    let names: Vec<String> =
+        live.files().iter().filter_map(|p| p.file_name()).map(|n| n.to_string_lossy().into_owned()).collect();
+    assert!(names.contains(&"scene.toml".to_string()) && names.contains(&"dim.vrs".to_string()), "{names:?}");
+    assert!(live.files().iter().all(|p| p.exists()), "only real files: {:?}", live.files());
+}
+
+#[test]
+fn a_uniform_edit_recompiles_nothing_and_a_structural_edit_swaps_the_pipeline() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut live = open(dir.path());
+    let generation = live.generation(0);
+    std::fs::write(dir.path().join("scene.toml"), scene(0.25, false)).unwrap();
+    let rebuild = live.rebuild();
+    let applied = rebuild.outcome.as_ref().expect("a good edit applies");
+    assert!(!applied.composed && applied.compiled == 0, "{applied:?}");
+    assert_eq!(uniform(&live, "k"), Some(Value::Float(vec![0.25])));
+    assert!(live.generation(0) > generation, "the view must render again");
+
+    std::fs::write(dir.path().join("dim.vrs"), MODULE.replace("* k;", "* k * k;")).unwrap();
+    let applied = live.rebuild().outcome.expect("a good edit applies");
+    assert!(applied.composed && applied.compiled == 1 && applied.recompiled == ["3d"], "{applied:?}");
+}
+
+#[test]
+fn a_broken_edit_keeps_the_last_good_pipeline_and_a_fix_resumes() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut live = open(dir.path());
+    let before = live.renderer().views[0].renderer.shader().reflection.structural_hash.clone();
+    std::fs::write(dir.path().join("dim.vrs"), MODULE.replace("* k;", "* kk;")).unwrap();
+    let rebuild = live.rebuild();
+    assert!(matches!(rebuild.outcome, Err(Failure::Compose)));
+    let text = rebuild.error_text().unwrap();
+    assert!(text.contains("E0502") && text.contains("dim.vrs:4"), "diagnostics with file:line: {text}");
+    assert_eq!(live.last_error(), Some(text.as_str()));
+    assert_eq!(live.renderer().views[0].renderer.shader().reflection.structural_hash, before);
+    let image = live.render_all().expect("the last good pipeline still renders");
+    assert_eq!(image.len(), 1);
+
+    std::fs::write(dir.path().join("dim.vrs"), MODULE).unwrap();
+    assert!(live.rebuild().succeeded());
+    assert_eq!(live.last_error(), None);
+}
+
+#[test]
+fn user_uniforms_and_cameras_survive_a_reload_unless_the_scene_changes_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut live = open(dir.path());
+    live.set_uniform("k", Value::Float(vec![0.9])).unwrap();
+    let camera = OrbitCamera { azimuth: 123.0, ..live.camera(0).unwrap() };
+    live.set_camera(0, camera);
+    live.set_size(0, [48, 40]);
+
+    // A structural edit elsewhere: the user's value, camera and size stay.
+    std::fs::write(dir.path().join("dim.vrs"), MODULE.replace("* k;", "* k * 1.0;")).unwrap();
+    assert!(live.rebuild().succeeded());
+    assert_eq!(uniform(&live, "k"), Some(Value::Float(vec![0.9])));
+    assert_eq!(live.camera(0), Some(camera));
+    assert_eq!(live.size(0), Some([48, 40]));
+
+    // The scene file changes the uniform itself: the file is the newer intent.
+    std::fs::write(dir.path().join("scene.toml"), scene(0.1, false)).unwrap();
+    assert!(live.rebuild().succeeded());
+    assert_eq!(uniform(&live, "k"), Some(Value::Float(vec![0.1])));
+
+    live.reset_view(0);
+    assert_ne!(live.camera(0), Some(camera));
+}
+
+#[test]
+fn adding_and_removing_a_view_follows_the_scene() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut live = open(dir.path());
+    std::fs::write(dir.path().join("scene.toml"), scene(0.5, true)).unwrap();
+    assert!(live.rebuild().succeeded());
+    assert_eq!(live.view_names(), ["3d", "axial"]);
+    assert!(live.slice(1).is_some());
+    std::fs::write(dir.path().join("scene.toml"), scene(0.5, false)).unwrap();
+    assert!(live.rebuild().succeeded());
+    assert_eq!(live.view_names(), ["3d"]);
+}
+
+#[test]
+fn changing_a_volume_loads_it_again() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut live = open(dir.path());
+    std::fs::write(
+        dir.path().join("scene.toml"),
+        scene(0.5, false).replace("phantom = \"head\"", "phantom = \"abdomen\""),
+    )
+    .unwrap();
+    let applied = live.rebuild().outcome.expect("a good edit applies");
+    assert!(applied.volumes_reloaded);
+    assert!(live.render_all().is_ok());
+}
