@@ -3,6 +3,7 @@
 
 use super::place::{self, Composition, ModuleUse};
 use super::reflect::{self, Reflection};
+use super::uniform_check;
 use super::view;
 use crate::check;
 use crate::diag::{Code, Diagnostic, Diagnostics};
@@ -118,6 +119,9 @@ pub fn compose_scene(
         diags.extend(view_diags);
         views.push(output);
     }
+    let compositions: Vec<&Composition> = views.iter().map(|v| &v.composition).collect();
+    let every_view = only_view.is_none() && views.iter().all(|v| v.shader.is_some());
+    uniform_check::check_scene_uniforms(&scene, &compositions, every_view, &mut diags);
     if let Some(name) = only_view
         && views.is_empty()
     {

@@ -11,4 +11,5 @@ pub mod entry;
 pub mod explain;
 pub mod place;
 pub mod reflect;
+pub mod uniform_check;
 pub mod view;
