@@ -371,6 +371,9 @@ impl Checker<'_> {
             let slot = &mut f.state[index];
             slot.read |= how != StateUse::Write;
             slot.written |= how != StateUse::Read;
+            if how != StateUse::Write && slot.first_read.is_none() {
+                slot.first_read = Some(span);
+            }
             return Some((index, slot.ty));
         }
         if !f.first_report(format!("state {name}")) {

@@ -360,6 +360,8 @@ pub(super) struct StateSlot {
     pub ty: Type,
     pub read: bool,
     pub written: bool,
+    /// The first `state.NAME` of the body that reads the field.
+    pub first_read: Option<Span>,
 }
 
 /// One name of a `use` list.
