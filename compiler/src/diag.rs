@@ -64,6 +64,7 @@ codes! {
     ConditionNotBool = "E0310", Error, "a condition that is not `bool`";
     RangeNotInteger = "E0311", Error, "a `for` range whose bounds are not both i32 or both u32";
     InvalidConstructor = "E0312", Error, "a type constructor with arguments it does not accept";
+    IndexOutOfBounds = "E0313", Error, "a constant index past the end of a vector or matrix";
     // Functions.
     MissingReturn = "E0401", Error, "a library function can end without returning a value";
     Recursion = "E0402", Error, "a library function calls itself, directly or through others";
@@ -78,8 +79,11 @@ codes! {
     DefaultConflict = "E0505", Error, "declarations of one field or uniform give different defaults";
     UniformConflict = "E0506", Error, "declarations of one uniform disagree on type";
     NotConstant = "E0507", Error, "a default, range or `const` that is not a constant expression";
-    ConstEvalFailed = "E0508", Error, "constant evaluation overflows or divides by zero";
+    ConstEvalFailed = "E0508", Error, "constant evaluation overflows its type (or gives infinity or NaN)";
     UnknownLibrary = "E0509", Error, "`use` names a library function that is not in scope";
+    DivisionByZero = "E0510", Error, "an integer division or remainder by a constant zero, or a constant division by zero";
+    ShiftTooLarge = "E0511", Error, "a shift by a constant amount of 32 or more";
+    MathDomain = "E0512", Error, "a built-in called with constant arguments outside its domain";
     // Placement.
     UnknownStep = "E0601", Error, "a step path that names no pipeline step";
     GroupNotAllowed = "E0602", Error, "a group name alone with `in`, `replace` or `remove`";

@@ -117,6 +117,8 @@ pub struct StateDecl {
     /// Whether the body reads / writes `state.name`.
     pub read: bool,
     pub written: bool,
+    /// The first `state.name` of the body that reads it (for data-flow warnings).
+    pub first_read: Option<Span>,
     pub span: Span,
 }
 

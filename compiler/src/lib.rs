@@ -14,6 +14,7 @@ pub mod lexer;
 pub mod loader;
 pub mod lower;
 pub mod parser;
+pub mod progen;
 pub mod scene;
 pub mod source;
 pub mod stdlib;

@@ -1,6 +1,8 @@
 //! The `vrsc` command line. Exit codes: 0 success (warnings allowed), 1 the input has errors,
 //! 2 usage or I/O problems.
 
+mod inputs;
+
 use clap::{Parser, Subcommand, ValueEnum};
 use codespan_reporting::term::{self, termcolor};
 use std::io::Write;
@@ -159,6 +161,9 @@ enum Outcome {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    if matches!(cli.command, Command::Render { .. } | Command::View { .. } | Command::Watch { .. }) {
+        quiet_vulkan_loader();
+    }
     // A window's event loop must run on the main thread (winit); composition there grows its
     // stack as it needs (stacker), so the viewer does without the worker below.
     if let Command::View { scene, software, budget_ms } = &cli.command {
@@ -182,6 +187,32 @@ fn exit_code(outcome: Outcome) -> ExitCode {
         Outcome::Ok => ExitCode::SUCCESS,
         Outcome::InputErrors => ExitCode::from(1),
         Outcome::Failure => ExitCode::from(2),
+    }
+}
+
+/// Gives the Vulkan loader a valid `XDG_RUNTIME_DIR` when the environment has none (or names
+/// something that is not a folder), so that a render that succeeds prints no
+/// `error: XDG_RUNTIME_DIR is invalid` lines. The folder is private (mode 700), as the XDG
+/// specification asks. Runs before any other thread starts: changing the environment is only
+/// sound while no other thread reads it.
+fn quiet_vulkan_loader() {
+    let valid = std::env::var_os("XDG_RUNTIME_DIR").is_some_and(|dir| Path::new(&dir).is_dir());
+    if valid {
+        return;
+    }
+    // One folder for every run, so renders leave nothing new behind.
+    let dir = std::env::temp_dir().join("vrsc-xdg-runtime");
+    let made = std::fs::create_dir_all(&dir).and_then(|()| {
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::PermissionsExt;
+            std::fs::set_permissions(&dir, std::fs::Permissions::from_mode(0o700))?;
+        }
+        Ok(())
+    });
+    if made.is_ok() {
+        // SAFETY: called at the start of `main`, before any other thread exists.
+        unsafe { std::env::set_var("XDG_RUNTIME_DIR", &dir) };
     }
 }
 
@@ -236,12 +267,12 @@ fn build(printer: &Printer, scene: &std::path::Path, dir: &std::path::Path, targ
         Ok(b) => b,
         Err(e) => return io_failure(&format!("cannot read `{}`: {e}", scene.display())),
     };
-    let outcome = printer.report(&built.diags.sorted(), &built.sources);
+    let outcome = printer.report(&with_input_checks(&built), &built.sources);
     if !matches!(outcome, Outcome::Ok) {
         return outcome;
     }
-    if let Err(e) = std::fs::create_dir_all(dir) {
-        return io_failure(&format!("cannot create `{}`: {e}", dir.display()));
+    if let Err(e) = inputs::check_output_dir(dir) {
+        return io_failure(&e);
     }
     for view in &built.views {
         let Some(shader) = &view.shader else { continue };
@@ -344,7 +375,7 @@ fn render(printer: &Printer, scene_path: &Path, dir: &Path, args: RenderArgs) ->
         Ok(b) => b,
         Err(e) => return io_failure(&format!("cannot read `{}`: {e}", scene_path.display())),
     };
-    let outcome = printer.report(&built.diags.sorted(), &built.sources);
+    let outcome = printer.report(&with_input_checks(&built), &built.sources);
     let Some(scene) = built.scene.as_ref().filter(|_| matches!(outcome, Outcome::Ok)) else { return outcome };
     let probed = match &args.probe.probe {
         Some(field) => match vrsc::compose::probe::views_with_field(&built, field) {
@@ -353,6 +384,9 @@ fn render(printer: &Printer, scene_path: &Path, dir: &Path, args: RenderArgs) ->
         },
         None => None,
     };
+    if let Err(e) = inputs::check_output_dir(dir) {
+        return io_failure(&e);
+    }
     let choice = if args.software { AdapterChoice::Software } else { AdapterChoice::PreferHardware };
     let gpu = match Gpu::headless(choice) {
         Ok(gpu) => gpu,
@@ -432,6 +466,16 @@ impl ProgressBar {
         }
         self.shown = Some((name.to_string(), percent));
     }
+}
+
+/// A build's diagnostics, sorted, followed by those of the scene's inputs (volumes, transfer
+/// functions, phantoms) when the scene parsed.
+fn with_input_checks(built: &vrsc::compose::build::BuiltScene) -> Vec<Diagnostic> {
+    let mut diags = built.diags.sorted();
+    if let Some(scene) = &built.scene {
+        diags.extend(inputs::check_scene_inputs(scene));
+    }
+    diags
 }
 
 fn io_failure(e: &dyn std::fmt::Display) -> Outcome {

@@ -13,13 +13,18 @@ use crate::types::{Scalar, Type};
 /// Why a constant expression has no value.
 #[derive(Clone, Debug, PartialEq)]
 pub enum ConstError {
+    /// The result does not fit its type (or is infinite or NaN).
     Overflow,
     DivisionByZero,
+    /// A shift by at least the bit width of its operand.
+    ShiftTooLarge,
+    /// A built-in's argument outside its domain: the text says which (`sqrt` of a negative value).
+    Domain(&'static str),
     /// The operation exists at run time but not in constant expressions.
     NotConstant,
 }
 
-type Eval<T> = Result<T, ConstError>;
+pub(super) type Eval<T> = Result<T, ConstError>;
 
 pub fn eval_binary(op: BinaryOp, lhs: &ConstValue, rhs: &ConstValue) -> Result<ConstValue, ConstError> {
     let ty = rules::binary_result(op, lhs.ty, rhs.ty).ok_or(ConstError::NotConstant)?;
@@ -83,14 +88,14 @@ pub fn eval_swizzle(base: &ConstValue, components: &[u8]) -> Result<ConstValue, 
 }
 
 /// A value of `ty`, after checking that the components fit it.
-fn make(ty: Type, components: Vec<ScalarValue>) -> Eval<ConstValue> {
+pub(super) fn make(ty: Type, components: Vec<ScalarValue>) -> Eval<ConstValue> {
     let value = ConstValue { ty, components };
     check_value(&value)?;
     Ok(value)
 }
 
 /// Whether a value is well formed: one component of the element type per component of its type.
-fn check_value(value: &ConstValue) -> Eval<()> {
+pub(super) fn check_value(value: &ConstValue) -> Eval<()> {
     let scalar = value.ty.scalar().ok_or(ConstError::NotConstant)?;
     let fits = value.components.len() == value.ty.components() && value.components.iter().all(|c| c.scalar() == scalar);
     if fits { Ok(()) } else { Err(ConstError::NotConstant) }
@@ -158,7 +163,7 @@ fn floats(value: &ConstValue) -> Eval<Vec<f32>> {
 }
 
 /// An f32 result: infinity or NaN is an overflow (a shader-creation error in WGSL).
-fn finite(x: f32) -> Eval<f32> {
+pub(super) fn finite(x: f32) -> Eval<f32> {
     if x.is_finite() { Ok(x) } else { Err(ConstError::Overflow) }
 }
 
@@ -234,6 +239,7 @@ fn int_u32(op: BinaryOp, a: u32, b: u32) -> Eval<ScalarValue> {
 fn shift_i32(op: BinaryOp, a: i32, b: u32) -> Eval<ScalarValue> {
     let w = ScalarValue::I32;
     match op {
+        _ if b >= 32 => Err(ConstError::ShiftTooLarge),
         BinaryOp::Shl => {
             let shifted = a.checked_shl(b).ok_or(ConstError::Overflow)?;
             checked(shifted.checked_shr(b).filter(|&back| back == a).map(|_| shifted), w)
@@ -246,6 +252,7 @@ fn shift_i32(op: BinaryOp, a: i32, b: u32) -> Eval<ScalarValue> {
 fn shift_u32(op: BinaryOp, a: u32, b: u32) -> Eval<ScalarValue> {
     let w = ScalarValue::U32;
     match op {
+        _ if b >= 32 => Err(ConstError::ShiftTooLarge),
         BinaryOp::Shl => {
             let shifted = a.checked_shl(b).ok_or(ConstError::Overflow)?;
             checked(shifted.checked_shr(b).filter(|&back| back == a).map(|_| shifted), w)
@@ -377,8 +384,8 @@ mod tests {
         assert_eq!(eval_binary(BinaryOp::Shl, &i(1), &u(4)), Ok(i(16)));
         assert_eq!(eval_binary(BinaryOp::Shr, &i(-16), &u(2)), Ok(i(-4)));
         assert_eq!(eval_binary(BinaryOp::Shr, &u(0x8000_0000), &u(31)), Ok(u(1)));
-        assert_eq!(eval_binary(BinaryOp::Shl, &u(1), &u(32)), Err(ConstError::Overflow));
-        assert_eq!(eval_binary(BinaryOp::Shr, &i(1), &u(40)), Err(ConstError::Overflow));
+        assert_eq!(eval_binary(BinaryOp::Shl, &u(1), &u(32)), Err(ConstError::ShiftTooLarge));
+        assert_eq!(eval_binary(BinaryOp::Shr, &i(1), &u(40)), Err(ConstError::ShiftTooLarge));
         assert_eq!(eval_binary(BinaryOp::Shl, &u(3), &u(31)), Err(ConstError::Overflow));
         assert_eq!(eval_binary(BinaryOp::Shl, &i(1), &u(31)), Err(ConstError::Overflow));
         assert_eq!(eval_binary(BinaryOp::Shl, &i(-1), &u(31)), Ok(i(i32::MIN)));

@@ -120,27 +120,7 @@ impl Checker<'_> {
     }
 
     fn fold_error(&self, span: Span, err: (ConstError, Type)) -> Diagnostic {
-        let text = self.show(span);
-        match err.0 {
-            ConstError::Overflow => {
-                Diagnostic::new(Code::ConstEvalFailed, span, format!("`{text}` overflows {}", err.1))
-                    .with_label(format!("the result does not fit in {}", err.1))
-                    .with_help("use smaller values, or a wider type such as f32")
-            }
-            ConstError::DivisionByZero => {
-                Diagnostic::new(Code::ConstEvalFailed, span, format!("`{text}` divides by zero"))
-                    .with_label("division by zero in a constant expression")
-            }
-            ConstError::NotConstant => Diagnostic::new(
-                Code::NotConstant,
-                span,
-                format!("`{text}` is not a constant expression"),
-            )
-            .with_label("computed at run time")
-            .with_note(
-                "constant expressions may use literals, constructors, unary minus, arithmetic and other constants",
-            ),
-        }
+        self.const_error(span, &err.0, err.1)
     }
 }
 
@@ -168,7 +148,7 @@ fn fold(e: &hir::Expr) -> Result<ConstValue, (Span, (ConstError, Type))> {
 }
 
 /// Component `i` of a constant vector, or column `i` of a constant matrix.
-fn index_const(base: &ConstValue, i: Option<i64>) -> Option<ConstValue> {
+pub(super) fn index_const(base: &ConstValue, i: Option<i64>) -> Option<ConstValue> {
     let i = usize::try_from(i?).ok()?;
     match base.ty {
         Type::Vector { .. } => consteval::eval_swizzle(base, &[u8::try_from(i).ok()?]).ok(),

@@ -112,7 +112,13 @@ impl Checker<'_> {
                         self.emit(f, dup);
                         continue;
                     }
-                    f.state.push(StateSlot { name: name.name.clone(), ty: t, read: false, written: false });
+                    f.state.push(StateSlot {
+                        name: name.name.clone(),
+                        ty: t,
+                        read: false,
+                        written: false,
+                        first_read: None,
+                    });
                     states.push(hir::StateDecl {
                         name: name.name.clone(),
                         ty: t,
@@ -120,6 +126,7 @@ impl Checker<'_> {
                         default,
                         read: false,
                         written: false,
+                        first_read: None,
                         span: d.span,
                     });
                 }

@@ -5,6 +5,7 @@
 //! unsuffixed integer literal takes the hint's scalar (i32, u32 or f32); an unknown name in a
 //! pipeline function offers the hint as the type of the missing uniform.
 
+use super::constfold::known_index;
 use super::scope::{Binding, FnCx, FnKind, ItemRef};
 use super::{Checker, MAX_DEPTH, rules, type_or_placeholder};
 use crate::ast::{self, BinaryOp, ExprKind, Ident, UnaryOp};
@@ -154,7 +155,7 @@ impl Checker<'_> {
         self.expr_depth += 1;
         let out = self.expr_kind(f, e, hint);
         self.expr_depth -= 1;
-        out
+        self.fold_constants(f, out)
     }
 
     /// E0105, once per function: deeper trees would overflow the stack of every later pass.
@@ -249,7 +250,8 @@ impl Checker<'_> {
     fn float_literal(&mut self, f: &mut FnCx, span: Span, value: f64, negative: bool) -> hir::Expr {
         let v = if negative { -value } else { value };
         let narrowed = v as f32;
-        if v.is_finite() && narrowed.is_infinite() {
+        // `1e999999` is infinite already as an f64; WGSL rejects both at shader creation.
+        if !narrowed.is_finite() {
             let d =
                 Diagnostic::new(Code::LiteralOutOfRange, span, format!("`{}` does not fit in f32", self.show(span)))
                     .with_label("f32 holds magnitudes up to about 3.4e38");
@@ -369,6 +371,9 @@ impl Checker<'_> {
             let slot = &mut f.state[index];
             slot.read |= how != StateUse::Write;
             slot.written |= how != StateUse::Read;
+            if how != StateUse::Write && slot.first_read.is_none() {
+                slot.first_read = Some(span);
+            }
             return Some((index, slot.ty));
         }
         if !f.first_report(format!("state {name}")) {
@@ -460,11 +465,12 @@ impl Checker<'_> {
             self.emit(f, d);
             return None;
         }
-        if let Some(n) = const_index(i)
+        if let Some(n) = known_index(f, i)
             && (n < 0 || n >= i64::from(len))
         {
-            let d = Diagnostic::new(Code::InvalidIndex, i.span, format!("index {n} is out of bounds for {base}"))
-                .with_label(format!("valid indices are 0 ..= {}", len - 1));
+            let d = Diagnostic::new(Code::IndexOutOfBounds, i.span, format!("index {n} is out of bounds for {base}"))
+                .with_label(format!("valid indices are 0 ..= {}", len - 1))
+                .with_help(format!("indices count from 0: the last one of {base} is {}", len - 1));
             self.emit(f, d);
             return None;
         }

@@ -164,6 +164,7 @@ impl Checker<'_> {
         for (decl, slot) in state.iter_mut().zip(&f.state) {
             decl.read = slot.read;
             decl.written = slot.written;
+            decl.first_read = slot.first_read;
         }
         if !f.failed {
             self.unused_warnings(&f, &state, &uniforms);

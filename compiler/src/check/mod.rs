@@ -14,11 +14,13 @@
 //! expression that failed has [`Type::Error`], which every later rule accepts silently, so one
 //! mistake gives one diagnostic.
 
+pub mod builtin_eval;
 pub mod consteval;
 pub mod rules;
 
 mod call;
 mod callgraph;
+mod constfold;
 mod consts;
 mod decls;
 mod expr;

@@ -360,6 +360,8 @@ pub(super) struct StateSlot {
     pub ty: Type,
     pub read: bool,
     pub written: bool,
+    /// The first `state.NAME` of the body that reads the field.
+    pub first_read: Option<Span>,
 }
 
 /// One name of a `use` list.
@@ -399,6 +401,11 @@ pub(super) struct FnCx {
     /// Missing names already reported in this function (`state.F`, names, `use`s): a missing
     /// declaration is one mistake however often it is used.
     pub reported: FxHashSet<String>,
+    /// `let` locals whose value WGSL sees as a constant at every use (see `constfold`).
+    pub inlined_lets: FxHashMap<hir::LocalId, hir::ConstValue>,
+    /// The value of each `let` bound to a constant or a constructor: naga's validator looks
+    /// through such a `let` for a zero divisor or a too-large shift amount.
+    pub let_values: FxHashMap<hir::LocalId, hir::Expr>,
 }
 
 impl FnCx {
@@ -421,6 +428,8 @@ impl FnCx {
             too_deep: false,
             lost_statement: false,
             reported: FxHashSet::default(),
+            inlined_lets: FxHashMap::default(),
+            let_values: FxHashMap::default(),
         }
     }
 

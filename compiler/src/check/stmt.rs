@@ -2,6 +2,7 @@
 //! `break`/`continue`, `return`, and the flow facts the function rules need (does a block
 //! always return? is a statement unreachable?).
 
+use super::constfold::inlined_value;
 use super::expr::{Hint, StateUse, concrete_hint, literal_kind, poison, swizzle};
 use super::scope::{Binding, FnCx, FnKind, LocalKind};
 use super::{Checker, MAX_DEPTH, rules};
@@ -195,6 +196,15 @@ impl Checker<'_> {
         }
         let kind = if mutable { LocalKind::Var } else { LocalKind::Let };
         let local = f.add_local(&name.name, ty, kind, name.span);
+        if !mutable && let Some(value) = checked.as_ref().and_then(|v| inlined_value(f, v)) {
+            f.inlined_lets.insert(local, value);
+        }
+        if !mutable
+            && let Some(v) = &checked
+            && matches!(v.kind, hir::ExprKind::Const(_) | hir::ExprKind::Construct { .. } | hir::ExprKind::Local(_))
+        {
+            f.let_values.insert(local, v.clone());
+        }
         self.declare_local(f, name, Binding::Local(local));
         Some(hir::StmtKind::Let { local, value: checked })
     }
@@ -270,6 +280,8 @@ impl Checker<'_> {
                     )
                     .with_label(format!("{} {sym} {}", place.ty, v.ty))
                     .with_note(format!("`a {sym} b` needs `a {} b` to have the type of `a`", bin.symbol()));
+                    self.emit(f, d);
+                } else if let Some(d) = self.operand_rule(f, bin, place.ty, &v, target.span.to(v.span)) {
                     self.emit(f, d);
                 }
             }

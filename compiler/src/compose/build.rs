@@ -3,6 +3,7 @@
 
 use super::place::{self, Composition, ModuleUse};
 use super::reflect::{self, Reflection};
+use super::uniform_check;
 use super::view;
 use crate::check;
 use crate::diag::{Code, Diagnostic, Diagnostics};
@@ -136,10 +137,19 @@ pub fn compose_scene_with(
         chosen.iter().map(|view| load_view(&scene, view, extra, &mut sources, &mut parsed)).collect();
     let composed = compose_loaded_views(&scene, &chosen, loaded, &sources, keep);
     let mut views = Vec::with_capacity(composed.len());
+    let mut data_flow = DataFlowWarnings::default();
     for (output, view_diags) in composed {
-        diags.extend(view_diags);
+        for d in view_diags.iter() {
+            if !data_flow.add(d, &output.name) {
+                diags.push(d.clone());
+            }
+        }
         views.push(output);
     }
+    data_flow.finish(&mut diags, scene.render.compositing.value);
+    let compositions: Vec<&Composition> = views.iter().map(|v| &v.composition).collect();
+    let every_view = only_view.is_none() && views.iter().all(|v| v.shader.is_some());
+    uniform_check::check_scene_uniforms(&scene, &compositions, every_view, &mut diags);
     if let Some(name) = only_view
         && views.is_empty()
     {
@@ -150,6 +160,46 @@ pub fn compose_scene_with(
         );
     }
     BuiltScene { sources, diags, scene: Some(scene), views }
+}
+
+/// The data-flow warnings of every view (W0005, W0006), each once for all the views it holds in,
+/// with a note naming them: views that share a module share its mistakes.
+#[derive(Default)]
+struct DataFlowWarnings {
+    /// In the order first seen, with the views that report it.
+    list: Vec<(Diagnostic, Vec<String>)>,
+}
+
+impl DataFlowWarnings {
+    /// Takes `d` if it is a data-flow warning (`false` otherwise).
+    fn add(&mut self, d: &Diagnostic, view: &str) -> bool {
+        if !matches!(d.code, Code::ReadBeforeWrite | Code::WrittenNeverRead) {
+            return false;
+        }
+        match self.list.iter_mut().find(|(seen, _)| seen == d) {
+            Some((_, views)) => views.push(view.to_string()),
+            None => self.list.push((d.clone(), vec![view.to_string()])),
+        }
+        true
+    }
+
+    /// Pushes each warning once; a lost write also names the compositing mode, which decides
+    /// which standard functions read the fields.
+    fn finish(self, diags: &mut Diagnostics, compositing: scene::Compositing) {
+        let mode = match compositing {
+            scene::Compositing::Dvr => "dvr",
+            scene::Compositing::Mip => "mip",
+            scene::Compositing::Iso => "iso",
+        };
+        for (mut d, views) in self.list {
+            let names: Vec<String> = views.iter().map(|v| format!("`{v}`")).collect();
+            let which = if names.len() == 1 { "in view" } else { "in views" };
+            if d.code == Code::WrittenNeverRead {
+                d = d.with_note(format!("with compositing `{mode}`"));
+            }
+            diags.push(d.with_note(format!("{which} {}", names.join(", "))));
+        }
+    }
 }
 
 /// A view's modules, loaded: the graph, how each root is used, and its own diagnostics so far.

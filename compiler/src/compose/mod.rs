@@ -12,4 +12,5 @@ pub mod explain;
 pub mod place;
 pub mod probe;
 pub mod reflect;
+pub mod uniform_check;
 pub mod view;

@@ -759,6 +759,9 @@ impl<'a, F: Fn(usize) -> bool> Merger<'a, F> {
             let required = self.required.contains(&acc.name.as_str());
             if !required {
                 self.read_before_write(acc, first.ray);
+                if read {
+                    self.dead_writes(acc, first.ray);
+                }
             }
             if written
                 && !read
@@ -925,21 +928,34 @@ impl<'a, F: Fn(usize) -> bool> Merger<'a, F> {
         }
     }
 
+    /// W0006 for a write by a non-standard function that no read reaches (the field is read, but
+    /// only before the write, or in a sample the write does not live into): the function's work
+    /// is lost, typically because it is placed after the last step that uses the field.
+    fn dead_writes(&mut self, acc: &FieldAcc, ray: bool) {
+        let lost: Vec<&Use> = acc
+            .uses
+            .iter()
+            .filter(|w| w.written && !self.unit_is_std(w.unit))
+            .filter(|w| !acc.uses.iter().any(|r| r.read && later_read(w, r, ray)))
+            .collect();
+        for w in lost {
+            let function = self.pipe(w.unit).name.clone();
+            let d = Diagnostic::new(
+                Code::WrittenNeverRead,
+                self.state((w.unit, w.decl)).span,
+                format!("`{function}` writes state field `{}`, but no later function reads it", acc.name),
+            )
+            .with_label("this write has no effect")
+            .with_note("the functions that read the field run before this one in the composed pipeline")
+            .with_help("place the function before the step that uses the field (see `vrsc pipeline`)");
+            self.push(w.unit, d);
+        }
+    }
+
     /// W0005 for every read of the field by a non-standard function that no earlier write
     /// reaches.
     fn read_before_write(&mut self, acc: &FieldAcc, ray: bool) {
-        let reaches = |w: &Use, r: &Use| {
-            if !w.written {
-                return false;
-            }
-            if w.position <= r.position {
-                // A per-sample field is reset before every sample: a write before the loop is lost.
-                ray || !(w.phase == 0 && r.phase == 1)
-            } else {
-                // A ray field written later in the loop reaches the next sample's read.
-                ray && w.phase == 1 && r.phase == 1
-            }
-        };
+        let reaches = |w: &Use, r: &Use| reaches(w, r, ray);
         for r in acc.uses.iter().filter(|r| r.read) {
             if self.unit_is_std(r.unit) || acc.uses.iter().any(|w| reaches(w, r)) {
                 continue;
@@ -947,10 +963,13 @@ impl<'a, F: Fn(usize) -> bool> Merger<'a, F> {
             let decl = self.state((r.unit, r.decl));
             let mut d = Diagnostic::new(
                 Code::ReadBeforeWrite,
-                decl.span,
+                decl.first_read.unwrap_or(decl.span),
                 format!("state field `{}` is read before any function of the pipeline writes it", acc.name),
             )
             .with_label("read here; it still holds its default");
+            if decl.first_read.is_some() {
+                d = d.with_secondary(decl.span, "declared here");
+            }
             if !ray && acc.uses.iter().any(|w| w.written && w.phase == 0 && r.phase == 1) {
                 d = d.with_note("a per-sample field is reset to its default before every sample: a write in `ray.setup` does not reach the sample steps");
             }
@@ -960,6 +979,29 @@ impl<'a, F: Fn(usize) -> bool> Merger<'a, F> {
             ));
             self.push(r.unit, d);
         }
+    }
+}
+
+/// Whether read `r` comes after write `w` and sees it: a function's own read counts only for a
+/// ray field in the sample loop (the next sample sees the write).
+fn later_read(w: &Use, r: &Use, ray: bool) -> bool {
+    if r.unit == w.unit {
+        return ray && w.phase == 1;
+    }
+    reaches(w, r, ray)
+}
+
+/// Whether write `w` reaches read `r` of a field (`ray`: a field that lives for the whole ray).
+fn reaches(w: &Use, r: &Use, ray: bool) -> bool {
+    if !w.written {
+        return false;
+    }
+    if w.position <= r.position {
+        // A per-sample field is reset before every sample: a write before the loop is lost.
+        ray || !(w.phase == 0 && r.phase == 1)
+    } else {
+        // A ray field written later in the loop reaches the next sample's read.
+        ray && w.phase == 1 && r.phase == 1
     }
 }
 
@@ -1591,10 +1633,14 @@ pipeline finish in ray.finish { state sum: f32; @ray state hits: f32; state.hits
         // `weight` (per-sample) is read in `start` but written only in `end`: W0005. `hits` is
         // `@ray`: the previous sample's write reaches it. `early` is written in `ray.setup` but
         // reset before every sample: W0005 with a note. `late`, `sum` are written in time.
+        // Each W0005 points at the read. The writes that no read reaches are W0006: `weight` in
+        // `end` (line 8), `early` in `ray.setup` (13), `hits` in `ray.finish` (20).
         let mut sorted = warnings.clone();
         sorted.sort();
-        assert_eq!(sorted, [("W0005", 2), ("W0005", 15)]);
-        let e = d.iter().find(|x| f.line(x.span) == 15).unwrap();
+        assert_eq!(sorted, [("W0005", 5), ("W0005", 18), ("W0006", 8), ("W0006", 13), ("W0006", 20)]);
+        let lost = d.iter().find(|x| f.line(x.span) == 20).unwrap();
+        assert_eq!(lost.message, "`finish` writes state field `hits`, but no later function reads it");
+        let e = d.iter().find(|x| f.line(x.span) == 18).unwrap();
         assert!(e.notes.iter().any(|n| n.contains("reset to its default before every sample")), "{:?}", e.notes);
         // The same functions in a standard module get no warnings.
         let f = fx(&[("std_user.vrs", user)]);

@@ -195,6 +195,7 @@ fn lower_defaults(
             default: Some(f.default.clone()),
             read: false,
             written: true,
+            first_read: None,
             span: f.span,
         })
         .collect();

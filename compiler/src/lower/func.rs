@@ -85,6 +85,13 @@ fn block_returns(b: &hir::Block) -> bool {
     })
 }
 
+/// The statements up to the first `return`, `break` or `continue`: the rest never runs (W0004),
+/// and naga's WGSL front end rejects a function whose code goes on after its `return`.
+fn reachable(stmts: &[hir::Stmt]) -> &[hir::Stmt] {
+    let jump = stmts.iter().position(|s| matches!(s.kind, StmtKind::Return(_) | StmtKind::Break | StmtKind::Continue));
+    jump.map_or(stmts, |i| &stmts[..=i])
+}
+
 enum Kind<'a> {
     Lib { ret: Type },
     Pipeline { env: &'a PipelineEnv, state_ptr: Ex, state: &'a [hir::StateDecl], uniforms: &'a [hir::UniformDecl] },
@@ -213,7 +220,7 @@ impl<'a> FnCtx<'a> {
 
     fn block(&mut self, b: &hir::Block) -> R<naga::Block> {
         let mut out = naga::Block::new();
-        for s in &b.stmts {
+        for s in reachable(&b.stmts) {
             self.stmt(s, &mut out)?;
         }
         self.flush(&mut out);
@@ -338,7 +345,7 @@ impl<'a> FnCtx<'a> {
         brk.push(S::Break, span.into());
         self.push(&mut body_block, S::If { condition: done, accept: brk, reject: naga::Block::new() }, span);
         self.loop_depth += 1;
-        let result = body.stmts.iter().try_for_each(|s| self.stmt(s, &mut body_block));
+        let result = reachable(&body.stmts).iter().try_for_each(|s| self.stmt(s, &mut body_block));
         self.loop_depth -= 1;
         result?;
         self.flush(&mut body_block);

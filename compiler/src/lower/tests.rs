@@ -165,6 +165,7 @@ impl H {
                 default: None,
                 read: true,
                 written: true,
+                first_read: None,
                 span: self.span(),
             })
             .collect();

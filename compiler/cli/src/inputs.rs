@@ -1,0 +1,137 @@
+//! The scene's inputs that only the runtime can judge: transfer-function presets and files,
+//! phantoms, volume files, and the output folder. `vrsc build` and `vrsc render` check them
+//! right after composing (before any GPU work), so a scene that `build` accepts fails in
+//! `render` only for reasons `build` cannot know (no adapter, out of memory).
+//!
+//! The check lives here, in the CLI, because the compiler crate does not depend on the runtime
+//! (the runtime depends on the compiler). Presets and phantoms are looked up by name (a phantom
+//! is made at 1 voxel, which costs nothing); a transfer-function file is parsed in full (it is
+//! small); a volume file must exist and be readable (its voxels are read only by `render`).
+
+use std::io::Read;
+use std::path::Path;
+use vrs_runtime::{tf, volume};
+use vrsc::diag::{Code, Diagnostic};
+use vrsc::scene::{Scene, TfRef, VolumeSource};
+use vrsc::source::Span;
+
+/// Every input of `scene` that does not exist or does not parse, as E0702 diagnostics at the
+/// value that names it.
+pub fn check_scene_inputs(scene: &Scene) -> Vec<Diagnostic> {
+    let mut out = Vec::new();
+    for v in &scene.volumes {
+        match &v.source {
+            VolumeSource::Phantom(name) => {
+                if let Err(e) = volume::phantom(&name.value, [1, 1, 1]) {
+                    out.push(invalid(name.span, e.to_string(), "not a built-in phantom"));
+                }
+            }
+            VolumeSource::File(file) if !file.resolved.exists() && v.fallback.is_some() => {}
+            VolumeSource::File(file) => {
+                if let Err(why) = readable(&file.resolved) {
+                    let d = invalid(file.span, format!("cannot read volume `{}`: {why}", file.given), "this file")
+                        .with_note(format!("resolved to `{}`", file.resolved.display()))
+                        .with_help("fix the path (relative to the scene file), or add `fallback = \"head\"` to render a phantom meanwhile");
+                    out.push(d);
+                }
+            }
+        }
+        if let Some(fallback) = &v.fallback
+            && let Err(e) = volume::phantom(&fallback.value, [1, 1, 1])
+        {
+            out.push(invalid(fallback.span, e.to_string(), "not a built-in phantom"));
+        }
+        match &v.tf {
+            Some(TfRef::Preset(name)) => {
+                if let Err(e) = tf::preset(&name.value) {
+                    out.push(invalid(name.span, e.to_string(), "not a transfer-function preset"));
+                }
+            }
+            Some(TfRef::File(file)) => {
+                if let Err(e) = tf::from_paraview_json(&file.resolved) {
+                    let d = invalid(file.span, format!("transfer function `{}`: {e}", file.given), "this file")
+                        .with_note(format!("resolved to `{}`", file.resolved.display()));
+                    out.push(d);
+                }
+            }
+            None => {}
+        }
+    }
+    out
+}
+
+fn invalid(span: Span, message: String, label: &str) -> Diagnostic {
+    Diagnostic::new(Code::SceneInvalid, span, message).with_label(label)
+}
+
+/// Whether `path` is a file whose first bytes can be read.
+fn readable(path: &Path) -> Result<(), String> {
+    let file = std::fs::File::open(path).map_err(|e| e.to_string())?;
+    if !file.metadata().map_err(|e| e.to_string())?.is_file() {
+        return Err(String::from("not a file"));
+    }
+    let mut head = Vec::with_capacity(4);
+    file.take(4).read_to_end(&mut head).map_err(|e| e.to_string())?;
+    Ok(())
+}
+
+/// Creates `dir` if needed and proves it writable by creating and removing a file in it.
+pub fn check_output_dir(dir: &Path) -> Result<(), String> {
+    std::fs::create_dir_all(dir).map_err(|e| format!("cannot create `{}`: {e}", dir.display()))?;
+    let probe = dir.join(format!(".vrsc-write-test-{}", std::process::id()));
+    std::fs::write(&probe, b"").map_err(|e| format!("cannot write in `{}`: {e}", dir.display()))?;
+    let _ = std::fs::remove_file(&probe);
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A fresh folder under the system's temporary folder.
+    fn scratch(name: &str) -> std::path::PathBuf {
+        let dir = std::env::temp_dir().join(format!("vrsc-inputs-{name}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).expect("a scratch folder");
+        dir
+    }
+
+    fn messages(volume: &str, dir: &Path) -> Vec<String> {
+        let text = format!(
+            "[[volume]]\nname = \"v\"\nrole = \"primary\"\n{volume}\n\n[[view]]\nname = \"3d\"\nkind = \"raycast\"\n"
+        );
+        let scene = vrsc::scene::parse_scene_text(&text, 0, dir).expect("a valid scene");
+        check_scene_inputs(&scene).into_iter().map(|d| d.message).collect()
+    }
+
+    #[test]
+    fn every_missing_input_is_a_diagnostic() {
+        let dir = scratch("missing");
+        assert_eq!(messages("phantom = \"head\"\ntf = \"grayscale\"", &dir), Vec::<String>::new());
+        let m = messages("phantom = \"haed\"", &dir);
+        assert!(m.len() == 1 && m[0].contains("did you mean `head`"), "{m:?}");
+        let m = messages("phantom = \"head\"\ntf = \"greyscale\"", &dir);
+        assert!(m.len() == 1 && m[0].contains("greyscale"), "{m:?}");
+        let m = messages("path = \"nowhere.nii.gz\"", &dir);
+        assert!(m.len() == 1 && m[0].starts_with("cannot read volume `nowhere.nii.gz`"), "{m:?}");
+        assert_eq!(messages("path = \"nowhere.nii.gz\"\nfallback = \"head\"", &dir), Vec::<String>::new());
+        let m = messages("path = \"nowhere.nii.gz\"\nfallback = \"nobody\"", &dir);
+        assert!(m.len() == 1 && m[0].contains("nobody"), "{m:?}");
+        let m = messages("phantom = \"head\"\ntf = \"lut.json\"", &dir);
+        assert!(m.len() == 1 && m[0].starts_with("transfer function `lut.json`"), "{m:?}");
+        std::fs::write(dir.join("lut.json"), "not json").expect("a file");
+        let m = messages("phantom = \"head\"\ntf = \"lut.json\"", &dir);
+        assert!(m.len() == 1 && m[0].starts_with("transfer function `lut.json`"), "{m:?}");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn an_output_folder_that_cannot_be_made_is_an_error() {
+        let dir = scratch("output");
+        assert_eq!(check_output_dir(&dir.join("out")), Ok(()));
+        std::fs::write(dir.join("file"), "").expect("a file");
+        let err = check_output_dir(&dir.join("file").join("out"));
+        assert!(err.as_ref().is_err_and(|e| e.starts_with("cannot create")), "{err:?}");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}

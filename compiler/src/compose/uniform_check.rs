@@ -1,0 +1,135 @@
+//! The scene's `[uniforms]` against the composed views: every entry must name a uniform that
+//! some view reads (E0702 with a did-you-mean otherwise), and its value must have that
+//! uniform's type and length (E0702 at the value). The runtime sets the same values by the same
+//! rules, so a scene that `build` accepts never fails there for its uniforms.
+
+use super::place::Composition;
+use crate::diag::{Code, Diagnostic, Diagnostics};
+use crate::scene::{Scene, UniformSetting, UniformValue};
+use crate::steps::did_you_mean;
+use crate::types::{Scalar, Type};
+
+/// Checks `scene.uniforms` against the uniforms of `views` (the composed views). `all_views`
+/// says whether `views` holds every view of the scene without errors: only then is a name that
+/// no view reads known to be a mistake.
+pub fn check_scene_uniforms(scene: &Scene, views: &[&Composition], all_views: bool, diags: &mut Diagnostics) {
+    for (name, setting) in &scene.uniforms {
+        let declared = views.iter().flat_map(|c| c.uniforms.iter()).find(|u| u.name == *name);
+        match declared {
+            Some(u) => {
+                if let Some(why) = mismatch(u.ty, &setting.value) {
+                    diags.push(wrong_value(name, u.ty, setting, &why));
+                }
+            }
+            None if all_views => diags.push(unknown(name, setting, views)),
+            None => {}
+        }
+    }
+}
+
+fn unknown(name: &str, setting: &UniformSetting, views: &[&Composition]) -> Diagnostic {
+    let mut names: Vec<&str> = views.iter().flat_map(|c| c.uniforms.iter()).map(|u| u.name.as_str()).collect();
+    names.sort_unstable();
+    names.dedup();
+    let mut d = Diagnostic::new(Code::SceneInvalid, setting.name_span, format!("no view reads a uniform `{name}`"))
+        .with_label("not a uniform of any composed view");
+    d = match did_you_mean(name, names.iter().copied()) {
+        Some(best) => d.with_help(format!("did you mean `{best}`?")),
+        None => d.with_note("a `[uniforms]` entry sets the initial value of a uniform that a module declares"),
+    };
+    d
+}
+
+fn wrong_value(name: &str, ty: Type, setting: &UniformSetting, why: &str) -> Diagnostic {
+    Diagnostic::new(Code::SceneInvalid, setting.span, format!("`{name}` is a {ty}, but {why}"))
+        .with_label(format!("not a value of type {ty}"))
+        .with_help(format!("write {}", example(ty)))
+}
+
+/// A value of `ty` as TOML, for the help line.
+fn example(ty: Type) -> String {
+    let scalar = |s: Scalar| match s {
+        Scalar::F32 => "0.5",
+        Scalar::I32 => "1",
+        Scalar::U32 => "1",
+        Scalar::Bool => "true",
+    };
+    match ty {
+        Type::Scalar(s) => format!("a {}: `{}`", s.name(), scalar(s)),
+        Type::Vector { size, scalar: s } => {
+            format!("{size} {}s: `[{}]`", s.name(), vec![scalar(s); size as usize].join(", "))
+        }
+        Type::Matrix { cols, rows } => {
+            let column = format!("[{}]", vec!["0.0"; rows as usize].join(", "));
+            format!("{cols} columns of {rows} f32s: `[{}]`", vec![column; cols as usize].join(", "))
+        }
+        other => format!("no value: a {other} is bound by the renderer"),
+    }
+}
+
+/// Why `value` cannot initialise a uniform of type `ty`, if it cannot.
+fn mismatch(ty: Type, value: &UniformValue) -> Option<String> {
+    let (shape, scalar) = match ty {
+        Type::Scalar(s) => (vec![], s),
+        Type::Vector { size, scalar } => (vec![size as usize], scalar),
+        Type::Matrix { cols, rows } => (vec![cols as usize, rows as usize], Scalar::F32),
+        _ => return Some(String::from("it is a resource, which `[uniforms]` cannot set")),
+    };
+    let got = value.shape();
+    if got != shape {
+        return Some(match got.as_slice() {
+            [] => String::from("this value is a single number"),
+            [n] => format!("this value is an array of {n}"),
+            [c, r] => format!("this value is {c} arrays of {r}"),
+            _ => String::from("this value nests too deep"),
+        });
+    }
+    leaves(value).into_iter().find_map(|v| scalar_mismatch(scalar, v))
+}
+
+fn leaves(value: &UniformValue) -> Vec<&UniformValue> {
+    match value {
+        UniformValue::Array(items) => items.iter().flat_map(leaves).collect(),
+        leaf => vec![leaf],
+    }
+}
+
+fn scalar_mismatch(scalar: Scalar, v: &UniformValue) -> Option<String> {
+    match (scalar, v) {
+        (Scalar::Bool, UniformValue::Bool(_)) => None,
+        (Scalar::Bool, _) => Some(String::from("this value is a number (write `true` or `false`)")),
+        (_, UniformValue::Bool(_)) => Some(String::from("this value is a bool")),
+        (Scalar::F32, UniformValue::Float(x)) if x.is_finite() && x.abs() <= f64::from(f32::MAX) => None,
+        (Scalar::F32, UniformValue::Float(x)) => Some(format!("{x} does not fit in f32")),
+        (Scalar::F32, UniformValue::Int(_)) => None,
+        (Scalar::I32, UniformValue::Int(i)) if i32::try_from(*i).is_ok() => None,
+        (Scalar::U32, UniformValue::Int(i)) if u32::try_from(*i).is_ok() => None,
+        (Scalar::I32 | Scalar::U32, UniformValue::Int(i)) => Some(format!("{i} does not fit in {}", scalar.name())),
+        (Scalar::I32 | Scalar::U32, _) => Some(String::from("this value is not a whole number")),
+        (_, UniformValue::Array(_)) => Some(String::from("this value nests too deep")),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use UniformValue::{Array, Bool, Float, Int};
+
+    #[test]
+    fn shapes_and_kinds() {
+        let vec2f = Type::vec(2, Scalar::F32);
+        assert_eq!(mismatch(vec2f, &Array(vec![Float(0.1), Int(1)])), None);
+        assert!(
+            mismatch(vec2f, &Array(vec![Float(0.07), Float(0.11), Float(0.2)]))
+                .is_some_and(|m| m.contains("array of 3"))
+        );
+        assert!(mismatch(Type::BOOL, &Int(0)).is_some_and(|m| m.contains("true")));
+        assert_eq!(mismatch(Type::BOOL, &Bool(false)), None);
+        assert!(mismatch(Type::U32, &Int(-1)).is_some());
+        assert!(mismatch(Type::I32, &Float(1.5)).is_some());
+        assert!(mismatch(Type::F32, &Float(1e300)).is_some());
+        let m2 = Type::Matrix { cols: 2, rows: 2 };
+        assert_eq!(mismatch(m2, &Array(vec![Array(vec![Int(1), Int(0)]), Array(vec![Int(0), Int(1)])])), None);
+        assert!(mismatch(m2, &Array(vec![Int(1), Int(0)])).is_some());
+    }
+}
