@@ -263,7 +263,14 @@ fn compose_variant(
     mut diags: Diagnostics,
 ) -> ProbeBuild {
     let module = GeneratedModule { name: format!("<probe of {}>", layout.field.name), text: source.clone() };
-    let built = build::compose_scene_with(sources, Ok(scene), Some(&layout.view), Keep::Outputs, crate::loader::ParsedFiles::default(), &[module]);
+    let built = build::compose_scene_with(
+        sources,
+        Ok(scene),
+        Some(&layout.view),
+        Keep::Outputs,
+        crate::loader::ParsedFiles::default(),
+        &[module],
+    );
     // The view's own warnings were reported with the view; only the variant's errors are new
     // (a name of the generated module that the view already uses differently).
     built.diags.iter().filter(|d| d.is_error()).cloned().for_each(|d| diags.push(d));

@@ -6,7 +6,6 @@
 use super::{SceneRenderer, SceneView, apply_view_uniforms};
 use crate::error::RuntimeError;
 use crate::probe::{ComponentKind, ProbeFormat, ProbeValues};
-use crate::reflection::Reflection;
 use crate::shader::ViewShader;
 use crate::view::ViewRenderer;
 use std::collections::HashMap;
@@ -138,11 +137,7 @@ impl SceneRenderer {
         let built = cprobe::build_probe(&self.path, &view.name, field)
             .map_err(|error| RuntimeError::Io { path: self.path.clone(), error })?;
         let Some(variant) = built.variant else { return Err(compose_error(&built.diags, &built.sources)) };
-        let reflection: Reflection = serde_json::to_value(&variant.shader.reflection)
-            .ok()
-            .and_then(|json| serde_json::from_value(json).ok())
-            .ok_or_else(|| RuntimeError::Invalid("the compiler's reflection does not round-trip".into()))?;
-        let shader = ViewShader::new(variant.shader.wgsl, reflection, &self.path)?;
+        let shader = ViewShader::new(variant.shader.wgsl, variant.shader.reflection, &self.path)?;
         let renderer = ViewRenderer::new(&self.gpu, &mut self.pipelines, shader, view.renderer.size())?;
         let view = SceneView { name: view.name.clone(), renderer, camera: view.camera, slice: view.slice };
         Ok(Probe { layout: variant.layout, view })
