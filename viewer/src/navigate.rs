@@ -108,9 +108,11 @@ mod tests {
     #[test]
     fn slices_step_by_one_voxel_and_stop_at_the_ends() {
         let dims = [10, 20, 4];
-        let plane = SlicePlane::new(SliceAxis::Z, 0.5);
+        let plane = SlicePlane::new(SliceAxis::Z, 1.5 / 4.0); // the centre of voxel 1
         let up = step_slice(plane, 1, dims);
         assert!((slice_position(&up) - 2.5 / 4.0).abs() < 1e-6, "{}", slice_position(&up));
+        let between = step_slice(SlicePlane::new(SliceAxis::Z, 0.52), 0, dims);
+        assert!((slice_position(&between) - 2.5 / 4.0).abs() < 1e-6, "snaps to the nearest centre");
         let far = step_slice(plane, 100, dims);
         assert!((slice_position(&far) - 3.5 / 4.0).abs() < 1e-6);
         let low = step_slice(plane, -100, dims);
