@@ -89,29 +89,47 @@ fn main() {
         median(structural_frame)
     );
 
-    // Orbiting: the preview the schedule picks for a 100 ms budget, after measuring a full frame.
-    let mut refiner = Refiner::new(size, Duration::from_millis(100));
-    let full = Work::Tile { generation: 0, region: Region::whole(size) };
-    let _ = refiner.next(0, Instant::now());
-    refiner.finished(&full, Duration::from_secs_f64(median(uniform_frame) / 1e3));
-    let Some(Work::Preview { size: preview, scale, .. }) = refiner.next(1, Instant::now()) else {
-        println!("the full frame fits the budget: no preview needed while orbiting");
-        return;
-    };
-    let target = create_output(live.renderer().gpu(), preview);
-    let mut orbit = Vec::new();
-    let mut still = Vec::new();
-    for round in 0..ROUNDS {
-        let mut camera = live.camera(0).unwrap();
-        camera.azimuth += 5.0 * round as f32;
-        live.set_camera(0, camera);
-        orbit.push(frame(&mut live, &target, Region::whole(preview)));
-        let output = live.output(0).unwrap().clone();
-        still.push(frame(&mut live, &output, Region::whole(size)));
+    for example in ["ablation/scene.toml", "basic/scene.toml"] {
+        orbit(example);
     }
-    let (o, s) = (median(orbit), median(still));
+}
+
+/// Orbiting: previews as the refinement schedule picks them for a 100 ms budget (fed with each
+/// frame's measured time, as the viewer does), against the still, full-resolution frame.
+fn orbit(example: &str) {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples").join(example);
+    let gpu = Gpu::headless(AdapterChoice::PreferHardware).expect("an adapter");
+    let renderer = SceneRenderer::open(gpu, &path, RenderOptions::default(), &mut |_, _, _| {}).unwrap();
+    let mut live = LiveScene::new(renderer);
+    let size = live.size(0).unwrap();
+    let output = live.output(0).unwrap().clone();
+    frame(&mut live, &output, Region::whole(size));
+    let still: Vec<Duration> = (0..3).map(|_| frame(&mut live, &output, Region::whole(size))).collect();
+    let mut refiner = Refiner::new(size, Duration::from_millis(100));
+    refiner.finished(&Work::Tile { generation: 0, region: Region::whole(size) }, still[0]);
+    let mut previews = Vec::new();
+    for round in 1..=12u64 {
+        let mut camera = live.camera(0).unwrap();
+        camera.azimuth += 5.0;
+        live.set_camera(0, camera);
+        refiner.input(Instant::now());
+        let Some(work) = refiner.next(round, Instant::now()) else { continue };
+        let Work::Preview { size: preview, scale, .. } = work else {
+            println!("{example}: the full frame fits the budget: no preview needed while orbiting");
+            return;
+        };
+        let target = create_output(live.renderer().gpu(), preview);
+        let t = frame(&mut live, &target, Region::whole(preview));
+        refiner.finished(&work, t);
+        previews.push((scale, preview, t));
+    }
+    let settled = &previews[previews.len() - 5..];
+    let (scale, preview, _) = settled[settled.len() - 1];
+    let o = median(settled.iter().map(|p| p.2).collect());
+    let s = median(still);
     println!(
-        "orbiting: preview 1/{:.0} ({}x{}) {o:.0} ms a frame; still: full {}x{} {s:.0} ms ({:.1}x)",
+        "{example} orbiting: settles on preview 1/{:.0} ({}x{}), {o:.0} ms a frame (median of the last 5 of 12); \
+         still: full {}x{} {s:.0} ms ({:.1}x)",
         1.0 / scale,
         preview[0],
         preview[1],
