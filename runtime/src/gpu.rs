@@ -44,24 +44,7 @@ impl Gpu {
             _ => choice,
         };
         let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
-        let software = choice == AdapterChoice::Software;
-        let options = wgpu::RequestAdapterOptions {
-            power_preference: wgpu::PowerPreference::HighPerformance,
-            force_fallback_adapter: software,
-            compatible_surface: None,
-            ..Default::default()
-        };
-        let adapter = pollster::block_on(instance.request_adapter(&options))
-            .or_else(|_| {
-                let fallback = wgpu::RequestAdapterOptions { force_fallback_adapter: true, ..options };
-                pollster::block_on(instance.request_adapter(&fallback))
-            })
-            .map_err(|e| {
-                GpuError(format!(
-                    "no graphics adapter ({e}). On Debian or Ubuntu without a GPU, install the software \
-                     Vulkan driver: apt-get install mesa-vulkan-drivers libvulkan1"
-                ))
-            })?;
+        let adapter = request_adapter(&instance, None, choice == AdapterChoice::Software)?;
         Gpu::from_adapter(&adapter)
     }
 
@@ -100,4 +83,30 @@ impl Gpu {
     pub fn wait(&self) {
         let _ = self.device.poll(wgpu::PollType::wait_indefinitely());
     }
+}
+
+/// The adapter to render with: a high-performance one (only a CPU one when `software`), able to
+/// present to `surface` when there is one; a software adapter when nothing else is found.
+pub fn request_adapter(
+    instance: &wgpu::Instance,
+    surface: Option<&wgpu::Surface<'_>>,
+    software: bool,
+) -> Result<wgpu::Adapter, GpuError> {
+    let options = wgpu::RequestAdapterOptions {
+        power_preference: wgpu::PowerPreference::HighPerformance,
+        force_fallback_adapter: software,
+        compatible_surface: surface,
+        ..Default::default()
+    };
+    pollster::block_on(instance.request_adapter(&options))
+        .or_else(|_| {
+            let fallback = wgpu::RequestAdapterOptions { force_fallback_adapter: true, ..options };
+            pollster::block_on(instance.request_adapter(&fallback))
+        })
+        .map_err(|e| {
+            GpuError(format!(
+                "no graphics adapter ({e}). On Debian or Ubuntu without a GPU, install the software \
+                 Vulkan driver: apt-get install mesa-vulkan-drivers libvulkan1"
+            ))
+        })
 }

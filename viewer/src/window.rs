@@ -20,23 +20,8 @@ impl Surface {
     pub fn new(instance: &wgpu::Instance, window: Arc<Window>, software: bool) -> Result<Surface, String> {
         let surface =
             instance.create_surface(window.clone()).map_err(|e| format!("cannot draw into the window: {e}"))?;
-        let options = wgpu::RequestAdapterOptions {
-            power_preference: wgpu::PowerPreference::HighPerformance,
-            force_fallback_adapter: software,
-            compatible_surface: Some(&surface),
-            ..Default::default()
-        };
-        let adapter = pollster::block_on(instance.request_adapter(&options))
-            .or_else(|_| {
-                let fallback = wgpu::RequestAdapterOptions { force_fallback_adapter: true, ..options };
-                pollster::block_on(instance.request_adapter(&fallback))
-            })
-            .map_err(|e| {
-                format!(
-                    "no graphics adapter for the window ({e}). Without a GPU, install the software \
-                     Vulkan driver: apt-get install mesa-vulkan-drivers libvulkan1"
-                )
-            })?;
+        let adapter =
+            vrs_runtime::gpu::request_adapter(instance, Some(&surface), software).map_err(|e| e.to_string())?;
         let gpu = Gpu::from_adapter(&adapter).map_err(|e| e.to_string())?;
         let capabilities = surface.get_capabilities(&adapter);
         let format = egui_wgpu::preferred_framebuffer_format(&capabilities.formats).map_err(|e| e.to_string())?;
