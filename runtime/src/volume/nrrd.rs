@@ -165,11 +165,11 @@ impl TextHeader for Header {
         self.data_file.as_deref()
     }
 
-    /// Skips `line skip` lines, then reads the data after `byte skip`.
     fn info(&self) -> VolumeInfo {
         VolumeInfo { dims: self.dims, grid_to_world: self.grid_to_world, scaling: Scaling::IDENTITY }
     }
 
+    /// Skips `line skip` lines, then reads the data after `byte skip`.
     fn read_data(
         &self,
         reader: &mut dyn BufRead,
