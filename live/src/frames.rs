@@ -75,10 +75,6 @@ impl ViewFrames {
         &self.refiner
     }
 
-    pub fn refiner_mut(&mut self) -> &mut Refiner {
-        &mut self.refiner
-    }
-
     /// The user interacts with the view now.
     pub fn input(&mut self, now: Instant) {
         self.refiner.input(now);
