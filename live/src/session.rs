@@ -1,13 +1,16 @@
 //! A scene that follows its files: recomposition on demand, the last good state kept through a
 //! broken edit, and the user's own settings carried across reloads.
 
+use crate::save::{self, SaveError, SavedUniform};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
+use vrs_runtime::reflection::FunctionInfo;
+use vrs_runtime::tf::TfCurve;
 use vrs_runtime::view::Region;
 use vrs_runtime::{Applied, OrbitCamera, RuntimeError, SceneRenderer, SlicePlane, Value};
-use vrsc::compose::build::BuiltScene;
+use vrsc::compose::build::{self, BuiltScene, Keep};
 use vrsc::scene::UniformValue;
 
 /// Why a rebuild did not take effect (the last good state is still shown).
@@ -62,6 +65,8 @@ pub struct UserState {
     cameras: BTreeMap<String, (OrbitCamera, OrbitCamera)>,
     slices: BTreeMap<String, (SlicePlane, SlicePlane)>,
     sizes: BTreeMap<String, [u32; 2]>,
+    /// Transfer functions by volume, with the curve the scene gave it then.
+    curves: BTreeMap<String, (TfCurve, Option<TfCurve>)>,
 }
 
 /// A scene renderer that follows its files. See the crate documentation.
@@ -79,6 +84,10 @@ pub struct LiveScene {
     /// fixing a file that broke the import graph is seen too.
     files: Vec<PathBuf>,
     last_error: Option<String>,
+    /// The composition in use (the last good one), for the inspector.
+    built: Option<Arc<BuiltScene>>,
+    /// Each volume's transfer function as the scene file gives it (the last good load).
+    scene_curves: BTreeMap<String, TfCurve>,
 }
 
 impl LiveScene {
@@ -93,12 +102,15 @@ impl LiveScene {
             generations: BTreeMap::new(),
             files: Vec::new(),
             last_error: None,
+            built: None,
+            scene_curves: BTreeMap::new(),
         };
         live.note_scene_state();
         live.files = vec![live.renderer.path().to_path_buf()];
         if let Ok(cached) = live.renderer.compose() {
             live.files = files_of(&cached.built, live.renderer.path());
             live.scene_values = cached.scene.map(|s| s.uniform_values()).unwrap_or_default();
+            live.built = Some(cached.built);
         }
         live
     }
@@ -152,6 +164,7 @@ impl LiveScene {
             Ok(applied) => {
                 self.files = files;
                 self.scene_values = scene_values;
+                self.built = Some(built.clone());
                 self.note_scene_state();
                 self.restore_user_state();
                 self.bump_all();
@@ -194,6 +207,81 @@ impl LiveScene {
         }
         self.bump_all();
         Ok(())
+    }
+
+    /// The current value of uniform `name` (in the first view that reads it).
+    pub fn uniform(&self, name: &str) -> Option<Value> {
+        self.renderer.views.iter().find_map(|v| v.renderer.uniforms().get(name))
+    }
+
+    /// Whether the user changed uniform `name` (a reset or a save that the file then carries
+    /// makes it the scene's again).
+    pub fn is_user_uniform(&self, name: &str) -> bool {
+        self.user.uniforms.contains_key(name)
+    }
+
+    /// Writes the user's uniform values into the scene file's `[uniforms]` (and `[render]`),
+    /// keeping its comments and layout. Returns how many were saved. The file watcher then
+    /// sees the file change; the reload finds the same values.
+    pub fn save_uniforms(&mut self) -> Result<usize, SaveError> {
+        let uniforms: Vec<SavedUniform> = self
+            .user
+            .uniforms
+            .iter()
+            .filter_map(|(name, (value, _))| {
+                let ty =
+                    self.renderer.views.iter().find_map(|v| v.renderer.shader().reflection.uniform(name))?.ty.clone();
+                Some(SavedUniform { name: name.clone(), ty, value: value.clone() })
+            })
+            .collect();
+        save::save_uniforms(self.renderer.path(), &uniforms)?;
+        Ok(uniforms.len())
+    }
+
+    /// Gives volume `volume` the transfer function `curve` (one table rewritten, no pipeline);
+    /// it survives reloads until the scene file changes that volume's `tf`.
+    pub fn set_tf_curve(&mut self, volume: &str, curve: TfCurve) -> Result<(), RuntimeError> {
+        self.renderer.set_tf_curve(volume, curve.clone())?;
+        let then = self.scene_curves.get(volume).cloned();
+        self.user.curves.insert(volume.to_string(), (curve, then));
+        self.bump_all();
+        Ok(())
+    }
+
+    /// Puts volume `volume`'s transfer function back to the scene file's.
+    pub fn reset_tf_curve(&mut self, volume: &str) -> Result<(), RuntimeError> {
+        self.user.curves.remove(volume);
+        if let Some(curve) = self.scene_curves.get(volume).cloned() {
+            self.renderer.set_tf_curve(volume, curve)?;
+        }
+        self.bump_all();
+        Ok(())
+    }
+
+    /// The composition in use (the last good one).
+    pub fn built(&self) -> Option<&BuiltScene> {
+        self.built.as_deref()
+    }
+
+    /// View `index`'s composed WGSL with each function annotated by its origin, as
+    /// `vrsc explain` prints it (composes the view again, keeping its IR: a few milliseconds).
+    pub fn explain(&self, index: usize) -> Result<String, String> {
+        let name = self.renderer.views.get(index).map(|v| v.name.clone()).ok_or("no such view")?;
+        let built = build::build_scene_keeping(self.renderer.path(), Some(&name), Keep::Ir)
+            .map_err(|e| format!("`{}`: {e}", self.renderer.path().display()))?;
+        if built.diags.has_errors() {
+            return Err(vrsc::diag::render_plain(&built.diags.sorted(), &built.sources));
+        }
+        let view = built.views.first().ok_or("the view did not compose")?;
+        vrsc::compose::explain::explain(view, &built.sources).ok_or_else(|| "the view did not compose".to_string())
+    }
+
+    /// The VRS source text of a pipeline function of the composition in use.
+    pub fn function_source(&self, function: &FunctionInfo) -> Option<String> {
+        let sources = &self.built.as_ref()?.sources;
+        let (_, file) = sources.files().find(|(_, f)| f.name == function.file)?;
+        let [start, end] = function.span.map(|x| x as usize);
+        file.text.get(start..end).map(str::to_string)
     }
 
     /// The camera of raycast view `index`.
@@ -295,6 +383,8 @@ impl LiveScene {
     fn note_scene_state(&mut self) {
         self.scene_cameras.clear();
         self.scene_slices.clear();
+        self.scene_curves =
+            self.renderer.volumes().iter().filter_map(|v| Some((v.name.to_string(), v.curve?.clone()))).collect();
         for view in &self.renderer.views {
             if let Some(camera) = view.camera {
                 self.scene_cameras.insert(view.name.clone(), camera);
@@ -329,6 +419,14 @@ impl LiveScene {
             }
             if let Some(&size) = self.user.sizes.get(&view.name) {
                 view.renderer.resize(&gpu, size);
+            }
+        }
+        let curves = std::mem::take(&mut self.user.curves);
+        for (volume, (curve, then)) in curves {
+            if self.scene_curves.get(&volume) == then.as_ref()
+                && self.renderer.set_tf_curve(&volume, curve.clone()).is_ok()
+            {
+                self.user.curves.insert(volume, (curve, then));
             }
         }
         let names = self.view_names();

@@ -123,7 +123,25 @@ pub struct FieldInfo {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct StepInfo {
     pub step: String,
+    /// The functions that run, in execution order (all [`FunctionStatus::Active`]).
     pub functions: Vec<FunctionInfo>,
+    /// Functions placed into this step that do not run: removed or replaced by a later
+    /// module, or left out because their `when active` target was not there.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub not_placed: Vec<FunctionInfo>,
+}
+
+/// Whether a pipeline function of the view's modules runs.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum FunctionStatus {
+    /// Placed and run.
+    #[default]
+    Active,
+    /// Placed, then taken out by a later `remove` or `replace`.
+    Removed,
+    /// Never placed: its placement says `when active` and its target was not in the pipeline.
+    LeftOut,
 }
 
 /// A placed pipeline function and where its source is.
@@ -136,6 +154,14 @@ pub struct FunctionInfo {
     pub column: usize,
     /// Byte range in the file.
     pub span: [u32; 2],
+    #[serde(default)]
+    pub status: FunctionStatus,
+    /// The uniforms it declares (instantiated names), in declaration order.
+    #[serde(default)]
+    pub uniforms: Vec<String>,
+    /// The state fields it declares (instantiated names), in declaration order.
+    #[serde(default)]
+    pub fields: Vec<String>,
 }
 
 impl Reflection {
@@ -156,6 +182,11 @@ impl Reflection {
     /// The uniform called `name`, if the shader reads it.
     pub fn uniform(&self, name: &str) -> Option<&UniformInfo> {
         self.uniforms.iter().find(|u| u.name == name)
+    }
+
+    /// The running functions that declare uniform `name`, in pipeline order.
+    pub fn declared_by<'a>(&'a self, name: &'a str) -> impl Iterator<Item = &'a FunctionInfo> + 'a {
+        self.pipeline.iter().flat_map(|s| &s.functions).filter(move |f| f.uniforms.iter().any(|u| u == name))
     }
 }
 

@@ -45,7 +45,7 @@ pub use error::RuntimeError;
 pub use geometry::{OrbitCamera, SliceAxis, SlicePlane};
 pub use gpu::{AdapterChoice, Gpu};
 #[cfg(feature = "compiler")]
-pub use scene::{Applied, ProbeAt, ProbeImage, ProbeSpec, RenderOptions, SceneRenderer};
+pub use scene::{Applied, ProbeAt, ProbeImage, ProbeSpec, RenderOptions, SceneRenderer, VolumeStatus};
 pub use shader::{PipelineCache, ViewShader};
 pub use uniforms::Value;
 pub use view::{Region, Resources, ViewRenderer};

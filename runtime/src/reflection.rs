@@ -3,6 +3,6 @@
 //! once, in `vrs-reflection`, for the compiler and the runtime alike.
 
 pub use vrs_reflection::{
-    BindingInfo, BindingKind, FORMAT_VERSION, FieldInfo, FunctionInfo, Lifetime, Reflection, StateInfo, StepInfo,
-    UniformBlock, UniformInfo, content_hash,
+    BindingInfo, BindingKind, FORMAT_VERSION, FieldInfo, FunctionInfo, FunctionStatus, Lifetime, Reflection, StateInfo,
+    StepInfo, UniformBlock, UniformInfo, content_hash,
 };

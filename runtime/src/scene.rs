@@ -19,7 +19,9 @@ use vrsc::compose::cache::{CachedBuild, CompositionCache};
 use vrsc::scene::{self as vscene, Role, Scene, TfRef, UniformValue, ViewKind, VolumeSource};
 
 mod probe;
+mod tf_edit;
 pub use probe::{ProbeAt, ProbeImage, ProbeSpec};
+pub use tf_edit::VolumeStatus;
 
 /// Choices a scene file does not make.
 #[derive(Clone, Debug)]
@@ -89,6 +91,10 @@ struct VolumeGrid {
     grid_to_world: Mat4,
     /// The data values its texture's [0, 1] stands for; transfer functions are resampled over it.
     window: [f32; 2],
+    /// Voxel counts over the window (see [`VolumeTexture::histogram`]).
+    histogram: Vec<u64>,
+    /// The control points of its transfer function (`None` for a mask, which has none).
+    curve: Option<tf::TfCurve>,
 }
 
 /// Progress of loading a volume: (volume name, bytes done, bytes in all).
@@ -448,11 +454,12 @@ fn load_volumes(
         // Only empty-space skipping reads the samples again (its occupancy grid); any other
         // volume file is streamed into its texture without a copy in memory.
         let keep = is_primary && scene.render.empty_space_skipping;
-        let table = match &v.tf {
-            Some(TfRef::Preset(p)) => Some(tf::preset(&p.value)?),
-            Some(TfRef::File(file)) => Some(tf::from_paraview_json(&file.resolved)?),
+        let curve = match &v.tf {
+            Some(TfRef::Preset(p)) => Some(tf::preset_curve(&p.value)?),
+            Some(TfRef::File(file)) => Some(tf::paraview_curve(&file.resolved)?),
             None => None,
         };
+        let table = curve.as_ref().map(tf::TfCurve::table);
         // The scene's window, else the domain of a transfer function in data units (a CT
         // preset's Hounsfield range, a ParaView colormap's), else percentiles of the data.
         let fixed = v.window.as_ref().map(|w| w.value).or(match table.as_ref().map(|t| t.domain) {
@@ -491,7 +498,14 @@ fn load_volumes(
             ));
         }
         let binding = if is_primary { "volume".to_string() } else { format!("volume_{name}") };
-        grids.push(VolumeGrid { name: name.clone(), dims: texture.dims, grid_to_world: texture.grid_to_world, window });
+        grids.push(VolumeGrid {
+            name: name.clone(),
+            dims: texture.dims,
+            grid_to_world: texture.grid_to_world,
+            window,
+            histogram: texture.histogram.clone(),
+            curve,
+        });
         if keep {
             primary_volume = data;
         }

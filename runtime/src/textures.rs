@@ -14,7 +14,14 @@ pub struct VolumeTexture {
     pub dims: [u32; 3],
     /// Voxel index to world, from the file's header.
     pub grid_to_world: Mat4,
+    /// How many voxels fall in each of [`HISTOGRAM_BINS`] equal parts of the window the
+    /// texture is normalized by (voxels outside the window count in the end bins): what the
+    /// transfer-function editor draws.
+    pub histogram: Vec<u64>,
 }
+
+/// Bins of a [`VolumeTexture`]'s histogram.
+pub const HISTOGRAM_BINS: usize = 256;
 
 impl VolumeTexture {
     /// Uploads `volume`, mapping `window` (or its value range) to [0, 1]. Refuses grids beyond
@@ -131,6 +138,7 @@ pub struct TextureWriter<'g> {
     z: u32,
     /// Bytes written since the last submit.
     pending: usize,
+    histogram: Vec<u64>,
 }
 
 impl<'g> TextureWriter<'g> {
@@ -170,12 +178,15 @@ impl<'g> TextureWriter<'g> {
             slab: Vec::with_capacity(capacity),
             z: 0,
             pending: 0,
+            histogram: vec![0; HISTOGRAM_BINS],
         })
     }
 
     /// The next stored sample.
     pub fn push(&mut self, stored: f32) {
-        self.slab.push(half::f16::from_f32(self.window.apply(stored)));
+        let normalized = self.window.apply(stored);
+        self.histogram[((normalized * HISTOGRAM_BINS as f32) as usize).min(HISTOGRAM_BINS - 1)] += 1;
+        self.slab.push(half::f16::from_f32(normalized));
         if self.slab.len() >= SLAB_TEXELS.max(self.slice()) {
             self.write();
         }
@@ -225,7 +236,8 @@ impl<'g> TextureWriter<'g> {
             )));
         }
         let view = self.texture.create_view(&wgpu::TextureViewDescriptor::default());
-        Ok(VolumeTexture { texture: self.texture, view, dims: self.info.dims, grid_to_world: self.info.grid_to_world })
+        let (dims, grid_to_world, histogram) = (self.info.dims, self.info.grid_to_world, self.histogram);
+        Ok(VolumeTexture { texture: self.texture, view, dims, grid_to_world, histogram })
     }
 }
 

@@ -20,6 +20,9 @@ use std::path::{Path, PathBuf};
 
 use serde_json::Value;
 
+mod curve;
+pub use curve::TfCurve;
+
 /// Entries in a transfer function table.
 pub const TF_WIDTH: u32 = 1024;
 
@@ -138,8 +141,19 @@ impl std::error::Error for TfError {
 
 /// The preset `name` (one of [`PRESETS`]).
 pub fn preset(name: &str) -> Result<TransferFunction, TfError> {
+    preset_curve(name).map(|c| c.table())
+}
+
+/// The control points of preset `name` (one of [`PRESETS`]).
+pub fn preset_curve(name: &str) -> Result<TfCurve, TfError> {
+    let curve = |color: &[ColorPoint], opacity: &[OpacityPoint], domain| TfCurve {
+        name: name.to_string(),
+        color: color.to_vec(),
+        opacity: opacity.to_vec(),
+        domain,
+    };
     if let Some((color, opacity)) = ct_preset(name) {
-        return Ok(from_data_points(name, color, opacity, CT_DOMAIN));
+        return Ok(curve(color, opacity, TfDomain::Data(CT_DOMAIN)));
     }
     let (color, opacity): (&[ColorPoint], &[OpacityPoint]) = match name {
         // A grey ramp; opacity grows with the value so dense material hides what is behind it.
@@ -167,7 +181,7 @@ pub fn preset(name: &str) -> Result<TransferFunction, TfError> {
         "labels" => return Ok(labels()),
         _ => return Err(TfError::UnknownPreset { name: name.to_string() }),
     };
-    Ok(from_points(name, color, opacity))
+    Ok(curve(color, opacity, TfDomain::Window))
 }
 
 /// The control points of the CT presets, in Hounsfield units. Reference levels: air -1000,
@@ -285,7 +299,7 @@ const LABEL_COLOURS: [[f32; 3]; 16] = [
 /// 0..=L (L <= 16) normalized by their range, every label gets its own bin and colour; label 0
 /// is transparent. (Label volumes should be sampled without interpolation, or values between
 /// two labels pass through other bins.)
-fn labels() -> TransferFunction {
+fn labels() -> TfCurve {
     let bins = LABEL_COLOURS.len();
     let edge = |k: usize| (k as f32 + 0.5) / bins as f32;
     let mut color = vec![(0.0, [0.0; 3])];
@@ -297,7 +311,7 @@ fn labels() -> TransferFunction {
         color.extend([(edge(i), previous), (edge(i), c)]);
         opacity.extend([(edge(i), previous_opacity), (edge(i), 0.6)]);
     }
-    from_points("labels", &color, &opacity)
+    TfCurve { name: "labels".into(), color, opacity, domain: TfDomain::Window }
 }
 
 /// A transfer function over data values `domain` from control points in data units.
@@ -369,13 +383,18 @@ impl<const N: usize> Table<N> {
 /// largest x of both lists ([`TfDomain::Data`]), and is resampled over each volume's window
 /// when uploaded. Without `Points` the opacity is a linear ramp over the colour points' range.
 pub fn from_paraview_json(path: &Path) -> Result<TransferFunction, TfError> {
+    paraview_curve(path).map(|c| c.table())
+}
+
+/// The control points of a ParaView colormap file (see [`from_paraview_json`]).
+pub fn paraview_curve(path: &Path) -> Result<TfCurve, TfError> {
     let text = std::fs::read_to_string(path).map_err(|error| TfError::Io { path: path.to_path_buf(), error })?;
     let stem = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
     parse_paraview(&text, &stem).map_err(|message| TfError::Invalid { path: path.to_path_buf(), message })
 }
 
 /// Parses a ParaView colormap's text; errors are messages for users.
-fn parse_paraview(text: &str, fallback_name: &str) -> Result<TransferFunction, String> {
+fn parse_paraview(text: &str, fallback_name: &str) -> Result<TfCurve, String> {
     let json: Value = serde_json::from_str(text).map_err(|e| format!("not valid JSON: {e}"))?;
     let colormap = match &json {
         Value::Array(items) => items.iter().find(|item| item.get("RGBPoints").is_some()),
@@ -410,7 +429,7 @@ fn parse_paraview(text: &str, fallback_name: &str) -> Result<TransferFunction, S
     let name = colormap.get("Name").and_then(Value::as_str).unwrap_or(fallback_name);
     // One x for every point: a step at that value, over a domain of one unit around it.
     let domain = if hi > lo { [lo, hi] } else { [lo - 0.5, lo + 0.5] };
-    Ok(from_data_points(name, &color, &opacity, domain))
+    Ok(TfCurve { name: name.to_string(), color, opacity, domain: TfDomain::Data(domain) })
 }
 
 /// The array of finite numbers under `key`, if the key is present.

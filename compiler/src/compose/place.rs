@@ -56,6 +56,21 @@ pub struct Composition {
     /// Uniforms declared by placed functions, in the order of their first declaration along the
     /// pipeline.
     pub uniforms: Vec<Uniform>,
+    /// Pipeline functions of the modules that do not run, in module order.
+    pub not_placed: Vec<NotPlaced>,
+}
+
+/// A pipeline function that was given to the composer but does not run.
+#[derive(Clone, Debug)]
+pub struct NotPlaced {
+    /// Index into [`hir::Program::pipelines`].
+    pub pipeline: usize,
+    pub name: String,
+    pub instance: Option<String>,
+    /// The step its placement names.
+    pub step: Step,
+    /// Placed, then removed or replaced (`true`); or left out by `when active` (`false`).
+    pub removed: bool,
 }
 
 /// The functions of one step, in execution order.
@@ -218,14 +233,38 @@ pub fn compose(
         replaced: FxHashMap::default(),
         diags,
     };
+    let mut ever_placed = vec![false; units.len()];
     for (u, unit) in units.iter().enumerate() {
         match unit.source {
-            Source::Pipeline(_) => placer.place(u),
+            Source::Pipeline(_) => {
+                placer.place(u);
+                ever_placed[u] = placer.steps.iter().any(|s| s.contains(&u));
+            }
             Source::Remove(_) => placer.remove(u),
         }
     }
     let placed = placer.steps;
-    Merger { program, units: &units, is_std: &is_std, required, diags }.merge(&placed)
+    let not_placed = not_placed(program, &units, &placed, &ever_placed);
+    let mut composition = Merger { program, units: &units, is_std: &is_std, required, diags }.merge(&placed);
+    composition.not_placed = not_placed;
+    composition
+}
+
+/// The pipeline functions that were removed after placement, or left out by `when active`
+/// (a function refused with an error is neither).
+fn not_placed(program: &hir::Program, units: &[Unit], placed: &[Vec<usize>], ever: &[bool]) -> Vec<NotPlaced> {
+    let running = |u: usize| placed.iter().any(|s| s.contains(&u));
+    let mut out = Vec::new();
+    for (u, unit) in units.iter().enumerate() {
+        let Source::Pipeline(i) = unit.source else { continue };
+        let placement = &program.pipelines[i].placement;
+        if running(u) || !(ever[u] || placement.when_active) {
+            continue;
+        }
+        let (name, instance) = (unit.name.clone(), unit.instance.clone());
+        out.push(NotPlaced { pipeline: i, name, instance, step: placement.step, removed: ever[u] });
+    }
+    out
 }
 
 /// Where an instantiated item comes from.
@@ -834,7 +873,7 @@ impl<'a, F: Fn(usize) -> bool> Merger<'a, F> {
             })
             .collect();
 
-        Composition { steps, fields: out_fields, uniforms: out_uniforms }
+        Composition { steps, fields: out_fields, uniforms: out_uniforms, not_placed: Vec::new() }
     }
 
     /// Type, lifetime and default of a later declaration against the first ones. Declarations
@@ -1259,6 +1298,8 @@ mod tests {
         let (c, d) = f.compose(&f.all());
         assert!(d.is_empty(), "{:?}", codes(&d));
         assert_eq!(names(&c, Step::ShadingTone), ["again"]);
+        let removed: Vec<(&str, bool)> = c.not_placed.iter().map(|n| (n.name.as_str(), n.removed)).collect();
+        assert_eq!(removed, [("tone", true), ("mine", true)]);
     }
 
     #[test]
@@ -1278,6 +1319,8 @@ mod tests {
         assert_eq!(names(&c, Step::ShadingLights), ["key", "a1", "fill", "a4"]);
         assert!(names(&c, Step::ShadingBoundary).is_empty());
         assert_eq!(names(&c, Step::ShadingTone), ["a6", "tone"]);
+        let not_placed: Vec<(&str, bool)> = c.not_placed.iter().map(|n| (n.name.as_str(), n.removed)).collect();
+        assert_eq!(not_placed, [("a2", false), ("a3", false), ("a5", false)]);
     }
 
     #[test]

@@ -6,11 +6,11 @@ use super::place::Composition;
 use super::view::ViewModule;
 use crate::hir::{self, ConstValue, ScalarValue};
 use crate::scene::{Scene, UniformValue, View};
-use crate::source::SourceMap;
+use crate::source::{SourceMap, Span};
 use serde_json::Value;
 pub use vrs_reflection::{
-    BindingInfo, BindingKind, FORMAT_VERSION, FieldInfo, FunctionInfo, Lifetime, Reflection, StateInfo, StepInfo,
-    UniformBlock, UniformInfo, content_hash,
+    BindingInfo, BindingKind, FORMAT_VERSION, FieldInfo, FunctionInfo, FunctionStatus, Lifetime, Reflection, StateInfo,
+    StepInfo, UniformBlock, UniformInfo, content_hash,
 };
 
 /// xxh3-64 (hex) of the WGSL and the bindings' JSON, joined by a newline.
@@ -64,29 +64,7 @@ pub fn reflect(
             default: const_json(&f.default),
         })
         .collect();
-    let map = comp.pipeline_map(program, sources);
-    let pipeline = comp
-        .steps
-        .iter()
-        .map(|s| StepInfo {
-            step: s.step.name().to_string(),
-            functions: map
-                .iter()
-                .filter(|e| e.step == s.step)
-                .map(|e| {
-                    let local = sources.locate(e.span).map_or([0, 0], |(_, r)| [r.start as u32, r.end as u32]);
-                    FunctionInfo {
-                        name: e.name.clone(),
-                        instance: e.instance.clone(),
-                        file: e.file.clone(),
-                        line: e.line,
-                        column: e.column,
-                        span: local,
-                    }
-                })
-                .collect(),
-        })
-        .collect();
+    let pipeline = pipeline_info(comp, program, sources);
     let bindings_json = serde_json::to_string(&vm.bindings).unwrap_or_default();
     Reflection {
         format_version: FORMAT_VERSION,
@@ -102,6 +80,64 @@ pub fn reflect(
         state: StateInfo { size: vm.state_layout.size, fields },
         pipeline,
     }
+}
+
+/// The pipeline map: every step's running functions with their origin and declarations, and
+/// the functions that do not run.
+fn pipeline_info(comp: &Composition, program: &hir::Program, sources: &SourceMap) -> Vec<StepInfo> {
+    let function = |pipeline: usize, name: &str, instance: &Option<String>, status| {
+        let span = program.pipelines.get(pipeline).map_or(Span::DUMMY, |p| p.span);
+        let (file, line, column) = match sources.position(span.start) {
+            Some((id, p)) => (sources.file(id).name.clone(), p.line, p.column),
+            None => (String::from("?"), 0, 0),
+        };
+        let local = sources.locate(span).map_or([0, 0], |(_, r)| [r.start as u32, r.end as u32]);
+        FunctionInfo {
+            name: name.to_string(),
+            instance: instance.clone(),
+            file,
+            line,
+            column,
+            span: local,
+            status,
+            uniforms: Vec::new(),
+            fields: Vec::new(),
+        }
+    };
+    let subst = |names: &mut dyn Iterator<Item = &String>, instance: &Option<String>| -> Vec<String> {
+        names.map(|n| super::place::subst(n, instance.as_deref())).collect()
+    };
+    comp.steps
+        .iter()
+        .map(|s| StepInfo {
+            step: s.step.name().to_string(),
+            functions: s
+                .functions
+                .iter()
+                .map(|f| FunctionInfo {
+                    uniforms: f.uniforms.iter().map(|&i| comp.uniforms[i].name.clone()).collect(),
+                    fields: f.state.iter().flatten().map(|&i| comp.fields[i].name.clone()).collect(),
+                    ..function(f.pipeline, &f.name, &f.instance, FunctionStatus::Active)
+                })
+                .collect(),
+            not_placed: comp
+                .not_placed
+                .iter()
+                .filter(|n| n.step == s.step)
+                .map(|n| {
+                    let status = if n.removed { FunctionStatus::Removed } else { FunctionStatus::LeftOut };
+                    let p = program.pipelines.get(n.pipeline);
+                    FunctionInfo {
+                        uniforms: p
+                            .map(|p| subst(&mut p.uniforms.iter().map(|u| &u.name), &n.instance))
+                            .unwrap_or_default(),
+                        fields: p.map(|p| subst(&mut p.state.iter().map(|f| &f.name), &n.instance)).unwrap_or_default(),
+                        ..function(n.pipeline, &n.name, &n.instance, status)
+                    }
+                })
+                .collect(),
+        })
+        .collect()
 }
 
 fn scalar_json(v: ScalarValue) -> Value {
