@@ -19,6 +19,6 @@ mod watch;
 
 pub use frames::{GpuWaiter, Shown, ViewFrames};
 pub use refine::{Quality, Refiner, Work};
-pub use save::{RENDER_UNIFORMS, SaveError, SavedUniform, save_uniforms, with_uniforms};
+pub use save::{RENDER_UNIFORMS, SaveError, SavedUniform, save_uniforms, set_volume_tf, with_uniforms};
 pub use session::{Failure, LiveScene, Rebuild, UserState};
 pub use watch::FileWatcher;

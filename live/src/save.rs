@@ -80,6 +80,37 @@ pub fn with_uniforms(text: &str, uniforms: &[SavedUniform]) -> Result<String, St
     Ok(doc.to_string())
 }
 
+/// Points the `tf` of the scene's `[[volume]]` named `volume` at `tf` (a preset name or a
+/// colormap path as the scene writes it), keeping everything else of the file.
+pub fn set_volume_tf(path: &Path, volume: &str, tf: &str) -> Result<(), SaveError> {
+    let io = |error| SaveError::Io { path: path.to_path_buf(), error };
+    let parse = |message: String| SaveError::Parse { path: path.to_path_buf(), message };
+    let text = std::fs::read_to_string(path).map_err(io)?;
+    let mut doc: DocumentMut = text.parse().map_err(|e: toml_edit::TomlError| parse(e.to_string()))?;
+    let volumes = doc.get_mut("volume").and_then(Item::as_array_of_tables_mut);
+    let table = volumes
+        .and_then(|v| v.iter_mut().find(|t| t.get("name").and_then(Item::as_str) == Some(volume)))
+        .ok_or_else(|| parse(format!("it has no [[volume]] named `{volume}`")))?;
+    match table.get_mut("tf").and_then(Item::as_value_mut) {
+        Some(old) => {
+            let decor = old.decor().clone();
+            *old = Toml::from(tf);
+            *old.decor_mut() = decor;
+        }
+        None => {
+            table.insert("tf", toml_edit::value(tf));
+        }
+    }
+    write_atomically(path, &doc.to_string())
+}
+
+fn write_atomically(path: &Path, text: &str) -> Result<(), SaveError> {
+    let io = |error| SaveError::Io { path: path.to_path_buf(), error };
+    let temporary = path.with_extension("toml.saving");
+    std::fs::write(&temporary, text).map_err(io)?;
+    std::fs::rename(&temporary, path).map_err(io)
+}
+
 /// The table `name`, created (after everything else) when the file has none.
 fn table_mut<'d>(doc: &'d mut DocumentMut, name: &str) -> Result<&'d mut Table, String> {
     let item = doc.entry(name).or_insert_with(|| Item::Table(Table::new()));
@@ -153,6 +184,20 @@ mod tests {
         assert!(ints.contains("count = [3, 4]"), "{ints}");
         let one = with_uniforms("", &[saved("v", "vec1f", Value::Float(vec![0.1]))]).unwrap();
         assert!(one.contains("v = [0.1]"), "{one}");
+    }
+
+    #[test]
+    fn a_volume_tf_is_pointed_at_a_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("scene.toml");
+        let scene = "[[volume]]\nname = \"t1\"\ntf = \"grayscale\" # first try\n\n[[volume]]\nname = \"gm\"\n";
+        std::fs::write(&path, scene).unwrap();
+        set_volume_tf(&path, "t1", "t1_tf.json").unwrap();
+        set_volume_tf(&path, "gm", "gm_tf.json").unwrap();
+        let text = std::fs::read_to_string(&path).unwrap();
+        assert!(text.contains("tf = \"t1_tf.json\" # first try\n"), "{text}");
+        assert!(text.contains("name = \"gm\"\ntf = \"gm_tf.json\""), "{text}");
+        assert!(set_volume_tf(&path, "nope", "x.json").is_err());
     }
 
     #[test]

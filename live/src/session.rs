@@ -9,7 +9,7 @@ use std::time::{Duration, Instant};
 use vrs_runtime::reflection::FunctionInfo;
 use vrs_runtime::tf::TfCurve;
 use vrs_runtime::view::Region;
-use vrs_runtime::{Applied, OrbitCamera, RuntimeError, SceneRenderer, SlicePlane, Value};
+use vrs_runtime::{Applied, OrbitCamera, ProbeImage, ProbeSpec, RuntimeError, SceneRenderer, SlicePlane, Value};
 use vrsc::compose::build::{self, BuiltScene, Keep};
 use vrsc::scene::UniformValue;
 
@@ -248,6 +248,23 @@ impl LiveScene {
         Ok(())
     }
 
+    /// Saves volume `volume`'s transfer function as a ParaView colormap at `path` (in data
+    /// units, loading back to the same table) and points the scene's `tf` of the volume at it
+    /// (relative to the scene's folder when it is inside it).
+    pub fn save_tf_curve(&mut self, volume: &str, path: &Path) -> Result<(), SaveError> {
+        let io = |error| SaveError::Io { path: path.to_path_buf(), error };
+        let status = self.renderer.volumes().into_iter().find(|v| v.name == volume);
+        let (curve, window) = match status.and_then(|v| Some((v.curve?.clone(), v.window))) {
+            Some(found) => found,
+            None => return Err(io(std::io::Error::other(format!("volume `{volume}` has no transfer function")))),
+        };
+        std::fs::write(path, curve.to_paraview_json(window)).map_err(io)?;
+        let scene = self.renderer.path();
+        let folder = scene.parent().unwrap_or(Path::new("."));
+        let shown = path.strip_prefix(folder).unwrap_or(path).to_string_lossy().into_owned();
+        save::set_volume_tf(scene, volume, &shown)
+    }
+
     /// Puts volume `volume`'s transfer function back to the scene file's.
     pub fn reset_tf_curve(&mut self, volume: &str) -> Result<(), RuntimeError> {
         self.user.curves.remove(volume);
@@ -282,6 +299,11 @@ impl LiveScene {
         let (_, file) = sources.files().find(|(_, f)| f.name == function.file)?;
         let [start, end] = function.span.map(|x| x as usize);
         file.text.get(start..end).map(str::to_string)
+    }
+
+    /// Renders a probe of view `index` as it shows now (see [`SceneRenderer::render_probe`]).
+    pub fn render_probe(&mut self, index: usize, spec: &ProbeSpec) -> Result<ProbeImage, RuntimeError> {
+        self.renderer.render_probe(index, spec)
     }
 
     /// The camera of raycast view `index`.

@@ -420,6 +420,13 @@ fn apply_view_uniforms(view: &mut SceneView, grids: &[VolumeGrid]) -> Result<(),
     Ok(())
 }
 
+/// Whether the renderer sets uniform `name` itself before every frame (what
+/// `apply_view_uniforms` writes: the camera, the slice plane, the transforms between
+/// volumes), so a value set by hand would not last.
+pub fn is_set_by_renderer(name: &str) -> bool {
+    matches!(name, "inv_view_proj" | "slice_origin" | "slice_u" | "slice_v" | "slab") || name.starts_with("primary_to_")
+}
+
 /// What [`load_volumes`] leaves for the renderer besides the uploaded textures.
 struct Loaded {
     /// Every volume's grid, primary first.

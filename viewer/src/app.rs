@@ -2,6 +2,7 @@
 //! frame's GPU work submitted without waiting for it.
 
 use crate::panel::{self, Layout, ViewSlot};
+use crate::side::SidePanel;
 use crate::window::Surface;
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -56,6 +57,7 @@ struct Running {
     waiter: GpuWaiter,
     slots: Vec<ViewSlot>,
     layout: Layout,
+    side: SidePanel,
     status: String,
 }
 
@@ -138,6 +140,7 @@ impl App {
             waiter,
             slots: Vec::new(),
             layout: Layout::Tiles,
+            side: SidePanel::default(),
             status: "watching the scene's files".into(),
         };
         running.sync_slots(self.options.budget);
@@ -168,8 +171,11 @@ impl Running {
         let raw = self.input.take_egui_input(&self.surface.window);
         let egui = self.egui.clone();
         let output = egui.run_ui(raw, |ui| {
-            panel::show(ui, &mut self.live, &mut self.slots, &mut self.layout, &self.status, now);
+            panel::show(ui, &mut self.live, &mut self.slots, &mut self.layout, &mut self.side, &self.status, now);
         });
+        for (index, slot) in self.slots.iter_mut().enumerate() {
+            slot.update_probe(&self.egui, &mut self.live, index, now);
+        }
         self.input.handle_platform_output(&self.surface.window, output.platform_output.clone());
         let mut busy = false;
         for (index, slot) in self.slots.iter_mut().enumerate() {

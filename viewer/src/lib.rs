@@ -4,11 +4,23 @@
 //! diagnostics of a broken edit over the last good picture; progressive refinement so the window
 //! stays responsive on a software adapter.
 //!
+//! The side panel is generated from the views' reflection: a control for every uniform
+//! ([`controls`], [`params`]), a transfer-function editor per volume ([`tf_editor`]), and an
+//! inspector of each view's pipeline and composed WGSL ([`inspector`]); each view can show any
+//! state field as a probe instead of its picture. The panels only draw and return
+//! [`actions::Action`]s, applied to the live scene in one place, so they are tested headless.
+//!
 //! The compiler and the runtime stay free of GUI dependencies: winit and egui live here only.
 
+pub mod actions;
 mod app;
+pub mod controls;
+pub mod inspector;
 pub mod navigate;
 mod panel;
+pub mod params;
+mod side;
+pub mod tf_editor;
 mod window;
 
 pub use app::{ViewerOptions, run};

@@ -2,6 +2,7 @@
 //! status line, and the diagnostics of a broken edit over the last good picture.
 
 use crate::navigate;
+use crate::side::SidePanel;
 use crate::window::Surface;
 use egui::{Color32, Rect, Sense, Vec2};
 use std::time::Instant;
@@ -22,17 +23,50 @@ pub struct ViewSlot {
     pub frames: ViewFrames,
     /// The egui texture id, and the wgpu texture it currently shows.
     texture: Option<(egui::TextureId, wgpu::Texture)>,
+    /// The state field shown instead of the picture, if any.
+    pub probe: Option<ProbeView>,
+}
+
+/// A probe shown in a view's place: the field, and its image once rendered.
+pub struct ProbeView {
+    pub field: String,
+    /// The image, its legend, and the view generation it shows.
+    pub shown: Option<(egui::TextureHandle, String, u64)>,
+    /// Why the last probe could not be rendered.
+    pub error: Option<String>,
 }
 
 impl ViewSlot {
     pub fn new(name: String, frames: ViewFrames) -> ViewSlot {
-        ViewSlot { name, frames, texture: None }
+        ViewSlot { name, frames, texture: None, probe: None }
     }
 
-    /// The same view after a reload: the schedule starts again, the texture id is kept.
+    /// The same view after a reload: the schedule starts again, the texture id and the probe
+    /// (rendered again) are kept.
     pub fn clone_for(&self, name: &str) -> ViewSlot {
         let budget = self.frames.refiner().budget;
-        ViewSlot { name: name.to_string(), frames: ViewFrames::new(budget), texture: self.texture.clone() }
+        let probe = self.probe.as_ref().map(|p| ProbeView { field: p.field.clone(), shown: None, error: None });
+        ViewSlot { name: name.to_string(), frames: ViewFrames::new(budget), texture: self.texture.clone(), probe }
+    }
+
+    /// Renders the probe again when the view changed and the user is not interacting (a probe
+    /// is a full-resolution render that the window waits for).
+    pub fn update_probe(&mut self, ctx: &egui::Context, live: &mut LiveScene, index: usize, now: Instant) {
+        let Some(probe) = &mut self.probe else { return };
+        let generation = live.generation(index);
+        let current = probe.shown.as_ref().is_some_and(|(_, _, g)| *g == generation);
+        if current || self.frames.refiner().interacting(now) || probe.error.is_some() {
+            return;
+        }
+        match live.render_probe(index, &vrs_runtime::ProbeSpec::of(probe.field.clone())) {
+            Ok(image) => {
+                let size = [image.image.width() as usize, image.image.height() as usize];
+                let colours = egui::ColorImage::from_rgba_unmultiplied(size, image.image.as_raw());
+                let texture = ctx.load_texture(format!("probe {index}"), colours, egui::TextureOptions::LINEAR);
+                probe.shown = Some((texture, image.legend(), generation));
+            }
+            Err(e) => probe.error = Some(e.to_string()),
+        }
     }
 
     /// Points the view's egui texture at the picture to show now (no copy: egui samples the
@@ -62,10 +96,11 @@ pub fn show(
     live: &mut LiveScene,
     slots: &mut [ViewSlot],
     layout: &mut Layout,
+    side: &mut SidePanel,
     status: &str,
     now: Instant,
 ) {
-    egui::Panel::top("toolbar").show(ui, |ui| toolbar(ui, slots, layout));
+    egui::Panel::top("toolbar").show(ui, |ui| toolbar(ui, slots, layout, side));
     egui::Panel::bottom("status").show(ui, |ui| {
         ui.label(status);
         if let Some(error) = live.last_error() {
@@ -74,6 +109,9 @@ pub fn show(
             });
         }
     });
+    if side.show(ui, live) {
+        slots.iter_mut().for_each(|s| s.frames.input(now));
+    }
     egui::CentralPanel::default().show(ui, |ui| {
         let area = ui.available_rect_before_wrap();
         let shown: Vec<usize> = match *layout {
@@ -88,8 +126,10 @@ pub fn show(
     });
 }
 
-fn toolbar(ui: &mut egui::Ui, slots: &[ViewSlot], layout: &mut Layout) {
+fn toolbar(ui: &mut egui::Ui, slots: &[ViewSlot], layout: &mut Layout, side: &mut SidePanel) {
     ui.horizontal(|ui| {
+        ui.toggle_value(&mut side.open, "Panel");
+        ui.separator();
         ui.selectable_value(layout, Layout::Tiles, "All views");
         for (i, slot) in slots.iter().enumerate() {
             ui.selectable_value(layout, Layout::Tab(i), &slot.name);
@@ -138,12 +178,49 @@ fn view_cell(
         slot.frames.input(now);
     }
     ui.painter().rect_filled(image, 0.0, Color32::from_gray(12));
-    if let Some((id, _)) = &slot.texture {
-        let uv = Rect::from_min_max(egui::pos2(0.0, 0.0), egui::pos2(1.0, 1.0));
-        ui.painter().image(*id, image, uv, Color32::WHITE);
+    let uv = Rect::from_min_max(egui::pos2(0.0, 0.0), egui::pos2(1.0, 1.0));
+    let probe = slot.probe.as_ref().and_then(|p| p.shown.as_ref());
+    match (probe, &slot.texture) {
+        (Some((texture, _, _)), _) => {
+            ui.painter().image(texture.id(), image, uv, Color32::WHITE);
+        }
+        (None, Some((id, _))) => {
+            ui.painter().image(*id, image, uv, Color32::WHITE);
+        }
+        (None, None) => {}
+    }
+    if let Some(p) = &slot.probe {
+        let legend = match (&p.error, &p.shown) {
+            (Some(e), _) => e.clone(),
+            (None, Some((_, legend, _))) => legend.clone(),
+            (None, None) => format!("probing `{}`…", p.field),
+        };
+        let at = image.left_bottom() + Vec2::new(4.0, -4.0);
+        let font = egui::FontId::monospace(11.0);
+        ui.painter().text(at, egui::Align2::LEFT_BOTTOM, legend, font, Color32::from_rgb(255, 230, 150));
     }
     let caption = format!("{} — {}", slot.name, describe(&slot.frames, size));
     ui.painter().text(cell.min, egui::Align2::LEFT_TOP, caption, egui::FontId::proportional(13.0), Color32::LIGHT_GRAY);
+    let menu = Rect::from_min_max(egui::pos2(cell.max.x - 150.0, cell.min.y), egui::pos2(cell.max.x, cell.min.y + caption_height));
+    ui.scope_builder(egui::UiBuilder::new().max_rect(menu), |ui| probe_menu(ui, live, slot, index));
+}
+
+/// The field menu of a view: the picture, or any state field as a probe.
+fn probe_menu(ui: &mut egui::Ui, live: &LiveScene, slot: &mut ViewSlot, index: usize) {
+    let Some(view) = live.renderer().views.get(index) else { return };
+    let fields = &view.renderer.shader().reflection.state.fields;
+    let current = slot.probe.as_ref().map_or("picture", |p| p.field.as_str()).to_string();
+    egui::ComboBox::from_id_salt(("probe", index)).selected_text(format!("show: {current}")).show_ui(ui, |ui| {
+        if ui.selectable_label(slot.probe.is_none(), "picture").clicked() {
+            slot.probe = None;
+        }
+        for f in fields {
+            let label = format!("{}: {}", f.name, f.ty);
+            if ui.selectable_label(current == f.name, label).clicked() {
+                slot.probe = Some(ProbeView { field: f.name.clone(), shown: None, error: None });
+            }
+        }
+    });
 }
 
 /// The quality of the picture and the time of the last piece of work, for the caption.

@@ -1,0 +1,46 @@
+//! What the panels ask for, applied to the live scene in one place: the panels only draw and
+//! report, so they can be tested without a GPU.
+
+use std::path::PathBuf;
+use vrs_live::LiveScene;
+use vrs_runtime::Value;
+use vrs_runtime::tf::TfCurve;
+
+/// A change the user asked for in a panel.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Action {
+    /// A uniform's new value (the uniform block only: no recompilation).
+    SetUniform(String, Value),
+    /// Back to the scene's value (or the default).
+    ResetUniform(String),
+    /// The changed uniforms into the scene file.
+    SaveUniforms,
+    /// A volume's new transfer function (its table only: no pipeline).
+    SetCurve(String, TfCurve),
+    /// Back to the scene's transfer function.
+    ResetCurve(String),
+    /// The volume's transfer function as a ParaView colormap at this path, and the scene's
+    /// `tf` of the volume pointed at it.
+    SaveCurve(String, PathBuf),
+}
+
+/// Applies `action`; the message says what happened (or why not), for the status line.
+pub fn apply(live: &mut LiveScene, action: Action) -> Result<String, String> {
+    match action {
+        Action::SetUniform(name, value) => live.set_uniform(&name, value).map(|_| String::new()),
+        Action::ResetUniform(name) => live.reset_uniform(&name).map(|_| format!("`{name}` reset")),
+        Action::SaveUniforms => {
+            let saved = live.save_uniforms().map_err(|e| e.to_string())?;
+            return Ok(format!("saved {saved} value(s) into {}", live.renderer().path().display()));
+        }
+        Action::SetCurve(volume, curve) => live.set_tf_curve(&volume, curve).map(|_| String::new()),
+        Action::ResetCurve(volume) => live.reset_tf_curve(&volume).map(|_| format!("`{volume}`: the scene's transfer function")),
+        Action::SaveCurve(volume, path) => {
+            return live
+                .save_tf_curve(&volume, &path)
+                .map(|()| format!("saved `{volume}`'s transfer function as {}", path.display()))
+                .map_err(|e| e.to_string());
+        }
+    }
+    .map_err(|e| e.to_string())
+}

@@ -1,0 +1,234 @@
+//! The transfer-function editor: a volume's opacity curve as draggable points over its
+//! histogram (log counts), its colour stops, the presets as a menu, and saving as a ParaView
+//! colormap. Values are data units over the volume's window; the opacity axis is square-root
+//! scaled so the small opacities of see-through tissue (a few hundredths) can be set.
+
+use crate::actions::Action;
+use egui::{Color32, Pos2, Rect, Sense, Stroke, Vec2};
+use std::path::{Path, PathBuf};
+use vrs_runtime::tf::{PRESETS, TfCurve, preset_curve};
+
+/// A volume as the editor shows it.
+#[derive(Clone, Debug)]
+pub struct EditedVolume {
+    pub name: String,
+    /// The value axis (data units).
+    pub window: [f32; 2],
+    pub histogram: Vec<u64>,
+    /// In data units over the window ([`TfCurve::in_data_units`]).
+    pub curve: TfCurve,
+}
+
+/// What the editor remembers between frames.
+#[derive(Clone, Debug, Default)]
+pub struct TfEditorState {
+    /// The volume being edited, by name.
+    pub volume: Option<String>,
+    /// Where "Save" writes, per volume (defaults next to the scene).
+    pub save_paths: Vec<(String, String)>,
+}
+
+/// Height of the curve's canvas, in points.
+const CANVAS_HEIGHT: f32 = 150.0;
+
+/// Shows the editor for one of `volumes`; returns what the user asked for.
+pub fn show(ui: &mut egui::Ui, state: &mut TfEditorState, volumes: &[EditedVolume], scene: &Path) -> Vec<Action> {
+    let mut actions = Vec::new();
+    if volumes.is_empty() {
+        ui.weak("this scene has no volume with a transfer function");
+        return actions;
+    }
+    let selected = state.volume.clone().filter(|n| volumes.iter().any(|v| &v.name == n));
+    let name = selected.unwrap_or_else(|| volumes[0].name.clone());
+    egui::ComboBox::from_label("volume").selected_text(&name).show_ui(ui, |ui| {
+        for v in volumes {
+            if ui.selectable_label(v.name == name, &v.name).clicked() {
+                state.volume = Some(v.name.clone());
+            }
+        }
+    });
+    let Some(volume) = volumes.iter().find(|v| v.name == name) else { return actions };
+    let mut curve = volume.curve.clone();
+    let mut changed = false;
+    ui.horizontal(|ui| {
+        egui::ComboBox::from_id_salt("preset").selected_text("preset…").show_ui(ui, |ui| {
+            for &preset in PRESETS {
+                if ui.selectable_label(curve.name == preset, preset).clicked()
+                    && let Ok(p) = preset_curve(preset)
+                {
+                    curve = p.in_data_units(volume.window);
+                    changed = true;
+                }
+            }
+        });
+        if ui.button("reset").on_hover_text("Back to the scene's transfer function").clicked() {
+            actions.push(Action::ResetCurve(volume.name.clone()));
+        }
+    });
+    ui.weak(format!("{} over [{}, {}]", curve.name, volume.window[0], volume.window[1]));
+    changed |= canvas(ui, volume, &mut curve);
+    changed |= colour_stops(ui, volume.window, &mut curve);
+    if changed {
+        actions.push(Action::SetCurve(volume.name.clone(), curve));
+    }
+    ui.separator();
+    save_row(ui, state, volume, scene, &mut actions);
+    actions
+}
+
+/// Data value ↔ canvas position.
+struct Axes {
+    rect: Rect,
+    window: [f32; 2],
+}
+
+impl Axes {
+    fn x(&self, value: f32) -> f32 {
+        let [lo, hi] = self.window;
+        self.rect.left() + (value - lo) / (hi - lo).max(f32::MIN_POSITIVE) * self.rect.width()
+    }
+
+    fn y(&self, opacity: f32) -> f32 {
+        self.rect.bottom() - opacity.clamp(0.0, 1.0).sqrt() * self.rect.height()
+    }
+
+    fn point(&self, (value, opacity): (f32, f32)) -> Pos2 {
+        Pos2::new(self.x(value), self.y(opacity))
+    }
+
+    /// The (value, opacity) under canvas position `p`.
+    fn at(&self, p: Pos2) -> (f32, f32) {
+        let [lo, hi] = self.window;
+        let t = ((p.x - self.rect.left()) / self.rect.width()).clamp(0.0, 1.0);
+        let up = ((self.rect.bottom() - p.y) / self.rect.height()).clamp(0.0, 1.0);
+        (lo + t * (hi - lo), up * up)
+    }
+}
+
+/// The histogram, the colour bar, the opacity curve and its points. Drag a point to move it,
+/// double-click to add one, right-click a point to delete it.
+fn canvas(ui: &mut egui::Ui, volume: &EditedVolume, curve: &mut TfCurve) -> bool {
+    let width = ui.available_width().max(120.0);
+    let (rect, background) = ui.allocate_exact_size(Vec2::new(width, CANVAS_HEIGHT), Sense::click());
+    let axes = Axes { rect, window: volume.window };
+    let painter = ui.painter_at(rect.expand(4.0));
+    painter.rect_filled(rect, 2.0, Color32::from_gray(24));
+    histogram(&painter, rect, &volume.histogram);
+    let table = curve.table().over_window(volume.window);
+    let bar = Rect::from_min_size(rect.left_bottom() + Vec2::new(0.0, 2.0), Vec2::new(rect.width(), 8.0));
+    let steps = 128;
+    for i in 0..steps {
+        let entry = table.rgba[i * (table.rgba.len() - 1) / (steps - 1)];
+        let [r, g, b] = [entry[0], entry[1], entry[2]].map(|c| (c * 255.0) as u8);
+        let x0 = bar.left() + bar.width() * i as f32 / steps as f32;
+        let cell = Rect::from_min_max(Pos2::new(x0, bar.top()), Pos2::new(x0 + bar.width() / steps as f32 + 0.5, bar.bottom()));
+        painter.rect_filled(cell, 0.0, Color32::from_rgb(r, g, b));
+    }
+    ui.add_space(12.0);
+    let line: Vec<Pos2> = (0..table.rgba.len())
+        .step_by(4)
+        .map(|i| {
+            let t = i as f32 / (table.rgba.len() - 1) as f32;
+            let value = volume.window[0] + t * (volume.window[1] - volume.window[0]);
+            axes.point((value, table.rgba[i][3]))
+        })
+        .collect();
+    painter.add(egui::Shape::line(line, Stroke::new(1.5, Color32::from_rgb(240, 200, 90))));
+    let mut changed = false;
+    let mut delete = None;
+    for (i, point) in curve.opacity.iter_mut().enumerate() {
+        let centre = axes.point(*point);
+        let handle = Rect::from_center_size(centre, Vec2::splat(12.0));
+        let response = ui.interact(handle, ui.scope_id().with(("opacity point", i)), Sense::click_and_drag());
+        if response.dragged()
+            && let Some(p) = response.interact_pointer_pos()
+        {
+            *point = axes.at(p);
+            changed = true;
+        }
+        if response.secondary_clicked() {
+            delete = Some(i);
+        }
+        let colour = if response.hovered() || response.dragged() { Color32::WHITE } else { Color32::from_gray(200) };
+        painter.circle(centre, 4.0, colour, Stroke::new(1.0, Color32::BLACK));
+        response.on_hover_text(format!("value {:.1}, opacity {:.3}", point.0, point.1));
+    }
+    if let Some(i) = delete.filter(|_| curve.opacity.len() > 1) {
+        curve.opacity.remove(i);
+        changed = true;
+    }
+    if background.double_clicked()
+        && let Some(p) = background.interact_pointer_pos()
+    {
+        curve.opacity.push(axes.at(p));
+        changed = true;
+    }
+    changed
+}
+
+/// Bars of log(1 + count), scaled to the highest bin.
+fn histogram(painter: &egui::Painter, rect: Rect, bins: &[u64]) {
+    let top = bins.iter().map(|&c| (c as f32).ln_1p()).fold(0.0, f32::max);
+    if top <= 0.0 {
+        return;
+    }
+    let width = rect.width() / bins.len() as f32;
+    for (i, &count) in bins.iter().enumerate() {
+        let h = (count as f32).ln_1p() / top * rect.height();
+        let x = rect.left() + i as f32 * width;
+        let bar = Rect::from_min_max(Pos2::new(x, rect.bottom() - h), Pos2::new(x + width, rect.bottom()));
+        painter.rect_filled(bar, 0.0, Color32::from_gray(70));
+    }
+}
+
+/// The colour stops as rows: value, colour, delete; and a button adding one.
+fn colour_stops(ui: &mut egui::Ui, window: [f32; 2], curve: &mut TfCurve) -> bool {
+    let mut changed = false;
+    let speed = f64::from((window[1] - window[0]).abs() / 500.0);
+    let mut delete = None;
+    egui::ScrollArea::vertical().id_salt("colour stops").max_height(140.0).show(ui, |ui| {
+        for (i, (value, rgb)) in curve.color.iter_mut().enumerate() {
+            ui.horizontal(|ui| {
+                changed |= ui.add(egui::DragValue::new(value).speed(speed).prefix("at ")).changed();
+                let mut bytes = rgb.map(|c| (c.clamp(0.0, 1.0) * 255.0).round() as u8);
+                if ui.color_edit_button_srgb(&mut bytes).changed() {
+                    *rgb = bytes.map(|b| f32::from(b) / 255.0);
+                    changed = true;
+                }
+                if ui.small_button("×").on_hover_text("Delete this colour stop").clicked() {
+                    delete = Some(i);
+                }
+            });
+        }
+    });
+    if let Some(i) = delete.filter(|_| curve.color.len() > 1) {
+        curve.color.remove(i);
+        changed = true;
+    }
+    if ui.small_button("+ colour stop").clicked() {
+        let middle = (window[0] + window[1]) / 2.0;
+        let table = curve.table().over_window(window);
+        let [r, g, b, _] = table.rgba[table.rgba.len() / 2];
+        curve.color.push((middle, [r, g, b]));
+        changed = true;
+    }
+    changed
+}
+
+fn save_row(ui: &mut egui::Ui, state: &mut TfEditorState, volume: &EditedVolume, scene: &Path, actions: &mut Vec<Action>) {
+    let index = match state.save_paths.iter().position(|(v, _)| v == &volume.name) {
+        Some(i) => i,
+        None => {
+            let folder = scene.parent().unwrap_or(Path::new("."));
+            let path = folder.join(format!("{}_tf.json", volume.name));
+            state.save_paths.push((volume.name.clone(), path.display().to_string()));
+            state.save_paths.len() - 1
+        }
+    };
+    let path = &mut state.save_paths[index].1;
+    ui.add(egui::TextEdit::singleline(path).desired_width(f32::INFINITY));
+    let save = ui.button("Save as ParaView JSON");
+    if save.on_hover_text("Write the colormap and point the volume's `tf` in the scene at it").clicked() {
+        actions.push(Action::SaveCurve(volume.name.clone(), PathBuf::from(path.as_str())));
+    }
+}
