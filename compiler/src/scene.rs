@@ -284,6 +284,18 @@ pub enum UniformValue {
     Array(Vec<UniformValue>),
 }
 
+impl UniformValue {
+    /// The value as JSON (what reflection writes and the runtime reads).
+    pub fn to_json(&self) -> serde_json::Value {
+        match self {
+            UniformValue::Bool(b) => serde_json::Value::Bool(*b),
+            UniformValue::Int(i) => (*i).into(),
+            UniformValue::Float(f) => serde_json::Number::from_f64(*f).map_or(serde_json::Value::Null, Into::into),
+            UniformValue::Array(items) => items.iter().map(UniformValue::to_json).collect(),
+        }
+    }
+}
+
 impl<'de> Deserialize<'de> for UniformValue {
     fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<UniformValue, D::Error> {
         struct V;

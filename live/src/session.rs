@@ -106,6 +106,7 @@ impl LiveScene {
             scene_curves: BTreeMap::new(),
         };
         live.note_scene_state();
+        live.note_scene_curves();
         live.files = vec![live.renderer.path().to_path_buf()];
         if let Ok(cached) = live.renderer.compose() {
             live.files = files_of(&cached.built, live.renderer.path());
@@ -166,6 +167,9 @@ impl LiveScene {
                 self.scene_values = scene_values;
                 self.built = Some(built.clone());
                 self.note_scene_state();
+                if applied.volumes_reloaded {
+                    self.note_scene_curves();
+                }
                 self.restore_user_state();
                 self.bump_all();
                 self.last_error = None;
@@ -197,9 +201,12 @@ impl LiveScene {
     /// Forgets the user's value of uniform `name`: the scene's value (or the default) is used.
     pub fn reset_uniform(&mut self, name: &str) -> Result<(), RuntimeError> {
         self.user.uniforms.remove(name);
+        // The scene file as of the last good rebuild (a reflection from the composition cache
+        // may carry an older value), else the declaration's default.
+        let scene_value = self.scene_values.get(name).map(UniformValue::to_json);
         let value = self.renderer.views.iter().find_map(|v| {
             let info = v.renderer.shader().reflection.uniform(name)?;
-            let json = info.value.as_ref().or(info.default.as_ref())?;
+            let json = scene_value.as_ref().or(info.default.as_ref())?;
             v.renderer.uniforms().value_from_json(name, json)
         });
         if let Some(value) = value {
@@ -405,8 +412,6 @@ impl LiveScene {
     fn note_scene_state(&mut self) {
         self.scene_cameras.clear();
         self.scene_slices.clear();
-        self.scene_curves =
-            self.renderer.volumes().iter().filter_map(|v| Some((v.name.to_string(), v.curve?.clone()))).collect();
         for view in &self.renderer.views {
             if let Some(camera) = view.camera {
                 self.scene_cameras.insert(view.name.clone(), camera);
@@ -415,6 +420,13 @@ impl LiveScene {
                 self.scene_slices.insert(view.name.clone(), plane);
             }
         }
+    }
+
+    /// Remembers the transfer functions as the scene file gives them (right after the volumes
+    /// were loaded, before the user's are applied again).
+    fn note_scene_curves(&mut self) {
+        self.scene_curves =
+            self.renderer.volumes().iter().filter_map(|v| Some((v.name.to_string(), v.curve?.clone()))).collect();
     }
 
     /// Applies the user's settings again after a reload, wherever they still apply: a uniform

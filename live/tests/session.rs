@@ -132,3 +132,47 @@ fn changing_a_volume_loads_it_again() {
     assert!(applied.volumes_reloaded);
     assert!(live.render_all().is_ok());
 }
+
+#[test]
+fn saved_uniforms_reload_to_the_same_values_and_keep_the_comments() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut live = open(dir.path());
+    let path = dir.path().join("scene.toml");
+    let commented = scene(0.5, false).replace("k = 0.50\n", "# how dim\nk = 0.50 # half\n");
+    std::fs::write(&path, &commented).unwrap();
+    live.rebuild().outcome.expect("a good edit applies");
+    live.set_uniform("k", Value::Float(vec![0.125])).unwrap();
+    live.set_uniform("jitter", Value::Float(vec![0.0])).unwrap();
+    assert_eq!(live.save_uniforms().unwrap(), 2);
+    let text = std::fs::read_to_string(&path).unwrap();
+    assert!(text.contains("# how dim\nk = 0.125 # half\n"), "{text}");
+    assert!(text.contains("[render]\ncompositing = \"dvr\"\njitter = 0.0\n"), "{text}");
+    live.rebuild().outcome.expect("the saved scene loads");
+    assert_eq!(uniform(&live, "k"), Some(Value::Float(vec![0.125])));
+    assert_eq!(uniform(&live, "jitter"), Some(Value::Float(vec![0.0])));
+    // The file now carries the values: a reset finds them there.
+    live.reset_uniform("k").unwrap();
+    assert_eq!(uniform(&live, "k"), Some(Value::Float(vec![0.125])));
+}
+
+#[test]
+fn an_edited_transfer_function_saves_as_a_colormap_that_loads_back_to_the_same_table() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut live = open(dir.path());
+    let status = live.renderer().volumes()[0];
+    let (window, mut curve) = (status.window, status.curve.unwrap().in_data_units(status.window));
+    curve.opacity.push((window[0] + 0.6 * (window[1] - window[0]), 0.35));
+    curve.color[1].1 = [0.2, 0.9, 0.4];
+    let edited = curve.table().over_window(window);
+    live.set_tf_curve("v", curve.clone()).unwrap();
+    let generation = live.generation(0);
+    live.rebuild().outcome.expect("an unchanged scene applies");
+    assert_eq!(live.renderer().volumes()[0].curve, Some(&curve), "the edit survives a reload");
+    live.save_tf_curve("v", &dir.path().join("v_tf.json")).unwrap();
+    let text = std::fs::read_to_string(dir.path().join("scene.toml")).unwrap();
+    assert!(text.contains("tf = \"v_tf.json\""), "{text}");
+    live.rebuild().outcome.expect("the saved colormap loads");
+    let loaded = live.renderer().volumes()[0].curve.unwrap().table().over_window(window);
+    assert_eq!(loaded.to_rgba8(), edited.to_rgba8());
+    assert!(live.generation(0) > generation);
+}

@@ -16,7 +16,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use vrsc::compose::build::BuiltScene;
 use vrsc::compose::cache::{CachedBuild, CompositionCache};
-use vrsc::scene::{self as vscene, Role, Scene, TfRef, UniformValue, ViewKind, VolumeSource};
+use vrsc::scene::{self as vscene, Role, Scene, TfRef, ViewKind, VolumeSource};
 
 mod probe;
 mod tf_edit;
@@ -324,7 +324,7 @@ impl SceneRenderer {
             let mut renderer = ViewRenderer::new(&self.gpu, &mut self.pipelines, shader, size)?;
             for (name, value) in &values {
                 if renderer.has_uniform(name)
-                    && let Some(value) = renderer.uniforms().value_from_json(name, &uniform_json(value))
+                    && let Some(value) = renderer.uniforms().value_from_json(name, &value.to_json())
                 {
                     renderer.set_uniform(name, value)?;
                 }
@@ -527,13 +527,4 @@ fn load_volumes(
         }
     }
     Ok(Loaded { grids, primary: primary_volume, primary_tf })
-}
-
-fn uniform_json(v: &UniformValue) -> serde_json::Value {
-    match v {
-        UniformValue::Bool(b) => (*b).into(),
-        UniformValue::Int(i) => (*i).into(),
-        UniformValue::Float(f) => serde_json::Number::from_f64(*f).map_or(serde_json::Value::Null, Into::into),
-        UniformValue::Array(items) => items.iter().map(uniform_json).collect(),
-    }
 }

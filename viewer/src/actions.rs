@@ -34,7 +34,9 @@ pub fn apply(live: &mut LiveScene, action: Action) -> Result<String, String> {
             return Ok(format!("saved {saved} value(s) into {}", live.renderer().path().display()));
         }
         Action::SetCurve(volume, curve) => live.set_tf_curve(&volume, curve).map(|_| String::new()),
-        Action::ResetCurve(volume) => live.reset_tf_curve(&volume).map(|_| format!("`{volume}`: the scene's transfer function")),
+        Action::ResetCurve(volume) => {
+            live.reset_tf_curve(&volume).map(|_| format!("`{volume}`: the scene's transfer function"))
+        }
         Action::SaveCurve(volume, path) => {
             return live
                 .save_tf_curve(&volume, &path)

@@ -136,7 +136,10 @@ mod tests {
     #[test]
     fn colours_by_name_or_doc_within_unit_range() {
         let unit = Some([json!(0.0), json!(1.0)]);
-        assert_eq!(control_for(&uniform("zone_color_a", "vec3f", unit.clone(), None)), Control::Colour { alpha: false });
+        assert_eq!(
+            control_for(&uniform("zone_color_a", "vec3f", unit.clone(), None)),
+            Control::Colour { alpha: false }
+        );
         let doc = Some("The colour behind the volume (premultiplied RGBA).");
         assert_eq!(control_for(&uniform("background", "vec4f", unit.clone(), doc)), Control::Colour { alpha: true });
         // Brighter than white is not a picker's job; nor is a direction.

@@ -201,7 +201,10 @@ fn view_cell(
     }
     let caption = format!("{} — {}", slot.name, describe(&slot.frames, size));
     ui.painter().text(cell.min, egui::Align2::LEFT_TOP, caption, egui::FontId::proportional(13.0), Color32::LIGHT_GRAY);
-    let menu = Rect::from_min_max(egui::pos2(cell.max.x - 150.0, cell.min.y), egui::pos2(cell.max.x, cell.min.y + caption_height));
+    let menu = Rect::from_min_max(
+        egui::pos2(cell.max.x - 150.0, cell.min.y),
+        egui::pos2(cell.max.x, cell.min.y + caption_height),
+    );
     ui.scope_builder(egui::UiBuilder::new().max_rect(menu), |ui| probe_menu(ui, live, slot, index));
 }
 

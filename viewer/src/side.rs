@@ -87,24 +87,25 @@ impl SidePanel {
     fn show_inspector(&mut self, ui: &mut egui::Ui, live: &LiveScene) {
         let names = live.view_names();
         self.inspected = self.inspected.min(names.len().saturating_sub(1));
-        egui::ComboBox::from_label("view").selected_text(names.get(self.inspected).cloned().unwrap_or_default()).show_ui(
-            ui,
-            |ui| {
+        egui::ComboBox::from_label("view")
+            .selected_text(names.get(self.inspected).cloned().unwrap_or_default())
+            .show_ui(ui, |ui| {
                 for (i, name) in names.iter().enumerate() {
                     ui.selectable_value(&mut self.inspected, i, name);
                 }
-            },
-        );
+            });
         let Some(view) = live.renderer().views.get(self.inspected) else { return };
         let reflection = view.renderer.shader().reflection.clone();
-        let mut sources = LiveSources { live, index: self.inspected, reflection: &reflection, cache: &mut self.explained };
+        let mut sources =
+            LiveSources { live, index: self.inspected, reflection: &reflection, cache: &mut self.explained };
         inspector::show(ui, &mut self.inspector, &reflection, &mut sources);
     }
 }
 
 /// Every view's uniforms in groups, with their current values.
 fn parameter_groups(live: &LiveScene) -> Vec<params::Group> {
-    let reflections: Vec<&Reflection> = live.renderer().views.iter().map(|v| &*v.renderer.shader().reflection).collect();
+    let reflections: Vec<&Reflection> =
+        live.renderer().views.iter().map(|v| &*v.renderer.shader().reflection).collect();
     params::groups(&reflections, |name| live.uniform(name), |name| live.is_user_uniform(name))
 }
 

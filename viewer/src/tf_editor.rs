@@ -51,7 +51,7 @@ pub fn show(ui: &mut egui::Ui, state: &mut TfEditorState, volumes: &[EditedVolum
     let mut curve = volume.curve.clone();
     let mut changed = false;
     ui.horizontal(|ui| {
-        egui::ComboBox::from_id_salt("preset").selected_text("preset…").show_ui(ui, |ui| {
+        egui::ComboBox::from_label("preset").selected_text("choose…").show_ui(ui, |ui| {
             for &preset in PRESETS {
                 if ui.selectable_label(curve.name == preset, preset).clicked()
                     && let Ok(p) = preset_curve(preset)
@@ -121,7 +121,10 @@ fn canvas(ui: &mut egui::Ui, volume: &EditedVolume, curve: &mut TfCurve) -> bool
         let entry = table.rgba[i * (table.rgba.len() - 1) / (steps - 1)];
         let [r, g, b] = [entry[0], entry[1], entry[2]].map(|c| (c * 255.0) as u8);
         let x0 = bar.left() + bar.width() * i as f32 / steps as f32;
-        let cell = Rect::from_min_max(Pos2::new(x0, bar.top()), Pos2::new(x0 + bar.width() / steps as f32 + 0.5, bar.bottom()));
+        let cell = Rect::from_min_max(
+            Pos2::new(x0, bar.top()),
+            Pos2::new(x0 + bar.width() / steps as f32 + 0.5, bar.bottom()),
+        );
         painter.rect_filled(cell, 0.0, Color32::from_rgb(r, g, b));
     }
     ui.add_space(12.0);
@@ -215,7 +218,13 @@ fn colour_stops(ui: &mut egui::Ui, window: [f32; 2], curve: &mut TfCurve) -> boo
     changed
 }
 
-fn save_row(ui: &mut egui::Ui, state: &mut TfEditorState, volume: &EditedVolume, scene: &Path, actions: &mut Vec<Action>) {
+fn save_row(
+    ui: &mut egui::Ui,
+    state: &mut TfEditorState,
+    volume: &EditedVolume,
+    scene: &Path,
+    actions: &mut Vec<Action>,
+) {
     let index = match state.save_paths.iter().position(|(v, _)| v == &volume.name) {
         Some(i) => i,
         None => {
@@ -226,7 +235,10 @@ fn save_row(ui: &mut egui::Ui, state: &mut TfEditorState, volume: &EditedVolume,
         }
     };
     let path = &mut state.save_paths[index].1;
-    ui.add(egui::TextEdit::singleline(path).desired_width(f32::INFINITY));
+    ui.horizontal(|ui| {
+        let label = ui.label("save as");
+        ui.add(egui::TextEdit::singleline(path).desired_width(f32::INFINITY)).labelled_by(label.id);
+    });
     let save = ui.button("Save as ParaView JSON");
     if save.on_hover_text("Write the colormap and point the volume's `tf` in the scene at it").clicked() {
         actions.push(Action::SaveCurve(volume.name.clone(), PathBuf::from(path.as_str())));

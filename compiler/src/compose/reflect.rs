@@ -46,7 +46,7 @@ pub fn reflect(
             offset: m.map(|m| m.offset),
             size: m.map(|m| m.size),
             default: u.default.as_ref().map(const_json),
-            value: values.get(&u.name).map(uniform_json),
+            value: values.get(&u.name).map(UniformValue::to_json),
             range: u.range.as_ref().map(|(lo, hi)| [const_json(lo), const_json(hi)]),
             doc: u.doc.clone(),
         })
@@ -160,14 +160,5 @@ pub fn const_json(c: &ConstValue) -> Value {
                 .collect(),
         ),
         _ => c.components.first().map_or(Value::Null, |&v| scalar_json(v)),
-    }
-}
-
-fn uniform_json(v: &UniformValue) -> Value {
-    match v {
-        UniformValue::Bool(b) => Value::Bool(*b),
-        UniformValue::Int(i) => (*i).into(),
-        UniformValue::Float(f) => serde_json::Number::from_f64(*f).map_or(Value::Null, Value::Number),
-        UniformValue::Array(items) => Value::Array(items.iter().map(uniform_json).collect()),
     }
 }

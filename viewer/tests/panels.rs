@@ -1,0 +1,193 @@
+//! The side panel headless: controls for every uniform of every example and fixture scene, and
+//! the panels drawn by egui_kittest (through AccessKit, as a screen reader sees them) with
+//! clicks that must come back as the right actions.
+
+use egui_kittest::kittest::{NodeT, Queryable};
+use egui_kittest::{Harness, HarnessBuilder};
+use std::path::{Path, PathBuf};
+use vrs_runtime::Value;
+use vrs_runtime::reflection::{FunctionInfo, FunctionStatus, Reflection};
+use vrs_runtime::tf::preset_curve;
+use vrs_viewer::actions::Action;
+use vrs_viewer::controls::{Control, control_for};
+use vrs_viewer::inspector::{self, InspectorState, Sources};
+use vrs_viewer::params;
+use vrs_viewer::tf_editor::{self, EditedVolume, TfEditorState};
+
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap().to_path_buf()
+}
+
+/// Every scene file under `dir`.
+fn scenes(dir: &Path, out: &mut Vec<PathBuf>) {
+    for entry in std::fs::read_dir(dir).unwrap().flatten() {
+        let path = entry.path();
+        if path.is_dir() {
+            scenes(&path, out);
+        } else if path.extension().is_some_and(|e| e == "toml") {
+            out.push(path);
+        }
+    }
+}
+
+/// The reflection of every view of every scene that composes.
+fn reflections() -> Vec<(PathBuf, Reflection)> {
+    let mut files = Vec::new();
+    scenes(&root().join("examples"), &mut files);
+    scenes(&root().join("tests/fixtures"), &mut files);
+    let mut out = Vec::new();
+    for file in files {
+        let Ok(built) = vrsc::compose::build::build_scene(&file, None) else { continue };
+        for view in &built.views {
+            if let Some(shader) = &view.shader {
+                out.push((file.clone(), shader.reflection.clone()));
+            }
+        }
+    }
+    out
+}
+
+#[test]
+fn every_uniform_of_every_example_and_fixture_view_gets_a_control_of_its_kind() {
+    let all = reflections();
+    assert!(all.len() >= 10, "only {} views composed", all.len());
+    let mut kinds = std::collections::BTreeSet::new();
+    for (file, reflection) in &all {
+        let groups = params::groups(&[reflection], |_| None, |_| false);
+        for u in &reflection.uniforms {
+            let shown = groups.iter().flat_map(|g| &g.rows).filter(|r| r.info.name == u.name).count();
+            assert_eq!(shown, 1, "{}: `{}` is shown {shown} times", file.display(), u.name);
+            let control = control_for(u);
+            let scalar = ["f32", "i32", "u32"].contains(&u.ty.as_str());
+            let right = match &control {
+                Control::Slider { .. } => scalar && u.range.is_some(),
+                Control::Drag => scalar && u.range.is_none(),
+                Control::Checkbox => u.ty == "bool",
+                Control::Vector { components, .. } => u.ty.starts_with("vec") && u.ty[3..4] == components.to_string(),
+                Control::Colour { alpha } => ["vec3f", "vec4f"][usize::from(*alpha)] == u.ty,
+                Control::Matrix { columns, rows } => u.ty == format!("mat{columns}x{rows}f"),
+                Control::Resource => u.ty == "volume" || u.ty == "tf",
+                Control::SetByRenderer => vrs_runtime::scene::is_set_by_renderer(&u.name),
+            };
+            assert!(right, "{}: `{}: {}` got {control:?}", file.display(), u.name, u.ty);
+            kinds.insert(format!("{control:?}").split([' ', '{']).next().unwrap_or_default().to_string());
+        }
+    }
+    for kind in ["Slider", "Vector", "Colour", "Resource", "SetByRenderer"] {
+        assert!(kinds.contains(kind), "no example has a {kind}: {kinds:?}");
+    }
+}
+
+/// The groups of the clip-plane example's 3D view, with `clip_plane_gm` changed by the user.
+fn clip_plane_groups() -> Vec<params::Group> {
+    let built = vrsc::compose::build::build_scene(&root().join("examples/clip_plane/basic.toml"), None).unwrap();
+    let reflection = built.views[0].shader.as_ref().unwrap().reflection.clone();
+    let value = |name: &str| {
+        let u = reflection.uniform(name)?;
+        let json = u.value.as_ref().or(u.default.as_ref())?;
+        let flat: Vec<f32> = match json {
+            serde_json::Value::Array(items) => items.iter().filter_map(|v| v.as_f64()).map(|f| f as f32).collect(),
+            scalar => vec![scalar.as_f64()? as f32],
+        };
+        u.ty.ends_with('f').then_some(Value::Float(flat))
+    };
+    params::groups(&[&reflection], value, |name| name == "clip_plane_gm")
+}
+
+#[test]
+fn the_parameter_panel_shows_each_function_with_its_uniforms_and_reports_a_reset() {
+    let groups = clip_plane_groups();
+    let clip = groups.iter().find(|g| g.function == "clip_gm").expect("the clip function's group");
+    assert_eq!(clip.instance.as_deref(), Some("gm"));
+    assert_eq!(clip.rows.iter().map(|r| r.info.name.as_str()).collect::<Vec<_>>(), ["clip_plane_gm"]);
+    // Tall enough to show every group without scrolling.
+    let mut harness = HarnessBuilder::default()
+        .with_size(egui::Vec2::new(600.0, 3000.0))
+        .build_ui_state(|ui, actions: &mut Vec<Action>| actions.extend(params::show(ui, &groups, "")), Vec::new());
+    harness.run();
+    harness.get_by_label("clip_gm (instance gm)");
+    harness.get_by_label("clip_plane_gm");
+    harness.get_by_label("Save to scene");
+    harness.get_by_label("1 changed");
+    harness.get_by_label("reset").click();
+    harness.run();
+    assert!(harness.state().contains(&Action::ResetUniform("clip_plane_gm".into())), "{:?}", harness.state());
+    harness.get_by_label("Save to scene").click();
+    harness.run();
+    assert!(harness.state().contains(&Action::SaveUniforms));
+}
+
+#[test]
+fn the_transfer_function_editor_adds_a_colour_stop_and_resets() {
+    let window = [-1024.0, 3071.0];
+    let volume = EditedVolume {
+        name: "ct".into(),
+        window,
+        histogram: (0..256).map(|i| (i * 37 % 101) as u64).collect(),
+        curve: preset_curve("ct_bone").unwrap().in_data_units(window),
+    };
+    let stops = volume.curve.color.len();
+    let volumes = vec![volume];
+    let mut harness = Harness::new_ui_state(
+        |ui, (state, actions): &mut (TfEditorState, Vec<Action>)| {
+            actions.extend(tf_editor::show(ui, state, &volumes, Path::new("/scenes/ct.toml")))
+        },
+        (TfEditorState::default(), Vec::new()),
+    );
+    harness.run();
+    harness.get_by_label("ct_bone over [-1024, 3071]");
+    harness.get_by_label("+ colour stop").click();
+    harness.run();
+    let added = harness.state().1.iter().find_map(|a| match a {
+        Action::SetCurve(v, c) if v == "ct" => Some(c.clone()),
+        _ => None,
+    });
+    assert_eq!(added.expect("a new curve").color.len(), stops + 1);
+    harness.get_by_label("reset").click();
+    harness.get_by_label("Save as ParaView JSON").click();
+    harness.run();
+    let actions = &harness.state().1;
+    assert!(actions.contains(&Action::ResetCurve("ct".into())), "{actions:?}");
+    assert!(actions.contains(&Action::SaveCurve("ct".into(), PathBuf::from("/scenes/ct_tf.json"))), "{actions:?}");
+}
+
+struct FakeSources;
+
+impl Sources for FakeSources {
+    fn function_source(&self, f: &FunctionInfo) -> Option<String> {
+        Some(format!("pipeline {} {{ /* source */ }}", f.name))
+    }
+
+    fn explained(&mut self) -> Result<String, String> {
+        Ok("// from clip.vrs:6\nfn clip_gm() {}".into())
+    }
+}
+
+#[test]
+fn the_inspector_shows_status_and_the_selected_functions_source() {
+    let built = vrsc::compose::build::build_scene(&root().join("examples/clip_plane/basic.toml"), None).unwrap();
+    let mut reflection = built.views[0].shader.as_ref().unwrap().reflection.clone();
+    // A removed function, as a later `remove` leaves it.
+    let step = reflection.pipeline.iter_mut().find(|s| s.step == "classification.additional").unwrap();
+    let mut removed = step.functions[0].clone();
+    (removed.name, removed.status) = ("clip_wm".into(), FunctionStatus::Removed);
+    step.not_placed.push(removed);
+    let mut harness = HarnessBuilder::default().with_size(egui::Vec2::new(900.0, 3000.0)).build_ui_state(
+        |ui, state: &mut InspectorState| inspector::show(ui, state, &reflection, &mut FakeSources),
+        InspectorState::default(),
+    );
+    harness.run();
+    let labels: Vec<String> =
+        harness.query_all_by_label_contains("clip").filter_map(|n| n.accesskit_node().label()).collect();
+    assert!(labels.iter().any(|l| l.contains("clip_plane.vrs:11  (instance gm)")), "{labels:?}");
+    let clip = harness.get_by_label_contains("clip_plane.vrs:11  (instance gm)");
+    assert!(clip.accesskit_node().label().is_some_and(|l| l.contains("(instance gm)")));
+    let removed = harness.get_by_label_contains("clip_wm").accesskit_node().label();
+    assert!(removed.as_ref().is_some_and(|l| l.ends_with("removed")), "{removed:?}");
+    harness.get_by_label_contains("clip_plane.vrs:11  (instance gm)").click();
+    harness.run();
+    harness.get_by_label("pipeline clip_gm { /* source */ }");
+    harness.get_by_label("composed WGSL (explain)").click();
+    harness.run();
+    harness.get_by_label_contains("// from clip.vrs:6");
+}
