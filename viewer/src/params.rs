@@ -92,8 +92,14 @@ pub fn groups(
     out
 }
 
-/// Shows the panel; returns what the user asked for.
-pub fn show(ui: &mut egui::Ui, groups: &[Group], message: &str) -> Vec<Action> {
+/// Whether a row can be edited here (not a resource, not set by the renderer).
+fn editable(row: &UniformRow) -> bool {
+    !matches!(row.control, Control::Resource | Control::SetByRenderer)
+}
+
+/// Shows the panel; returns what the user asked for. Uniforms that cannot be edited here are
+/// listed only when `show_all` is ticked.
+pub fn show(ui: &mut egui::Ui, groups: &[Group], show_all: &mut bool, message: &str) -> Vec<Action> {
     let mut actions = Vec::new();
     ui.horizontal(|ui| {
         let changed = groups.iter().flat_map(|g| &g.rows).filter(|r| r.changed).count();
@@ -102,13 +108,15 @@ pub fn show(ui: &mut egui::Ui, groups: &[Group], message: &str) -> Vec<Action> {
             actions.push(Action::SaveUniforms);
         }
         ui.weak(format!("{changed} changed"));
+        ui.checkbox(show_all, "all")
+            .on_hover_text("Also list volumes, transfer functions and uniforms the viewer sets");
     });
     if !message.is_empty() {
         ui.weak(message);
     }
     ui.separator();
     egui::ScrollArea::vertical().id_salt("parameters").show(ui, |ui| {
-        for group in groups {
+        for group in groups.iter().filter(|g| *show_all || g.rows.iter().any(editable)) {
             let title = match &group.instance {
                 Some(i) => format!("{} (instance {i})", group.function),
                 None => group.function.clone(),
@@ -118,7 +126,7 @@ pub fn show(ui: &mut egui::Ui, groups: &[Group], message: &str) -> Vec<Action> {
                 .default_open(true)
                 .show(ui, |ui| {
                     ui.weak(format!("{} · {}", group.step, group.origin));
-                    for row in &group.rows {
+                    for row in group.rows.iter().filter(|r| *show_all || editable(r)) {
                         uniform_row(ui, row, &mut actions);
                     }
                 });

@@ -28,6 +28,8 @@ pub struct SidePanel {
     explained: Option<(String, Result<String, String>)>,
     /// What the last action did, for the panel.
     pub message: String,
+    /// List every uniform, not only the editable ones.
+    show_all: bool,
 }
 
 impl Default for SidePanel {
@@ -40,6 +42,7 @@ impl Default for SidePanel {
             inspected: 0,
             explained: None,
             message: String::new(),
+            show_all: false,
         }
     }
 }
@@ -60,7 +63,7 @@ impl SidePanel {
             });
             ui.separator();
             todo = match self.tab {
-                Tab::Parameters => params::show(ui, &parameter_groups(live), &self.message),
+                Tab::Parameters => params::show(ui, &parameter_groups(live), &mut self.show_all, &self.message),
                 Tab::TransferFunctions => {
                     let volumes = edited_volumes(live);
                     let scene = live.renderer().path().to_path_buf();

@@ -101,20 +101,24 @@ fn the_parameter_panel_shows_each_function_with_its_uniforms_and_reports_a_reset
     assert_eq!(clip.instance.as_deref(), Some("gm"));
     assert_eq!(clip.rows.iter().map(|r| r.info.name.as_str()).collect::<Vec<_>>(), ["clip_plane_gm"]);
     // Tall enough to show every group without scrolling.
-    let mut harness = HarnessBuilder::default()
-        .with_size(egui::Vec2::new(600.0, 3000.0))
-        .build_ui_state(|ui, actions: &mut Vec<Action>| actions.extend(params::show(ui, &groups, "")), Vec::new());
+    let mut harness = HarnessBuilder::default().with_size(egui::Vec2::new(600.0, 3000.0)).build_ui_state(
+        |ui, (show_all, actions): &mut (bool, Vec<Action>)| actions.extend(params::show(ui, &groups, show_all, "")),
+        (false, Vec::new()),
+    );
     harness.run();
     harness.get_by_label("clip_gm (instance gm)");
     harness.get_by_label("clip_plane_gm");
     harness.get_by_label("Save to scene");
     harness.get_by_label("1 changed");
+    assert!(harness.query_by_label("inv_view_proj").is_none(), "set by the viewer: listed only on request");
     harness.get_by_label("reset").click();
     harness.run();
-    assert!(harness.state().contains(&Action::ResetUniform("clip_plane_gm".into())), "{:?}", harness.state());
+    assert!(harness.state().1.contains(&Action::ResetUniform("clip_plane_gm".into())), "{:?}", harness.state().1);
     harness.get_by_label("Save to scene").click();
+    harness.get_by_label("all").click();
     harness.run();
-    assert!(harness.state().contains(&Action::SaveUniforms));
+    assert!(harness.state().1.contains(&Action::SaveUniforms));
+    harness.get_by_label("inv_view_proj");
 }
 
 #[test]
