@@ -1,6 +1,12 @@
 //! Recovery scans: what a broken expression group, statement or item is skipped to.
 
-use super::*;
+use super::{Extra, GrammarError, ITEM_KEYWORDS, Tokens, span_of};
+use crate::ast::Item;
+use crate::diag::{Code, Diagnostic};
+use crate::lexer::Token;
+use crate::source::Span;
+use chumsky::input::{Input, InputRef};
+use chumsky::prelude::*;
 
 /// Tokens that never occur inside parentheses or brackets: a recovery scan of a bracket group
 /// gives up at them, so that it stays within one statement.
@@ -31,11 +37,10 @@ fn closer_of(t: &Token) -> Option<Token> {
 /// Recovery scans are written by hand rather than with chumsky combinators: a failed combinator
 /// leaves an "expected" error at the furthest point it reached, which would then be reported in
 /// place of the next real error.
-fn skip_group<'t, I, Er>(inp: &mut InputRef<'t, '_, I, Extra<Er>>, stops: &[Token]) -> bool
-where
-    I: ValueInput<'t, Token = Token, Span = SimpleSpan> + BorrowInput<'t>,
-    Er: GrammarError<'t, I>,
-{
+fn skip_group<'t, I: Tokens<'t>, Er: GrammarError<'t, I>>(
+    inp: &mut InputRef<'t, '_, I, Extra<Er>>,
+    stops: &[Token],
+) -> bool {
     let start = inp.save();
     let Some(first) = inp.next_ref().and_then(closer_of) else {
         inp.rewind(start);
@@ -70,11 +75,9 @@ fn nothing_to_skip<'t, I: Input<'t>, Er: GrammarError<'t, I>>(span: SimpleSpan) 
 
 /// Recovery for a bracketed part of an expression: skips the balanced group at `open` within the
 /// statement.
-pub(super) fn skip_expr_group<'t, I, Er>(open: Token) -> impl Parser<'t, I, Span, Extra<Er>> + Clone
-where
-    I: ValueInput<'t, Token = Token, Span = SimpleSpan> + BorrowInput<'t>,
-    Er: GrammarError<'t, I>,
-{
+pub(super) fn skip_expr_group<'t, I: Tokens<'t>, Er: GrammarError<'t, I>>(
+    open: Token,
+) -> impl Parser<'t, I, Span, Extra<Er>> + Clone {
     custom(move |inp: &mut InputRef<'t, '_, I, Extra<Er>>| {
         let before = inp.cursor();
         if inp.peek_ref() == Some(&open) && skip_group(inp, &EXPR_STOPS) {
@@ -87,10 +90,7 @@ where
 
 /// Recovery for a statement or declaration: skips to the next `;` (inclusive) or past the next
 /// balanced `{ ... }`, stopping before a `}` or an item keyword. Consumes at least one token.
-pub(super) fn skip_statement<'t, I, Er>() -> impl Parser<'t, I, Span, Extra<Er>> + Clone
-where
-    I: ValueInput<'t, Token = Token, Span = SimpleSpan> + BorrowInput<'t>,
-    Er: GrammarError<'t, I>,
+pub(super) fn skip_statement<'t, I: Tokens<'t>, Er: GrammarError<'t, I>>() -> impl Parser<'t, I, Span, Extra<Er>> + Clone
 {
     custom(|inp: &mut InputRef<'t, '_, I, Extra<Er>>| {
         let before = inp.cursor();
@@ -126,11 +126,8 @@ where
 }
 
 /// Recovery for an item: skips its first token and everything up to the next item keyword.
-pub(super) fn skip_item<'t, I, Er>() -> impl Parser<'t, I, Option<Item>, Extra<Er>> + Clone
-where
-    I: ValueInput<'t, Token = Token, Span = SimpleSpan> + BorrowInput<'t>,
-    Er: GrammarError<'t, I>,
-{
+pub(super) fn skip_item<'t, I: Tokens<'t>, Er: GrammarError<'t, I>>()
+-> impl Parser<'t, I, Option<Item>, Extra<Er>> + Clone {
     custom(|inp: &mut InputRef<'t, '_, I, Extra<Er>>| {
         let before = inp.cursor();
         if inp.next_ref().is_none() {

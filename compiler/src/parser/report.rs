@@ -1,6 +1,11 @@
 //! Chumsky's errors as diagnostics: one per spot, worded in one place.
 
-use super::*;
+use super::{ParseError, span_of};
+use crate::diag::{Code, Diagnostic, Diagnostics};
+use crate::lexer::Token;
+use crate::source::Span;
+use chumsky::error::{RichPattern, RichReason};
+use rustc_hash::FxHashSet;
 
 /// Most expected tokens listed in a message.
 const MAX_EXPECTED: usize = 6;

@@ -1,5 +1,9 @@
 use super::*;
+use crate::ast::*;
+use crate::diag::{Code, Diagnostic, Diagnostics};
+use crate::lexer::Token;
 use crate::lexer::{IntSuffix, lex};
+use chumsky::error::EmptyErr;
 
 fn parse(src: &str) -> (Module, Vec<Diagnostic>) {
     let mut diags = Diagnostics::new();
@@ -27,8 +31,8 @@ fn the_fast_pass_builds_the_tree_the_reporting_pass_builds() {
     for src in snippets.into_iter().chain(std).chain(broken) {
         let tokens = grammar_tokens(src);
         let input = || tokens.as_slice().split_token_span(SimpleSpan::from(src.len()..src.len()));
-        let fast = module_parser::<_, EmptyErr>().parse(input());
-        let full = module_parser::<_, ParseError>().parse(input());
+        let fast = super::item::module::<_, EmptyErr>().parse(input());
+        let full = super::item::module::<_, ParseError>().parse(input());
         let valid = !broken.contains(&src);
         assert_eq!((fast.has_errors(), full.has_errors()), (!valid, !valid), "validity of {src}");
         if valid {
