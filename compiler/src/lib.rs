@@ -19,4 +19,5 @@ pub mod scene;
 pub mod source;
 pub mod stdlib;
 pub mod steps;
+pub mod suggest;
 pub mod types;

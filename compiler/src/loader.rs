@@ -257,7 +257,7 @@ impl<'a> Loader<'a> {
         let known = stdlib::names().collect::<Vec<_>>();
         let mut d = Diagnostic::new(Code::ImportNotFound, span, format!("no standard module `std::{name}`"))
             .with_label("not in the standard library");
-        d = match crate::steps::did_you_mean(name, known.iter().copied()) {
+        d = match crate::suggest::did_you_mean(name, known.iter().copied()) {
             Some(best) => d.with_help(format!("did you mean `std::{best}`?")),
             None => d.with_note(format!("standard modules: {}", known.join(", "))),
         };

@@ -26,7 +26,7 @@
 use crate::ast::Ident;
 use crate::diag::{Code, Diagnostic};
 use crate::source::{FileId, SourceMap, Span};
-use crate::steps::did_you_mean;
+use crate::suggest::did_you_mean;
 use serde::Deserialize;
 use serde::de::{self, Deserializer, SeqAccess, Visitor};
 use std::collections::BTreeMap;

@@ -23,7 +23,7 @@ use crate::diag::{Code, Diagnostic, Diagnostics};
 use crate::hir;
 use crate::scene::Scene;
 use crate::source::{SourceMap, Span};
-use crate::steps::did_you_mean;
+use crate::suggest::did_you_mean;
 use crate::types::{Scalar, Type};
 use std::fmt::Write as _;
 use std::path::Path;

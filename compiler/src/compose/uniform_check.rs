@@ -6,7 +6,7 @@
 use super::place::Composition;
 use crate::diag::{Code, Diagnostic, Diagnostics};
 use crate::scene::{Scene, UniformSetting, UniformValue};
-use crate::steps::did_you_mean;
+use crate::suggest::did_you_mean;
 use crate::types::{Scalar, Type};
 
 /// Checks `scene.uniforms` against the uniforms of `views` (the composed views). `all_views`
