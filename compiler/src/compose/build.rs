@@ -1,6 +1,7 @@
 //! Composing the views of a scene: standard modules chosen by the scene's configuration, then
 //! the scene's modules, then the view's; checked, placed, emitted as WGSL with reflection.
 
+use super::entry;
 use super::place::{self, Composition, ModuleUse};
 use super::reflect::{self, Reflection};
 use super::uniform_check;
@@ -13,9 +14,6 @@ use crate::source::{SourceMap, Span};
 use std::path::Path;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Mutex, OnceLock};
-
-/// Fields the entry point reads or writes itself.
-pub const ENTRY_FIELDS: &[&str] = &["pixel", "terminate", "out_color"];
 
 /// One composed view.
 pub struct ViewOutput {
@@ -377,7 +375,7 @@ fn compose_loaded(
     let LoadedView { graph, uses, mut diags } = loaded;
     let program = check::check_program(&graph, sources, &mut diags);
     let is_std = |m: usize| graph.modules.get(m).is_some_and(|m| m.std_name.is_some());
-    let composition = place::compose(&program, &uses, is_std, ENTRY_FIELDS, &mut diags);
+    let composition = place::compose(&program, &uses, is_std, entry::ENTRY_FIELDS, &mut diags);
     let emitted = if diags.has_errors() {
         None
     } else {

@@ -25,6 +25,7 @@
 //! The defaults are written by two synthetic pipeline functions lowered like any other, so the
 //! entry point itself needs no constants.
 
+use crate::lower::emitter::Emitter;
 use naga::{Expression as E, Handle, Statement as S};
 
 /// What the entry point calls and touches.
@@ -52,40 +53,29 @@ pub struct EntryPlan {
 
 pub const WORKGROUP_SIZE: [u32; 3] = [8, 8, 1];
 
-/// Appends expressions and turns runs of them into `Emit` statements before each statement.
+/// The state field the entry point sets to the pixel's centre in [0, 1]^2 before ray setup.
+pub(crate) const PIXEL: &str = "pixel";
+/// The state field that ends the sample loop when set.
+pub(crate) const TERMINATE: &str = "terminate";
+/// The state field the entry point stores as the pixel's colour after ray finish.
+pub(crate) const OUT_COLOR: &str = "out_color";
+/// The fields the entry point reads or writes itself: kept whenever a placed function declares
+/// them, and without data-flow warnings.
+pub(crate) const ENTRY_FIELDS: &[&str] = &[PIXEL, TERMINATE, OUT_COLOR];
+
+/// The entry point's function as it grows, with the emit discipline lowering uses.
 struct Body {
     func: naga::Function,
-    /// Start of the run of expressions that still needs an `Emit`.
-    open: Option<u32>,
-    /// Closed runs waiting for the next statement.
-    pending: Vec<std::ops::Range<u32>>,
+    emitter: Emitter,
 }
 
 impl Body {
     fn expr(&mut self, expr: E) -> Handle<E> {
-        let len = self.func.expressions.len() as u32;
-        if expr.needs_pre_emit() {
-            self.close(len);
-        } else if self.open.is_none() {
-            self.open = Some(len);
-        }
-        self.func.expressions.append(expr, naga::Span::UNDEFINED)
-    }
-
-    fn close(&mut self, end: u32) {
-        if let Some(start) = self.open.take()
-            && start < end
-        {
-            self.pending.push(start..end);
-        }
+        self.emitter.append(&mut self.func.expressions, expr, naga::Span::UNDEFINED)
     }
 
     fn push(&mut self, block: &mut naga::Block, stmt: S) {
-        self.close(self.func.expressions.len() as u32);
-        for range in self.pending.drain(..) {
-            block.push(S::Emit(naga::Range::from_index_range(range, &self.func.expressions)), naga::Span::UNDEFINED);
-        }
-        block.push(stmt, naga::Span::UNDEFINED);
+        self.emitter.push(&self.func.expressions, block, stmt, naga::Span::UNDEFINED);
     }
 
     fn call(&mut self, block: &mut naga::Block, function: Handle<naga::Function>, state: Handle<E>) {
@@ -140,7 +130,7 @@ pub fn build(module: &mut naga::Module, plan: &EntryPlan) -> naga::EntryPoint {
     let counter_var = func
         .local_variables
         .append(naga::LocalVariable { name: Some("i".into()), ty: u32_ty, init: None }, naga::Span::UNDEFINED);
-    let mut b = Body { func, open: None, pending: Vec::new() };
+    let mut b = Body { func, emitter: Emitter::default() };
     let mut body = naga::Block::new();
     use naga::BinaryOperator as Bo;
 

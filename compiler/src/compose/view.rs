@@ -116,9 +116,9 @@ pub fn emit(program: &hir::Program, comp: &Composition, sources: &SourceMap) -> 
     let member = |name: &str| comp.field(name).map(|i| i as u32);
     let plan = EntryPlan {
         state_type,
-        pixel: member("pixel"),
-        terminate: member("terminate"),
-        out_color: member("out_color"),
+        pixel: member(entry::PIXEL),
+        terminate: member(entry::TERMINATE),
+        out_color: member(entry::OUT_COLOR),
         init_state,
         reset_sample,
         ray_setup,
