@@ -2,7 +2,7 @@
 //! the scene's modules, then the view's; checked, placed, emitted as WGSL with reflection.
 
 use super::entry;
-use super::place::{self, Composition, ModuleUse};
+use super::ir::{Composition, ModuleUse};
 use super::reflect::{self, Reflection};
 use super::uniform_check;
 use super::view;
@@ -375,7 +375,7 @@ fn compose_loaded(
     let LoadedView { graph, uses, mut diags } = loaded;
     let program = check::check_program(&graph, sources, &mut diags);
     let is_std = |m: usize| graph.modules.get(m).is_some_and(|m| m.std_name.is_some());
-    let composition = place::compose(&program, &uses, is_std, entry::ENTRY_FIELDS, &mut diags);
+    let composition = super::compose(&program, &uses, is_std, entry::ENTRY_FIELDS, &mut diags);
     let emitted = if diags.has_errors() {
         None
     } else {

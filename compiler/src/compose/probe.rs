@@ -18,7 +18,8 @@
 //! the passes and colours the image.
 
 use super::build::{self, BuiltScene, GeneratedModule, Keep, ViewShader};
-use super::place::{Composition, subst};
+use super::instantiate::subst;
+use super::ir::Composition;
 use crate::diag::{Code, Diagnostic, Diagnostics};
 use crate::hir;
 use crate::scene::Scene;

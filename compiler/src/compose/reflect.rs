@@ -2,7 +2,7 @@
 //! uniform block layout with defaults, ranges and docs, every binding, the state layout, the
 //! pipeline map, and hashes that tie the JSON to its WGSL.
 
-use super::place::Composition;
+use super::ir::Composition;
 use super::view::ViewModule;
 use crate::hir::{self, ConstValue, ScalarValue};
 use crate::scene::{Scene, UniformValue, View};

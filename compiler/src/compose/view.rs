@@ -8,7 +8,7 @@
 //! order, each as its texture and then its sampler.
 
 use super::entry::{self, EntryPlan};
-use super::place::{Composition, Uniform};
+use super::ir::{Composition, Uniform};
 use crate::ast::{AssignOp, PlacementKind};
 use crate::diag::Diagnostic;
 use crate::hir::{self, ConstValue, ScalarValue};
