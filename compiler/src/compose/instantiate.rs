@@ -88,65 +88,7 @@ pub(super) fn instantiate(program: &hir::Program, uses: &[ModuleUse], diags: &mu
             .collect();
         items.sort_by_key(|(span, _)| span.start);
         let wildcard = first_wildcard(program, &pipes, &removes);
-        let listed = u.instances.as_deref().filter(|list| !list.is_empty());
-        let instances: Vec<Option<String>> = match (wildcard, listed) {
-            (Some((span, what)), None) => {
-                let mut d =
-                    Diagnostic::new(Code::UninstantiatedTemplate, span, "a template module is used without instances")
-                        .with_label(format!("{what} contains the wildcard `$`, so this module is a template"));
-                if !u.span.is_dummy() {
-                    d = d.with_secondary(u.span, "used here without instances");
-                }
-                diags.push(
-                    d.with_note("every `$` is replaced by an instance name, once per instance")
-                        .with_help("list instances in the scene: `instances = [\"a\", \"b\"]`"),
-                );
-                Vec::new()
-            }
-            (Some(_), Some(list)) => {
-                let mut valid: Vec<Option<String>> = Vec::new();
-                for name in list {
-                    if !is_identifier(name) {
-                        diags.push(
-                            Diagnostic::new(
-                                Code::InvalidInstance,
-                                u.span,
-                                format!("`{name}` is not a valid instance name"),
-                            )
-                            .with_label("instances of this module")
-                            .with_note("instance names are identifiers: a letter or `_`, then letters, digits or `_`"),
-                        );
-                    } else if valid.iter().any(|v| v.as_deref() == Some(name.as_str())) {
-                        diags.push(
-                            Diagnostic::new(
-                                Code::InvalidInstance,
-                                u.span,
-                                format!("instance `{name}` is listed twice"),
-                            )
-                            .with_label("instances of this module")
-                            .with_help("list each instance once"),
-                        );
-                    } else {
-                        valid.push(Some(name.clone()));
-                    }
-                }
-                valid
-            }
-            (None, Some(list)) => {
-                diags.push(
-                    Diagnostic::new(
-                        Code::SceneIgnored,
-                        u.span,
-                        "`instances` has no effect on a module that is not a template",
-                    )
-                    .with_label(format!("{} instance(s) ignored", list.len()))
-                    .with_note("a template is a module whose names or step paths contain `$`; this one is placed once")
-                    .with_help("remove `instances`, or write `$` where the instance name belongs"),
-                );
-                vec![None]
-            }
-            (None, None) => vec![None],
-        };
+        let instances = instances(u, wildcard, diags);
         for instance in instances {
             for &(_, source) in &items {
                 let name = match source {
@@ -158,6 +100,67 @@ pub(super) fn instantiate(program: &hir::Program, uses: &[ModuleUse], diags: &mu
         }
     }
     units
+}
+
+/// The instances a module is placed for: its listed ones for a template (E0606 without any,
+/// E0607 for a bad or repeated name), once without an instance for a plain module (W0701 when
+/// it is given instances anyway).
+fn instances(u: &ModuleUse, wildcard: Option<(Span, String)>, diags: &mut Diagnostics) -> Vec<Option<String>> {
+    let listed = u.instances.as_deref().filter(|list| !list.is_empty());
+    match (wildcard, listed) {
+        (Some((span, what)), None) => {
+            let mut d =
+                Diagnostic::new(Code::UninstantiatedTemplate, span, "a template module is used without instances")
+                    .with_label(format!("{what} contains the wildcard `$`, so this module is a template"));
+            if !u.span.is_dummy() {
+                d = d.with_secondary(u.span, "used here without instances");
+            }
+            diags.push(
+                d.with_note("every `$` is replaced by an instance name, once per instance")
+                    .with_help("list instances in the scene: `instances = [\"a\", \"b\"]`"),
+            );
+            Vec::new()
+        }
+        (Some(_), Some(list)) => {
+            let mut valid: Vec<Option<String>> = Vec::new();
+            for name in list {
+                if !is_identifier(name) {
+                    diags.push(
+                        Diagnostic::new(
+                            Code::InvalidInstance,
+                            u.span,
+                            format!("`{name}` is not a valid instance name"),
+                        )
+                        .with_label("instances of this module")
+                        .with_note("instance names are identifiers: a letter or `_`, then letters, digits or `_`"),
+                    );
+                } else if valid.iter().any(|v| v.as_deref() == Some(name.as_str())) {
+                    diags.push(
+                        Diagnostic::new(Code::InvalidInstance, u.span, format!("instance `{name}` is listed twice"))
+                            .with_label("instances of this module")
+                            .with_help("list each instance once"),
+                    );
+                } else {
+                    valid.push(Some(name.clone()));
+                }
+            }
+            valid
+        }
+        (None, Some(list)) => {
+            diags.push(
+                Diagnostic::new(
+                    Code::SceneIgnored,
+                    u.span,
+                    "`instances` has no effect on a module that is not a template",
+                )
+                .with_label(format!("{} instance(s) ignored", list.len()))
+                .with_note("a template is a module whose names or step paths contain `$`; this one is placed once")
+                .with_help("remove `instances`, or write `$` where the instance name belongs"),
+            );
+            vec![None]
+        }
+        (None, None) => vec![None],
+    }
 }
 
 /// Adds "in instance `gm` of template `clip_$`" to a diagnostic about an instantiated unit.

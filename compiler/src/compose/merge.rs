@@ -40,6 +40,18 @@ struct UniformAcc {
     doc: Option<DeclRef>,
 }
 
+/// The declarations merged so far, by name, and each placed unit's indices into them.
+#[derive(Default)]
+struct Merged {
+    fields: Vec<FieldAcc>,
+    field_index: FxHashMap<String, usize>,
+    uniforms: Vec<(String, UniformAcc)>,
+    uniform_index: FxHashMap<String, usize>,
+    /// Per unit: the field / uniform index of each declaration.
+    unit_fields: FxHashMap<usize, Vec<usize>>,
+    unit_uniforms: FxHashMap<usize, Vec<usize>>,
+}
+
 /// 0 before the sample loop, 1 in it, 2 after it.
 fn phase(step: Step) -> u8 {
     match step {
@@ -103,165 +115,167 @@ impl<'a, F: Fn(usize) -> bool> Merger<'a, F> {
         // The placed units along the pipeline.
         let order: Vec<(Step, usize)> =
             Step::ALL.iter().zip(placed).flat_map(|(step, units)| units.iter().map(move |&u| (*step, u))).collect();
-
-        let mut fields: Vec<FieldAcc> = Vec::new();
-        let mut field_index: FxHashMap<String, usize> = FxHashMap::default();
-        let mut uniforms: Vec<(String, UniformAcc)> = Vec::new();
-        let mut uniform_index: FxHashMap<String, usize> = FxHashMap::default();
-        // Per unit: field / uniform index of each declaration.
-        let mut unit_fields: FxHashMap<usize, Vec<usize>> = FxHashMap::default();
-        let mut unit_uniforms: FxHashMap<usize, Vec<usize>> = FxHashMap::default();
-
+        let mut merged = Merged::default();
         for (position, &(step, u)) in order.iter().enumerate() {
-            let decls = self.pipe(u).state.len();
-            let mut indices = Vec::with_capacity(decls);
-            for j in 0..decls {
-                let decl = self.state((u, j));
-                let name = self.units[u].subst(&decl.name);
-                let use_ =
-                    Use { position, phase: phase(step), unit: u, decl: j, read: decl.read, written: decl.written };
-                let fi = match field_index.get(&name) {
-                    Some(&fi) => {
-                        self.check_state(&mut fields[fi], (u, j));
-                        fi
-                    }
-                    None => {
-                        field_index.insert(name.clone(), fields.len());
-                        let first_default = decl.default.is_some().then_some((u, j));
-                        fields.push(FieldAcc { name, first: (u, j), first_default, uses: Vec::new() });
-                        fields.len() - 1
-                    }
-                };
-                fields[fi].uses.push(use_);
-                indices.push(fi);
-            }
-            unit_fields.insert(u, indices);
-
-            let decls = self.pipe(u).uniforms.len();
-            let mut indices = Vec::with_capacity(decls);
-            for j in 0..decls {
-                let decl = self.uniform((u, j));
-                let name = self.units[u].subst(&decl.name);
-                let ui = match uniform_index.get(&name) {
-                    Some(&ui) => {
-                        self.check_uniform(&name, &mut uniforms[ui].1, (u, j));
-                        ui
-                    }
-                    None => {
-                        uniform_index.insert(name.clone(), uniforms.len());
-                        let has = |b: bool| b.then_some((u, j));
-                        let acc = UniformAcc {
-                            first: (u, j),
-                            first_default: has(decl.default.is_some()),
-                            range: has(decl.range.is_some()),
-                            doc: has(decl.doc.is_some()),
-                        };
-                        uniforms.push((name, acc));
-                        uniforms.len() - 1
-                    }
-                };
-                indices.push(ui);
-            }
-            unit_uniforms.insert(u, indices);
+            let fields = self.merge_state(&mut merged, position, step, u);
+            merged.unit_fields.insert(u, fields);
+            let uniforms = self.merge_uniforms(&mut merged, u);
+            merged.unit_uniforms.insert(u, uniforms);
         }
-
         // Defaults, data flow, and which fields are kept.
-        let mut kept: Vec<Option<usize>> = vec![None; fields.len()];
-        let mut out_fields = Vec::new();
-        for (fi, acc) in fields.iter().enumerate() {
-            let first = self.state(acc.first);
-            if acc.first_default.is_none() {
-                let d = Diagnostic::new(
-                    Code::NoDefault,
-                    first.span,
-                    format!("no declaration of state field `{}` gives a default", acc.name),
-                )
-                .with_label("declared here without a default")
-                .with_note("a field is reset to its default before every sample (an `@ray` field before every ray)")
-                .with_help(format!("give a default: `state {}: {} = ...;`", acc.name, first.ty));
-                self.push(acc.first.0, d);
-            }
-            let read = acc.uses.iter().any(|x| x.read);
-            let written = acc.uses.iter().any(|x| x.written);
-            let required = self.required.contains(&acc.name.as_str());
-            if !required {
-                self.read_before_write(acc, first.ray);
-                if read {
-                    self.dead_writes(acc, first.ray);
-                }
-            }
-            if written
-                && !read
-                && !required
-                && let Some(w) = acc.uses.iter().find(|x| x.written && !self.unit_is_std(x.unit))
-            {
-                let d = Diagnostic::new(
-                    Code::WrittenNeverRead,
-                    self.state((w.unit, w.decl)).span,
-                    format!("state field `{}` is written but no function of the pipeline reads it", acc.name),
-                )
-                .with_label("written here, never read")
-                .with_note("the field is left out of the composed state, so the write has no effect")
-                .with_help("read it in a later step, or remove the write");
-                self.push(w.unit, d);
-            }
-            if read || required {
-                kept[fi] = Some(out_fields.len());
-                let default = match acc.first_default {
-                    Some(r) => self.state(r).default.clone().unwrap_or_else(|| zero_value(first.ty)),
-                    None => zero_value(first.ty),
-                };
-                out_fields.push(Field {
-                    name: acc.name.clone(),
-                    ty: first.ty,
-                    ray: first.ray,
-                    default,
-                    read,
-                    written,
-                    span: first.span,
-                });
+        let mut kept: Vec<Option<usize>> = vec![None; merged.fields.len()];
+        let mut fields = Vec::new();
+        for (fi, acc) in merged.fields.iter().enumerate() {
+            if let Some(field) = self.finish_field(acc) {
+                kept[fi] = Some(fields.len());
+                fields.push(field);
             }
         }
-
-        let out_uniforms: Vec<Uniform> = uniforms
-            .iter()
-            .map(|(name, acc)| {
-                let first = self.uniform(acc.first);
-                Uniform {
-                    name: name.clone(),
-                    ty: first.ty,
-                    default: acc.first_default.and_then(|r| self.uniform(r).default.clone()),
-                    range: acc.range.and_then(|r| self.uniform(r).range.clone()),
-                    doc: acc.doc.and_then(|r| self.uniform_doc(r)),
-                    span: first.span,
-                }
-            })
-            .collect();
-
+        let uniforms = merged.uniforms.iter().map(|(name, acc)| self.finish_uniform(name, acc)).collect();
         let steps = Step::ALL
             .iter()
             .zip(placed)
             .map(|(&step, units)| StepFunctions {
                 step,
-                functions: units
-                    .iter()
-                    .map(|&u| {
-                        let Source::Pipeline(pipeline) = self.units[u].source else {
-                            unreachable!("only pipeline functions are placed")
-                        };
-                        PlacedFn {
-                            pipeline,
-                            name: self.units[u].name.clone(),
-                            instance: self.units[u].instance.clone(),
-                            state: unit_fields[&u].iter().map(|&fi| kept[fi]).collect(),
-                            uniforms: unit_uniforms[&u].clone(),
-                        }
-                    })
-                    .collect(),
+                functions: units.iter().map(|&u| self.placed_fn(u, &merged, &kept)).collect(),
             })
             .collect();
+        Composition { steps, fields, uniforms }
+    }
 
-        Composition { steps, fields: out_fields, uniforms: out_uniforms }
+    /// The state declarations of unit `u` (at `position` along the pipeline) into the merged
+    /// fields; their field indices.
+    fn merge_state(&mut self, merged: &mut Merged, position: usize, step: Step, u: usize) -> Vec<usize> {
+        let decls = self.pipe(u).state.len();
+        let mut indices = Vec::with_capacity(decls);
+        for j in 0..decls {
+            let decl = self.state((u, j));
+            let name = self.units[u].subst(&decl.name);
+            let use_ = Use { position, phase: phase(step), unit: u, decl: j, read: decl.read, written: decl.written };
+            let fi = match merged.field_index.get(&name) {
+                Some(&fi) => {
+                    self.check_state(&mut merged.fields[fi], (u, j));
+                    fi
+                }
+                None => {
+                    merged.field_index.insert(name.clone(), merged.fields.len());
+                    let first_default = decl.default.is_some().then_some((u, j));
+                    merged.fields.push(FieldAcc { name, first: (u, j), first_default, uses: Vec::new() });
+                    merged.fields.len() - 1
+                }
+            };
+            merged.fields[fi].uses.push(use_);
+            indices.push(fi);
+        }
+        indices
+    }
+
+    /// The uniform declarations of unit `u` into the merged uniforms; their uniform indices.
+    fn merge_uniforms(&mut self, merged: &mut Merged, u: usize) -> Vec<usize> {
+        let decls = self.pipe(u).uniforms.len();
+        let mut indices = Vec::with_capacity(decls);
+        for j in 0..decls {
+            let decl = self.uniform((u, j));
+            let name = self.units[u].subst(&decl.name);
+            let ui = match merged.uniform_index.get(&name) {
+                Some(&ui) => {
+                    self.check_uniform(&name, &mut merged.uniforms[ui].1, (u, j));
+                    ui
+                }
+                None => {
+                    merged.uniform_index.insert(name.clone(), merged.uniforms.len());
+                    let has = |b: bool| b.then_some((u, j));
+                    let acc = UniformAcc {
+                        first: (u, j),
+                        first_default: has(decl.default.is_some()),
+                        range: has(decl.range.is_some()),
+                        doc: has(decl.doc.is_some()),
+                    };
+                    merged.uniforms.push((name, acc));
+                    merged.uniforms.len() - 1
+                }
+            };
+            indices.push(ui);
+        }
+        indices
+    }
+
+    /// A merged field's default (E0605 without one) and data flow (W0005, W0006); the field,
+    /// unless it is left out because nothing reads it.
+    fn finish_field(&mut self, acc: &FieldAcc) -> Option<Field> {
+        let first = self.state(acc.first);
+        if acc.first_default.is_none() {
+            let d = Diagnostic::new(
+                Code::NoDefault,
+                first.span,
+                format!("no declaration of state field `{}` gives a default", acc.name),
+            )
+            .with_label("declared here without a default")
+            .with_note("a field is reset to its default before every sample (an `@ray` field before every ray)")
+            .with_help(format!("give a default: `state {}: {} = ...;`", acc.name, first.ty));
+            self.push(acc.first.0, d);
+        }
+        let read = acc.uses.iter().any(|x| x.read);
+        let written = acc.uses.iter().any(|x| x.written);
+        let required = self.required.contains(&acc.name.as_str());
+        if !required {
+            self.read_before_write(acc, first.ray);
+            if read {
+                self.dead_writes(acc, first.ray);
+            }
+        }
+        if written && !read && !required {
+            self.never_read(acc);
+        }
+        if !(read || required) {
+            return None;
+        }
+        let default = match acc.first_default {
+            Some(r) => self.state(r).default.clone().unwrap_or_else(|| zero_value(first.ty)),
+            None => zero_value(first.ty),
+        };
+        Some(Field { name: acc.name.clone(), ty: first.ty, ray: first.ray, default, read, written, span: first.span })
+    }
+
+    /// W0006 for the first write of a field no function reads, by a non-standard function.
+    fn never_read(&mut self, acc: &FieldAcc) {
+        let Some(w) = acc.uses.iter().find(|x| x.written && !self.unit_is_std(x.unit)) else { return };
+        let d = Diagnostic::new(
+            Code::WrittenNeverRead,
+            self.state((w.unit, w.decl)).span,
+            format!("state field `{}` is written but no function of the pipeline reads it", acc.name),
+        )
+        .with_label("written here, never read")
+        .with_note("the field is left out of the composed state, so the write has no effect")
+        .with_help("read it in a later step, or remove the write");
+        self.push(w.unit, d);
+    }
+
+    /// A merged uniform: the first type, and the first default, range and doc given.
+    fn finish_uniform(&self, name: &str, acc: &UniformAcc) -> Uniform {
+        let first = self.uniform(acc.first);
+        Uniform {
+            name: name.to_string(),
+            ty: first.ty,
+            default: acc.first_default.and_then(|r| self.uniform(r).default.clone()),
+            range: acc.range.and_then(|r| self.uniform(r).range.clone()),
+            doc: acc.doc.and_then(|r| self.uniform_doc(r)),
+            span: first.span,
+        }
+    }
+
+    /// Placed unit `u` with its declarations' indices into the composed state and uniforms.
+    fn placed_fn(&self, u: usize, merged: &Merged, kept: &[Option<usize>]) -> PlacedFn {
+        let Source::Pipeline(pipeline) = self.units[u].source else {
+            unreachable!("only pipeline functions are placed")
+        };
+        PlacedFn {
+            pipeline,
+            name: self.units[u].name.clone(),
+            instance: self.units[u].instance.clone(),
+            state: merged.unit_fields[&u].iter().map(|&fi| kept[fi]).collect(),
+            uniforms: merged.unit_uniforms[&u].clone(),
+        }
     }
 
     /// Type, lifetime and default of a later declaration against the first ones. Declarations
