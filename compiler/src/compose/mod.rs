@@ -44,6 +44,7 @@ mod merge;
 pub mod place;
 pub mod probe;
 pub mod reflect;
+pub mod standard;
 #[cfg(test)]
 mod tests;
 pub mod uniform_check;
