@@ -223,10 +223,16 @@ impl Diagnostics {
     /// order the passes ran in.
     pub fn sorted(&self) -> Vec<Diagnostic> {
         let mut list = self.list.clone();
-        list.sort_by(|a, b| (a.span.start, a.code, &a.message).cmp(&(b.span.start, b.code, &b.message)));
+        sort(&mut list);
         list.dedup();
         list
     }
+}
+
+/// Sorts diagnostics the way they are shown: by file position, then code, then message (a stable
+/// sort, so equal ones keep their order).
+pub fn sort(list: &mut [Diagnostic]) {
+    list.sort_by(|a, b| (a.span.start, a.code, &a.message).cmp(&(b.span.start, b.code, &b.message)));
 }
 
 /// The JSON shape of section 10 of the language spec.

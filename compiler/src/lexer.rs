@@ -362,6 +362,26 @@ pub struct Lexed {
     pub docs: FxHashMap<u32, String>,
 }
 
+/// `[A-Za-z_][A-Za-z0-9_]*`: a name the scene gives that becomes part of an identifier (an
+/// instance, a volume, a light, a uniform). Unlike the lexer's identifiers, no `$`.
+pub fn is_identifier(s: &str) -> bool {
+    let mut chars = s.chars();
+    chars.next().is_some_and(|c| c.is_ascii_alphabetic() || c == '_')
+        && chars.all(|c| c.is_ascii_alphanumeric() || c == '_')
+}
+
+/// Whether `word` is a VRS keyword: the lexer reads it whole as one token that is not an
+/// identifier (so the keyword list is the token definitions).
+pub fn is_keyword(word: &str) -> bool {
+    let mut tokens = Token::lexer(word);
+    let first = tokens.next();
+    let whole = tokens.span() == (0..word.len());
+    whole
+        && tokens.next().is_none()
+        && word.chars().all(|c| c.is_ascii_alphabetic())
+        && matches!(first, Some(Ok(t)) if !matches!(t, Token::Ident(_)))
+}
+
 /// Lexes `text`, whose first byte has global offset `base`.
 pub fn lex(text: &str, base: u32, diags: &mut Diagnostics) -> Lexed {
     let mut out = Lexed::default();
@@ -554,5 +574,16 @@ mod tests {
         assert_eq!(d.iter().filter(|d| d.code == Code::TooDeep).count(), 1);
         assert_eq!(lexed.tokens.len(), 2 * MAX_NESTING + 1);
         assert_eq!(lexed.tokens[MAX_NESTING].0, Token::Error);
+    }
+
+    #[test]
+    fn keywords_are_the_keyword_tokens() {
+        for word in ["import", "pipeline", "when", "active", "true", "false", "continue"] {
+            assert!(is_keyword(word), "{word}");
+        }
+        for word in ["state_x", "imports", "vec3", "", "if ", "x", "@ray", "1"] {
+            assert!(!is_keyword(word), "{word}");
+        }
+        assert!(is_identifier("gm_2") && !is_identifier("2gm") && !is_identifier("a$") && !is_identifier(""));
     }
 }

@@ -4,6 +4,7 @@
 use super::ir::ModuleUse;
 use crate::diag::{Code, Diagnostic, Diagnostics};
 use crate::hir;
+use crate::lexer::is_identifier;
 use crate::source::Span;
 
 /// Where an instantiated item comes from.
@@ -36,13 +37,6 @@ pub(crate) fn subst(name: &str, instance: Option<&str>) -> String {
         Some(i) => name.replace('$', i),
         None => name.to_string(),
     }
-}
-
-/// `[A-Za-z_][A-Za-z0-9_]*`.
-fn is_identifier(s: &str) -> bool {
-    let mut chars = s.chars();
-    chars.next().is_some_and(|c| c.is_ascii_alphabetic() || c == '_')
-        && chars.all(|c| c.is_ascii_alphanumeric() || c == '_')
 }
 
 /// The first (by position) item of the module that makes it a template, with a description.

@@ -265,8 +265,7 @@ fn compose_variant(
 ) -> ProbeBuild {
     let module = GeneratedModule { name: format!("<probe of {}>", layout.field.name), text: source.clone() };
     let built = build::compose_scene_with(
-        sources,
-        Ok(scene),
+        build::ParsedScene { sources, scene: Some(scene), diags: Diagnostics::new() },
         Some(&layout.view),
         Keep::Outputs,
         crate::loader::ParsedFiles::default(),

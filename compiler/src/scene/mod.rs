@@ -24,13 +24,12 @@
 //!   names (which name output files, `3d` in the spec's example) are `[A-Za-z0-9_-]+`.
 
 use crate::ast::Ident;
-use crate::diag::{Code, Diagnostic};
+use crate::diag::{Code, Diagnostic, Diagnostics};
 use crate::source::{FileId, SourceMap, Span};
 use crate::suggest::did_you_mean;
 use serde::Deserialize;
 use serde::de::{self, Deserializer, SeqAccess, Visitor};
 use std::collections::BTreeMap;
-use std::fmt;
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 use toml::Spanned;
@@ -56,12 +55,6 @@ pub const DEFAULT_CAMERA: Camera = Camera { azimuth: 0.0, elevation: 0.0, distan
 /// Slice position when `position` is not given: the middle of the volume.
 pub const DEFAULT_SLICE_POSITION: f32 = 0.5;
 
-/// VRS keywords: not allowed as names that become identifiers in composed code.
-const KEYWORDS: &[&str] = &[
-    "import", "const", "lib", "fn", "pipeline", "state", "uniform", "use", "remove", "before", "after", "replace",
-    "in", "when", "active", "let", "var", "if", "else", "for", "break", "continue", "return", "true", "false",
-];
-
 /// Uniforms that `[render]` keys set; `[uniforms]` must not set them again.
 const RENDER_UNIFORMS: &[&str] = &["iso_value", "step_size", "max_samples", "jitter", "background"];
 
@@ -75,57 +68,38 @@ mod validate;
 pub use model::*;
 use raw::RawScene;
 use validate::Cx;
-pub use validate::{is_identifier, is_view_name};
+pub use validate::is_view_name;
 
 // ---------------------------------------------------------------------------------------------
-// Errors and entry points.
+// Entry points.
 
-/// A scene that does not parse or validate: its diagnostics (errors, and any warnings found
-/// before the errors), sorted by position.
-#[derive(Clone, Debug)]
-pub struct SceneError {
-    pub diagnostics: Vec<Diagnostic>,
-}
-
-impl fmt::Display for SceneError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let errors: Vec<&str> = self.diagnostics.iter().filter(|d| d.is_error()).map(|d| d.message.as_str()).collect();
-        write!(f, "invalid scene: {}", errors.join("; "))
-    }
-}
-
-impl std::error::Error for SceneError {}
-
-/// Parses and validates the scene file `file` of `sources`. Relative paths resolve against the
-/// directory of the file's `path` (or of its name when it has no path).
-pub fn parse_scene(sources: &SourceMap, file: FileId) -> Result<Scene, SceneError> {
+/// Parses and validates the scene file `file` of `sources`, reporting into `diags`; the scene
+/// when it has no errors. Relative paths resolve against the directory of the file's `path` (or
+/// of its name when it has no path).
+pub fn parse_scene(sources: &SourceMap, file: FileId, diags: &mut Diagnostics) -> Option<Scene> {
     let f = sources.file(file);
     let from = f.path.clone().unwrap_or_else(|| PathBuf::from(&f.name));
     let dir = from.parent().map(Path::to_path_buf).unwrap_or_default();
-    parse_scene_text(&f.text, f.base, &dir)
+    parse_scene_text(&f.text, f.base, &dir, diags)
 }
 
-/// Parses and validates scene text whose first byte has global offset `base`; relative paths
-/// resolve against `dir`.
-pub fn parse_scene_text(text: &str, base: u32, dir: &Path) -> Result<Scene, SceneError> {
+/// Parses and validates scene text whose first byte has global offset `base`, reporting into
+/// `diags` (sorted by position); the scene when it has no errors. Relative paths resolve against
+/// `dir`.
+pub fn parse_scene_text(text: &str, base: u32, dir: &Path, diags: &mut Diagnostics) -> Option<Scene> {
     let mut cx = Cx { text, base, dir, errors: Vec::new(), warnings: Vec::new() };
     let raw: RawScene = match toml::from_str(text) {
         Ok(raw) => raw,
-        Err(e) => return Err(SceneError { diagnostics: vec![cx.toml_error(&e)] }),
+        Err(e) => {
+            diags.push(cx.toml_error(&e));
+            return None;
+        }
     };
     let scene = cx.scene(raw);
-    if cx.errors.is_empty() {
-        let mut warnings = cx.warnings;
-        sort(&mut warnings);
-        Ok(Scene { warnings, ..scene })
-    } else {
-        let mut diagnostics = cx.errors;
-        diagnostics.extend(cx.warnings);
-        sort(&mut diagnostics);
-        Err(SceneError { diagnostics })
-    }
-}
-
-fn sort(list: &mut [Diagnostic]) {
-    list.sort_by(|a, b| (a.span.start, a.code, &a.message).cmp(&(b.span.start, b.code, &b.message)));
+    let valid = cx.errors.is_empty();
+    let mut found = cx.errors;
+    found.extend(cx.warnings);
+    crate::diag::sort(&mut found);
+    found.into_iter().for_each(|d| diags.push(d));
+    valid.then_some(scene)
 }

@@ -1,6 +1,7 @@
 //! The typed scene, and what later passes ask of it.
 
 use super::*;
+use std::fmt;
 
 // ---------------------------------------------------------------------------------------------
 // The typed scene.
@@ -26,8 +27,6 @@ pub struct Scene {
     pub views: Vec<View>,
     /// The directory that relative paths were resolved against.
     pub dir: PathBuf,
-    /// Warnings found while validating (keys without effect).
-    pub warnings: Vec<Diagnostic>,
 }
 
 /// `[render]`: how every view composites and shades.

@@ -1,4 +1,5 @@
 use super::*;
+use crate::diag::Diagnostics;
 use crate::source::SourceMap;
 
 const EXAMPLE: &str = r#"[render]
@@ -34,13 +35,26 @@ position = 0.5                 # normalized
 modules = [{ path = "compose_2d.vrs" }]
 "#;
 
-/// Parses `text` as `scenes/test.toml` in a fresh source map.
-fn parse(text: &str) -> (SourceMap, Result<Scene, SceneError>) {
+/// What a scene that does not validate reported.
+#[derive(Debug)]
+struct Invalid {
+    diagnostics: Vec<Diagnostic>,
+}
+
+/// Parses `text` as `scenes/test.toml` in a fresh source map, with what it reported.
+fn parse_reporting(text: &str) -> (SourceMap, Option<Scene>, Vec<Diagnostic>) {
     let mut map = SourceMap::new();
     map.add("x.vrs", None, "// another file first, so bases are not 0\n".into());
     let id = map.add("scenes/test.toml", None, text.to_string());
-    let result = parse_scene(&map, id);
-    (map, result)
+    let mut diags = Diagnostics::new();
+    let scene = parse_scene(&map, id, &mut diags);
+    (map, scene, diags.iter().cloned().collect())
+}
+
+/// [`parse_reporting`]: the scene, or what it reported when it did not validate.
+fn parse(text: &str) -> (SourceMap, Result<Scene, Invalid>) {
+    let (map, scene, diagnostics) = parse_reporting(text);
+    (map, scene.ok_or(Invalid { diagnostics }))
 }
 
 /// The errors of a scene that must fail, as (code, line, column, message).
@@ -61,9 +75,9 @@ const MINIMAL: &str = "[[volume]]\nname = \"v\"\nrole = \"primary\"\nphantom = \
 
 #[test]
 fn the_spec_example_parses() {
-    let (map, result) = parse(EXAMPLE);
-    let scene = result.unwrap_or_else(|e| panic!("{:?}", e.diagnostics));
-    assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
+    let (map, scene, warnings) = parse_reporting(EXAMPLE);
+    let scene = scene.unwrap_or_else(|| panic!("{warnings:?}"));
+    assert!(warnings.is_empty(), "{warnings:?}");
     assert_eq!(scene.render.compositing.value, Compositing::Dvr);
     assert!(scene.render.shading);
     assert_eq!(scene.render.lights.iter().map(|l| l.name.as_str()).collect::<Vec<_>>(), ["key"]);
@@ -299,10 +313,9 @@ fn keys_without_effect_are_warnings() {
     let text = EXAMPLE
         .replace("kind = \"raycast\"", "kind = \"raycast\"\naxis = \"x\"")
         .replace("position = 0.5", "position = 0.5\ncamera = { fov = 20.0 }");
-    let (map, result) = parse(&text);
-    let scene = result.unwrap_or_else(|e| panic!("{:?}", e.diagnostics));
-    let w: Vec<_> = scene
-        .warnings
+    let (map, scene, warnings) = parse_reporting(&text);
+    assert!(scene.is_some(), "{warnings:?}");
+    let w: Vec<_> = warnings
         .iter()
         .map(|d| (d.code.as_str(), map.position(d.span.start).expect("in file").1.line, d.message.as_str()))
         .collect();

@@ -3,6 +3,7 @@
 
 use super::raw::*;
 use super::*;
+use crate::lexer::is_identifier;
 
 // ---------------------------------------------------------------------------------------------
 // Validation.
@@ -100,7 +101,7 @@ impl Cx<'_> {
         let modules = raw.modules.into_iter().map(|m| self.module(m)).collect();
         let uniforms = self.uniforms(raw.uniforms, &render);
         let views = self.views(raw.views);
-        Scene { render, volumes, modules, uniforms, views, dir: self.dir.to_path_buf(), warnings: Vec::new() }
+        Scene { render, volumes, modules, uniforms, views, dir: self.dir.to_path_buf() }
     }
 
     pub(super) fn render(&mut self, raw: Option<Spanned<RawRender>>) -> Render {
@@ -244,7 +245,7 @@ impl Cx<'_> {
                     .with_note("names are letters, digits and `_`, and do not start with a digit"),
             );
             false
-        } else if KEYWORDS.contains(&name) {
+        } else if crate::lexer::is_keyword(name) {
             self.emit(
                 Diagnostic::new(code, span, format!("the {what} name `{name}` is a VRS keyword"))
                     .with_label("a keyword")
@@ -583,13 +584,6 @@ impl Cx<'_> {
         }
         out
     }
-}
-
-/// `[A-Za-z_][A-Za-z0-9_]*`.
-pub fn is_identifier(s: &str) -> bool {
-    let mut chars = s.chars();
-    chars.next().is_some_and(|c| c.is_ascii_alphabetic() || c == '_')
-        && chars.all(|c| c.is_ascii_alphanumeric() || c == '_')
 }
 
 /// `[A-Za-z0-9_-]+`: a view name, which names output files (`3d` is fine).
