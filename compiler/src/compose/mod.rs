@@ -36,19 +36,19 @@ use rustc_hash::FxHashMap;
 pub mod backends;
 pub mod build;
 pub mod cache;
-pub mod entry;
+pub(crate) mod entry;
 pub mod explain;
 mod instantiate;
-pub mod ir;
+pub(crate) mod ir;
 mod merge;
-pub mod place;
+pub(crate) mod place;
 pub mod probe;
-pub mod reflect;
-pub mod standard;
+pub(crate) mod reflect;
+pub(crate) mod standard;
 #[cfg(test)]
 mod tests;
-pub mod uniform_check;
-pub mod view;
+pub(crate) mod uniform_check;
+pub(crate) mod view;
 
 use instantiate::{Source, instantiate};
 use ir::{Composition, ModuleUse};

@@ -9,7 +9,7 @@ use crate::scene::{Scene, UniformValue, View};
 use crate::source::SourceMap;
 use serde_json::Value;
 pub use vrs_reflection::{
-    BindingInfo, BindingKind, FORMAT_VERSION, FieldInfo, FunctionInfo, Lifetime, Reflection, StateInfo, StepInfo,
+    FORMAT_VERSION, FieldInfo, FunctionInfo, Lifetime, Reflection, StateInfo, StepInfo,
     UniformBlock, UniformInfo, content_hash,
 };
 

@@ -27,7 +27,7 @@
 //! (the lexer sees to that) and the recursion through them is on a growable stack (chumsky's
 //! `stacker`); unary operators and `else if` chains are parsed by loops, binary operators as a flat
 //! list folded by precedence, and recovery scans are loops. Every tree the parser builds is at most
-//! [`MAX_DEPTH`] expression levels and [`MAX_DEPTH`] statement levels deep (deeper input is E0105
+//! [`depth::MAX_DEPTH`] expression levels and as many statement levels deep (deeper input is E0105
 //! and becomes an error node), which bounds the recursion of every later pass, dropping the tree
 //! included.
 
@@ -50,8 +50,6 @@ mod report;
 mod stmt;
 #[cfg(test)]
 mod tests;
-
-pub use depth::MAX_DEPTH;
 
 /// Tokens that start an item: where item-level recovery resumes, and where an unclosed block ends.
 const ITEM_KEYWORDS: [Token; 5] = [Token::Import, Token::Const, Token::Lib, Token::Pipeline, Token::Remove];

@@ -1,3 +1,4 @@
+use super::depth::MAX_DEPTH;
 use super::*;
 use crate::ast::*;
 use crate::diag::{Code, Diagnostic, Diagnostics};
