@@ -15,6 +15,7 @@ use std::fmt;
 /// Deepest bracket nesting accepted: far beyond hand-written code, far below a stack overflow.
 pub const MAX_NESTING: usize = 128;
 
+/// A token of VRS source (logos).
 #[derive(Logos, Clone, Debug, PartialEq)]
 #[logos(skip r"[ \t\r\n\f]+")]
 pub enum Token {
@@ -182,6 +183,7 @@ pub enum IntSuffix {
     U,
 }
 
+/// An integer literal: its value and suffix.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct IntLit {
     /// `None` when the digits do not fit in 64 bits (reported as E0103).
@@ -189,6 +191,7 @@ pub struct IntLit {
     pub suffix: Option<IntSuffix>,
 }
 
+/// A float literal: its value and whether it has the `f` suffix.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FloatLit {
     pub value: f64,

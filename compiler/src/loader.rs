@@ -63,6 +63,7 @@ pub struct Loader<'a> {
 }
 
 impl<'a> Loader<'a> {
+    /// A loader adding files to `sources` and reporting into `diags`.
     pub fn new(sources: &'a mut SourceMap, diags: &'a mut Diagnostics) -> Loader<'a> {
         Loader::with_parsed(sources, diags, ParsedFiles::default())
     }
@@ -109,6 +110,7 @@ impl<'a> Loader<'a> {
         Some(index)
     }
 
+    /// The graph of every module loaded.
     pub fn finish(self) -> ModuleGraph {
         self.graph
     }

@@ -60,6 +60,7 @@ pub enum StepLookup {
 }
 
 impl Step {
+    /// What a dotted path names: a step, a group of steps, or nothing.
     pub fn lookup(path: &str) -> StepLookup {
         if let Some(step) = Step::ALL.iter().find(|s| s.name() == path) {
             return StepLookup::Step(*step);

@@ -45,10 +45,12 @@ pub struct CachedBuild {
 }
 
 impl CompositionCache {
+    /// An empty cache.
     pub fn new() -> CompositionCache {
         CompositionCache::default()
     }
 
+    /// Hits and misses so far.
     pub fn stats(&self) -> CacheStats {
         self.stats
     }

@@ -9,8 +9,8 @@ use crate::scene::{Scene, UniformValue, View};
 use crate::source::SourceMap;
 use serde_json::Value;
 pub use vrs_reflection::{
-    FORMAT_VERSION, FieldInfo, FunctionInfo, Lifetime, Reflection, StateInfo, StepInfo,
-    UniformBlock, UniformInfo, content_hash,
+    FORMAT_VERSION, FieldInfo, FunctionInfo, Lifetime, Reflection, StateInfo, StepInfo, UniformBlock, UniformInfo,
+    content_hash,
 };
 
 /// xxh3-64 (hex) of the WGSL and the bindings' JSON, joined by a newline.

@@ -37,7 +37,9 @@ pub struct ViewModule {
 }
 
 /// Builds and validates the module of a composition. Errors are internal (E0901): everything a
-/// user can get wrong was reported by the checker or the composer.
+/// user can get wrong was reported by the checker or the composer. The module is built in the
+/// order its WGSL reads (state, uniforms, bindings, functions step by step, entry point), in one
+/// function so that the order is visible.
 pub fn emit(program: &hir::Program, comp: &Composition, sources: &SourceMap) -> Result<ViewModule, Diagnostic> {
     let mut b = ModuleBuilder::new();
     let fields: Vec<(String, Type)> = comp.fields.iter().map(|f| (f.name.clone(), f.ty)).collect();

@@ -749,6 +749,7 @@ impl<'a> FnCtx<'a> {
         Err(internal(e.span, "expected a `volume` or `tf` parameter or uniform"))
     }
 
+    /// One arm per built-in function: the table reads best whole, so it stays one function.
     fn builtin(&mut self, builtin: Builtin, args: &[hir::Expr], span: Span, block: &mut naga::Block) -> R<Ex> {
         use Builtin as B;
         let arity = |n: usize| {

@@ -57,6 +57,7 @@ pub struct Render {
     pub background: Option<Located<[f32; 4]>>,
 }
 
+/// `[render] compositing`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Compositing {
@@ -68,6 +69,7 @@ pub enum Compositing {
     Iso,
 }
 
+/// A volume's `role`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Role {
@@ -98,6 +100,7 @@ pub struct Volume {
     pub span: Span,
 }
 
+/// Where a volume's samples come from.
 #[derive(Clone, Debug, PartialEq)]
 pub enum VolumeSource {
     /// `path = "..."`.
@@ -106,6 +109,7 @@ pub enum VolumeSource {
     Phantom(Located<String>),
 }
 
+/// A volume's transfer function: a preset name or a file.
 #[derive(Clone, Debug, PartialEq)]
 pub enum TfRef {
     /// A built-in preset (the value is an identifier), or the role's default (dummy span).
@@ -132,6 +136,7 @@ pub struct ModuleRef {
     pub span: Span,
 }
 
+/// Where a module comes from: a standard module or a file.
 #[derive(Clone, Debug, PartialEq)]
 pub enum ModuleSource {
     /// `path = "std::NAME"`: the standard module `NAME`.
@@ -139,6 +144,7 @@ pub enum ModuleSource {
     File(FileRef),
 }
 
+/// A view's `kind`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum ViewKind {
@@ -146,6 +152,7 @@ pub enum ViewKind {
     Slice,
 }
 
+/// A slice view's `axis`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Axis {
@@ -321,6 +328,7 @@ impl Scene {
         self.volumes.iter().filter(|v| v.role.value == role).map(|v| v.name.name.clone()).collect()
     }
 
+    /// The view named `name`.
     pub fn view(&self, name: &str) -> Option<&View> {
         self.views.iter().find(|v| v.name.name == name)
     }

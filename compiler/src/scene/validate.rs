@@ -104,6 +104,8 @@ impl Cx<'_> {
         Scene { render, volumes, modules, uniforms, views, dir: self.dir.to_path_buf() }
     }
 
+    /// `[render]`. One check per key, in the table's order; the checks share only the table,
+    /// so they stay in one function that reads like the table.
     pub(super) fn render(&mut self, raw: Option<Spanned<RawRender>>) -> Render {
         let (table, r) = match raw {
             Some(r) => (self.span(&r), r.into_inner()),
@@ -257,6 +259,7 @@ impl Cx<'_> {
         }
     }
 
+    /// `[[volume]]` tables. One check per key, in the table's order, as for [`Self::render`].
     pub(super) fn volumes(&mut self, raw: Vec<Spanned<RawVolume>>) -> Vec<Volume> {
         let mut out: Vec<Volume> = Vec::new();
         for v in raw {
@@ -450,6 +453,7 @@ impl Cx<'_> {
         out
     }
 
+    /// `[[view]]` tables. One check per key, in the table's order, as for [`Self::render`].
     pub(super) fn views(&mut self, raw: Vec<Spanned<RawView>>) -> Vec<View> {
         if raw.is_empty() {
             self.emit(
