@@ -12,6 +12,7 @@ pub struct Ident {
 }
 
 impl Ident {
+    /// Whether the name holds the template wildcard `$`.
     pub fn is_template(&self) -> bool {
         self.name.contains('$')
     }
@@ -24,6 +25,7 @@ pub struct Module {
     pub items: Vec<Item>,
 }
 
+/// A top-level item with its doc comment and span.
 #[derive(Clone, Debug)]
 pub struct Item {
     pub kind: ItemKind,
@@ -32,6 +34,7 @@ pub struct Item {
     pub span: Span,
 }
 
+/// What an item is.
 #[derive(Clone, Debug)]
 pub enum ItemKind {
     Import(Import),
@@ -41,6 +44,7 @@ pub enum ItemKind {
     Remove(Remove),
 }
 
+/// The target of an `import`: a file path or a standard module.
 #[derive(Clone, Debug)]
 pub enum Import {
     /// `import "path.vrs";`, relative to the importing file. The string is unescaped.
@@ -66,6 +70,7 @@ pub struct LibFn {
     pub body: Block,
 }
 
+/// A parameter of a library function: `NAME: TYPE`.
 #[derive(Clone, Debug)]
 pub struct Param {
     pub name: Ident,
@@ -89,6 +94,7 @@ pub struct Remove {
     pub when_active: bool,
 }
 
+/// How a pipeline function is placed relative to its target step or substep.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum PlacementKind {
     In,
@@ -97,6 +103,7 @@ pub enum PlacementKind {
     Replace,
 }
 
+/// `in|before|after|replace STEP[SUBSTEP] [when active]`.
 #[derive(Clone, Debug)]
 pub struct Placement {
     pub kind: PlacementKind,
@@ -130,6 +137,7 @@ pub struct Decl {
     pub span: Span,
 }
 
+/// A declaration at the top of a pipeline function's body.
 #[derive(Clone, Debug)]
 pub enum DeclKind {
     /// `@ray? state NAME: T (= e)?;`
@@ -149,18 +157,21 @@ pub struct TypeExpr {
     pub span: Span,
 }
 
+/// `{ statements }`.
 #[derive(Clone, Debug)]
 pub struct Block {
     pub stmts: Vec<Stmt>,
     pub span: Span,
 }
 
+/// A statement with its span.
 #[derive(Clone, Debug)]
 pub struct Stmt {
     pub kind: StmtKind,
     pub span: Span,
 }
 
+/// `=`, `+=`, `-=`, `*=`, `/=`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum AssignOp {
     Assign,
@@ -170,6 +181,7 @@ pub enum AssignOp {
     Div,
 }
 
+/// What a statement is.
 #[derive(Clone, Debug)]
 pub enum StmtKind {
     /// `let x (: T)? = e;` (`mutable: false`) or `var x (: T)? (= e)?;` (`mutable: true`).
@@ -209,12 +221,14 @@ pub enum StmtKind {
     Error,
 }
 
+/// `-` and `!`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum UnaryOp {
     Neg,
     Not,
 }
 
+/// The binary operators, WGSL's.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum BinaryOp {
     Mul,
@@ -238,6 +252,7 @@ pub enum BinaryOp {
 }
 
 impl BinaryOp {
+    /// The operator as written.
     pub fn symbol(self) -> &'static str {
         use BinaryOp::*;
         match self {
@@ -263,12 +278,14 @@ impl BinaryOp {
     }
 }
 
+/// An expression with its span.
 #[derive(Clone, Debug)]
 pub struct Expr {
     pub kind: ExprKind,
     pub span: Span,
 }
 
+/// What an expression is.
 #[derive(Clone, Debug)]
 pub enum ExprKind {
     /// An integer literal; `None` when it did not fit in 64 bits (already reported).

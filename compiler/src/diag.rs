@@ -113,6 +113,7 @@ codes! {
     SceneIgnored = "W0701", Warning, "a scene key that has no effect where it is";
 }
 
+/// Whether a diagnostic stops compilation (error) or not (warning, note).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Severity {
@@ -136,6 +137,7 @@ pub struct Diagnostic {
 }
 
 impl Diagnostic {
+    /// A diagnostic with its code, primary span and message.
     pub fn new(code: Code, span: Span, message: impl Into<String>) -> Diagnostic {
         Diagnostic {
             code,
@@ -148,16 +150,19 @@ impl Diagnostic {
         }
     }
 
+    /// The label at the primary span.
     pub fn with_label(mut self, label: impl Into<String>) -> Self {
         self.label = label.into();
         self
     }
 
+    /// A secondary span with its label.
     pub fn with_secondary(mut self, span: Span, label: impl Into<String>) -> Self {
         self.secondary.push((span, label.into()));
         self
     }
 
+    /// A note, shown after the labels.
     pub fn with_note(mut self, note: impl Into<String>) -> Self {
         self.notes.push(note.into());
         self
@@ -169,6 +174,7 @@ impl Diagnostic {
         self
     }
 
+    /// Whether its code is an error.
     pub fn is_error(&self) -> bool {
         self.severity == Severity::Error
     }
@@ -181,10 +187,12 @@ pub struct Diagnostics {
 }
 
 impl Diagnostics {
+    /// An empty sink.
     pub fn new() -> Diagnostics {
         Diagnostics::default()
     }
 
+    /// Reports `d`.
     pub fn push(&mut self, d: Diagnostic) {
         self.list.push(d);
     }
@@ -195,26 +203,32 @@ impl Diagnostics {
         self.list.last_mut().expect("just pushed")
     }
 
+    /// Whether any error was reported.
     pub fn has_errors(&self) -> bool {
         self.list.iter().any(Diagnostic::is_error)
     }
 
+    /// How many errors were reported.
     pub fn error_count(&self) -> usize {
         self.list.iter().filter(|d| d.is_error()).count()
     }
 
+    /// The diagnostics in the order they were reported.
     pub fn iter(&self) -> impl Iterator<Item = &Diagnostic> {
         self.list.iter()
     }
 
+    /// How many diagnostics were reported.
     pub fn len(&self) -> usize {
         self.list.len()
     }
 
+    /// Whether nothing was reported.
     pub fn is_empty(&self) -> bool {
         self.list.is_empty()
     }
 
+    /// Takes over every diagnostic of `other`, in order.
     pub fn extend(&mut self, other: Diagnostics) {
         self.list.extend(other.list);
     }
@@ -223,10 +237,16 @@ impl Diagnostics {
     /// order the passes ran in.
     pub fn sorted(&self) -> Vec<Diagnostic> {
         let mut list = self.list.clone();
-        list.sort_by(|a, b| (a.span.start, a.code, &a.message).cmp(&(b.span.start, b.code, &b.message)));
+        sort(&mut list);
         list.dedup();
         list
     }
+}
+
+/// Sorts diagnostics the way they are shown: by file position, then code, then message (a stable
+/// sort, so equal ones keep their order).
+pub fn sort(list: &mut [Diagnostic]) {
+    list.sort_by(|a, b| (a.span.start, a.code, &a.message).cmp(&(b.span.start, b.code, &b.message)));
 }
 
 /// The JSON shape of section 10 of the language spec.

@@ -32,6 +32,7 @@ pub struct Program {
     pub removes: Vec<Remove>,
 }
 
+/// A checked library function.
 #[derive(Clone, Debug)]
 pub struct LibFn {
     pub name: String,
@@ -48,6 +49,7 @@ pub struct LibFn {
     pub span: Span,
 }
 
+/// A parameter of a checked library function.
 #[derive(Clone, Debug)]
 pub struct Param {
     pub name: String,
@@ -65,6 +67,7 @@ pub struct Local {
     pub span: Span,
 }
 
+/// A checked pipeline function: its placement, declarations and body.
 #[derive(Clone, Debug)]
 pub struct PipelineFn {
     pub name: String,
@@ -97,6 +100,7 @@ pub struct Placement {
     pub span: Span,
 }
 
+/// A checked `remove`: the step, and the substep for `remove S[x]`.
 #[derive(Clone, Debug)]
 pub struct Remove {
     /// Index of the module (in the loader's graph) that holds it.
@@ -107,6 +111,7 @@ pub struct Remove {
     pub span: Span,
 }
 
+/// A `state` declaration of a pipeline function, with whether the body reads and writes it.
 #[derive(Clone, Debug)]
 pub struct StateDecl {
     pub name: String,
@@ -122,6 +127,7 @@ pub struct StateDecl {
     pub span: Span,
 }
 
+/// A `uniform` declaration of a pipeline function.
 #[derive(Clone, Debug)]
 pub struct UniformDecl {
     pub name: String,
@@ -140,6 +146,7 @@ pub struct ConstValue {
     pub components: Vec<ScalarValue>,
 }
 
+/// One component of a constant value.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum ScalarValue {
     Bool(bool),
@@ -149,6 +156,7 @@ pub enum ScalarValue {
 }
 
 impl ScalarValue {
+    /// The scalar type of the component.
     pub fn scalar(self) -> Scalar {
         match self {
             ScalarValue::Bool(_) => Scalar::Bool,
@@ -159,18 +167,21 @@ impl ScalarValue {
     }
 }
 
+/// Checked statements.
 #[derive(Clone, Debug)]
 pub struct Block {
     pub stmts: Vec<Stmt>,
     pub span: Span,
 }
 
+/// A checked statement with its span.
 #[derive(Clone, Debug)]
 pub struct Stmt {
     pub kind: StmtKind,
     pub span: Span,
 }
 
+/// What a checked statement is.
 #[derive(Clone, Debug)]
 pub enum StmtKind {
     /// Initialises a local; `None` for `var x: T;` (zero value).
@@ -215,6 +226,7 @@ pub struct Place {
     pub span: Span,
 }
 
+/// What an assignment or a reference starts from: a local or a state field.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum PlaceRoot {
     Local(LocalId),
@@ -222,6 +234,7 @@ pub enum PlaceRoot {
     State(usize),
 }
 
+/// One step of an access path below a place root.
 #[derive(Clone, Debug)]
 pub enum Access {
     /// `.x`, `.g`: one vector component.
@@ -232,6 +245,7 @@ pub enum Access {
     Index(Box<Expr>),
 }
 
+/// A checked expression with its type and span.
 #[derive(Clone, Debug)]
 pub struct Expr {
     pub kind: ExprKind,
@@ -239,6 +253,7 @@ pub struct Expr {
     pub span: Span,
 }
 
+/// What a checked expression is.
 #[derive(Clone, Debug)]
 pub enum ExprKind {
     /// A literal or a folded constant.

@@ -15,6 +15,7 @@ use std::fmt;
 /// Deepest bracket nesting accepted: far beyond hand-written code, far below a stack overflow.
 pub const MAX_NESTING: usize = 128;
 
+/// A token of VRS source (logos).
 #[derive(Logos, Clone, Debug, PartialEq)]
 #[logos(skip r"[ \t\r\n\f]+")]
 pub enum Token {
@@ -182,6 +183,7 @@ pub enum IntSuffix {
     U,
 }
 
+/// An integer literal: its value and suffix.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct IntLit {
     /// `None` when the digits do not fit in 64 bits (reported as E0103).
@@ -189,6 +191,7 @@ pub struct IntLit {
     pub suffix: Option<IntSuffix>,
 }
 
+/// A float literal: its value and whether it has the `f` suffix.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FloatLit {
     pub value: f64,
@@ -360,6 +363,26 @@ pub struct Lexed {
     pub tokens: Vec<(Token, Span)>,
     /// Doc comment text (lines joined with `\n`), keyed by the start of the token it precedes.
     pub docs: FxHashMap<u32, String>,
+}
+
+/// `[A-Za-z_][A-Za-z0-9_]*`: a name the scene gives that becomes part of an identifier (an
+/// instance, a volume, a light, a uniform). Unlike the lexer's identifiers, no `$`.
+pub fn is_identifier(s: &str) -> bool {
+    let mut chars = s.chars();
+    chars.next().is_some_and(|c| c.is_ascii_alphabetic() || c == '_')
+        && chars.all(|c| c.is_ascii_alphanumeric() || c == '_')
+}
+
+/// Whether `word` is a VRS keyword: the lexer reads it whole as one token that is not an
+/// identifier (so the keyword list is the token definitions).
+pub fn is_keyword(word: &str) -> bool {
+    let mut tokens = Token::lexer(word);
+    let first = tokens.next();
+    let whole = tokens.span() == (0..word.len());
+    whole
+        && tokens.next().is_none()
+        && word.chars().all(|c| c.is_ascii_alphabetic())
+        && matches!(first, Some(Ok(t)) if !matches!(t, Token::Ident(_)))
 }
 
 /// Lexes `text`, whose first byte has global offset `base`.
@@ -554,5 +577,16 @@ mod tests {
         assert_eq!(d.iter().filter(|d| d.code == Code::TooDeep).count(), 1);
         assert_eq!(lexed.tokens.len(), 2 * MAX_NESTING + 1);
         assert_eq!(lexed.tokens[MAX_NESTING].0, Token::Error);
+    }
+
+    #[test]
+    fn keywords_are_the_keyword_tokens() {
+        for word in ["import", "pipeline", "when", "active", "true", "false", "continue"] {
+            assert!(is_keyword(word), "{word}");
+        }
+        for word in ["state_x", "imports", "vec3", "", "if ", "x", "@ray", "1"] {
+            assert!(!is_keyword(word), "{word}");
+        }
+        assert!(is_identifier("gm_2") && !is_identifier("2gm") && !is_identifier("a$") && !is_identifier(""));
     }
 }

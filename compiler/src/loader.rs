@@ -63,6 +63,7 @@ pub struct Loader<'a> {
 }
 
 impl<'a> Loader<'a> {
+    /// A loader adding files to `sources` and reporting into `diags`.
     pub fn new(sources: &'a mut SourceMap, diags: &'a mut Diagnostics) -> Loader<'a> {
         Loader::with_parsed(sources, diags, ParsedFiles::default())
     }
@@ -109,6 +110,7 @@ impl<'a> Loader<'a> {
         Some(index)
     }
 
+    /// The graph of every module loaded.
     pub fn finish(self) -> ModuleGraph {
         self.graph
     }
@@ -257,7 +259,7 @@ impl<'a> Loader<'a> {
         let known = stdlib::names().collect::<Vec<_>>();
         let mut d = Diagnostic::new(Code::ImportNotFound, span, format!("no standard module `std::{name}`"))
             .with_label("not in the standard library");
-        d = match crate::steps::did_you_mean(name, known.iter().copied()) {
+        d = match crate::suggest::did_you_mean(name, known.iter().copied()) {
             Some(best) => d.with_help(format!("did you mean `std::{best}`?")),
             None => d.with_note(format!("standard modules: {}", known.join(", "))),
         };

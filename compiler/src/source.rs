@@ -19,6 +19,7 @@ pub struct Span {
 impl Span {
     pub const DUMMY: Span = Span { start: 0, end: 0 };
 
+    /// The span `start..end` (global offsets).
     pub fn new(start: u32, end: u32) -> Span {
         Span { start, end }
     }
@@ -28,6 +29,7 @@ impl Span {
         Span::new(self.start.min(other.start), self.end.max(other.end))
     }
 
+    /// Whether this is [`Span::DUMMY`], a span that points nowhere.
     pub fn is_dummy(self) -> bool {
         self == Span::DUMMY
     }
@@ -72,6 +74,7 @@ impl SourceFile {
         (line, (local - self.line_starts[line]) as usize)
     }
 
+    /// How many lines the file has.
     pub fn line_count(&self) -> usize {
         self.line_starts.len()
     }
@@ -96,6 +99,7 @@ pub struct Position {
 }
 
 impl SourceMap {
+    /// An empty map.
     pub fn new() -> SourceMap {
         // Offset 0 is reserved so that `Span::DUMMY` never points into a real file.
         let mut map = SourceMap { files: Vec::new(), next_base: 1 };
@@ -105,6 +109,7 @@ impl SourceMap {
         map
     }
 
+    /// Adds a file (at the next free offsets) and returns its id.
     pub fn add(&mut self, name: impl Into<String>, path: Option<PathBuf>, text: String) -> FileId {
         let lines = line_starts(&text);
         self.push(name.into(), path, Cow::Owned(text), Cow::Owned(lines))
@@ -129,10 +134,12 @@ impl SourceMap {
         stdlib::index(name)
     }
 
+    /// The file `id`.
     pub fn file(&self, id: FileId) -> &SourceFile {
         &self.files[id]
     }
 
+    /// Every file with its id, in the order added.
     pub fn files(&self) -> impl Iterator<Item = (FileId, &SourceFile)> {
         self.files.iter().enumerate()
     }

@@ -60,6 +60,7 @@ pub enum StepLookup {
 }
 
 impl Step {
+    /// What a dotted path names: a step, a group of steps, or nothing.
     pub fn lookup(path: &str) -> StepLookup {
         if let Some(step) = Step::ALL.iter().find(|s| s.name() == path) {
             return StepLookup::Step(*step);
@@ -84,7 +85,7 @@ impl Step {
             .iter()
             .map(|s| s.name())
             .chain(groups)
-            .map(|name| (edit_distance(path, name), name))
+            .map(|name| (crate::suggest::edit_distance(path, name), name))
             .filter(|(d, name)| *d <= 2.max(name.len() / 4))
             .min()
             .map(|(_, name)| name)
@@ -95,32 +96,6 @@ impl fmt::Display for Step {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(self.name())
     }
-}
-
-/// Levenshtein distance, for suggestions.
-pub fn edit_distance(a: &str, b: &str) -> usize {
-    let b: Vec<char> = b.chars().collect();
-    let mut row: Vec<usize> = (0..=b.len()).collect();
-    for (i, ca) in a.chars().enumerate() {
-        let mut prev = row[0];
-        row[0] = i + 1;
-        for (j, cb) in b.iter().enumerate() {
-            let cur = row[j + 1];
-            row[j + 1] = (prev + usize::from(ca != *cb)).min(row[j] + 1).min(cur + 1);
-            prev = cur;
-        }
-    }
-    row[b.len()]
-}
-
-/// The closest of `candidates` to `name`, if it is close enough to be a likely typo.
-pub fn did_you_mean<'a>(name: &str, candidates: impl IntoIterator<Item = &'a str>) -> Option<&'a str> {
-    candidates
-        .into_iter()
-        .map(|c| (edit_distance(name, c), c))
-        .filter(|(d, c)| *d > 0 && *d <= 2.max(c.len() / 4))
-        .min()
-        .map(|(_, c)| c)
 }
 
 #[cfg(test)]

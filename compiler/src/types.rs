@@ -2,6 +2,7 @@
 
 use std::fmt;
 
+/// A VRS scalar type.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum Scalar {
     Bool,
@@ -11,6 +12,7 @@ pub enum Scalar {
 }
 
 impl Scalar {
+    /// The type's name as written (`f32`).
     pub fn name(self) -> &'static str {
         match self {
             Scalar::Bool => "bool",
@@ -30,15 +32,18 @@ impl Scalar {
         }
     }
 
+    /// `i32` or `u32`.
     pub fn is_integer(self) -> bool {
         matches!(self, Scalar::I32 | Scalar::U32)
     }
 
+    /// Not `bool`.
     pub fn is_numeric(self) -> bool {
         self != Scalar::Bool
     }
 }
 
+/// A VRS type.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum Type {
     Scalar(Scalar),
@@ -69,6 +74,7 @@ impl Type {
     pub const U32: Type = Type::Scalar(Scalar::U32);
     pub const F32: Type = Type::Scalar(Scalar::F32);
 
+    /// `vecN<scalar>`.
     pub fn vec(size: u8, scalar: Scalar) -> Type {
         Type::Vector { size, scalar }
     }
@@ -154,6 +160,7 @@ impl Type {
         matches!(self, Type::Scalar(_) | Type::Vector { .. } | Type::Matrix { .. } | Type::Error)
     }
 
+    /// Whether this is the type of an already reported mistake.
     pub fn is_error(self) -> bool {
         self == Type::Error
     }

@@ -124,8 +124,8 @@ impl Analysis {
     /// Composes the scene at `scene_path` with the open documents and reports what it finds in
     /// this document.
     fn report_scene(&mut self, scene_path: &Path) {
-        let Ok((sources, scene)) = read_scene(scene_path) else { return };
-        if let Ok(scene) = &scene {
+        let Ok(scene) = read_scene(scene_path) else { return };
+        if let Some(scene) = &scene.scene {
             for module in scene.modules.iter().chain(scene.views.iter().flat_map(|v| &v.modules)) {
                 if let vrsc::scene::ModuleSource::File(file) = &module.source {
                     self.scene_modules.push(crate::scenes::canonical(&file.resolved));
@@ -133,7 +133,7 @@ impl Analysis {
             }
         }
         let parsed = ParsedFiles::with_overlay(self.overlay.clone());
-        let built = compose_scene_with(sources, scene, None, Keep::Outputs, parsed, &[]);
+        let built = compose_scene_with(scene, None, Keep::Outputs, parsed, &[]);
         self.scene_files.extend(built.sources.files().filter_map(|(_, f)| f.path.clone()));
         for d in &built.diags.sorted() {
             if let Some(reported) = self.reported(d, &built.sources, Some(scene_path)) {

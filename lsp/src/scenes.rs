@@ -78,7 +78,9 @@ fn listed_modules(path: &Path) -> Vec<PathBuf> {
         return Vec::new();
     }
     let dir = path.parent().unwrap_or(Path::new("."));
-    let Ok(scene) = scene::parse_scene_text(&text, 1, dir) else { return Vec::new() };
+    let Some(scene) = scene::parse_scene_text(&text, 1, dir, &mut vrsc::diag::Diagnostics::new()) else {
+        return Vec::new();
+    };
     scene
         .modules
         .iter()

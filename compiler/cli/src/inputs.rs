@@ -100,7 +100,8 @@ mod tests {
         let text = format!(
             "[[volume]]\nname = \"v\"\nrole = \"primary\"\n{volume}\n\n[[view]]\nname = \"3d\"\nkind = \"raycast\"\n"
         );
-        let scene = vrsc::scene::parse_scene_text(&text, 0, dir).expect("a valid scene");
+        let scene =
+            vrsc::scene::parse_scene_text(&text, 0, dir, &mut vrsc::diag::Diagnostics::new()).expect("a valid scene");
         check_scene_inputs(&scene).into_iter().map(|d| d.message).collect()
     }
 

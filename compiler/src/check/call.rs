@@ -8,7 +8,7 @@ use crate::ast::{self, Ident, TypeExpr};
 use crate::diag::{Code, Diagnostic};
 use crate::hir::{self, Builtin};
 use crate::source::Span;
-use crate::steps::did_you_mean;
+use crate::suggest::did_you_mean;
 use crate::types::{Scalar, Type};
 
 /// Every built-in function, for suggestions.

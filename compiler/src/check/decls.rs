@@ -10,7 +10,8 @@ use crate::diag::{Code, Diagnostic};
 use crate::hir::show_const;
 use crate::hir::{self, ConstValue};
 use crate::source::Span;
-use crate::steps::{Step, StepLookup, did_you_mean};
+use crate::steps::{Step, StepLookup};
+use crate::suggest::did_you_mean;
 use crate::types::{Scalar, Type};
 use rustc_hash::FxHashMap;
 

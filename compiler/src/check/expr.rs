@@ -13,7 +13,7 @@ use crate::diag::{Code, Diagnostic};
 use crate::hir::{self, ConstValue, ScalarValue};
 use crate::lexer::IntSuffix;
 use crate::source::Span;
-use crate::steps::did_you_mean;
+use crate::suggest::did_you_mean;
 use crate::types::{Scalar, Type};
 
 /// The type the context of an expression expects, if any.

@@ -14,8 +14,8 @@
 //! expression that failed has [`Type::Error`], which every later rule accepts silently, so one
 //! mistake gives one diagnostic.
 
-pub mod builtin_eval;
-pub mod consteval;
+pub(crate) mod builtin_eval;
+pub(crate) mod consteval;
 pub mod rules;
 
 mod call;

@@ -6,7 +6,7 @@ use crate::ast::{self, DeclKind, ItemKind};
 use crate::diag::{Code, Diagnostic};
 use crate::hir;
 use crate::source::Span;
-use crate::steps::did_you_mean;
+use crate::suggest::did_you_mean;
 use crate::types::Type;
 use rustc_hash::{FxHashMap, FxHashSet};
 use std::path::Path;

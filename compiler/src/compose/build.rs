@@ -1,21 +1,19 @@
 //! Composing the views of a scene: standard modules chosen by the scene's configuration, then
 //! the scene's modules, then the view's; checked, placed, emitted as WGSL with reflection.
 
-use super::place::{self, Composition, ModuleUse};
+use super::entry;
+use super::ir::{Composition, ModuleUse};
 use super::reflect::{self, Reflection};
 use super::uniform_check;
 use super::view;
 use crate::check;
 use crate::diag::{Code, Diagnostic, Diagnostics};
 use crate::loader::{Loader, ModuleGraph, ParsedFiles};
-use crate::scene::{self, ModuleRef, ModuleSource, Scene, SceneError, View};
+use crate::scene::{self, ModuleRef, ModuleSource, Scene, View};
 use crate::source::{SourceMap, Span};
 use std::path::Path;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Mutex, OnceLock};
-
-/// Fields the entry point reads or writes itself.
-pub const ENTRY_FIELDS: &[&str] = &["pixel", "terminate", "out_color"];
 
 /// One composed view.
 pub struct ViewOutput {
@@ -76,28 +74,32 @@ pub fn build_scene(path: &Path, only_view: Option<&str>) -> std::io::Result<Buil
 
 /// [`build_scene`], keeping what `keep` asks for.
 pub fn build_scene_keeping(path: &Path, only_view: Option<&str>, keep: Keep) -> std::io::Result<BuiltScene> {
-    let (sources, scene) = read_scene(path)?;
-    Ok(compose_scene(sources, scene, only_view, keep))
+    Ok(compose_scene(read_scene(path)?, only_view, keep))
+}
+
+/// A scene file read into a new source map and parsed.
+pub struct ParsedScene {
+    pub sources: SourceMap,
+    /// `None` when the scene file itself is invalid.
+    pub scene: Option<Scene>,
+    /// What parsing the scene reported (its errors, or its warnings).
+    pub diags: Diagnostics,
 }
 
 /// Reads the scene file at `path` into a new source map and parses it.
-pub fn read_scene(path: &Path) -> std::io::Result<(SourceMap, Result<Scene, SceneError>)> {
+pub fn read_scene(path: &Path) -> std::io::Result<ParsedScene> {
     let text = std::fs::read_to_string(path)?;
     let mut sources = SourceMap::new();
     let file = sources.add(path.display().to_string(), Some(path.to_path_buf()), text);
-    let scene = scene::parse_scene(&sources, file);
-    Ok((sources, scene))
+    let mut diags = Diagnostics::new();
+    let scene = scene::parse_scene(&sources, file, &mut diags);
+    Ok(ParsedScene { sources, scene, diags })
 }
 
 /// Composes a scene parsed from a file of `sources` (every view, or only `only_view`); an invalid
 /// scene gives its diagnostics.
-pub fn compose_scene(
-    sources: SourceMap,
-    scene: Result<Scene, SceneError>,
-    only_view: Option<&str>,
-    keep: Keep,
-) -> BuiltScene {
-    compose_scene_with(sources, scene, only_view, keep, ParsedFiles::default(), &[])
+pub fn compose_scene(parsed: ParsedScene, only_view: Option<&str>, keep: Keep) -> BuiltScene {
+    compose_scene_with(parsed, only_view, keep, ParsedFiles::default(), &[])
 }
 
 /// A module made by the compiler itself rather than read from a file (the probe variant of a
@@ -113,22 +115,16 @@ pub struct GeneratedModule {
 /// disk: the language server composes a scene with the user's unsaved buffers this way), with
 /// `extra` modules placed last in every view composed.
 pub fn compose_scene_with(
-    mut sources: SourceMap,
-    scene: Result<Scene, SceneError>,
+    scene: ParsedScene,
     only_view: Option<&str>,
     keep: Keep,
     mut parsed: ParsedFiles,
     extra: &[GeneratedModule],
 ) -> BuiltScene {
-    let mut diags = Diagnostics::new();
-    let scene = match scene {
-        Ok(scene) => scene,
-        Err(e) => {
-            e.diagnostics.into_iter().for_each(|d| diags.push(d));
-            return BuiltScene { sources, diags, scene: None, views: Vec::new() };
-        }
+    let ParsedScene { mut sources, scene, mut diags } = scene;
+    let Some(scene) = scene else {
+        return BuiltScene { sources, diags, scene: None, views: Vec::new() };
     };
-    scene.warnings.iter().cloned().for_each(|d| diags.push(d));
     let chosen: Vec<&View> = scene.views.iter().filter(|view| only_view.is_none_or(|v| v == view.name.name)).collect();
     // Loading grows the source map, so it runs view after view (each file parsed once); the rest
     // of a view's work only reads the map, so the views compose in parallel. (Parsing the files in
@@ -377,7 +373,7 @@ fn compose_loaded(
     let LoadedView { graph, uses, mut diags } = loaded;
     let program = check::check_program(&graph, sources, &mut diags);
     let is_std = |m: usize| graph.modules.get(m).is_some_and(|m| m.std_name.is_some());
-    let composition = place::compose(&program, &uses, is_std, ENTRY_FIELDS, &mut diags);
+    let composition = super::compose(&program, &uses, is_std, entry::ENTRY_FIELDS, &mut diags);
     let emitted = if diags.has_errors() {
         None
     } else {

@@ -45,10 +45,12 @@ pub struct CachedBuild {
 }
 
 impl CompositionCache {
+    /// An empty cache.
     pub fn new() -> CompositionCache {
         CompositionCache::default()
     }
 
+    /// Hits and misses so far.
     pub fn stats(&self) -> CacheStats {
         self.stats
     }
@@ -56,14 +58,11 @@ impl CompositionCache {
     /// Composes every view of the scene at `path`, or reuses an earlier composition of the same
     /// structure whose module files are unchanged.
     pub fn build(&mut self, path: &Path) -> std::io::Result<CachedBuild> {
-        let (sources, scene) = build::read_scene(path)?;
-        let scene = match scene {
-            Ok(scene) => scene,
-            Err(e) => {
-                self.stats.misses += 1;
-                let built = build::compose_scene(sources, Err(e), None, Keep::Outputs);
-                return Ok(CachedBuild { built: Arc::new(built), scene: None, hit: false });
-            }
+        let parsed = build::read_scene(path)?;
+        let Some(scene) = parsed.scene.clone() else {
+            self.stats.misses += 1;
+            let built = build::compose_scene(parsed, None, Keep::Outputs);
+            return Ok(CachedBuild { built: Arc::new(built), scene: None, hit: false });
         };
         let key = structural_key(&scene);
         if let Some(entry) = self.entries.get(&key)
@@ -73,7 +72,7 @@ impl CompositionCache {
             return Ok(CachedBuild { built: entry.built.clone(), scene: Some(scene), hit: true });
         }
         self.stats.misses += 1;
-        let built = Arc::new(build::compose_scene(sources, Ok(scene.clone()), None, Keep::Outputs));
+        let built = Arc::new(build::compose_scene(parsed, None, Keep::Outputs));
         if !built.diags.has_errors() {
             let inputs = user_inputs(&built.sources, path);
             self.entries.insert(key, Entry { inputs, built: built.clone() });

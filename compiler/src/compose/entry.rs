@@ -25,6 +25,7 @@
 //! The defaults are written by two synthetic pipeline functions lowered like any other, so the
 //! entry point itself needs no constants.
 
+use crate::lower::emitter::Emitter;
 use naga::{Expression as E, Handle, Statement as S};
 
 /// What the entry point calls and touches.
@@ -52,40 +53,29 @@ pub struct EntryPlan {
 
 pub const WORKGROUP_SIZE: [u32; 3] = [8, 8, 1];
 
-/// Appends expressions and turns runs of them into `Emit` statements before each statement.
+/// The state field the entry point sets to the pixel's centre in [0, 1]^2 before ray setup.
+pub(crate) const PIXEL: &str = "pixel";
+/// The state field that ends the sample loop when set.
+pub(crate) const TERMINATE: &str = "terminate";
+/// The state field the entry point stores as the pixel's colour after ray finish.
+pub(crate) const OUT_COLOR: &str = "out_color";
+/// The fields the entry point reads or writes itself: kept whenever a placed function declares
+/// them, and without data-flow warnings.
+pub(crate) const ENTRY_FIELDS: &[&str] = &[PIXEL, TERMINATE, OUT_COLOR];
+
+/// The entry point's function as it grows, with the emit discipline lowering uses.
 struct Body {
     func: naga::Function,
-    /// Start of the run of expressions that still needs an `Emit`.
-    open: Option<u32>,
-    /// Closed runs waiting for the next statement.
-    pending: Vec<std::ops::Range<u32>>,
+    emitter: Emitter,
 }
 
 impl Body {
     fn expr(&mut self, expr: E) -> Handle<E> {
-        let len = self.func.expressions.len() as u32;
-        if expr.needs_pre_emit() {
-            self.close(len);
-        } else if self.open.is_none() {
-            self.open = Some(len);
-        }
-        self.func.expressions.append(expr, naga::Span::UNDEFINED)
-    }
-
-    fn close(&mut self, end: u32) {
-        if let Some(start) = self.open.take()
-            && start < end
-        {
-            self.pending.push(start..end);
-        }
+        self.emitter.append(&mut self.func.expressions, expr, naga::Span::UNDEFINED)
     }
 
     fn push(&mut self, block: &mut naga::Block, stmt: S) {
-        self.close(self.func.expressions.len() as u32);
-        for range in self.pending.drain(..) {
-            block.push(S::Emit(naga::Range::from_index_range(range, &self.func.expressions)), naga::Span::UNDEFINED);
-        }
-        block.push(stmt, naga::Span::UNDEFINED);
+        self.emitter.push(&self.func.expressions, block, stmt, naga::Span::UNDEFINED);
     }
 
     fn call(&mut self, block: &mut naga::Block, function: Handle<naga::Function>, state: Handle<E>) {
@@ -118,106 +108,22 @@ impl Body {
     }
 }
 
-/// Builds the entry point `main`; its types are added to `module`.
+/// Builds the entry point `main`; its types are added to `module`. The steps follow the WGSL in
+/// the module's documentation, in order (the order of the expressions is the order of their
+/// names in the WGSL).
 pub fn build(module: &mut naga::Module, plan: &EntryPlan) -> naga::EntryPoint {
-    let ty =
-        |module: &mut naga::Module, inner| module.types.insert(naga::Type { name: None, inner }, naga::Span::UNDEFINED);
-    let vec3u = ty(module, naga::TypeInner::Vector { size: naga::VectorSize::Tri, scalar: naga::Scalar::U32 });
-    let u32_ty = ty(module, naga::TypeInner::Scalar(naga::Scalar::U32));
-    let mut func = naga::Function {
-        name: Some("main".into()),
-        arguments: vec![naga::FunctionArgument {
-            name: Some("id".into()),
-            ty: vec3u,
-            binding: Some(naga::Binding::BuiltIn(naga::BuiltIn::GlobalInvocationId)),
-        }],
-        ..Default::default()
-    };
-    let state_var = func.local_variables.append(
-        naga::LocalVariable { name: Some("state".into()), ty: plan.state_type, init: None },
-        naga::Span::UNDEFINED,
-    );
-    let counter_var = func
-        .local_variables
-        .append(naga::LocalVariable { name: Some("i".into()), ty: u32_ty, init: None }, naga::Span::UNDEFINED);
-    let mut b = Body { func, open: None, pending: Vec::new() };
+    let (mut b, state_var, counter_var) = Body::entry_function(module, plan);
     let mut body = naga::Block::new();
-    use naga::BinaryOperator as Bo;
-
-    // The dispatch covers `region`; pixels past its end or the image's (the last workgroups
-    // overhang both) do nothing.
-    let id = b.expr(E::FunctionArgument(0));
-    let output = b.expr(E::GlobalVariable(plan.output));
-    let size = b.expr(E::ImageQuery { image: output, query: naga::ImageQuery::Size { level: None } });
-    let region_pointer = b.expr(E::GlobalVariable(plan.region));
-    let region = b.expr(E::Load { pointer: region_pointer });
-    let id_xy = b.xy(id);
-    let origin = b.xy(region);
-    let p = b.binary(Bo::Add, id_xy, origin);
-    let mut outside = None;
-    for axis in 0..2 {
-        let coordinate = b.component(p, axis);
-        let region_end = b.component(region, axis + 2);
-        let image_end = b.component(size, axis);
-        let end = b.expr(E::Math {
-            fun: naga::MathFunction::Min,
-            arg: region_end,
-            arg1: Some(image_end),
-            arg2: None,
-            arg3: None,
-        });
-        let past = b.binary(Bo::GreaterEqual, coordinate, end);
-        outside = Some(match outside {
-            Some(before) => b.binary(Bo::LogicalOr, before, past),
-            None => past,
-        });
-    }
-    if let Some(outside) = outside {
-        b.exit_if(&mut body, outside, S::Return { value: None });
-    }
-
+    let Pixel { p, size, output } = b.pixel_in_region(&mut body, plan);
     let state = b.expr(E::LocalVariable(state_var));
     b.call(&mut body, plan.init_state, state);
     if let Some(member) = plan.pixel {
-        let p_f = b.expr(E::As { expr: p, kind: naga::ScalarKind::Float, convert: Some(4) });
-        let half = b.literal(naga::Literal::F32(0.5));
-        let half = b.expr(E::Splat { size: naga::VectorSize::Bi, value: half });
-        let centre = b.binary(Bo::Add, p_f, half);
-        let size_f = b.expr(E::As { expr: size, kind: naga::ScalarKind::Float, convert: Some(4) });
-        let pixel = b.binary(Bo::Divide, centre, size_f);
-        let pointer = b.component(state, member);
-        b.push(&mut body, S::Store { pointer, value: pixel });
+        b.store_pixel_centre(&mut body, state, member, p, size);
     }
     for &f in &plan.ray_setup {
         b.call(&mut body, f, state);
     }
-
-    let counter = b.expr(E::LocalVariable(counter_var));
-    let zero = b.literal(naga::Literal::U32(0));
-    b.push(&mut body, S::Store { pointer: counter, value: zero });
-    let mut loop_body = naga::Block::new();
-    let i = b.expr(E::Load { pointer: counter });
-    let block = b.expr(E::GlobalVariable(plan.uniforms));
-    let max_pointer = b.component(block, plan.max_samples);
-    let max = b.expr(E::Load { pointer: max_pointer });
-    let mut done = b.binary(Bo::GreaterEqual, i, max);
-    if let Some(member) = plan.terminate {
-        let pointer = b.component(state, member);
-        let terminate = b.expr(E::Load { pointer });
-        done = b.binary(Bo::LogicalOr, done, terminate);
-    }
-    b.exit_if(&mut loop_body, done, S::Break);
-    b.call(&mut loop_body, plan.reset_sample, state);
-    for &f in &plan.samples {
-        b.call(&mut loop_body, f, state);
-    }
-    let mut continuing = naga::Block::new();
-    let i = b.expr(E::Load { pointer: counter });
-    let one = b.literal(naga::Literal::U32(1));
-    let next = b.binary(Bo::Add, i, one);
-    b.push(&mut continuing, S::Store { pointer: counter, value: next });
-    b.push(&mut body, S::Loop { body: loop_body, continuing, break_if: None });
-
+    b.sample_loop(&mut body, plan, state, counter_var);
     for &f in &plan.ray_finish {
         b.call(&mut body, f, state);
     }
@@ -227,7 +133,8 @@ pub fn build(module: &mut naga::Module, plan: &EntryPlan) -> naga::EntryPoint {
             b.expr(E::Load { pointer })
         }
         None => {
-            let vec4f = ty(module, naga::TypeInner::Vector { size: naga::VectorSize::Quad, scalar: naga::Scalar::F32 });
+            let vec4f =
+                add_type(module, naga::TypeInner::Vector { size: naga::VectorSize::Quad, scalar: naga::Scalar::F32 });
             b.expr(E::ZeroValue(vec4f))
         }
     };
@@ -246,5 +153,138 @@ pub fn build(module: &mut naga::Module, plan: &EntryPlan) -> naga::EntryPoint {
         mesh_info: None,
         task_payload: None,
         incoming_ray_payload: None,
+    }
+}
+
+fn add_type(module: &mut naga::Module, inner: naga::TypeInner) -> Handle<naga::Type> {
+    module.types.insert(naga::Type { name: None, inner }, naga::Span::UNDEFINED)
+}
+
+/// The pixel an invocation renders, the image's size and the output image.
+struct Pixel {
+    p: Handle<E>,
+    size: Handle<E>,
+    output: Handle<E>,
+}
+
+impl Body {
+    /// `fn main(@builtin(global_invocation_id) id: vec3<u32>)` with its locals `state` and `i`.
+    fn entry_function(
+        module: &mut naga::Module,
+        plan: &EntryPlan,
+    ) -> (Body, Handle<naga::LocalVariable>, Handle<naga::LocalVariable>) {
+        let vec3u =
+            add_type(module, naga::TypeInner::Vector { size: naga::VectorSize::Tri, scalar: naga::Scalar::U32 });
+        let u32_ty = add_type(module, naga::TypeInner::Scalar(naga::Scalar::U32));
+        let mut func = naga::Function {
+            name: Some("main".into()),
+            arguments: vec![naga::FunctionArgument {
+                name: Some("id".into()),
+                ty: vec3u,
+                binding: Some(naga::Binding::BuiltIn(naga::BuiltIn::GlobalInvocationId)),
+            }],
+            ..Default::default()
+        };
+        let state_var = func.local_variables.append(
+            naga::LocalVariable { name: Some("state".into()), ty: plan.state_type, init: None },
+            naga::Span::UNDEFINED,
+        );
+        let counter_var = func
+            .local_variables
+            .append(naga::LocalVariable { name: Some("i".into()), ty: u32_ty, init: None }, naga::Span::UNDEFINED);
+        (Body { func, emitter: Emitter::default() }, state_var, counter_var)
+    }
+
+    /// The dispatch covers `region`; pixels past its end or the image's (the last workgroups
+    /// overhang both) return at once.
+    fn pixel_in_region(&mut self, body: &mut naga::Block, plan: &EntryPlan) -> Pixel {
+        use naga::BinaryOperator as Bo;
+        let id = self.expr(E::FunctionArgument(0));
+        let output = self.expr(E::GlobalVariable(plan.output));
+        let size = self.expr(E::ImageQuery { image: output, query: naga::ImageQuery::Size { level: None } });
+        let region_pointer = self.expr(E::GlobalVariable(plan.region));
+        let region = self.expr(E::Load { pointer: region_pointer });
+        let id_xy = self.xy(id);
+        let origin = self.xy(region);
+        let p = self.binary(Bo::Add, id_xy, origin);
+        let mut outside = None;
+        for axis in 0..2 {
+            let coordinate = self.component(p, axis);
+            let region_end = self.component(region, axis + 2);
+            let image_end = self.component(size, axis);
+            let end = self.expr(E::Math {
+                fun: naga::MathFunction::Min,
+                arg: region_end,
+                arg1: Some(image_end),
+                arg2: None,
+                arg3: None,
+            });
+            let past = self.binary(Bo::GreaterEqual, coordinate, end);
+            outside = Some(match outside {
+                Some(before) => self.binary(Bo::LogicalOr, before, past),
+                None => past,
+            });
+        }
+        if let Some(outside) = outside {
+            self.exit_if(body, outside, S::Return { value: None });
+        }
+        Pixel { p, size, output }
+    }
+
+    /// `state.pixel = (vec2f(p) + 0.5) / vec2f(size);`
+    fn store_pixel_centre(
+        &mut self,
+        body: &mut naga::Block,
+        state: Handle<E>,
+        member: u32,
+        p: Handle<E>,
+        size: Handle<E>,
+    ) {
+        use naga::BinaryOperator as Bo;
+        let p_f = self.expr(E::As { expr: p, kind: naga::ScalarKind::Float, convert: Some(4) });
+        let half = self.literal(naga::Literal::F32(0.5));
+        let half = self.expr(E::Splat { size: naga::VectorSize::Bi, value: half });
+        let centre = self.binary(Bo::Add, p_f, half);
+        let size_f = self.expr(E::As { expr: size, kind: naga::ScalarKind::Float, convert: Some(4) });
+        let pixel = self.binary(Bo::Divide, centre, size_f);
+        let pointer = self.component(state, member);
+        self.push(body, S::Store { pointer, value: pixel });
+    }
+
+    /// `i = 0u; loop { if i >= max_samples || state.terminate { break; } reset_sample(&state);
+    /// ... continuing { i = i + 1u; } }`
+    fn sample_loop(
+        &mut self,
+        body: &mut naga::Block,
+        plan: &EntryPlan,
+        state: Handle<E>,
+        counter_var: Handle<naga::LocalVariable>,
+    ) {
+        use naga::BinaryOperator as Bo;
+        let counter = self.expr(E::LocalVariable(counter_var));
+        let zero = self.literal(naga::Literal::U32(0));
+        self.push(body, S::Store { pointer: counter, value: zero });
+        let mut loop_body = naga::Block::new();
+        let i = self.expr(E::Load { pointer: counter });
+        let block = self.expr(E::GlobalVariable(plan.uniforms));
+        let max_pointer = self.component(block, plan.max_samples);
+        let max = self.expr(E::Load { pointer: max_pointer });
+        let mut done = self.binary(Bo::GreaterEqual, i, max);
+        if let Some(member) = plan.terminate {
+            let pointer = self.component(state, member);
+            let terminate = self.expr(E::Load { pointer });
+            done = self.binary(Bo::LogicalOr, done, terminate);
+        }
+        self.exit_if(&mut loop_body, done, S::Break);
+        self.call(&mut loop_body, plan.reset_sample, state);
+        for &f in &plan.samples {
+            self.call(&mut loop_body, f, state);
+        }
+        let mut continuing = naga::Block::new();
+        let i = self.expr(E::Load { pointer: counter });
+        let one = self.literal(naga::Literal::U32(1));
+        let next = self.binary(Bo::Add, i, one);
+        self.push(&mut continuing, S::Store { pointer: counter, value: next });
+        self.push(body, S::Loop { body: loop_body, continuing, break_if: None });
     }
 }

@@ -18,12 +18,13 @@
 //! the passes and colours the image.
 
 use super::build::{self, BuiltScene, GeneratedModule, Keep, ViewShader};
-use super::place::{Composition, subst};
+use super::instantiate::subst;
+use super::ir::Composition;
 use crate::diag::{Code, Diagnostic, Diagnostics};
 use crate::hir;
 use crate::scene::Scene;
 use crate::source::{SourceMap, Span};
-use crate::steps::did_you_mean;
+use crate::suggest::did_you_mean;
 use crate::types::{Scalar, Type};
 use std::fmt::Write as _;
 use std::path::Path;
@@ -264,8 +265,7 @@ fn compose_variant(
 ) -> ProbeBuild {
     let module = GeneratedModule { name: format!("<probe of {}>", layout.field.name), text: source.clone() };
     let built = build::compose_scene_with(
-        sources,
-        Ok(scene),
+        build::ParsedScene { sources, scene: Some(scene), diags: Diagnostics::new() },
         Some(&layout.view),
         Keep::Outputs,
         crate::loader::ParsedFiles::default(),

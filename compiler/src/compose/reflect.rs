@@ -2,15 +2,15 @@
 //! uniform block layout with defaults, ranges and docs, every binding, the state layout, the
 //! pipeline map, and hashes that tie the JSON to its WGSL.
 
-use super::place::Composition;
+use super::ir::Composition;
 use super::view::ViewModule;
 use crate::hir::{self, ConstValue, ScalarValue};
 use crate::scene::{Scene, UniformValue, View};
 use crate::source::{SourceMap, Span};
 use serde_json::Value;
 pub use vrs_reflection::{
-    BindingInfo, BindingKind, FORMAT_VERSION, FieldInfo, FunctionInfo, FunctionStatus, Lifetime, Reflection, StateInfo,
-    StepInfo, UniformBlock, UniformInfo, content_hash,
+    FORMAT_VERSION, FieldInfo, FunctionInfo, FunctionStatus, Lifetime, Reflection, StateInfo, StepInfo, UniformBlock,
+    UniformInfo, content_hash,
 };
 
 /// xxh3-64 (hex) of the WGSL and the bindings' JSON, joined by a newline.
@@ -105,7 +105,7 @@ fn pipeline_info(comp: &Composition, program: &hir::Program, sources: &SourceMap
         }
     };
     let subst = |names: &mut dyn Iterator<Item = &String>, instance: &Option<String>| -> Vec<String> {
-        names.map(|n| super::place::subst(n, instance.as_deref())).collect()
+        names.map(|n| super::instantiate::subst(n, instance.as_deref())).collect()
     };
     comp.steps
         .iter()

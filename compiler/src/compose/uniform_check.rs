@@ -3,10 +3,10 @@
 //! uniform's type and length (E0702 at the value). The runtime sets the same values by the same
 //! rules, so a scene that `build` accepts never fails there for its uniforms.
 
-use super::place::Composition;
+use super::ir::Composition;
 use crate::diag::{Code, Diagnostic, Diagnostics};
 use crate::scene::{Scene, UniformSetting, UniformValue};
-use crate::steps::did_you_mean;
+use crate::suggest::did_you_mean;
 use crate::types::{Scalar, Type};
 
 /// Checks `scene.uniforms` against the uniforms of `views` (the composed views). `all_views`

@@ -8,7 +8,7 @@
 //! order, each as its texture and then its sampler.
 
 use super::entry::{self, EntryPlan};
-use super::place::{Composition, Uniform};
+use super::ir::{Composition, Uniform};
 use crate::ast::{AssignOp, PlacementKind};
 use crate::diag::Diagnostic;
 use crate::hir::{self, ConstValue, ScalarValue};
@@ -37,7 +37,9 @@ pub struct ViewModule {
 }
 
 /// Builds and validates the module of a composition. Errors are internal (E0901): everything a
-/// user can get wrong was reported by the checker or the composer.
+/// user can get wrong was reported by the checker or the composer. The module is built in the
+/// order its WGSL reads (state, uniforms, bindings, functions step by step, entry point), in one
+/// function so that the order is visible.
 pub fn emit(program: &hir::Program, comp: &Composition, sources: &SourceMap) -> Result<ViewModule, Diagnostic> {
     let mut b = ModuleBuilder::new();
     let fields: Vec<(String, Type)> = comp.fields.iter().map(|f| (f.name.clone(), f.ty)).collect();
@@ -116,9 +118,9 @@ pub fn emit(program: &hir::Program, comp: &Composition, sources: &SourceMap) -> 
     let member = |name: &str| comp.field(name).map(|i| i as u32);
     let plan = EntryPlan {
         state_type,
-        pixel: member("pixel"),
-        terminate: member("terminate"),
-        out_color: member("out_color"),
+        pixel: member(entry::PIXEL),
+        terminate: member(entry::TERMINATE),
+        out_color: member(entry::OUT_COLOR),
         init_state,
         reset_sample,
         ray_setup,

@@ -4,6 +4,7 @@ use rustc_hash::FxHashMap;
 
 use naga::{Expression as E, Handle, MathFunction as Mf, Statement as S};
 
+use super::emitter::{Emitter, is_pre_emitted};
 use super::{ModuleBuilder, PipelineEnv, UniformAccess, emitted_name, internal, naga_scalar, vector_size};
 use crate::ast::{AssignOp, BinaryOp, UnaryOp};
 use crate::diag::Diagnostic;
@@ -122,11 +123,7 @@ struct FnCtx<'a> {
     slots: Vec<Option<LocalSlot>>,
     params: Vec<ParamSlot>,
     globals: FxHashMap<Handle<naga::GlobalVariable>, Ex>,
-    /// Start of the run of expressions appended since the last pre-emitted one, not yet in a
-    /// pending range.
-    open: Option<u32>,
-    /// Ranges of appended expressions that need an `Emit` before the next statement.
-    pending: Vec<std::ops::Range<u32>>,
+    emitter: Emitter,
     loop_depth: u32,
 }
 
@@ -149,56 +146,31 @@ impl<'a> FnCtx<'a> {
             slots: vec![None; locals.len()],
             params: Vec::new(),
             globals: FxHashMap::default(),
-            open: None,
-            pending: Vec::new(),
+            emitter: Emitter::default(),
             loop_depth: 0,
         }
     }
 
-    // ---- The emit discipline -------------------------------------------------------------
+    // ---- The emit discipline (see `emitter.rs`) ------------------------------------------
 
-    /// Appends an expression. Pre-emitted expressions (literals, arguments, variable pointers,
-    /// ...) and call results end the current run; every other expression joins one, which
-    /// [`Self::flush`] turns into an `Emit` before the next statement.
     fn append(&mut self, expr: naga::Expression, span: Span) -> Ex {
-        let len = self.func.expressions.len() as u32;
-        if expr.needs_pre_emit() || matches!(expr, E::CallResult(_)) {
-            self.close_run(len);
-        } else if self.open.is_none() {
-            self.open = Some(len);
-        }
-        self.func.expressions.append(expr, span.into())
-    }
-
-    fn close_run(&mut self, end: u32) {
-        if let Some(start) = self.open.take()
-            && start < end
-        {
-            self.pending.push(start..end);
-        }
+        self.emitter.append(&mut self.func.expressions, expr, span.into())
     }
 
     /// Pushes `Emit`s for every expression appended since the last flush.
     fn flush(&mut self, block: &mut naga::Block) {
-        self.close_run(self.func.expressions.len() as u32);
-        for range in self.pending.drain(..) {
-            let range = naga::Range::from_index_range(range, &self.func.expressions);
-            let span = naga::Span::total_span(range.clone().map(|h| self.func.expressions.get_span(h)));
-            block.push(S::Emit(range), span);
-        }
+        self.emitter.flush(&self.func.expressions, block);
     }
 
     fn push(&mut self, block: &mut naga::Block, stmt: naga::Statement, span: Span) {
-        self.flush(block);
-        block.push(stmt, span.into());
+        self.emitter.push(&self.func.expressions, block, stmt, span.into());
     }
 
     /// Names an expression for the WGSL writer (which then binds it with `let`), unless it is
     /// written inline anyway or already has a name.
     fn name(&mut self, h: Ex, name: &str) {
         let expr = &self.func.expressions[h];
-        if !expr.needs_pre_emit() && !matches!(expr, E::CallResult(_)) && !self.func.named_expressions.contains_key(&h)
-        {
+        if !is_pre_emitted(expr) && !self.func.named_expressions.contains_key(&h) {
             self.func.named_expressions.insert(h, emitted_name(name));
         }
     }
@@ -777,6 +749,7 @@ impl<'a> FnCtx<'a> {
         Err(internal(e.span, "expected a `volume` or `tf` parameter or uniform"))
     }
 
+    /// One arm per built-in function: the table reads best whole, so it stays one function.
     fn builtin(&mut self, builtin: Builtin, args: &[hir::Expr], span: Span, block: &mut naga::Block) -> R<Ex> {
         use Builtin as B;
         let arity = |n: usize| {

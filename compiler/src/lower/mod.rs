@@ -32,6 +32,7 @@
 //! validation error maps back to VRS source ([`validate`]); such an error is a compiler bug and
 //! comes back as an `E0901` diagnostic, as does any malformed HIR that lowering itself notices.
 
+pub(crate) mod emitter;
 mod func;
 #[cfg(test)]
 mod tests;

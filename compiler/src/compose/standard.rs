@@ -1,0 +1,78 @@
+//! The standard modules a view is composed with: the selection policy of `stdlib/README.md`,
+//! owned by the composer (the scene only says what the user asked for).
+
+use crate::scene::{Compositing, Role, Scene, View, ViewKind};
+
+/// A standard module chosen by configuration: `std::NAME`, with instances for a template.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct StdModule {
+    pub name: &'static str,
+    /// Empty for a plain module.
+    pub instances: Vec<String>,
+}
+
+impl Scene {
+    /// The standard modules the composer selects for `view`, in the order it gives them
+    /// (before the scene's `[[module]]`s and then the view's own `modules`). See
+    /// `stdlib/README.md`.
+    pub fn standard_modules(&self, view: &View) -> Vec<StdModule> {
+        let r = &self.render;
+        let mut out = Vec::new();
+        let mut add = |name: &'static str, instances: Vec<String>| out.push(StdModule { name, instances });
+        let additional = self.volume_names(Role::Additional);
+        let masks = self.volume_names(Role::Mask);
+        let tags = self.volume_names(Role::Tag);
+        match view.kind.value {
+            ViewKind::Raycast => add("raycast", vec![]),
+            ViewKind::Slice => add("slice", vec![]),
+        }
+        add("march", vec![]);
+        add("background", vec![]);
+        add("sample_primary", vec![]);
+        if !additional.is_empty() {
+            add("sample_volume", additional.clone());
+        }
+        if r.shading || r.boundary {
+            add("gradient", vec![]);
+        }
+        add("classify", vec![]);
+        if !additional.is_empty() {
+            add("classify_volume", additional.clone());
+        }
+        // After `classify`: their functions append to `classification.primary`.
+        if !masks.is_empty() {
+            add("mask", masks);
+        }
+        if !tags.is_empty() {
+            add("tag", tags);
+        }
+        if r.shading && !r.lights.is_empty() {
+            add("light", r.lights.iter().map(|l| l.name.clone()).collect());
+        }
+        if r.boundary {
+            add("boundary", vec![]);
+        }
+        if r.tone {
+            add("tone", vec![]);
+        }
+        add("composite", vec![]);
+        if r.shading {
+            add("lighting", vec![]);
+        }
+        match r.compositing.value {
+            Compositing::Dvr => {
+                add("composite_dvr", vec![]);
+                if !additional.is_empty() {
+                    add("composite_volume", additional);
+                }
+            }
+            Compositing::Mip => add("composite_mip", vec![]),
+            Compositing::Iso => add("composite_iso", vec![]),
+        }
+        // Last: its functions append to `ray.setup` and `end` after the ones above.
+        if r.empty_space_skipping && view.kind.value == ViewKind::Raycast {
+            add("skip", vec![]);
+        }
+        out
+    }
+}

@@ -1,0 +1,383 @@
+//! The typed scene, and what later passes ask of it.
+
+use super::*;
+use std::fmt;
+
+// ---------------------------------------------------------------------------------------------
+// The typed scene.
+
+/// A value with the span of its TOML value.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Located<T> {
+    pub value: T,
+    pub span: Span,
+}
+
+/// A parsed and validated scene.
+#[derive(Clone, Debug)]
+pub struct Scene {
+    pub render: Render,
+    /// `[[volume]]` tables, in file order.
+    pub volumes: Vec<Volume>,
+    /// `[[module]]` tables: modules shared by every view, in file order.
+    pub modules: Vec<ModuleRef>,
+    /// `[uniforms]`: initial values by uniform name.
+    pub uniforms: BTreeMap<String, UniformSetting>,
+    /// `[[view]]` tables, in file order.
+    pub views: Vec<View>,
+    /// The directory that relative paths were resolved against.
+    pub dir: PathBuf,
+}
+
+/// `[render]`: how every view composites and shades.
+#[derive(Clone, Debug)]
+pub struct Render {
+    pub compositing: Located<Compositing>,
+    /// Initial value of the `iso_value` uniform; present when compositing is `iso`.
+    pub iso_value: Option<Located<f32>>,
+    /// Gradient and lighting steps of the standard library.
+    pub shading: bool,
+    /// One `shading.lights` substep per light (the instances of `std::light`); empty without
+    /// shading.
+    pub lights: Vec<Ident>,
+    /// Boundary enhancement (`std::boundary`: opacity scaled by gradient magnitude).
+    pub boundary: bool,
+    /// Gooch-style tone shading (`std::tone`); needs `shading`.
+    pub tone: bool,
+    /// Empty-space skipping in raycast views (`std::skip`); DVR only.
+    pub empty_space_skipping: bool,
+    /// Initial value of the `step_size` uniform (normalized units); `None`: the uniform's
+    /// default, [`DEFAULT_STEP_SIZE`].
+    pub step_size: Option<Located<f32>>,
+    /// The loop bound; `None`: [`Render::max_samples`] derives it from the step size.
+    pub max_samples: Option<Located<u32>>,
+    /// Initial value of the `jitter` uniform (0: off, 1: up to one step).
+    pub jitter: Option<Located<f32>>,
+    /// Initial value of the `background` uniform (premultiplied RGBA).
+    pub background: Option<Located<[f32; 4]>>,
+}
+
+/// `[render] compositing`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Compositing {
+    /// Front-to-back emission-absorption.
+    Dvr,
+    /// Maximum intensity projection.
+    Mip,
+    /// First hit of an iso-surface.
+    Iso,
+}
+
+/// A volume's `role`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Role {
+    Primary,
+    Additional,
+    Mask,
+    Tag,
+}
+
+/// `[[volume]]`: a data set and how it is classified.
+#[derive(Clone, Debug)]
+pub struct Volume {
+    /// The instance name of this volume's template functions (`value_t1`, `tf_t1`).
+    pub name: Ident,
+    pub role: Located<Role>,
+    pub source: VolumeSource,
+    /// `fallback = "NAME"`: the built-in phantom to use when the `path` file does not exist (so
+    /// an example renders before its data is downloaded).
+    pub fallback: Option<Located<String>>,
+    /// The transfer function; `None` only for mask volumes, which have none.
+    pub tf: Option<TfRef>,
+    /// `window = [lo, hi]`, or `level` and `width` (as `[level - width / 2, level + width / 2]`):
+    /// the data values (Hounsfield units for CT) that map to the ends of a window-relative
+    /// transfer function. `None`: the runtime picks one (a data-unit transfer function's domain,
+    /// else percentiles of the data).
+    pub window: Option<Located<[f32; 2]>>,
+    /// The whole `[[volume]]` table.
+    pub span: Span,
+}
+
+/// Where a volume's samples come from.
+#[derive(Clone, Debug, PartialEq)]
+pub enum VolumeSource {
+    /// `path = "..."`.
+    File(FileRef),
+    /// `phantom = "NAME"`: a built-in data set of the runtime.
+    Phantom(Located<String>),
+}
+
+/// A volume's transfer function: a preset name or a file.
+#[derive(Clone, Debug, PartialEq)]
+pub enum TfRef {
+    /// A built-in preset (the value is an identifier), or the role's default (dummy span).
+    Preset(Located<String>),
+    /// A transfer function file.
+    File(FileRef),
+}
+
+/// A path as written in the scene and resolved against the scene file's directory.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FileRef {
+    pub given: String,
+    pub resolved: PathBuf,
+    pub span: Span,
+}
+
+/// A module to compose: `[[module]]`, or an entry of a view's `modules`.
+#[derive(Clone, Debug)]
+pub struct ModuleRef {
+    pub source: ModuleSource,
+    /// Instance names for a template module; `None` for a plain module.
+    pub instances: Option<Vec<Ident>>,
+    /// The whole table.
+    pub span: Span,
+}
+
+/// Where a module comes from: a standard module or a file.
+#[derive(Clone, Debug, PartialEq)]
+pub enum ModuleSource {
+    /// `path = "std::NAME"`: the standard module `NAME`.
+    Std(Located<String>),
+    File(FileRef),
+}
+
+/// A view's `kind`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ViewKind {
+    Raycast,
+    Slice,
+}
+
+/// A slice view's `axis`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Axis {
+    X,
+    Y,
+    Z,
+}
+
+impl Axis {
+    /// 0, 1 or 2.
+    pub fn index(self) -> usize {
+        self as usize
+    }
+}
+
+/// An orbit camera around the volume's centre. Angles in degrees; `distance` in units of the
+/// volume's largest extent.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Camera {
+    pub azimuth: f32,
+    pub elevation: f32,
+    pub distance: f32,
+    /// Vertical field of view.
+    pub fov: f32,
+}
+
+impl Default for Camera {
+    fn default() -> Camera {
+        DEFAULT_CAMERA
+    }
+}
+
+/// `[[view]]`: one rendered image and its own modules.
+#[derive(Clone, Debug)]
+pub struct View {
+    pub name: Ident,
+    pub kind: Located<ViewKind>,
+    /// Width and height in pixels.
+    pub size: [u32; 2],
+    /// Raycast views only ([`DEFAULT_CAMERA`] when not given).
+    pub camera: Camera,
+    /// Slice views only: the axis the slice plane is normal to.
+    pub axis: Option<Located<Axis>>,
+    /// Slice views only: the plane's position along `axis`, normalized (0.5 without `position`).
+    pub position: f32,
+    /// Slice views only: slab thickness (normalized units); 0 is a single sample per pixel.
+    pub slab: f32,
+    /// Modules of this view only, composed after the shared ones.
+    pub modules: Vec<ModuleRef>,
+    /// The whole `[[view]]` table.
+    pub span: Span,
+}
+
+/// A `[uniforms]` entry.
+#[derive(Clone, Debug, PartialEq)]
+pub struct UniformSetting {
+    pub value: UniformValue,
+    /// The key.
+    pub name_span: Span,
+    /// The value.
+    pub span: Span,
+}
+
+/// An initial uniform value: a number, a bool, or a (nested) array of them. Arrays are vectors;
+/// an array of arrays is a matrix given column by column. The composer checks the value against
+/// the uniform's declared type.
+#[derive(Clone, Debug, PartialEq)]
+pub enum UniformValue {
+    Bool(bool),
+    Int(i64),
+    Float(f64),
+    Array(Vec<UniformValue>),
+}
+
+impl UniformValue {
+    /// The value as JSON (what reflection writes and the runtime reads).
+    pub fn to_json(&self) -> serde_json::Value {
+        match self {
+            UniformValue::Bool(b) => serde_json::Value::Bool(*b),
+            UniformValue::Int(i) => (*i).into(),
+            UniformValue::Float(f) => serde_json::Number::from_f64(*f).map_or(serde_json::Value::Null, Into::into),
+            UniformValue::Array(items) => items.iter().map(UniformValue::to_json).collect(),
+        }
+    }
+}
+
+impl<'de> Deserialize<'de> for UniformValue {
+    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<UniformValue, D::Error> {
+        struct V;
+        impl<'de> Visitor<'de> for V {
+            type Value = UniformValue;
+            fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+                f.write_str("a number, a bool, or an array of them")
+            }
+            fn visit_bool<E: de::Error>(self, v: bool) -> Result<UniformValue, E> {
+                Ok(UniformValue::Bool(v))
+            }
+            fn visit_i64<E: de::Error>(self, v: i64) -> Result<UniformValue, E> {
+                Ok(UniformValue::Int(v))
+            }
+            fn visit_u64<E: de::Error>(self, v: u64) -> Result<UniformValue, E> {
+                i64::try_from(v).map(UniformValue::Int).map_err(|_| E::custom("integer out of range"))
+            }
+            fn visit_f64<E: de::Error>(self, v: f64) -> Result<UniformValue, E> {
+                Ok(UniformValue::Float(v))
+            }
+            fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<UniformValue, A::Error> {
+                let mut items = Vec::new();
+                while let Some(item) = seq.next_element()? {
+                    items.push(item);
+                }
+                Ok(UniformValue::Array(items))
+            }
+        }
+        deserializer.deserialize_any(V)
+    }
+}
+
+impl UniformValue {
+    /// The array lengths from the outside in: `[]` for a scalar, `[4]` for a vec4, `[4, 4]`
+    /// for a mat4x4.
+    pub fn shape(&self) -> Vec<usize> {
+        match self {
+            UniformValue::Array(items) => {
+                let mut shape = vec![items.len()];
+                if let Some(first) = items.first() {
+                    shape.extend(first.shape());
+                }
+                shape
+            }
+            _ => Vec::new(),
+        }
+    }
+
+    /// Every scalar, in order (columns of a matrix one after the other).
+    pub fn flatten(&self) -> Vec<f64> {
+        match self {
+            UniformValue::Bool(b) => vec![f64::from(u8::from(*b))],
+            UniformValue::Int(i) => vec![*i as f64],
+            UniformValue::Float(x) => vec![*x],
+            UniformValue::Array(items) => items.iter().flat_map(UniformValue::flatten).collect(),
+        }
+    }
+
+    /// Why this value cannot initialise any VRS uniform, if it cannot.
+    pub(super) fn problem(&self, depth: usize) -> Option<String> {
+        let UniformValue::Array(items) = self else {
+            return match self {
+                UniformValue::Float(x) if !x.is_finite() => Some("numbers must be finite".into()),
+                _ => None,
+            };
+        };
+        if depth >= 2 {
+            return Some("arrays nest at most two deep (a matrix is an array of columns)".into());
+        }
+        if !(2..=4).contains(&items.len()) {
+            return Some(format!("an array of {} elements; vectors and matrix columns have 2 to 4", items.len()));
+        }
+        let nested = items.iter().filter(|i| matches!(i, UniformValue::Array(_))).count();
+        if nested != 0 && nested != items.len() {
+            return Some("an array mixes numbers and arrays".into());
+        }
+        let bools = items.iter().filter(|i| matches!(i, UniformValue::Bool(_))).count();
+        if bools != 0 && bools != items.len() {
+            return Some("an array mixes bools and numbers".into());
+        }
+        if nested != 0 && items.iter().any(|i| i.shape() != items[0].shape()) {
+            return Some("the columns of a matrix must all have the same length".into());
+        }
+        items.iter().find_map(|i| i.problem(depth + 1))
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Queries.
+
+impl Scene {
+    /// The primary volume (validation guarantees exactly one).
+    pub fn primary(&self) -> &Volume {
+        self.volumes.iter().find(|v| v.role.value == Role::Primary).expect("a validated scene has a primary volume")
+    }
+
+    /// Names of the volumes with `role`, in file order.
+    pub fn volume_names(&self, role: Role) -> Vec<String> {
+        self.volumes.iter().filter(|v| v.role.value == role).map(|v| v.name.name.clone()).collect()
+    }
+
+    /// The view named `name`.
+    pub fn view(&self, name: &str) -> Option<&View> {
+        self.views.iter().find(|v| v.name.name == name)
+    }
+
+    /// Initial uniform values: `[uniforms]`, plus those that `[render]` sets (`iso_value`,
+    /// `step_size`, `jitter`, `background` when given, and always `max_samples`).
+    pub fn uniform_values(&self) -> BTreeMap<String, UniformValue> {
+        let mut out: BTreeMap<String, UniformValue> =
+            self.uniforms.iter().map(|(k, v)| (k.clone(), v.value.clone())).collect();
+        let r = &self.render;
+        let float = |x: f32| UniformValue::Float(f64::from(x));
+        if let Some(v) = &r.iso_value {
+            out.insert("iso_value".into(), float(v.value));
+        }
+        if let Some(v) = &r.step_size {
+            out.insert("step_size".into(), float(v.value));
+        }
+        if let Some(v) = &r.jitter {
+            out.insert("jitter".into(), float(v.value));
+        }
+        if let Some(v) = &r.background {
+            out.insert("background".into(), UniformValue::Array(v.value.iter().map(|&c| float(c)).collect()));
+        }
+        out.insert("max_samples".into(), UniformValue::Int(i64::from(r.max_samples())));
+        out
+    }
+}
+
+impl Render {
+    /// The loop bound: `max_samples` when given, else enough samples of the effective step size
+    /// to cross the unit cube's diagonal (plus two), at most [`MAX_SAMPLES_LIMIT`].
+    pub fn max_samples(&self) -> u32 {
+        if let Some(m) = &self.max_samples {
+            return m.value;
+        }
+        let step = self.step_size.as_ref().map_or(DEFAULT_STEP_SIZE, |s| s.value);
+        let n = (3f32.sqrt() / step).ceil() + 2.0;
+        if n.is_finite() && n < MAX_SAMPLES_LIMIT as f32 { n as u32 } else { MAX_SAMPLES_LIMIT }
+    }
+}

@@ -1,0 +1,98 @@
+//! The raw serde tables of a scene file: what `deny_unknown_fields` checks, with byte ranges.
+
+use super::*;
+
+// ---------------------------------------------------------------------------------------------
+// Raw serde tables.
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawScene {
+    pub(super) render: Option<Spanned<RawRender>>,
+    #[serde(default, rename = "volume")]
+    pub(super) volumes: Vec<Spanned<RawVolume>>,
+    #[serde(default, rename = "module")]
+    pub(super) modules: Vec<Spanned<RawModule>>,
+    #[serde(default)]
+    pub(super) uniforms: BTreeMap<Spanned<String>, Spanned<UniformValue>>,
+    #[serde(default, rename = "view")]
+    pub(super) views: Vec<Spanned<RawView>>,
+}
+pub(super) const SCENE_KEYS: &[&str] = &["render", "volume", "module", "uniforms", "view"];
+
+#[derive(Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawRender {
+    pub(super) compositing: Option<Spanned<Compositing>>,
+    pub(super) iso_value: Option<Spanned<f32>>,
+    pub(super) shading: Option<Spanned<bool>>,
+    pub(super) lights: Option<Spanned<Vec<Spanned<String>>>>,
+    pub(super) boundary: Option<Spanned<bool>>,
+    pub(super) tone: Option<Spanned<bool>>,
+    pub(super) empty_space_skipping: Option<Spanned<bool>>,
+    pub(super) step_size: Option<Spanned<f32>>,
+    pub(super) max_samples: Option<Spanned<u32>>,
+    pub(super) jitter: Option<Spanned<f32>>,
+    pub(super) background: Option<Spanned<[f32; 4]>>,
+}
+pub(super) const RENDER_KEYS: &[&str] = &[
+    "compositing",
+    "iso_value",
+    "shading",
+    "lights",
+    "boundary",
+    "tone",
+    "empty_space_skipping",
+    "step_size",
+    "max_samples",
+    "jitter",
+    "background",
+];
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawVolume {
+    pub(super) name: Spanned<String>,
+    pub(super) role: Spanned<Role>,
+    pub(super) path: Option<Spanned<String>>,
+    pub(super) phantom: Option<Spanned<String>>,
+    pub(super) fallback: Option<Spanned<String>>,
+    pub(super) tf: Option<Spanned<String>>,
+    pub(super) window: Option<Spanned<[f32; 2]>>,
+    pub(super) level: Option<Spanned<f32>>,
+    pub(super) width: Option<Spanned<f32>>,
+}
+pub(super) const VOLUME_KEYS: &[&str] =
+    &["name", "role", "path", "phantom", "fallback", "tf", "window", "level", "width"];
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawModule {
+    pub(super) path: Spanned<String>,
+    pub(super) instances: Option<Spanned<Vec<Spanned<String>>>>,
+}
+pub(super) const MODULE_KEYS: &[&str] = &["path", "instances"];
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawView {
+    pub(super) name: Spanned<String>,
+    pub(super) kind: Option<Spanned<ViewKind>>,
+    pub(super) size: Option<Spanned<[u32; 2]>>,
+    pub(super) camera: Option<Spanned<RawCamera>>,
+    pub(super) axis: Option<Spanned<Axis>>,
+    pub(super) position: Option<Spanned<f32>>,
+    pub(super) slab: Option<Spanned<f32>>,
+    #[serde(default)]
+    pub(super) modules: Vec<Spanned<RawModule>>,
+}
+pub(super) const VIEW_KEYS: &[&str] = &["name", "kind", "size", "camera", "axis", "position", "slab", "modules"];
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawCamera {
+    pub(super) azimuth: Option<Spanned<f32>>,
+    pub(super) elevation: Option<Spanned<f32>>,
+    pub(super) distance: Option<Spanned<f32>>,
+    pub(super) fov: Option<Spanned<f32>>,
+}
+pub(super) const CAMERA_KEYS: &[&str] = &["azimuth", "elevation", "distance", "fov"];

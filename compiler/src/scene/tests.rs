@@ -1,0 +1,383 @@
+use super::*;
+use crate::diag::Diagnostics;
+use crate::source::SourceMap;
+
+const EXAMPLE: &str = r#"[render]
+compositing = "dvr"            # dvr | mip | iso (iso takes `iso_value`)
+shading = true                 # activates gradient + lighting steps of the standard library
+lights = ["key"]               # one substep of shading.lights per name
+
+[[volume]]
+name = "t1"                    # an identifier; the instance name of this volume's functions
+role = "primary"               # primary | additional | mask | tag
+path = "t1.nii.gz"             # relative to the scene file; or `phantom = "NAME"` for a built-in one
+tf = "grayscale"               # a built-in transfer function preset, or a path to a transfer function file
+
+[[module]]                     # shared by every view
+path = "clip_plane.vrs"
+instances = ["gm"]             # for a template; omitted for a plain module
+
+[uniforms]                     # initial values, by uniform name
+clip_plane_gm = [1.0, 0.0, 0.0, -0.5]
+
+[[view]]
+name = "3d"
+kind = "raycast"               # raycast | slice
+size = [512, 512]
+camera = { azimuth = 30.0, elevation = 20.0, distance = 2.5 }
+modules = [{ path = "compose_3d.vrs" }]      # only this view
+
+[[view]]
+name = "axial"
+kind = "slice"
+axis = "z"                     # x | y | z
+position = 0.5                 # normalized
+modules = [{ path = "compose_2d.vrs" }]
+"#;
+
+/// What a scene that does not validate reported.
+#[derive(Debug)]
+struct Invalid {
+    diagnostics: Vec<Diagnostic>,
+}
+
+/// Parses `text` as `scenes/test.toml` in a fresh source map, with what it reported.
+fn parse_reporting(text: &str) -> (SourceMap, Option<Scene>, Vec<Diagnostic>) {
+    let mut map = SourceMap::new();
+    map.add("x.vrs", None, "// another file first, so bases are not 0\n".into());
+    let id = map.add("scenes/test.toml", None, text.to_string());
+    let mut diags = Diagnostics::new();
+    let scene = parse_scene(&map, id, &mut diags);
+    (map, scene, diags.iter().cloned().collect())
+}
+
+/// [`parse_reporting`]: the scene, or what it reported when it did not validate.
+fn parse(text: &str) -> (SourceMap, Result<Scene, Invalid>) {
+    let (map, scene, diagnostics) = parse_reporting(text);
+    (map, scene.ok_or(Invalid { diagnostics }))
+}
+
+/// The errors of a scene that must fail, as (code, line, column, message).
+fn errors(text: &str) -> Vec<(&'static str, usize, usize, String)> {
+    let (map, result) = parse(text);
+    let err = result.expect_err("the scene should not validate");
+    err.diagnostics
+        .iter()
+        .filter(|d| d.is_error())
+        .map(|d| {
+            let (_, p) = map.position(d.span.start).expect("the span is in the file");
+            (d.code.as_str(), p.line, p.column, d.message.clone())
+        })
+        .collect()
+}
+
+const MINIMAL: &str = "[[volume]]\nname = \"v\"\nrole = \"primary\"\nphantom = \"sphere\"\n\n[[view]]\nname = \"3d\"\n";
+
+#[test]
+fn the_spec_example_parses() {
+    let (map, scene, warnings) = parse_reporting(EXAMPLE);
+    let scene = scene.unwrap_or_else(|| panic!("{warnings:?}"));
+    assert!(warnings.is_empty(), "{warnings:?}");
+    assert_eq!(scene.render.compositing.value, Compositing::Dvr);
+    assert!(scene.render.shading);
+    assert_eq!(scene.render.lights.iter().map(|l| l.name.as_str()).collect::<Vec<_>>(), ["key"]);
+    assert_eq!(map.snippet(scene.render.lights[0].span), "\"key\"");
+    let t1 = scene.primary();
+    assert_eq!(t1.name.name, "t1");
+    match &t1.source {
+        VolumeSource::File(f) => {
+            assert_eq!(f.given, "t1.nii.gz");
+            assert_eq!(f.resolved, Path::new("scenes/t1.nii.gz"));
+            assert_eq!(map.snippet(f.span), "\"t1.nii.gz\"");
+        }
+        other => panic!("{other:?}"),
+    }
+    assert!(matches!(&t1.tf, Some(TfRef::Preset(p)) if p.value == "grayscale"));
+    assert_eq!(scene.modules.len(), 1);
+    let m = &scene.modules[0];
+    assert!(matches!(&m.source, ModuleSource::File(f) if f.resolved == Path::new("scenes/clip_plane.vrs")));
+    assert_eq!(m.instances.as_ref().map(|i| i[0].name.as_str()), Some("gm"));
+    let clip = &scene.uniforms["clip_plane_gm"];
+    assert_eq!(clip.value.shape(), [4]);
+    assert_eq!(clip.value.flatten(), [1.0, 0.0, 0.0, -0.5]);
+    assert_eq!(map.snippet(clip.name_span), "clip_plane_gm");
+    assert_eq!(scene.views.len(), 2);
+    let v3 = &scene.views[0];
+    assert_eq!((v3.name.name.as_str(), v3.kind.value, v3.size), ("3d", ViewKind::Raycast, [512, 512]));
+    assert_eq!(v3.camera, Camera { azimuth: 30.0, elevation: 20.0, distance: 2.5, fov: 30.0 });
+    assert!(matches!(&v3.modules[0].source, ModuleSource::File(f) if f.given == "compose_3d.vrs"));
+    let axial = scene.view("axial").expect("axial view");
+    assert_eq!(axial.kind.value, ViewKind::Slice);
+    assert_eq!(axial.axis.as_ref().map(|a| a.value), Some(Axis::Z));
+    assert_eq!((axial.position, axial.slab, axial.size), (0.5, 0.0, DEFAULT_VIEW_SIZE));
+    let values = scene.uniform_values();
+    assert_eq!(values["max_samples"], UniformValue::Int(i64::from(scene.render.max_samples())));
+    assert!(values.contains_key("clip_plane_gm"));
+}
+
+#[test]
+fn standard_modules_follow_the_configuration() {
+    let (_, result) = parse(EXAMPLE);
+    let scene = result.expect("valid");
+    let names =
+        |view: &str| scene.standard_modules(scene.view(view).expect("view")).iter().map(|m| m.name).collect::<Vec<_>>();
+    assert_eq!(
+        names("3d"),
+        [
+            "raycast",
+            "march",
+            "background",
+            "sample_primary",
+            "gradient",
+            "classify",
+            "light",
+            "composite",
+            "lighting",
+            "composite_dvr"
+        ]
+    );
+    assert_eq!(names("axial")[0], "slice");
+    let text = format!(
+        "[render]\ncompositing = \"iso\"\niso_value = 0.3\n{MINIMAL}\n[[volume]]\nname = \"gm\"\nrole = \"additional\"\nphantom = \"ball\"\n[[volume]]\nname = \"brain\"\nrole = \"mask\"\npath = \"m.nii\"\n"
+    );
+    let (_, result) = parse(&text);
+    let scene = result.unwrap_or_else(|e| panic!("{:?}", e.diagnostics));
+    let modules = scene.standard_modules(&scene.views[0]);
+    let find = |n: &str| modules.iter().find(|m| m.name == n).map(|m| m.instances.clone());
+    assert_eq!(find("sample_volume"), Some(vec!["gm".to_string()]));
+    assert_eq!(find("mask"), Some(vec!["brain".to_string()]));
+    assert_eq!(find("composite_iso"), Some(vec![]));
+    assert_eq!(find("composite_volume"), None);
+    assert_eq!(find("gradient"), None);
+    assert_eq!(scene.uniform_values()["iso_value"], UniformValue::Float(f64::from(0.3f32)));
+}
+
+#[test]
+fn every_standard_module_exists() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../stdlib");
+    let text = format!(
+        "[render]\nshading = true\nboundary = true\ntone = true\n{MINIMAL}\n[[volume]]\nname = \"a\"\nrole = \"additional\"\nphantom = \"p\"\n[[volume]]\nname = \"m\"\nrole = \"mask\"\nphantom = \"p\"\n[[volume]]\nname = \"t\"\nrole = \"tag\"\nphantom = \"p\"\n"
+    );
+    for mode in ["dvr", "mip", "iso"] {
+        let text =
+            text.replace("shading = true", &format!("shading = true\ncompositing = \"{mode}\"\niso_value = 0.5"));
+        let (_, result) = parse(&text);
+        let scene = result.unwrap_or_else(|e| panic!("{:?}", e.diagnostics));
+        for kind in [ViewKind::Raycast, ViewKind::Slice] {
+            let mut view = scene.views[0].clone();
+            view.kind.value = kind;
+            for m in scene.standard_modules(&view) {
+                assert!(dir.join(format!("{}.vrs", m.name)).is_file(), "stdlib/{}.vrs is missing", m.name);
+            }
+        }
+    }
+}
+
+#[test]
+fn the_step_size_default_matches_the_stdlib() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../stdlib");
+    for file in ["raycast.vrs", "slice.vrs"] {
+        let text = std::fs::read_to_string(dir.join(file)).expect("stdlib file");
+        assert!(
+            text.contains(&format!("uniform step_size: f32 = {DEFAULT_STEP_SIZE}")),
+            "{file} declares another step_size default than DEFAULT_STEP_SIZE"
+        );
+    }
+}
+
+#[test]
+fn unknown_keys_point_at_the_key() {
+    let text = EXAMPLE.replace("camera = {", "camra = {");
+    let errs = errors(&text);
+    assert_eq!(errs.len(), 1, "{errs:?}");
+    let (code, line, column, message) = &errs[0];
+    assert_eq!((*code, *line, *column), ("E0703", 23, 1));
+    assert_eq!(message, "unknown key `camra` in [[view]]");
+    let (_, result) = parse(&text);
+    let d = &result.expect_err("invalid").diagnostics[0];
+    assert!(d.notes.iter().any(|n| n.contains("did you mean `camera`?")), "{:?}", d.notes);
+    assert!(d.notes.iter().any(|n| n.starts_with("expected one of `name`, `kind`")), "{:?}", d.notes);
+
+    let errs = errors(&EXAMPLE.replace("azimuth = 30.0", "azimut = 30.0"));
+    assert_eq!(errs[0].3, "unknown key `azimut` in the `camera` of a [[view]]");
+    assert_eq!((errs[0].1, errs[0].2), (23, 12));
+
+    let errs = errors(&EXAMPLE.replace("shading = true", "shadows = true"));
+    assert_eq!((errs[0].0, errs[0].1, errs[0].3.as_str()), ("E0703", 3, "unknown key `shadows` in [render]"));
+
+    let errs = errors(&format!("{MINIMAL}modules = [{{ path = \"a.vrs\", instance = [\"x\"] }}]\n"));
+    assert_eq!(errs[0].3, "unknown key `instance` in a module of a [[view]]");
+
+    let errs = errors(&format!("{MINIMAL}[[module]]\npaths = \"a.vrs\"\n"));
+    assert_eq!(errs[0].3, "unknown key `paths` in [[module]]");
+
+    let errs = errors(&format!("title = \"x\"\n{MINIMAL}"));
+    assert_eq!((errs[0].1, errs[0].3.as_str()), (1, "unknown key `title` in the scene's top level"));
+}
+
+#[test]
+fn a_missing_primary_volume_is_an_error() {
+    let errs = errors(&EXAMPLE.replace("role = \"primary\"", "role = \"additional\""));
+    assert_eq!(errs.len(), 1, "{errs:?}");
+    assert_eq!((errs[0].0, errs[0].1, errs[0].3.as_str()), ("E0702", 8, "the scene has no primary volume"));
+
+    let errs = errors(&format!("{MINIMAL}[[volume]]\nname = \"w\"\nrole = \"primary\"\nphantom = \"sphere\"\n"));
+    assert_eq!((errs[0].1, errs[0].3.as_str()), (10, "a scene has exactly one primary volume"));
+
+    let errs = errors("[[view]]\nname = \"3d\"\n");
+    assert_eq!(errs[0].3, "the scene has no primary volume");
+}
+
+#[test]
+fn duplicate_names_are_errors() {
+    let errs = errors(&EXAMPLE.replace("name = \"axial\"", "name = \"3d\""));
+    assert_eq!(errs.len(), 1, "{errs:?}");
+    assert_eq!((errs[0].0, errs[0].1, errs[0].2), ("E0702", 27, 8));
+    assert_eq!(errs[0].3, "two views are named `3d`");
+    let (_, result) = parse(&EXAMPLE.replace("name = \"axial\"", "name = \"3d\""));
+    let d = &result.expect_err("invalid").diagnostics[0];
+    assert_eq!(d.secondary.len(), 1);
+
+    let errs = errors(&format!("{MINIMAL}[[volume]]\nname = \"v\"\nrole = \"tag\"\nphantom = \"x\"\n"));
+    assert_eq!((errs[0].0, errs[0].3.as_str()), ("E0607", "two volumes are named `v`"));
+
+    let errs = errors(&EXAMPLE.replace("lights = [\"key\"]", "lights = [\"key\", \"fill\", \"key\"]"));
+    assert_eq!(errs[0].3, "the light `key` is listed twice");
+}
+
+#[test]
+fn bad_enum_values_point_at_the_value() {
+    let errs = errors(&EXAMPLE.replace("compositing = \"dvr\"", "compositing = \"dvrr\""));
+    assert_eq!(errs.len(), 1, "{errs:?}");
+    assert_eq!((errs[0].0, errs[0].1, errs[0].2), ("E0702", 2, 15));
+    assert_eq!(errs[0].3, "`dvrr` is not one of `dvr`, `mip`, `iso`");
+
+    let errs = errors(&EXAMPLE.replace("axis = \"z\"", "axis = \"w\""));
+    assert_eq!((errs[0].1, errs[0].3.as_str()), (29, "`w` is not one of `x`, `y`, `z`"));
+}
+
+#[test]
+fn bad_values_and_syntax() {
+    let errs = errors(&EXAMPLE.replace("size = [512, 512]", "size = [512, 0]"));
+    assert_eq!((errs[0].0, errs[0].1, errs[0].2), ("E0702", 22, 8));
+
+    let errs = errors(&EXAMPLE.replace("size = [512, 512]", "size = [512]"));
+    assert_eq!((errs[0].0, errs[0].1), ("E0702", 22));
+
+    let errs = errors(&EXAMPLE.replace("shading = true", "shading = \"yes\""));
+    assert_eq!((errs[0].0, errs[0].1), ("E0702", 3));
+
+    let errs = errors(&EXAMPLE.replace("[render]", "[render"));
+    assert_eq!((errs[0].0, errs[0].1), ("E0701", 1));
+
+    let errs = errors(&EXAMPLE.replace("name = \"t1\"", "name = \"t1\"\nname = \"t2\""));
+    assert_eq!((errs[0].0, errs[0].1), ("E0701", 8));
+
+    let errs = errors(&EXAMPLE.replace("name = \"t1\"", "name = \"1t\""));
+    assert_eq!((errs[0].0, errs[0].1, errs[0].3.as_str()), ("E0607", 7, "the volume name `1t` is not an identifier"));
+
+    let errs = errors(&EXAMPLE.replace("instances = [\"gm\"]", "instances = [\"g-m\", \"if\"]"));
+    assert_eq!(errs.len(), 2, "{errs:?}");
+
+    let errs = errors(&EXAMPLE.replace("path = \"t1.nii.gz\"", "path = \"t1.nii.gz\"\nphantom = \"ball\""));
+    assert_eq!(errs[0].3, "a volume has either `path` or `phantom`, not both");
+
+    let errs = errors(&EXAMPLE.replace("path = \"t1.nii.gz\"", ""));
+    assert_eq!(errs[0].3, "the volume `t1` has no data");
+
+    let errs = errors(&EXAMPLE.replace("role = \"primary\"", ""));
+    assert_eq!((errs[0].1, errs[0].3.as_str()), (6, "missing key `role` in [[volume]]"));
+
+    let errs = errors(&EXAMPLE.replace("axis = \"z\"", ""));
+    assert_eq!((errs[0].1, errs[0].3.as_str()), (28, "the slice view `axial` needs an `axis`"));
+
+    let errs = errors(&EXAMPLE.replace("clip_plane_gm = [1.0, 0.0, 0.0, -0.5]", "clip_plane_gm = \"x\""));
+    assert_eq!((errs[0].0, errs[0].1), ("E0702", 17));
+
+    let errs = errors(&EXAMPLE.replace("clip_plane_gm = [1.0, 0.0, 0.0, -0.5]", "clip_plane_gm = [1.0, [0.0]]"));
+    assert_eq!((errs[0].0, errs[0].1, errs[0].2), ("E0702", 17, 17));
+
+    let errs = errors(&EXAMPLE.replace("compositing = \"dvr\"", "compositing = \"iso\""));
+    assert_eq!((errs[0].1, errs[0].3.as_str()), (2, "`compositing = \"iso\"` needs an `iso_value`"));
+
+    let errs = errors(
+        &EXAMPLE
+            .replace("[uniforms]", "[uniforms]\nstep_size = 0.01")
+            .replace("shading = true", "shading = true\nstep_size = 0.002"),
+    );
+    assert_eq!(errs[0].3, "`step_size` is set both in [render] and in [uniforms]");
+}
+
+#[test]
+fn keys_without_effect_are_warnings() {
+    let text = EXAMPLE
+        .replace("kind = \"raycast\"", "kind = \"raycast\"\naxis = \"x\"")
+        .replace("position = 0.5", "position = 0.5\ncamera = { fov = 20.0 }");
+    let (map, scene, warnings) = parse_reporting(&text);
+    assert!(scene.is_some(), "{warnings:?}");
+    let w: Vec<_> = warnings
+        .iter()
+        .map(|d| (d.code.as_str(), map.position(d.span.start).expect("in file").1.line, d.message.as_str()))
+        .collect();
+    assert_eq!(
+        w,
+        [
+            ("W0701", 22, "`axis` has no effect on a raycast view"),
+            ("W0701", 32, "`camera` has no effect on a slice view")
+        ]
+    );
+}
+
+#[test]
+fn defaults() {
+    let (_, result) = parse(MINIMAL);
+    let scene = result.unwrap_or_else(|e| panic!("{:?}", e.diagnostics));
+    let r = &scene.render;
+    assert_eq!(r.compositing.value, Compositing::Dvr);
+    assert!(!r.shading && r.lights.is_empty() && !r.boundary && !r.tone);
+    assert_eq!(r.max_samples(), 695);
+    let v = &scene.views[0];
+    assert_eq!((v.kind.value, v.size, v.camera), (ViewKind::Raycast, DEFAULT_VIEW_SIZE, DEFAULT_CAMERA));
+    let (_, result) = parse(&format!("[render]\nshading = true\n{MINIMAL}"));
+    assert_eq!(result.expect("valid").render.lights[0].name, "key");
+}
+
+#[test]
+fn standard_module_paths_and_tf_files() {
+    let text = MINIMAL.replace("phantom = \"sphere\"", "phantom = \"sphere\"\ntf = \"tfs/bone.json\"")
+        + "modules = [{ path = \"std::tone\" }]\n";
+    let (_, result) = parse(&text);
+    let scene = result.unwrap_or_else(|e| panic!("{:?}", e.diagnostics));
+    assert!(matches!(&scene.primary().tf, Some(TfRef::File(f)) if f.resolved == Path::new("scenes/tfs/bone.json")));
+    assert!(matches!(&scene.views[0].modules[0].source, ModuleSource::Std(n) if n.value == "tone"));
+    let errs = errors(&(MINIMAL.to_string() + "modules = [{ path = \"std::no such\" }]\n"));
+    assert_eq!(errs[0].3, "`std::no such` does not name a standard module");
+}
+
+#[test]
+fn a_volume_window_is_lo_hi_or_level_width_in_data_units() {
+    let with = |keys: &str| MINIMAL.replace("phantom = \"sphere\"", &format!("phantom = \"sphere\"\n{keys}"));
+    let window = |keys: &str| {
+        let (_, result) = parse(&with(keys));
+        result.unwrap_or_else(|e| panic!("{:?}", e.diagnostics)).primary().window.as_ref().map(|w| w.value)
+    };
+    assert_eq!(window(""), None);
+    assert_eq!(window("window = [-1000, 400.5]"), Some([-1000.0, 400.5]));
+    assert_eq!(window("level = 40\nwidth = 400"), Some([-160.0, 240.0]));
+    let message = |keys: &str| errors(&with(keys))[0].3.clone();
+    assert_eq!(message("window = [5, 5]"), "the window [5, 5] must have its low end below its high end");
+    assert_eq!(message("level = 40"), "`level` needs `width`");
+    assert_eq!(message("width = 40"), "`width` needs `level`");
+    assert_eq!(message("level = 40\nwidth = 0"), "the window `width` must be positive, not 0");
+    assert_eq!(
+        message("window = [0, 1]\nlevel = 1\nwidth = 2"),
+        "a volume has either `window` or `level` and `width`, not both"
+    );
+}
+
+#[test]
+fn garbage_never_panics() {
+    for text in ["", "[", "[[view]]\nname = 3", "x = [[[[[[1]]]]]]", "\u{feff}[render]\n", "[uniforms]\na = 1e999"] {
+        let _ = parse(text);
+    }
+}
