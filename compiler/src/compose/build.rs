@@ -1,6 +1,7 @@
 //! Composing the views of a scene: standard modules chosen by the scene's configuration, then
 //! the scene's modules, then the view's; checked, placed, emitted as WGSL with reflection.
 
+use super::limits;
 use super::place::{self, Composition, ModuleUse};
 use super::reflect::{self, Reflection};
 use super::uniform_check;
@@ -10,6 +11,7 @@ use crate::diag::{Code, Diagnostic, Diagnostics};
 use crate::loader::{Loader, ModuleGraph, ParsedFiles};
 use crate::scene::{self, ModuleRef, ModuleSource, Scene, SceneError, View};
 use crate::source::{SourceMap, Span};
+use crate::source_text::SourceText;
 use std::path::Path;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Mutex, OnceLock};
@@ -82,10 +84,13 @@ pub fn build_scene_keeping(path: &Path, only_view: Option<&str>, keep: Keep) -> 
 
 /// Reads the scene file at `path` into a new source map and parses it.
 pub fn read_scene(path: &Path) -> std::io::Result<(SourceMap, Result<Scene, SceneError>)> {
-    let text = std::fs::read_to_string(path)?;
+    let text = SourceText::read(path)?;
     let mut sources = SourceMap::new();
-    let file = sources.add(path.display().to_string(), Some(path.to_path_buf()), text);
-    let scene = scene::parse_scene(&sources, file);
+    let (file, not_utf8) = text.add_to(&mut sources, path.display().to_string(), Some(path.to_path_buf()));
+    let scene = match not_utf8 {
+        Some(d) => Err(SceneError { diagnostics: vec![d] }),
+        None => scene::parse_scene(&sources, file),
+    };
     Ok((sources, scene))
 }
 
@@ -129,6 +134,11 @@ pub fn compose_scene_with(
         }
     };
     scene.warnings.iter().cloned().for_each(|d| diags.push(d));
+    let too_many = limits::check_counts(&scene);
+    if !too_many.is_empty() {
+        too_many.into_iter().for_each(|d| diags.push(d));
+        return BuiltScene { sources, diags, scene: Some(scene), views: Vec::new() };
+    }
     let chosen: Vec<&View> = scene.views.iter().filter(|view| only_view.is_none_or(|v| v == view.name.name)).collect();
     // Loading grows the source map, so it runs view after view (each file parsed once); the rest
     // of a view's work only reads the map, so the views compose in parallel. (Parsing the files in
@@ -377,7 +387,14 @@ fn compose_loaded(
     let LoadedView { graph, uses, mut diags } = loaded;
     let program = check::check_program(&graph, sources, &mut diags);
     let is_std = |m: usize| graph.modules.get(m).is_some_and(|m| m.std_name.is_some());
-    let composition = place::compose(&program, &uses, is_std, ENTRY_FIELDS, &mut diags);
+    // A function with an error is left out of the program, so placing what is left would report
+    // its absence (fields without defaults, reads before writes, a template that looks like a
+    // plain module): follow-ons of the errors already reported. Those are the only ones shown.
+    let composition = if diags.has_errors() || graph.modules.iter().any(|m| m.incomplete) {
+        place::compose(&program, &uses, is_std, ENTRY_FIELDS, &mut Diagnostics::new())
+    } else {
+        place::compose(&program, &uses, is_std, ENTRY_FIELDS, &mut diags)
+    };
     let emitted = if diags.has_errors() {
         None
     } else {

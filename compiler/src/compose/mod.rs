@@ -9,6 +9,7 @@ pub mod build;
 pub mod cache;
 pub mod entry;
 pub mod explain;
+pub mod limits;
 pub mod place;
 pub mod probe;
 pub mod reflect;
