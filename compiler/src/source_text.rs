@@ -64,10 +64,14 @@ impl SourceText {
 }
 
 fn not_utf8(span: Span, offset: usize, byte: u8) -> Diagnostic {
-    Diagnostic::new(Code::NotUtf8, span, format!("the file is not UTF-8: byte 0x{byte:02X} at offset {offset} is invalid"))
-        .with_label("the first byte that is not UTF-8")
-        .with_note("VRS modules and scene files are UTF-8 text")
-        .with_help("save the file as UTF-8 (an editor's \"save with encoding\"), or remove the byte")
+    Diagnostic::new(
+        Code::NotUtf8,
+        span,
+        format!("the file is not UTF-8: byte 0x{byte:02X} at offset {offset} is invalid"),
+    )
+    .with_label("the first byte that is not UTF-8")
+    .with_note("VRS modules and scene files are UTF-8 text")
+    .with_help("save the file as UTF-8 (an editor's \"save with encoding\"), or remove the byte")
 }
 
 #[cfg(test)]

@@ -110,12 +110,12 @@ mod tests {
         std::fs::write(dir.join("garbage.nii"), "not a volume").expect("a file");
         let m = messages("path = \"garbage.nii\"", &dir);
         assert!(m.len() == 1 && m[0].contains("too short for a NIfTI-1 header"), "{m:?}");
-        let mhd = "ObjectType = Image\nNDims = 3\nDimSize = 2 2 2\nElementType = MET_UCHAR\nElementSpacing = 1e-30 1e-30 1e-30\nElementDataFile = v.raw\n";
+        let mhd = "ObjectType = Image\nNDims = 3\nDimSize = 2 2 2\nElementType = MET_UCHAR\nElementSpacing = 1e-7 1e-7 1e-7\nElementDataFile = v.raw\n";
         std::fs::write(dir.join("tiny.mhd"), mhd).expect("a file");
         std::fs::write(dir.join("v.raw"), [0u8; 8]).expect("a file");
         let m = messages("path = \"tiny.mhd\"", &dir);
         assert!(m.len() == 1 && m[0].contains("voxel spacing"), "{m:?}");
-        std::fs::write(dir.join("tiny.mhd"), mhd.replace("1e-30 1e-30 1e-30", "1 1 1")).expect("a file");
+        std::fs::write(dir.join("tiny.mhd"), mhd.replace("1e-7 1e-7 1e-7", "1 1 1")).expect("a file");
         assert_eq!(messages("path = \"tiny.mhd\"", &dir), Vec::<String>::new());
         let m = messages("phantom = \"head\"\ntf = \"lut.json\"", &dir);
         assert!(m.len() == 1 && m[0].starts_with("transfer function `lut.json`"), "{m:?}");

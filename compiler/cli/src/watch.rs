@@ -3,8 +3,6 @@
 //! atomically; a broken edit prints its diagnostics and leaves the last good images alone.
 
 use super::{MessageFormat, Outcome, Printer, failure};
-use vrsc::diag::{Code, Diagnostic};
-use vrsc::source::Span;
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -12,6 +10,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 use vrs_live::{Failure, FileWatcher, LiveScene, Rebuild};
 use vrs_runtime::{AdapterChoice, Gpu, RenderOptions, SceneRenderer};
+use vrsc::diag::{Code, Diagnostic};
+use vrsc::source::Span;
 
 /// What `vrsc watch` was asked to do.
 pub struct WatchArgs<'a> {

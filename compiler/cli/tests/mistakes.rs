@@ -34,7 +34,11 @@ fn build(scene: &Path) -> (i32, Vec<Value>) {
 fn only(diags: &[Value]) -> (String, u64, String) {
     assert_eq!(diags.len(), 1, "{diags:#?}");
     let d = &diags[0];
-    (d["code"].as_str().unwrap_or_default().into(), d["line"].as_u64().unwrap_or(0), d["message"].as_str().unwrap_or_default().into())
+    (
+        d["code"].as_str().unwrap_or_default().into(),
+        d["line"].as_u64().unwrap_or(0),
+        d["message"].as_str().unwrap_or_default().into(),
+    )
 }
 
 #[test]
@@ -102,8 +106,11 @@ fn a_module_that_is_not_utf8_is_one_diagnostic_at_its_first_bad_byte() {
     assert_eq!((code, id.as_str(), line, diags[0]["column"].as_u64()), (1, "E0108", 2, Some(23)), "{message}");
     // A module importing it gets no follow-on errors for the names it would have defined.
     let main = dir.path().join("main.vrs");
-    std::fs::write(&main, "import \"m.vrs\";\n\npipeline p in start {\n    state v: f32 = 0.0;\n    use f;\n    state.v = f();\n}\n")
-        .expect("a file");
+    std::fs::write(
+        &main,
+        "import \"m.vrs\";\n\npipeline p in start {\n    state v: f32 = 0.0;\n    use f;\n    state.v = f();\n}\n",
+    )
+    .expect("a file");
     let (code, diags) = vrsc_json(&["check", &main.display().to_string()]);
     let (id, _, _) = only(&diags);
     assert_eq!((code, id.as_str()), (1, "E0108"));

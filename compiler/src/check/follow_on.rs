@@ -10,10 +10,15 @@ use crate::source::SourceMap;
 use rustc_hash::FxHashSet;
 
 /// The codes that say a name was not found: what a missing item causes.
-const UNKNOWN_NAME_CODES: [Code; 4] = [Code::UnknownName, Code::UnknownFunction, Code::UnknownType, Code::UnknownLibrary];
+const UNKNOWN_NAME_CODES: [Code; 4] =
+    [Code::UnknownName, Code::UnknownFunction, Code::UnknownType, Code::UnknownLibrary];
 
 /// Drops the unknown-name errors located in a module that is incomplete or imports one.
-pub(super) fn drop_unknown_names_in_incomplete_modules(graph: &ModuleGraph, sources: &SourceMap, diags: &mut Diagnostics) {
+pub(super) fn drop_unknown_names_in_incomplete_modules(
+    graph: &ModuleGraph,
+    sources: &SourceMap,
+    diags: &mut Diagnostics,
+) {
     let affected: FxHashSet<usize> = graph
         .modules
         .iter()
@@ -24,6 +29,7 @@ pub(super) fn drop_unknown_names_in_incomplete_modules(graph: &ModuleGraph, sour
         return;
     }
     diags.retain(|d| {
-        !UNKNOWN_NAME_CODES.contains(&d.code) || sources.file_of(d.span.start).is_none_or(|file| !affected.contains(&file))
+        !UNKNOWN_NAME_CODES.contains(&d.code)
+            || sources.file_of(d.span.start).is_none_or(|file| !affected.contains(&file))
     });
 }

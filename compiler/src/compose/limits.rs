@@ -42,14 +42,24 @@ pub fn check_counts(scene: &Scene) -> Vec<Diagnostic> {
     let mut seen_modules: Vec<&ModuleRef> = Vec::new();
     for view in &scene.views {
         let modules: Vec<Span> = scene.modules.iter().chain(&view.modules).map(|m| m.span).collect();
-        limit(&modules, MAX_MODULES_PER_VIEW, "modules in one view", "each module's functions are composed into the view");
+        limit(
+            &modules,
+            MAX_MODULES_PER_VIEW,
+            "modules in one view",
+            "each module's functions are composed into the view",
+        );
         for module in scene.modules.iter().chain(&view.modules) {
             if seen_modules.iter().any(|m| std::ptr::eq(*m, module)) {
                 continue;
             }
             seen_modules.push(module);
             let instances: Vec<Span> = module.instances.iter().flatten().map(|i| i.span).collect();
-            limit(&instances, MAX_INSTANCES, "instances of one module", "each instance is a copy of the template's functions");
+            limit(
+                &instances,
+                MAX_INSTANCES,
+                "instances of one module",
+                "each instance is a copy of the template's functions",
+            );
         }
     }
     out

@@ -250,11 +250,17 @@ impl ModuleBuilder {
     /// is. naga's `Layouter::update` walks the type arena from its start to find the new types,
     /// so laying out after every struct made lowering quadratic in the number of structs (each
     /// pipeline function of `vrsc emit` has one).
-    fn update_layouts(&mut self, needed: impl IntoIterator<Item = Handle<naga::Type>>, span: Span) -> Result<(), Diagnostic> {
+    fn update_layouts(
+        &mut self,
+        needed: impl IntoIterator<Item = Handle<naga::Type>>,
+        span: Span,
+    ) -> Result<(), Diagnostic> {
         if needed.into_iter().all(|ty| ty.index() < self.laid_out) {
             return Ok(());
         }
-        self.layouter.update(self.module.to_ctx()).map_err(|e| internal(span, format!("cannot lay out a type: {e}")))?;
+        self.layouter
+            .update(self.module.to_ctx())
+            .map_err(|e| internal(span, format!("cannot lay out a type: {e}")))?;
         self.laid_out = self.module.types.len();
         self.layout_passes += 1;
         Ok(())

@@ -112,8 +112,8 @@ mod tests {
     fn a_header_is_read_without_its_samples() {
         let dir = tempfile::tempdir().unwrap();
         let mhd = dir.path().join("v.mhd");
-        // A spacing of 1e20 is refused from the header alone.
-        std::fs::write(&mhd, "ObjectType = Image\nNDims = 3\nDimSize = 4 3 2\nElementType = MET_SHORT\nElementSpacing = 1e20 1e20 1e20\nElementDataFile = v.raw\n").unwrap();
+        // A spacing of 1e7 mm is refused from the header alone.
+        std::fs::write(&mhd, "ObjectType = Image\nNDims = 3\nDimSize = 4 3 2\nElementType = MET_SHORT\nElementSpacing = 1e7 1e7 1e7\nElementDataFile = v.raw\n").unwrap();
         std::fs::write(dir.path().join("v.raw"), [0u8; 48]).unwrap();
         let e = header(&mhd).expect_err("absurd spacing").to_string();
         assert!(e.contains("voxel spacing"), "{e}");
