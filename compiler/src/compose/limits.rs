@@ -98,6 +98,21 @@ mod tests {
     }
 
     #[test]
+    fn views_and_modules_per_view_are_limited() {
+        let view = |i: usize| format!("[[view]]\nname = \"v{i}\"\nkind = \"slice\"\naxis = \"z\"\n\n");
+        let views = |n: usize| (0..n).map(view).collect::<String>();
+        // The helper adds one view of its own.
+        assert!(check_counts(&scene("", &views(MAX_VIEWS - 1))).is_empty());
+        let over = check_counts(&scene("", &views(MAX_VIEWS)));
+        assert!(over.len() == 1 && over[0].message.starts_with("too many views"), "{over:?}");
+        let module = |i: usize| format!("[[module]]\npath = \"m{i}.vrs\"\n\n");
+        let modules = |n: usize| (0..n).map(module).collect::<String>();
+        assert!(check_counts(&scene("", &modules(MAX_MODULES_PER_VIEW))).is_empty());
+        let over = check_counts(&scene("", &modules(MAX_MODULES_PER_VIEW + 1)));
+        assert!(over.len() == 1 && over[0].message.starts_with("too many modules in one view"), "{over:?}");
+    }
+
+    #[test]
     fn volumes_are_limited() {
         let volume = |i: usize| format!("[[volume]]\nname = \"w{i}\"\nrole = \"additional\"\nphantom = \"head\"\n\n");
         let extra = |n: usize| (0..n).map(volume).collect::<String>();
