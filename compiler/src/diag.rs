@@ -44,6 +44,7 @@ codes! {
     TooDeep = "E0105", Error, "brackets or expressions nested deeper than the compiler allows";
     DeclarationAfterStatement = "E0106", Error, "a declaration after the first statement of a pipeline function";
     UnknownAttribute = "E0107", Error, "an attribute other than `@ray`";
+    NotUtf8 = "E0108", Error, "a source or scene file that is not UTF-8 text";
     // Modules and names.
     ImportNotFound = "E0201", Error, "an imported file cannot be read, or a standard module does not exist";
     ImportCycle = "E0202", Error, "modules import each other in a cycle";
@@ -102,6 +103,9 @@ codes! {
     ProbeUnshowable = "E0802", Error, "a probe of a field whose type an image cannot show (a matrix)";
     // Internal.
     Internal = "E0901", Error, "a compiler bug: the generated IR did not validate";
+    // Outside the input (exit code 2).
+    Io = "E0902", Error, "a file given on the command line cannot be read, or an output cannot be written";
+    Device = "E0903", Error, "no GPU adapter, or the GPU refused or lost the work";
     // Warnings.
     UnusedUse = "W0001", Warning, "a `use` of a library function the body never calls";
     UnusedUniform = "W0002", Warning, "a uniform declared but never read";
@@ -228,6 +232,11 @@ impl Diagnostics {
         self.list.is_empty()
     }
 
+    /// Keeps only the diagnostics for which `keep` holds (follow-on errors are dropped this way).
+    pub fn retain(&mut self, keep: impl FnMut(&Diagnostic) -> bool) {
+        self.list.retain(keep);
+    }
+
     /// Takes over every diagnostic of `other`, in order.
     pub fn extend(&mut self, other: Diagnostics) {
         self.list.extend(other.list);
@@ -295,12 +304,30 @@ impl Diagnostic {
         }
     }
 
-    /// The codespan-reporting form, for terminals and snapshots.
+    /// The codespan-reporting form, for terminals and snapshots. A span on a line longer than
+    /// [`MAX_SHOWN_LINE`] bytes is given as `file:line:column` in a note instead of a snippet:
+    /// showing such a line (generated or minified text) helps no one, and codespan-reporting
+    /// takes microseconds per character of it.
     pub fn to_codespan(&self, sources: &SourceMap) -> cs::Diagnostic<usize> {
         let base = match self.severity {
             Severity::Error => cs::Diagnostic::error(),
             Severity::Warning => cs::Diagnostic::warning(),
         };
+        let spans = std::iter::once(self.span).chain(self.secondary.iter().map(|(span, _)| *span));
+        if spans.into_iter().any(|span| on_long_line(sources, span)) {
+            let mut notes = Vec::new();
+            let mut at = |span: Span, label: &str| {
+                if let Some((id, p)) = sources.position(span.start) {
+                    let label = if label.is_empty() { String::new() } else { format!(": {label}") };
+                    notes.push(format!("at {}:{}:{}{label}", sources.file(id).name, p.line, p.column));
+                }
+            };
+            at(self.span, &self.label);
+            self.secondary.iter().for_each(|(span, label)| at(*span, label));
+            notes.push(format!("(the line is longer than {MAX_SHOWN_LINE} bytes, so it is not shown)"));
+            notes.extend(self.notes.iter().cloned());
+            return base.with_code(self.code.as_str()).with_message(&self.message).with_notes(notes);
+        }
         let mut labels = Vec::new();
         if let Some((file, range)) = sources.locate(self.span) {
             labels.push(cs::Label::primary(file, range).with_message(&self.label));
@@ -317,6 +344,21 @@ impl Diagnostic {
     }
 }
 
+/// Lines longer than this many bytes are not shown in a diagnostic's snippet.
+pub const MAX_SHOWN_LINE: usize = 1000;
+
+/// Whether `span` starts on a line longer than [`MAX_SHOWN_LINE`]. Looks at most that many
+/// bytes either side of the span's start, so a diagnostic costs the same on any line.
+fn on_long_line(sources: &SourceMap, span: Span) -> bool {
+    let Some((id, range)) = sources.locate(span) else { return false };
+    let text = sources.file(id).text.as_bytes();
+    let at = range.start.min(text.len());
+    let before = text[at.saturating_sub(MAX_SHOWN_LINE + 1)..at].iter().rev().take_while(|&&b| b != b'\n').count();
+    let after_end = (at + MAX_SHOWN_LINE + 1).min(text.len());
+    let after = text[at..after_end].iter().take_while(|&&b| b != b'\n').count();
+    before + after > MAX_SHOWN_LINE
+}
+
 /// Renders diagnostics as codespan-reporting text (no colour): for snapshots and non-terminals.
 pub fn render_plain(diags: &[Diagnostic], sources: &SourceMap) -> String {
     let config = codespan_reporting::term::Config::default();
@@ -326,4 +368,41 @@ pub fn render_plain(diags: &[Diagnostic], sources: &SourceMap) -> String {
         let _ = codespan_reporting::term::emit_to_string(&mut out, &config, sources, &d.to_codespan(sources));
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A diagnostic on a 3 MB line: its text names the position and leaves the line out, so
+    /// printing it costs nothing like the line's length.
+    #[test]
+    fn a_span_on_a_very_long_line_is_shown_by_position() {
+        let mut sources = SourceMap::new();
+        let text = format!("const a: f32 = y; /* {} */\nconst b: f32 = z;\n", "x".repeat(3 << 20));
+        let file = sources.add("long.vrs", None, text.clone());
+        let base = sources.file(file).base;
+        let at = |needle: &str| base + text.find(needle).expect("in the text") as u32;
+        let long = Diagnostic::new(Code::UnknownName, Span::new(at("y;"), at("y;") + 1), "unknown name `y`")
+            .with_label("not found");
+        let short = Diagnostic::new(Code::UnknownName, Span::new(at("z;"), at("z;") + 1), "unknown name `z`")
+            .with_label("not found");
+        let rendered = render_plain(&[long, short], &sources);
+        assert!(rendered.len() < 2000, "{} bytes", rendered.len());
+        assert!(rendered.contains("at long.vrs:1:16: not found"), "{rendered}");
+        assert!(rendered.contains("2 │ const b: f32 = z;"), "{rendered}");
+    }
+
+    #[test]
+    fn lines_up_to_the_limit_are_shown() {
+        let mut sources = SourceMap::new();
+        let line = format!("{}y", " ".repeat(MAX_SHOWN_LINE - 1));
+        let file = sources.add("edge.vrs", None, format!("{line}\n"));
+        let y = sources.file(file).base + (MAX_SHOWN_LINE - 1) as u32;
+        let d = Diagnostic::new(Code::UnknownName, Span::new(y, y + 1), "unknown name `y`");
+        assert!(!on_long_line(&sources, d.span));
+        let file = sources.add("over.vrs", None, format!("{line} \n"));
+        let y = sources.file(file).base + (MAX_SHOWN_LINE - 1) as u32;
+        assert!(on_long_line(&sources, Span::new(y, y + 1)));
+    }
 }

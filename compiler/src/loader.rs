@@ -4,6 +4,7 @@
 use crate::ast::{self, ItemKind};
 use crate::diag::{Code, Diagnostic, Diagnostics};
 use crate::source::{FileId, SourceFile, SourceMap, Span};
+use crate::source_text::SourceText;
 use crate::{lexer, parser, stdlib};
 use rustc_hash::FxHashMap;
 use std::path::{Path, PathBuf};
@@ -20,6 +21,10 @@ pub struct LoadedModule {
     pub imports: Vec<usize>,
     /// `Some("shading")` for the standard module `std::shading`.
     pub std_name: Option<String>,
+    /// Some of its items may be missing: its file has lexical or syntax errors or is not UTF-8,
+    /// or one of its imports failed. A name the checker cannot find in it (or in a module that
+    /// imports it) is then a follow-on of that error, not a mistake of its own.
+    pub incomplete: bool,
 }
 
 /// Every module reachable from the roots. A file imported from several places is loaded once.
@@ -35,7 +40,7 @@ pub struct ModuleGraph {
 /// reported once).
 #[derive(Debug, Default)]
 pub struct ParsedFiles {
-    files: FxHashMap<String, (FileId, Arc<ast::Module>)>,
+    files: FxHashMap<String, ParsedFile>,
     /// Paths as met → canonical paths: resolving one costs a system call per path component.
     canonical: FxHashMap<PathBuf, PathBuf>,
     /// Texts that stand in for files on disk, by canonical path (see [`ParsedFiles::with_overlay`]).
@@ -49,6 +54,10 @@ impl ParsedFiles {
         ParsedFiles { overlay: texts.into_iter().collect(), ..ParsedFiles::default() }
     }
 }
+
+/// One file in [`ParsedFiles`]: its id, its syntax tree, and whether the tree may lack items
+/// (the file had lexical or syntax errors, or is not UTF-8).
+type ParsedFile = (FileId, Arc<ast::Module>, bool);
 
 /// Builds a [`ModuleGraph`], adding every file it reads to the source map.
 pub struct Loader<'a> {
@@ -97,8 +106,8 @@ impl<'a> Loader<'a> {
     pub fn load_root_source(&mut self, name: &str, text: String, dir: Option<&Path>) -> usize {
         let path = dir.map(|d| self.canonical_path(&d.join(name)));
         let key = format!("<source {}>:{name}", self.graph.modules.len());
-        let (file, ast) = self.parse_file(name.to_string(), path, text, &key);
-        let index = self.add_module(file, ast, None, key);
+        let (file, ast, broken) = self.parse_file(name.to_string(), path, SourceText::Utf8(text), &key);
+        let index = self.add_module(file, ast, None, key, broken);
         self.graph.roots.push(index);
         index
     }
@@ -139,7 +148,7 @@ impl<'a> Loader<'a> {
         let parsed = &parsed_std()[file];
         // Empty unless a standard module itself has a syntax error (a bug in the compiler).
         parsed.diags.iter().cloned().for_each(|d| self.diags.push(d));
-        Some(self.add_module(file, parsed.ast.clone(), Some(name), key))
+        Some(self.add_module(file, parsed.ast.clone(), Some(name), key, false))
     }
 
     /// Adds the file at `path` as a module under `key` (its canonical path): parsed into this
@@ -151,36 +160,47 @@ impl<'a> Loader<'a> {
         key: String,
         name: impl FnOnce() -> String,
     ) -> std::io::Result<usize> {
-        let (file, ast) = match self.parsed.files.get(&key) {
+        let (file, ast, broken) = match self.parsed.files.get(&key) {
             Some(parsed) => parsed.clone(),
             None => {
                 let text = match self.parsed.overlay.get(&canonical) {
-                    Some(text) => text.clone(),
-                    None => std::fs::read_to_string(path)?,
+                    Some(text) => SourceText::Utf8(text.clone()),
+                    None => SourceText::read(path)?,
                 };
                 self.parse_file(name(), Some(canonical), text, &key)
             }
         };
-        Ok(self.add_module(file, ast, None, key))
+        Ok(self.add_module(file, ast, None, key, broken))
     }
 
-    /// Adds a file to the source map, lexes and parses it, and remembers it under `key`.
-    fn parse_file(
+    /// Adds a file to the source map, lexes and parses it, and remembers it under `key`. A file
+    /// that is not UTF-8 is not parsed: its one diagnostic says why, and its module is empty.
+    fn parse_file(&mut self, name: String, canonical: Option<PathBuf>, text: SourceText, key: &str) -> ParsedFile {
+        let (file, not_utf8) = text.add_to(self.sources, name, canonical);
+        let errors_before = self.diags.error_count();
+        let ast = match not_utf8 {
+            Some(d) => {
+                self.diags.push(d);
+                ast::Module { file, items: Vec::new() }
+            }
+            None => parse_source(self.sources.file(file), file, self.diags),
+        };
+        let parsed = (file, Arc::new(ast), self.diags.error_count() > errors_before);
+        self.parsed.files.insert(key.to_string(), parsed.clone());
+        parsed
+    }
+
+    fn add_module(
         &mut self,
-        name: String,
-        canonical: Option<PathBuf>,
-        text: String,
-        key: &str,
-    ) -> (FileId, Arc<ast::Module>) {
-        let file = self.sources.add(name, canonical, text);
-        let ast = Arc::new(parse_source(self.sources.file(file), file, self.diags));
-        self.parsed.files.insert(key.to_string(), (file, ast.clone()));
-        (file, ast)
-    }
-
-    fn add_module(&mut self, file: FileId, ast: Arc<ast::Module>, std_name: Option<&str>, key: String) -> usize {
+        file: FileId,
+        ast: Arc<ast::Module>,
+        std_name: Option<&str>,
+        key: String,
+        incomplete: bool,
+    ) -> usize {
         let index = self.graph.modules.len();
-        self.graph.modules.push(LoadedModule { file, ast, imports: Vec::new(), std_name: std_name.map(String::from) });
+        let std_name = std_name.map(String::from);
+        self.graph.modules.push(LoadedModule { file, ast, imports: Vec::new(), std_name, incomplete });
         self.loaded.insert(key, index);
         self.in_progress.push(index);
         let imports = self.follow_imports(index);
@@ -211,10 +231,10 @@ impl<'a> Loader<'a> {
             .collect();
         let mut imports = Vec::new();
         for (request, span) in requests {
-            if let Some(target) = self.import(request, dir.as_deref(), &shown_dir, span)
-                && !imports.contains(&target)
-            {
-                imports.push(target);
+            match self.import(request, dir.as_deref(), &shown_dir, span) {
+                Some(target) if !imports.contains(&target) => imports.push(target),
+                Some(_) => {}
+                None => self.graph.modules[index].incomplete = true,
             }
         }
         imports

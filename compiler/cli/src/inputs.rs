@@ -6,9 +6,9 @@
 //! The check lives here, in the CLI, because the compiler crate does not depend on the runtime
 //! (the runtime depends on the compiler). Presets and phantoms are looked up by name (a phantom
 //! is made at 1 voxel, which costs nothing); a transfer-function file is parsed in full (it is
-//! small); a volume file must exist and be readable (its voxels are read only by `render`).
+//! small); a volume file or DICOM folder must exist and have a valid header (dimensions within
+//! the limits, a sane voxel spacing); its voxels are read only by `render`.
 
-use std::io::Read;
 use std::path::Path;
 use vrs_runtime::{tf, volume};
 use vrsc::diag::{Code, Diagnostic};
@@ -28,7 +28,7 @@ pub fn check_scene_inputs(scene: &Scene) -> Vec<Diagnostic> {
             }
             VolumeSource::File(file) if !file.resolved.exists() && v.fallback.is_some() => {}
             VolumeSource::File(file) => {
-                if let Err(why) = readable(&file.resolved) {
+                if let Err(why) = volume::header(&file.resolved).map_err(|e| e.kind.to_string()) {
                     let d = invalid(file.span, format!("cannot read volume `{}`: {why}", file.given), "this file")
                         .with_note(format!("resolved to `{}`", file.resolved.display()))
                         .with_help("fix the path (relative to the scene file), or add `fallback = \"head\"` to render a phantom meanwhile");
@@ -62,17 +62,6 @@ pub fn check_scene_inputs(scene: &Scene) -> Vec<Diagnostic> {
 
 fn invalid(span: Span, message: String, label: &str) -> Diagnostic {
     Diagnostic::new(Code::SceneInvalid, span, message).with_label(label)
-}
-
-/// Whether `path` is a file whose first bytes can be read.
-fn readable(path: &Path) -> Result<(), String> {
-    let file = std::fs::File::open(path).map_err(|e| e.to_string())?;
-    if !file.metadata().map_err(|e| e.to_string())?.is_file() {
-        return Err(String::from("not a file"));
-    }
-    let mut head = Vec::with_capacity(4);
-    file.take(4).read_to_end(&mut head).map_err(|e| e.to_string())?;
-    Ok(())
 }
 
 /// Creates `dir` if needed and proves it writable by creating and removing a file in it.
@@ -118,6 +107,17 @@ mod tests {
         assert_eq!(messages("path = \"nowhere.nii.gz\"\nfallback = \"head\"", &dir), Vec::<String>::new());
         let m = messages("path = \"nowhere.nii.gz\"\nfallback = \"nobody\"", &dir);
         assert!(m.len() == 1 && m[0].contains("nobody"), "{m:?}");
+        // A volume file is read as far as its header.
+        std::fs::write(dir.join("garbage.nii"), "not a volume").expect("a file");
+        let m = messages("path = \"garbage.nii\"", &dir);
+        assert!(m.len() == 1 && m[0].contains("too short for a NIfTI-1 header"), "{m:?}");
+        let mhd = "ObjectType = Image\nNDims = 3\nDimSize = 2 2 2\nElementType = MET_UCHAR\nElementSpacing = 1e-7 1e-7 1e-7\nElementDataFile = v.raw\n";
+        std::fs::write(dir.join("tiny.mhd"), mhd).expect("a file");
+        std::fs::write(dir.join("v.raw"), [0u8; 8]).expect("a file");
+        let m = messages("path = \"tiny.mhd\"", &dir);
+        assert!(m.len() == 1 && m[0].contains("voxel spacing"), "{m:?}");
+        std::fs::write(dir.join("tiny.mhd"), mhd.replace("1e-7 1e-7 1e-7", "1 1 1")).expect("a file");
+        assert_eq!(messages("path = \"tiny.mhd\"", &dir), Vec::<String>::new());
         let m = messages("phantom = \"head\"\ntf = \"lut.json\"", &dir);
         assert!(m.len() == 1 && m[0].starts_with("transfer function `lut.json`"), "{m:?}");
         std::fs::write(dir.join("lut.json"), "not json").expect("a file");

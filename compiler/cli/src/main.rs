@@ -1,6 +1,7 @@
 //! The `vrsc` command line. Exit codes: 0 success (warnings allowed), 1 the input has errors,
 //! 2 usage or I/O problems.
 
+mod failure;
 mod inputs;
 
 use clap::{Parser, Subcommand, ValueEnum};
@@ -10,9 +11,9 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use vrsc::compose::backends::Target;
 use vrsc::compose::build::{Keep, build_scene_keeping};
-use vrsc::diag::Diagnostic;
+use vrsc::diag::{Code, Diagnostic};
 use vrsc::driver::{self, Checked};
-use vrsc::source::SourceMap;
+use vrsc::source::{SourceMap, Span};
 
 mod watch;
 
@@ -231,16 +232,16 @@ fn run(cli: &Cli) -> Outcome {
         Command::Pipeline { scene, view } => pipeline(&printer, scene, view.as_deref()),
         Command::Lsp => match vrsc_lsp::run_stdio() {
             Ok(()) => Outcome::Ok,
-            Err(e) => io_failure(&format!("language server: {e}")),
+            Err(e) => printer.io_failure(&format!("language server: {e}")),
         },
         Command::Check { files } => match driver::check_files(files) {
             Ok(checked) => printer.finish(&checked),
-            Err(e) => io_failure(&e),
+            Err(e) => printer.io_failure(&e),
         },
         Command::Emit { file, output } => {
             let mut checked = match driver::check_files(std::slice::from_ref(file)) {
                 Ok(c) => c,
-                Err(e) => return io_failure(&e),
+                Err(e) => return printer.io_failure(&e),
             };
             let wgsl = checked.emit_standalone_wgsl();
             let outcome = printer.finish(&checked);
@@ -251,10 +252,7 @@ fn run(cli: &Cli) -> Outcome {
             };
             match written {
                 Ok(()) => outcome,
-                Err(message) => {
-                    eprintln!("error: {message}");
-                    Outcome::Failure
-                }
+                Err(message) => printer.io_failure(&message),
             }
         }
     }
@@ -265,14 +263,14 @@ fn build(printer: &Printer, scene: &std::path::Path, dir: &std::path::Path, targ
     let keep = if targets.is_empty() { Keep::Outputs } else { Keep::Ir };
     let built = match build_scene_keeping(scene, None, keep) {
         Ok(b) => b,
-        Err(e) => return io_failure(&format!("cannot read `{}`: {e}", scene.display())),
+        Err(e) => return printer.io_failure(&format!("cannot read `{}`: {e}", scene.display())),
     };
     let outcome = printer.report(&with_input_checks(&built), &built.sources);
     if !matches!(outcome, Outcome::Ok) {
         return outcome;
     }
     if let Err(e) = inputs::check_output_dir(dir) {
-        return io_failure(&e);
+        return printer.io_failure(&e);
     }
     for view in &built.views {
         let Some(shader) = &view.shader else { continue };
@@ -285,15 +283,15 @@ fn build(printer: &Printer, scene: &std::path::Path, dir: &std::path::Path, targ
             match vrsc::compose::backends::translate(&valid.module, &valid.info, "main", target) {
                 Ok(bytes) => outputs.push((target.extension(), bytes)),
                 Err(e) => {
-                    eprintln!("error: view `{}`: naga's {} back end failed: {e}", view.name, target.name());
-                    return Outcome::InputErrors;
+                    let message = format!("view `{}`: naga's {} back end failed: {e}", view.name, target.name());
+                    return printer.fail(Diagnostic::new(Code::Internal, Span::DUMMY, message));
                 }
             }
         }
         for (ext, bytes) in &outputs {
             let path = dir.join(format!("{}.{ext}", view.name));
             if let Err(e) = std::fs::write(&path, bytes) {
-                return io_failure(&format!("cannot write `{}`: {e}", path.display()));
+                return printer.io_failure(&format!("cannot write `{}`: {e}", path.display()));
             }
         }
         let extensions: Vec<&str> = outputs.iter().map(|(ext, _)| *ext).collect();
@@ -305,7 +303,7 @@ fn build(printer: &Printer, scene: &std::path::Path, dir: &std::path::Path, targ
 fn explain(printer: &Printer, scene: &std::path::Path, only: Option<&str>) -> Outcome {
     let built = match build_scene_keeping(scene, only, Keep::Ir) {
         Ok(b) => b,
-        Err(e) => return io_failure(&format!("cannot read `{}`: {e}", scene.display())),
+        Err(e) => return printer.io_failure(&format!("cannot read `{}`: {e}", scene.display())),
     };
     let outcome = printer.report(&built.diags.sorted(), &built.sources);
     if only.is_none() && built.views.len() > 1 {
@@ -324,7 +322,7 @@ fn explain(printer: &Printer, scene: &std::path::Path, only: Option<&str>) -> Ou
 fn pipeline(printer: &Printer, scene: &std::path::Path, only: Option<&str>) -> Outcome {
     let built = match build_scene_keeping(scene, only, Keep::Ir) {
         Ok(b) => b,
-        Err(e) => return io_failure(&format!("cannot read `{}`: {e}", scene.display())),
+        Err(e) => return printer.io_failure(&format!("cannot read `{}`: {e}", scene.display())),
     };
     let outcome = printer.report(&built.diags.sorted(), &built.sources);
     for view in &built.views {
@@ -373,7 +371,7 @@ fn render(printer: &Printer, scene_path: &Path, dir: &Path, args: RenderArgs) ->
     let keep = if args.probe.probe.is_some() { Keep::Ir } else { Keep::Outputs };
     let built = match build_scene_keeping(scene_path, None, keep) {
         Ok(b) => b,
-        Err(e) => return io_failure(&format!("cannot read `{}`: {e}", scene_path.display())),
+        Err(e) => return printer.io_failure(&format!("cannot read `{}`: {e}", scene_path.display())),
     };
     let outcome = printer.report(&with_input_checks(&built), &built.sources);
     let Some(scene) = built.scene.as_ref().filter(|_| matches!(outcome, Outcome::Ok)) else { return outcome };
@@ -385,12 +383,12 @@ fn render(printer: &Printer, scene_path: &Path, dir: &Path, args: RenderArgs) ->
         None => None,
     };
     if let Err(e) = inputs::check_output_dir(dir) {
-        return io_failure(&e);
+        return printer.io_failure(&e);
     }
     let choice = if args.software { AdapterChoice::Software } else { AdapterChoice::PreferHardware };
     let gpu = match Gpu::headless(choice) {
         Ok(gpu) => gpu,
-        Err(e) => return io_failure(&e),
+        Err(e) => return printer.fail(Diagnostic::new(Code::Device, Span::DUMMY, e.to_string())),
     };
     eprintln!("rendering on {}", gpu.adapter);
     let options = RenderOptions { size: args.size, ..RenderOptions::default() };
@@ -407,18 +405,15 @@ fn render(printer: &Printer, scene_path: &Path, dir: &Path, args: RenderArgs) ->
     });
     let images = match result {
         Ok(images) => images,
-        Err(e) => {
-            eprintln!("error: {e}");
-            return if e.exit_code() == 2 { Outcome::Failure } else { Outcome::InputErrors };
-        }
+        Err(e) => return printer.report(&[failure::runtime(&e, scene)], &built.sources),
     };
     if let Err(e) = std::fs::create_dir_all(dir) {
-        return io_failure(&format!("cannot create `{}`: {e}", dir.display()));
+        return printer.io_failure(&format!("cannot create `{}`: {e}", dir.display()));
     }
     for (name, image) in images {
         let path = dir.join(format!("{name}.png"));
         if let Err(e) = image.save(&path) {
-            return io_failure(&format!("cannot write `{}`: {e}", path.display()));
+            return printer.io_failure(&format!("cannot write `{}`: {e}", path.display()));
         }
         eprintln!("wrote {} ({}x{})", path.display(), image.width(), image.height());
     }
@@ -478,11 +473,6 @@ fn with_input_checks(built: &vrsc::compose::build::BuiltScene) -> Vec<Diagnostic
     diags
 }
 
-fn io_failure(e: &dyn std::fmt::Display) -> Outcome {
-    eprintln!("error: {e}");
-    Outcome::Failure
-}
-
 struct Printer {
     format: MessageFormat,
     color: ColorMode,
@@ -494,9 +484,26 @@ impl Printer {
         self.report(&checked.diags.sorted(), &checked.sources)
     }
 
+    /// Prints every diagnostic; the outcome is a failure (exit 2) when one is about the machine
+    /// (`failure::is_environment`), else an input error when one is an error.
     fn report(&self, diags: &[Diagnostic], sources: &SourceMap) -> Outcome {
         self.print(diags, sources);
-        if diags.iter().any(Diagnostic::is_error) { Outcome::InputErrors } else { Outcome::Ok }
+        if diags.iter().any(failure::is_environment) {
+            Outcome::Failure
+        } else if diags.iter().any(Diagnostic::is_error) {
+            Outcome::InputErrors
+        } else {
+            Outcome::Ok
+        }
+    }
+
+    /// One error outside any source file (a path on the command line, an output, the GPU).
+    fn fail(&self, d: Diagnostic) -> Outcome {
+        self.report(&[d], &SourceMap::new())
+    }
+
+    fn io_failure(&self, e: &dyn std::fmt::Display) -> Outcome {
+        self.fail(failure::io(e.to_string()))
     }
 
     fn print(&self, diags: &[Diagnostic], sources: &SourceMap) {

@@ -2,7 +2,7 @@
 //! then rebuilds on each change of the scene or a module it reads, rewriting the images
 //! atomically; a broken edit prints its diagnostics and leaves the last good images alone.
 
-use super::{MessageFormat, Outcome, Printer, io_failure};
+use super::{MessageFormat, Outcome, Printer, failure};
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -10,6 +10,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 use vrs_live::{Failure, FileWatcher, LiveScene, Rebuild};
 use vrs_runtime::{AdapterChoice, Gpu, RenderOptions, SceneRenderer};
+use vrsc::diag::{Code, Diagnostic};
+use vrsc::source::Span;
 
 /// What `vrsc watch` was asked to do.
 pub struct WatchArgs<'a> {
@@ -23,19 +25,19 @@ pub fn watch(printer: &Printer, args: &WatchArgs) -> Outcome {
     let stop = Arc::new(AtomicBool::new(false));
     let flag = stop.clone();
     if let Err(e) = ctrlc::set_handler(move || flag.store(true, Ordering::SeqCst)) {
-        return io_failure(&format!("cannot handle Ctrl-C: {e}"));
+        return printer.io_failure(&format!("cannot handle Ctrl-C: {e}"));
     }
     if let Err(e) = std::fs::create_dir_all(args.dir) {
-        return io_failure(&format!("cannot create `{}`: {e}", args.dir.display()));
+        return printer.io_failure(&format!("cannot create `{}`: {e}", args.dir.display()));
     }
     let mut watcher = match FileWatcher::new(|| {}) {
         Ok(w) => w,
-        Err(e) => return io_failure(&format!("cannot watch files: {e}")),
+        Err(e) => return printer.io_failure(&format!("cannot watch files: {e}")),
     };
     let choice = if args.software { AdapterChoice::Software } else { AdapterChoice::PreferHardware };
     let gpu = match Gpu::headless(choice) {
         Ok(gpu) => gpu,
-        Err(e) => return io_failure(&e),
+        Err(e) => return printer.fail(Diagnostic::new(Code::Device, Span::DUMMY, e.to_string())),
     };
     eprintln!("rendering on {}", gpu.adapter);
     let Some(mut live) = open_when_good(printer, args, gpu, &mut watcher, &stop) else { return Outcome::Ok };
@@ -43,7 +45,7 @@ pub fn watch(printer: &Printer, args: &WatchArgs) -> Outcome {
     report(printer, &[], None, &rendered);
     loop {
         if let Err(e) = watcher.watch(live.files()) {
-            return io_failure(&format!("cannot watch files: {e}"));
+            return printer.io_failure(&format!("cannot watch files: {e}"));
         }
         let Some(changed) = next_change(&watcher, &stop) else { return stopped(printer) };
         let rebuild = live.rebuild();
@@ -92,11 +94,13 @@ fn open_when_good(
                         renderer.notices.iter().for_each(|n| eprintln!("note: {n}"));
                         return Some(LiveScene::new(renderer));
                     }
-                    Err(e) => eprintln!("error: {e}"),
+                    Err(e) => {
+                        printer.report(&[failure::runtime(&e, scene)], &built.sources);
+                    }
                 }
             }
         } else if let Err(e) = &built {
-            eprintln!("error: cannot read `{}`: {e}", args.scene.display());
+            printer.io_failure(&format!("cannot read `{}`: {e}", args.scene.display()));
         }
         eprintln!("waiting for a change of the scene's files");
         if watcher.watch(&files).is_err() {

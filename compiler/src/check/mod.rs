@@ -24,6 +24,7 @@ mod constfold;
 mod consts;
 mod decls;
 mod expr;
+mod follow_on;
 mod func;
 mod scope;
 mod std_cache;
@@ -60,6 +61,7 @@ fn check_graph(
     cx.collect_items();
     cx.std = std.and_then(|cache| StdReuse::new(cache, graph, &cx.libs));
     let checked = cx.check_items(true);
+    follow_on::drop_unknown_names_in_incomplete_modules(graph, sources, diags);
     callgraph::assemble(checked.libs, checked.pipes, checked.removes)
 }
 

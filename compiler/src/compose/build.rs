@@ -3,6 +3,7 @@
 
 use super::entry;
 use super::ir::{Composition, ModuleUse};
+use super::limits;
 use super::reflect::{self, Reflection};
 use super::uniform_check;
 use super::view;
@@ -11,6 +12,7 @@ use crate::diag::{Code, Diagnostic, Diagnostics};
 use crate::loader::{Loader, ModuleGraph, ParsedFiles};
 use crate::scene::{self, ModuleRef, ModuleSource, Scene, View};
 use crate::source::{SourceMap, Span};
+use crate::source_text::SourceText;
 use std::path::Path;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Mutex, OnceLock};
@@ -88,11 +90,17 @@ pub struct ParsedScene {
 
 /// Reads the scene file at `path` into a new source map and parses it.
 pub fn read_scene(path: &Path) -> std::io::Result<ParsedScene> {
-    let text = std::fs::read_to_string(path)?;
+    let text = SourceText::read(path)?;
     let mut sources = SourceMap::new();
-    let file = sources.add(path.display().to_string(), Some(path.to_path_buf()), text);
+    let (file, not_utf8) = text.add_to(&mut sources, path.display().to_string(), Some(path.to_path_buf()));
     let mut diags = Diagnostics::new();
-    let scene = scene::parse_scene(&sources, file, &mut diags);
+    let scene = match not_utf8 {
+        Some(d) => {
+            diags.push(d);
+            None
+        }
+        None => scene::parse_scene(&sources, file, &mut diags),
+    };
     Ok(ParsedScene { sources, scene, diags })
 }
 
@@ -125,6 +133,11 @@ pub fn compose_scene_with(
     let Some(scene) = scene else {
         return BuiltScene { sources, diags, scene: None, views: Vec::new() };
     };
+    let too_many = limits::check_counts(&scene);
+    if !too_many.is_empty() {
+        too_many.into_iter().for_each(|d| diags.push(d));
+        return BuiltScene { sources, diags, scene: Some(scene), views: Vec::new() };
+    }
     let chosen: Vec<&View> = scene.views.iter().filter(|view| only_view.is_none_or(|v| v == view.name.name)).collect();
     // Loading grows the source map, so it runs view after view (each file parsed once); the rest
     // of a view's work only reads the map, so the views compose in parallel. (Parsing the files in
@@ -373,7 +386,14 @@ fn compose_loaded(
     let LoadedView { graph, uses, mut diags } = loaded;
     let program = check::check_program(&graph, sources, &mut diags);
     let is_std = |m: usize| graph.modules.get(m).is_some_and(|m| m.std_name.is_some());
-    let composition = super::compose(&program, &uses, is_std, entry::ENTRY_FIELDS, &mut diags);
+    // A function with an error is left out of the program, so placing what is left would report
+    // its absence (fields without defaults, reads before writes, a template that looks like a
+    // plain module): follow-ons of the errors already reported. Those are the only ones shown.
+    let composition = if diags.has_errors() || graph.modules.iter().any(|m| m.incomplete) {
+        super::compose(&program, &uses, is_std, entry::ENTRY_FIELDS, &mut Diagnostics::new())
+    } else {
+        super::compose(&program, &uses, is_std, entry::ENTRY_FIELDS, &mut diags)
+    };
     let emitted = if diags.has_errors() {
         None
     } else {

@@ -40,6 +40,7 @@ pub(crate) mod entry;
 pub mod explain;
 mod instantiate;
 pub(crate) mod ir;
+pub mod limits;
 mod merge;
 pub(crate) mod place;
 pub mod probe;

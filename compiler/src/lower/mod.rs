@@ -170,6 +170,10 @@ pub struct MemberLayout {
 pub struct ModuleBuilder {
     pub module: naga::Module,
     layouter: Layouter,
+    /// How many types of the arena `layouter` has laid out.
+    laid_out: usize,
+    /// How many times `layouter` walked the arena (each walk costs the arena's length).
+    layout_passes: usize,
     lib_fns: FxHashMap<hir::LibFnId, Handle<naga::Function>>,
     /// Library functions being lowered (to report recursion instead of overflowing the stack).
     in_progress: FxHashSet<hir::LibFnId>,
@@ -227,7 +231,7 @@ impl ModuleBuilder {
         if tys.is_empty() {
             tys.push(("unused".to_string(), self.ty(Type::U32, span)?));
         }
-        self.update_layouts(span)?;
+        self.update_layouts(tys.iter().map(|(_, ty)| *ty), span)?;
         let mut offset = 0u32;
         let mut alignment = Alignment::ONE;
         let mut out = Vec::with_capacity(tys.len());
@@ -239,18 +243,33 @@ impl ModuleBuilder {
             alignment = alignment.max(layout.alignment);
         }
         let inner = naga::TypeInner::Struct { members: out, span: alignment.round_up(offset) };
-        let ty = self.module.types.insert(naga::Type { name: Some(emitted_name(name)), inner }, span.into());
-        self.update_layouts(span)?;
-        Ok(ty)
+        // Laid out when asked for ([`Self::struct_layout`]).
+        Ok(self.module.types.insert(naga::Type { name: Some(emitted_name(name)), inner }, span.into()))
     }
 
-    fn update_layouts(&mut self, span: Span) -> Result<(), Diagnostic> {
-        self.layouter.update(self.module.to_ctx()).map_err(|e| internal(span, format!("cannot lay out a type: {e}")))
+    /// Lays out the types added since the last layout, unless every type in `needed` already
+    /// is. naga's `Layouter::update` walks the type arena from its start to find the new types,
+    /// so laying out after every struct made lowering quadratic in the number of structs (each
+    /// pipeline function of `vrsc emit` has one).
+    fn update_layouts(
+        &mut self,
+        needed: impl IntoIterator<Item = Handle<naga::Type>>,
+        span: Span,
+    ) -> Result<(), Diagnostic> {
+        if needed.into_iter().all(|ty| ty.index() < self.laid_out) {
+            return Ok(());
+        }
+        self.layouter
+            .update(self.module.to_ctx())
+            .map_err(|e| internal(span, format!("cannot lay out a type: {e}")))?;
+        self.laid_out = self.module.types.len();
+        self.layout_passes += 1;
+        Ok(())
     }
 
     /// Offsets and sizes of a struct made by [`Self::add_struct`]; `None` for other types.
     pub fn struct_layout(&mut self, ty: Handle<naga::Type>) -> Option<StructLayout> {
-        self.layouter.update(self.module.to_ctx()).ok()?;
+        self.update_layouts([ty], Span::DUMMY).ok()?;
         let t = self.module.types.get_handle(ty).ok()?;
         let naga::TypeInner::Struct { ref members, span } = t.inner else { return None };
         let layout = self.layouter[ty];

@@ -10,6 +10,7 @@
 //! different formats line up.
 
 mod dicom;
+mod header;
 pub mod histogram;
 mod mhd;
 mod nifti;
@@ -26,6 +27,7 @@ use std::path::{Path, PathBuf};
 
 use glam::{Mat4, Vec3, Vec4};
 
+pub use header::{MAX_ANISOTROPY, MAX_SPACING, MIN_SPACING, header};
 pub use histogram::{Histogram, auto_window};
 pub use phantom::{PHANTOMS, UnknownPhantom, phantom};
 pub use samples::{Samples, Scaling};
@@ -236,8 +238,8 @@ pub struct LoadError {
 }
 
 impl LoadError {
-    /// True for a file that is missing or unreadable (the CLI exits with 2), false for a file
-    /// whose content is wrong or unsupported (exit 1).
+    /// True for a file that is missing or unreadable, false for a file whose content is wrong
+    /// or unsupported.
     pub fn is_io(&self) -> bool {
         matches!(self.kind, LoadErrorKind::Io { .. })
     }
@@ -335,6 +337,7 @@ pub fn stream(
     sink: &mut dyn SampleSink,
 ) -> Result<VolumeInfo, LoadError> {
     let name = path.file_name().map(|n| n.to_string_lossy().to_ascii_lowercase()).unwrap_or_default();
+    let sink = &mut header::Checked { inner: sink };
     let result = if path.is_dir() {
         dicom::load(path, progress, sink)
     } else if name.ends_with(".nii.gz") {

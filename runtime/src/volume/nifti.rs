@@ -374,6 +374,17 @@ mod tests {
         assert_eq!(message, "header says 24 bytes of data, the decompressed data has 22");
     }
 
+    /// The samples of a compressed file are kept as they are decompressed: a small file whose
+    /// header claims 1040^3 voxels (2.2 GB) ends in an error at the end of its data instead of
+    /// an allocation for the claim.
+    #[test]
+    fn a_small_gzip_claiming_a_huge_volume_is_an_error() {
+        let header = TestHeader { dim: [3, 1040, 1040, 1040, 1, 1, 1, 1], ..TestHeader::default() };
+        let (io, message) = load_err("v.nii.gz", &gzip(&header.file(&[0u8; 4096])));
+        assert!(!io);
+        assert_eq!(message, "header says 2249728000 bytes of data, the decompressed data has 4096");
+    }
+
     #[test]
     fn truncated_gzip_is_content_error() {
         let gz = gzip(&TestHeader::default().file(&i16_data(&VALUES, false)));

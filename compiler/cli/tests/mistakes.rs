@@ -1,0 +1,132 @@
+//! Every mistake of a scene's inputs is a diagnostic from `vrsc build` (or, for what only the
+//! data can tell, `vrsc render`), at the right line, through the JSON format when asked for,
+//! with one exit-code rule: 1 for a mistake in what the scene or a module names, 2 for the
+//! command line's own paths, the output folder and the GPU. Fixtures: `tests/fixtures/cli/`.
+
+use serde_json::Value;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn fixture(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/fixtures/cli").join(name).join("scene.toml")
+}
+
+/// Runs `vrsc --message-format json ARGS`: the exit code and the JSON diagnostics printed.
+fn vrsc_json(args: &[&str]) -> (i32, Vec<Value>) {
+    let out = Command::new(env!("CARGO_BIN_EXE_vrsc"))
+        .arg("--message-format")
+        .arg("json")
+        .args(args)
+        .output()
+        .expect("vrsc runs");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let diags = stdout.lines().filter_map(|l| serde_json::from_str::<Value>(l).ok()).collect();
+    (out.status.code().unwrap_or(-1), diags)
+}
+
+fn build(scene: &Path) -> (i32, Vec<Value>) {
+    let dir = tempfile::tempdir().expect("a folder");
+    let out = dir.path().join("out");
+    vrsc_json(&["build", &scene.display().to_string(), "-o", &out.display().to_string()])
+}
+
+/// The one diagnostic of a run: its code, line and message.
+fn only(diags: &[Value]) -> (String, u64, String) {
+    assert_eq!(diags.len(), 1, "{diags:#?}");
+    let d = &diags[0];
+    (
+        d["code"].as_str().unwrap_or_default().into(),
+        d["line"].as_u64().unwrap_or(0),
+        d["message"].as_str().unwrap_or_default().into(),
+    )
+}
+
+#[test]
+fn an_unknown_transfer_function_preset_is_found_by_build() {
+    let (code, diags) = build(&fixture("unknown_tf_preset"));
+    let (id, line, message) = only(&diags);
+    assert_eq!((code, id.as_str(), line), (1, "E0702", 6), "{message}");
+    assert!(message.contains("did you mean `ct_bone`"), "{message}");
+}
+
+#[test]
+fn a_missing_volume_and_a_missing_tf_file_exit_the_same() {
+    let (volume_code, diags) = build(&fixture("missing_volume"));
+    let (id, line, message) = only(&diags);
+    assert_eq!((id.as_str(), line), ("E0702", 5), "{message}");
+    assert!(message.starts_with("cannot read volume `t1_missing.nii.gz`"), "{message}");
+    let (tf_code, diags) = build(&fixture("missing_tf_file"));
+    let (id, line, message) = only(&diags);
+    assert_eq!((id.as_str(), line), ("E0702", 6), "{message}");
+    assert_eq!((volume_code, tf_code), (1, 1));
+}
+
+#[test]
+fn an_absurd_voxel_spacing_is_found_by_build() {
+    let (code, diags) = build(&fixture("absurd_spacing"));
+    let (id, line, message) = only(&diags);
+    assert_eq!((code, id.as_str(), line), (1, "E0702", 5), "{message}");
+    assert!(message.contains("voxel spacing 1e20"), "{message}");
+}
+
+#[test]
+fn lights_past_the_limit_are_an_error() {
+    let (code, diags) = build(&fixture("too_many_lights"));
+    let (id, line, message) = only(&diags);
+    assert_eq!((code, id.as_str(), line), (1, "E0702", 4), "{message}");
+    assert_eq!(message, "too many lights: 17 (at most 16)");
+}
+
+#[test]
+fn an_output_folder_that_cannot_be_made_is_exit_2_in_json() {
+    let dir = tempfile::tempdir().expect("a folder");
+    let file = dir.path().join("a_file");
+    std::fs::write(&file, "").expect("a file");
+    let out = file.join("out");
+    let (code, diags) = vrsc_json(&["build", &fixture("good").display().to_string(), "-o", &out.display().to_string()]);
+    let (id, _, message) = only(&diags);
+    assert_eq!((code, id.as_str()), (2, "E0902"), "{message}");
+    assert!(message.starts_with("cannot create"), "{message}");
+}
+
+#[test]
+fn a_missing_scene_file_is_exit_2_in_json() {
+    let (code, diags) = build(Path::new("no/such/scene.toml"));
+    let (id, line, _) = only(&diags);
+    assert_eq!((code, id.as_str(), line), (2, "E0902", 0));
+}
+
+#[test]
+fn a_module_that_is_not_utf8_is_one_diagnostic_at_its_first_bad_byte() {
+    let dir = tempfile::tempdir().expect("a folder");
+    let module = dir.path().join("m.vrs");
+    std::fs::write(&module, b"lib fn f() -> f32 {\n    return 1.0; // caf\xE9\n}\n").expect("a file");
+    let (code, diags) = vrsc_json(&["check", &module.display().to_string()]);
+    let (id, line, message) = only(&diags);
+    assert_eq!((code, id.as_str(), line, diags[0]["column"].as_u64()), (1, "E0108", 2, Some(23)), "{message}");
+    // A module importing it gets no follow-on errors for the names it would have defined.
+    let main = dir.path().join("main.vrs");
+    std::fs::write(
+        &main,
+        "import \"m.vrs\";\n\npipeline p in start {\n    state v: f32 = 0.0;\n    use f;\n    state.v = f();\n}\n",
+    )
+    .expect("a file");
+    let (code, diags) = vrsc_json(&["check", &main.display().to_string()]);
+    let (id, _, _) = only(&diags);
+    assert_eq!((code, id.as_str()), (1, "E0108"));
+}
+
+/// Needs a Vulkan adapter (lavapipe in CI, `scripts/ensure-vulkan.sh`), as the other render tests.
+#[test]
+fn a_compressed_volume_claiming_a_huge_size_is_a_clean_render_error() {
+    let dir = tempfile::tempdir().expect("a folder");
+    let out = dir.path().join("out");
+    let scene = fixture("huge_nii_gz");
+    let (code, diags) = build(&scene);
+    assert_eq!((code, diags.len()), (0, 0), "the header alone is valid: {diags:#?}");
+    let (code, diags) =
+        vrsc_json(&["render", "--software", &scene.display().to_string(), "-o", &out.display().to_string()]);
+    let (id, line, message) = only(&diags);
+    assert_eq!((code, id.as_str(), line), (1, "E0702", 7), "{message}");
+    assert!(message.contains("header says 2249728000 bytes of data, the decompressed data has 4096"), "{message}");
+}
