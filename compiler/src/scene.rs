@@ -108,7 +108,8 @@ pub struct Render {
     pub boundary: bool,
     /// Gooch-style tone shading (`std::tone`); needs `shading`.
     pub tone: bool,
-    /// Empty-space skipping in raycast views (`std::skip`); DVR only.
+    /// Empty-space skipping in raycast views (`std::skip`, `std::skip_mip`, `std::skip_iso`):
+    /// on unless the scene sets `render.empty_space_skipping = false`.
     pub empty_space_skipping: bool,
     /// Initial value of the `step_size` uniform (normalized units); `None`: the uniform's
     /// default, [`DEFAULT_STEP_SIZE`].
@@ -471,9 +472,20 @@ impl Scene {
         }
         // Last: its functions append to `ray.setup` and `end` after the ones above.
         if r.empty_space_skipping && view.kind.value == ViewKind::Raycast {
-            add("skip", vec![]);
+            add(skip_module(r.compositing.value), vec![]);
         }
         out
+    }
+}
+
+/// The empty-space skipping module of a compositing mode: each skips exactly what cannot change
+/// its image (DVR: bricks the transfer function makes transparent; MIP: bricks whose maximum
+/// cannot beat the ray's; iso: bricks entirely below the iso value).
+fn skip_module(compositing: Compositing) -> &'static str {
+    match compositing {
+        Compositing::Dvr => "skip",
+        Compositing::Mip => "skip_mip",
+        Compositing::Iso => "skip_iso",
     }
 }
 
@@ -941,14 +953,7 @@ impl Cx<'_> {
                     .with_label("premultiplied RGBA"),
             );
         }
-        let empty_space_skipping = match &r.empty_space_skipping {
-            Some(skip) if *skip.get_ref() && compositing.value != Compositing::Dvr => {
-                self.ignored(skip, "empty_space_skipping", "without `compositing = \"dvr\"`");
-                false
-            }
-            Some(skip) => *skip.get_ref(),
-            None => false,
-        };
+        let empty_space_skipping = r.empty_space_skipping.as_ref().is_none_or(|skip| *skip.get_ref());
         Render {
             compositing,
             iso_value,

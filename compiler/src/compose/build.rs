@@ -15,7 +15,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Mutex, OnceLock};
 
 /// Fields the entry point reads or writes itself.
-pub const ENTRY_FIELDS: &[&str] = &["pixel", "terminate", "out_color"];
+pub const ENTRY_FIELDS: &[&str] = &["pixel", "terminate", "out_color", super::contribution::CONTRIBUTES];
 
 /// One composed view.
 pub struct ViewOutput {

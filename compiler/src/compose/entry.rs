@@ -15,7 +15,8 @@
 //!     loop {
 //!         if i >= uniforms.max_samples || state.terminate { break; }
 //!         reset_sample(&state);         // sample-lifetime fields back to their defaults
-//!         /* start .. end functions */
+//!         /* start .. end functions, those after the last write of `contributes` (and the ones
+//!            the data flow lets wait) inside `if state.contributes { .. }` */
 //!         continuing { i = i + 1u; }
 //!     }
 //!     /* ray.finish functions */
@@ -39,7 +40,14 @@ pub struct EntryPlan {
     /// Writes the defaults of the sample-lifetime fields.
     pub reset_sample: Handle<naga::Function>,
     pub ray_setup: Vec<Handle<naga::Function>>,
+    /// The sample functions run for every sample, before the `contributes` test.
     pub samples: Vec<Handle<naga::Function>>,
+    /// Member index of `contributes`, when some function writes it (`compose::contribution`).
+    pub contributes: Option<u32>,
+    /// Run after `samples` only while `state.contributes` is true.
+    pub contributing: Vec<Handle<naga::Function>>,
+    /// The `end` step: run for every sample, last.
+    pub sample_end: Vec<Handle<naga::Function>>,
     pub ray_finish: Vec<Handle<naga::Function>>,
     /// The uniform block and the member index of `max_samples: u32` in it.
     pub uniforms: Handle<naga::GlobalVariable>,
@@ -81,11 +89,16 @@ impl Body {
     }
 
     fn push(&mut self, block: &mut naga::Block, stmt: S) {
+        self.flush(block);
+        block.push(stmt, naga::Span::UNDEFINED);
+    }
+
+    /// Emits the expressions so far into `block`.
+    fn flush(&mut self, block: &mut naga::Block) {
         self.close(self.func.expressions.len() as u32);
         for range in self.pending.drain(..) {
             block.push(S::Emit(naga::Range::from_index_range(range, &self.func.expressions)), naga::Span::UNDEFINED);
         }
-        block.push(stmt, naga::Span::UNDEFINED);
     }
 
     fn call(&mut self, block: &mut naga::Block, function: Handle<naga::Function>, state: Handle<E>) {
@@ -209,6 +222,24 @@ pub fn build(module: &mut naga::Module, plan: &EntryPlan) -> naga::EntryPoint {
     b.exit_if(&mut loop_body, done, S::Break);
     b.call(&mut loop_body, plan.reset_sample, state);
     for &f in &plan.samples {
+        b.call(&mut loop_body, f, state);
+    }
+    if let Some(member) = plan.contributes {
+        // `if state.contributes { .. }`: samples that cannot contribute skip these functions.
+        let mut accept = naga::Block::new();
+        let pointer = b.component(state, member);
+        let contributes = b.expr(E::Load { pointer });
+        b.flush(&mut loop_body);
+        for &f in &plan.contributing {
+            b.call(&mut accept, f, state);
+        }
+        b.push(&mut loop_body, S::If { condition: contributes, accept, reject: naga::Block::new() });
+    } else {
+        for &f in &plan.contributing {
+            b.call(&mut loop_body, f, state);
+        }
+    }
+    for &f in &plan.sample_end {
         b.call(&mut loop_body, f, state);
     }
     let mut continuing = naga::Block::new();

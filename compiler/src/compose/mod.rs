@@ -7,6 +7,7 @@
 pub mod backends;
 pub mod build;
 pub mod cache;
+pub mod contribution;
 pub mod entry;
 pub mod explain;
 pub mod place;
