@@ -15,8 +15,7 @@
 //!     loop {
 //!         if i >= uniforms.max_samples || state.terminate { break; }
 //!         reset_sample(&state);         // sample-lifetime fields back to their defaults
-//!         /* start .. end functions, those after the last write of `contributes` (and the ones
-//!            the data flow lets wait) inside `if state.contributes { .. }` */
+//!         /* start .. end functions */
 //!         continuing { i = i + 1u; }
 //!     }
 //!     /* ray.finish functions */
@@ -25,6 +24,23 @@
 //! ```
 //! The defaults are written by two synthetic pipeline functions lowered like any other, so the
 //! entry point itself needs no constants.
+//!
+//! With a writer of `contributes` (`compose::contribution`), the loop body becomes
+//! ```wgsl
+//!         reset_sample(&state);
+//!         /* always */
+//!         loop {                        // samples that cannot contribute
+//!             if state.contributes { break; }
+//!             /* end */
+//!             i = i + 1u;
+//!             if i >= uniforms.max_samples || state.terminate { break; }
+//!             reset_sample(&state);
+//!             /* always */
+//!         }
+//!         if !state.contributes { break; } // the ray ended
+//!         /* contributing */
+//!         /* end */
+//! ```
 
 use naga::{Expression as E, Handle, Statement as S};
 
@@ -89,16 +105,11 @@ impl Body {
     }
 
     fn push(&mut self, block: &mut naga::Block, stmt: S) {
-        self.flush(block);
-        block.push(stmt, naga::Span::UNDEFINED);
-    }
-
-    /// Emits the expressions so far into `block`.
-    fn flush(&mut self, block: &mut naga::Block) {
         self.close(self.func.expressions.len() as u32);
         for range in self.pending.drain(..) {
             block.push(S::Emit(naga::Range::from_index_range(range, &self.func.expressions)), naga::Span::UNDEFINED);
         }
+        block.push(stmt, naga::Span::UNDEFINED);
     }
 
     fn call(&mut self, block: &mut naga::Block, function: Handle<naga::Function>, state: Handle<E>) {
@@ -129,6 +140,36 @@ impl Body {
         accept.push(exit, naga::Span::UNDEFINED);
         self.push(block, S::If { condition: cond, accept, reject: naga::Block::new() });
     }
+}
+
+/// `i >= uniforms.max_samples || state.terminate`: the sample loop is over.
+fn sample_loop_done(b: &mut Body, plan: &EntryPlan, state: Handle<E>, counter: Handle<E>) -> Handle<E> {
+    let i = b.expr(E::Load { pointer: counter });
+    let block = b.expr(E::GlobalVariable(plan.uniforms));
+    let max_pointer = b.component(block, plan.max_samples);
+    let max = b.expr(E::Load { pointer: max_pointer });
+    let done = b.binary(naga::BinaryOperator::GreaterEqual, i, max);
+    match plan.terminate {
+        Some(member) => {
+            let terminate = load_member(b, state, member);
+            b.binary(naga::BinaryOperator::LogicalOr, done, terminate)
+        }
+        None => done,
+    }
+}
+
+/// `state.MEMBER`.
+fn load_member(b: &mut Body, state: Handle<E>, member: u32) -> Handle<E> {
+    let pointer = b.component(state, member);
+    b.expr(E::Load { pointer })
+}
+
+/// `i = i + 1u;`
+fn increment(b: &mut Body, block: &mut naga::Block, counter: Handle<E>) {
+    let i = b.expr(E::Load { pointer: counter });
+    let one = b.literal(naga::Literal::U32(1));
+    let next = b.binary(naga::BinaryOperator::Add, i, one);
+    b.push(block, S::Store { pointer: counter, value: next });
 }
 
 /// Builds the entry point `main`; its types are added to `module`.
@@ -209,44 +250,46 @@ pub fn build(module: &mut naga::Module, plan: &EntryPlan) -> naga::EntryPoint {
     let zero = b.literal(naga::Literal::U32(0));
     b.push(&mut body, S::Store { pointer: counter, value: zero });
     let mut loop_body = naga::Block::new();
-    let i = b.expr(E::Load { pointer: counter });
-    let block = b.expr(E::GlobalVariable(plan.uniforms));
-    let max_pointer = b.component(block, plan.max_samples);
-    let max = b.expr(E::Load { pointer: max_pointer });
-    let mut done = b.binary(Bo::GreaterEqual, i, max);
-    if let Some(member) = plan.terminate {
-        let pointer = b.component(state, member);
-        let terminate = b.expr(E::Load { pointer });
-        done = b.binary(Bo::LogicalOr, done, terminate);
-    }
+    let done = sample_loop_done(&mut b, plan, state, counter);
     b.exit_if(&mut loop_body, done, S::Break);
     b.call(&mut loop_body, plan.reset_sample, state);
     for &f in &plan.samples {
         b.call(&mut loop_body, f, state);
     }
     if let Some(member) = plan.contributes {
-        // `if state.contributes { .. }`: samples that cannot contribute skip these functions.
-        let mut accept = naga::Block::new();
-        let pointer = b.component(state, member);
-        let contributes = b.expr(E::Load { pointer });
-        b.flush(&mut loop_body);
-        for &f in &plan.contributing {
-            b.call(&mut accept, f, state);
+        // Samples that cannot contribute run only `samples` and `sample_end`, in an inner loop
+        // that moves on to the next sample until one contributes (or the ray ends): a group of
+        // invocations that runs in lockstep (SIMD lanes, a warp) then does the contributing
+        // work together rather than each lane in turn, and where lanes only mask code (as on
+        // lavapipe) the work is not done for samples that skip it. Every invocation still runs
+        // its samples' functions in the same order as with `if contributes { .. }`.
+        let mut skipping = naga::Block::new();
+        let contributes = load_member(&mut b, state, member);
+        b.exit_if(&mut skipping, contributes, S::Break);
+        for &f in &plan.sample_end {
+            b.call(&mut skipping, f, state);
         }
-        b.push(&mut loop_body, S::If { condition: contributes, accept, reject: naga::Block::new() });
-    } else {
-        for &f in &plan.contributing {
-            b.call(&mut loop_body, f, state);
+        increment(&mut b, &mut skipping, counter);
+        let done = sample_loop_done(&mut b, plan, state, counter);
+        b.exit_if(&mut skipping, done, S::Break);
+        b.call(&mut skipping, plan.reset_sample, state);
+        for &f in &plan.samples {
+            b.call(&mut skipping, f, state);
         }
+        b.push(&mut loop_body, S::Loop { body: skipping, continuing: naga::Block::new(), break_if: None });
+        // Left without a contributing sample: the ray ended.
+        let contributes = load_member(&mut b, state, member);
+        let ended = b.expr(E::Unary { op: naga::UnaryOperator::LogicalNot, expr: contributes });
+        b.exit_if(&mut loop_body, ended, S::Break);
+    }
+    for &f in &plan.contributing {
+        b.call(&mut loop_body, f, state);
     }
     for &f in &plan.sample_end {
         b.call(&mut loop_body, f, state);
     }
     let mut continuing = naga::Block::new();
-    let i = b.expr(E::Load { pointer: counter });
-    let one = b.literal(naga::Literal::U32(1));
-    let next = b.binary(Bo::Add, i, one);
-    b.push(&mut continuing, S::Store { pointer: counter, value: next });
+    increment(&mut b, &mut continuing, counter);
     b.push(&mut body, S::Loop { body: loop_body, continuing, break_if: None });
 
     for &f in &plan.ray_finish {
