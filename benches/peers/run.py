@@ -174,7 +174,7 @@ def main():
         "skipping off), noflag (the writer of `contributes` removed: every function runs for every sample)",
     )
     parser.add_argument("--rounds", type=int, default=3)
-    parser.add_argument("--frames", type=int, default=2, help="timed frames per round and contender")
+    parser.add_argument("--frames", type=int, default=1, help="timed frames per round and contender")
     parser.add_argument("--out", help="folder for scenes, shaders and images (default: a temporary one)")
     args = parser.parse_args()
 
@@ -267,12 +267,11 @@ def run_case(label, case, volume, workers, wanted, args, out):
                 if "no emission-absorption" not in str(error):
                     print(f"{label}: {name} left out: {error}")
 
-    def time_frames(name):
+    def time_frames(name, warmup):
         if name in shaders:
-            return workers["vrsc"].ask(
-                cmd="time", shader=str(shaders[name]), view="3d", uniforms=uniforms, frames=args.frames
-            )["ms"]
-        return workers[name].ask(cmd="time", frames=args.frames)["ms"]
+            request = dict(cmd="time", shader=str(shaders[name]), view="3d", uniforms=uniforms)
+            return workers["vrsc"].ask(**request, frames=args.frames, warmup=warmup)["ms"]
+        return workers[name].ask(cmd="time", frames=args.frames, warmup=warmup)["ms"]
 
     def image(name):
         if name in shaders:
@@ -285,9 +284,10 @@ def run_case(label, case, volume, workers, wanted, args, out):
 
     images = {name: image(name) for name in active}
     times = {name: [] for name in active}
-    for _ in range(args.rounds):
+    for round_ in range(args.rounds):
         for name in active:
-            times[name] += time_frames(name)
+            # One untimed frame before a contender's first turn (pipelines, caches).
+            times[name] += time_frames(name, warmup=round_ == 0)
     samples = nominal_samples(case)
     reference = statistics.median(times["vrsc"])
     rows = []

@@ -1519,10 +1519,12 @@ modules = [{ path = "compose_2d.vrs" }]
                 "light",
                 "composite",
                 "lighting",
-                "composite_dvr"
+                "composite_dvr",
+                "skip"
             ]
         );
         assert_eq!(names("axial")[0], "slice");
+        assert!(!names("axial").contains(&"skip"), "slice views do not skip");
         let text = format!(
             "[render]\ncompositing = \"iso\"\niso_value = 0.3\n{MINIMAL}\n[[volume]]\nname = \"gm\"\nrole = \"additional\"\nphantom = \"ball\"\n[[volume]]\nname = \"brain\"\nrole = \"mask\"\npath = \"m.nii\"\n"
         );
@@ -1535,7 +1537,12 @@ modules = [{ path = "compose_2d.vrs" }]
         assert_eq!(find("composite_iso"), Some(vec![]));
         assert_eq!(find("composite_volume"), None);
         assert_eq!(find("gradient"), None);
+        assert_eq!(find("skip_iso"), Some(vec![]), "iso skips bricks below the surface");
         assert_eq!(scene.uniform_values()["iso_value"], UniformValue::Float(f64::from(0.3f32)));
+        let (_, result) = parse(&text.replace("[render]\n", "[render]\nempty_space_skipping = false\n"));
+        let scene = result.unwrap_or_else(|e| panic!("{:?}", e.diagnostics));
+        let modules = scene.standard_modules(&scene.views[0]);
+        assert!(!modules.iter().any(|m| m.name.starts_with("skip")), "the key turns skipping off");
     }
 
     #[test]

@@ -8,9 +8,9 @@
 //!   contenders render: `DIR/volume.f32` (normalized by the window, x fastest), `DIR/tf.rgba8`
 //!   (the transfer function over the window, as uploaded) and answers dims, extent and window.
 //! - `{"cmd": "open", "scene": PATH, "size": [w, h], "phantom_size": N}`: opens the scene.
-//! - `{"cmd": "time", "shader": DIR, "view": V, "uniforms": {..}, "frames": N}`: renders view V
-//!   with `DIR/V.wgsl` and `.json`, N frames after an untimed one; answers their times in ms,
-//!   from submit to completion (no read-back).
+//! - `{"cmd": "time", "shader": DIR, "view": V, "uniforms": {..}, "frames": N, "warmup": B}`:
+//!   renders view V with `DIR/V.wgsl` and `.json`, N frames (after an untimed one unless
+//!   `warmup` is false); answers their times in ms, from submit to completion (no read-back).
 //! - `{"cmd": "image", "shader": DIR, "view": V, "uniforms": {..}, "out": PNG}`: one frame, read
 //!   back and written.
 //!
@@ -71,13 +71,15 @@ impl Worker {
     }
 
     fn open(&mut self, request: &Value) -> Result<Value, String> {
-        let size = request["size"].as_array().and_then(|s| Some([s.first()?.as_u64()? as u32, s.get(1)?.as_u64()? as u32]));
+        let size =
+            request["size"].as_array().and_then(|s| Some([s.first()?.as_u64()? as u32, s.get(1)?.as_u64()? as u32]));
         let n = request["phantom_size"].as_u64().unwrap_or(128) as u32;
         let options = RenderOptions { size, phantom_size: [n; 3] };
         let path = Path::new(text(request, "scene")?);
         self.scene = None;
         self.current = None;
-        let scene = SceneRenderer::open(self.gpu.clone(), path, options, &mut |_, _, _| {}).map_err(|e| e.to_string())?;
+        let scene =
+            SceneRenderer::open(self.gpu.clone(), path, options, &mut |_, _, _| {}).map_err(|e| e.to_string())?;
         self.scene = Some(scene);
         Ok(json!({ "ok": true }))
     }
@@ -114,9 +116,10 @@ impl Worker {
 
     fn time(&mut self, request: &Value) -> Result<Value, String> {
         let frames = request["frames"].as_u64().unwrap_or(2) as usize;
+        let warmup = usize::from(request["warmup"].as_bool().unwrap_or(true));
         let scene = self.ready(request)?;
         let mut times = Vec::with_capacity(frames);
-        for i in 0..=frames {
+        for i in (1 - warmup)..=frames {
             let mut encoder = scene.gpu().device.create_command_encoder(&Default::default());
             scene.encode_view(0, &mut encoder).map_err(|e| e.to_string())?;
             let start = Instant::now();

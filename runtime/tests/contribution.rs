@@ -61,5 +61,8 @@ fn dvr_with_additional_volumes_is_the_same_with_and_without_skipping() {
 
 #[test]
 fn mip_is_the_same_with_and_without_classifying_only_new_maxima() {
-    assert_same_with_and_without("tests/fixtures/render/head_mip.toml", "remove classification.primary[mip_contributes];");
+    assert_same_with_and_without(
+        "tests/fixtures/render/head_mip.toml",
+        "remove classification.primary[mip_contributes];",
+    );
 }
