@@ -36,7 +36,12 @@ with open(path, "wb") as f:
             run(row, c, 90, 40)
             f.write(row.tobytes())
 EOF
+# Skipping off: with it (the default) the primary volume's samples are read into memory once to
+# take the brick ranges, which is not the streaming path this measures.
 cat > "$tmp/scene.toml" <<'EOF'
+[render]
+empty_space_skipping = false
+
 [[volume]]
 name = "ct"
 role = "primary"

@@ -1,7 +1,9 @@
 //! Rendering speed on the software adapter (lavapipe): the default scene's 3D view
 //! (examples/basic/scene.toml) at 512x512, composed shader against a hand-written raycaster
-//! doing the same work (benches/handwritten_raycaster.wgsl), with and without early ray
-//! termination. Run: `cargo bench -p vrs-runtime --bench render`.
+//! doing the same work (benches/handwritten_raycaster.wgsl; both without empty-space skipping),
+//! with and without early ray termination, then the scene as it is (with skipping). Run:
+//! `cargo bench -p vrs-runtime --bench render`. The comparison with other renderers is
+//! `benches/peers/`.
 //!
 //! Frames are timed from submit to completion (no read-back); the two shaders take turns for
 //! several rounds and each reports its median, in one run so the ratios compare like with like.
@@ -113,8 +115,17 @@ fn main() {
     let gpu = Gpu::headless(AdapterChoice::Software).expect("the software adapter (mesa-vulkan-drivers)");
     println!("adapter: {}", gpu.adapter);
     let scene_path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples/basic/scene.toml");
+    // The hand-written shader does not skip empty space: compare it with the composed one with
+    // skipping off (the same samples), and time the scene as it is (skipping on) below.
+    let dir = std::env::temp_dir().join(format!("vrs-bench-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let text = std::fs::read_to_string(&scene_path)
+        .expect("scene")
+        .replace("[render]", "[render]\nempty_space_skipping = false");
+    let plain_path = dir.join("scene.toml");
+    std::fs::write(&plain_path, text).expect("temp scene");
     let options = RenderOptions { size: Some([size, size]), ..RenderOptions::default() };
-    let mut scene = SceneRenderer::open(gpu, &scene_path, options, &mut |_, _, _| {}).expect("scene");
+    let mut scene = SceneRenderer::open(gpu, &plain_path, options, &mut |_, _, _| {}).expect("scene");
     let composed = scene.views[0].renderer.shader().clone();
     let shaders = [composed.clone(), handwritten(&composed)];
     let labels = ["composed", "hand-written"];
@@ -146,17 +157,10 @@ fn main() {
     );
     println!("samples per frame without early termination: {samples:.0}");
 
-    // Empty-space skipping: the same scene with `empty_space_skipping = true`.
-    let dir = std::env::temp_dir().join(format!("vrs-bench-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("temp dir");
-    let text = std::fs::read_to_string(&scene_path)
-        .expect("scene")
-        .replace("[render]", "[render]\nempty_space_skipping = true");
-    let skip_path = dir.join("scene.toml");
-    std::fs::write(&skip_path, text).expect("temp scene");
+    // Empty-space skipping: the scene as it is (skipping is on by default).
     let options = RenderOptions { size: Some([size, size]), ..RenderOptions::default() };
     let gpu = scene.gpu().clone();
-    let mut skipping = SceneRenderer::open(gpu, &skip_path, options, &mut |_, _, _| {}).expect("skipping scene");
+    let mut skipping = SceneRenderer::open(gpu, &scene_path, options, &mut |_, _, _| {}).expect("skipping scene");
     let skipping_shader = [skipping.views[0].renderer.shader().clone()];
     let skip_ert = compare(&mut skipping, &skipping_shader, 0.99, &config)[0];
     let skip_no_ert = compare(&mut skipping, &skipping_shader, 2.0, &config)[0];

@@ -17,12 +17,65 @@ pub const BRICK: u32 = 8;
 /// as they are uploaded ([`Volume::normalized`]). Reads the volume a row at a time: no copy of
 /// its values is made.
 pub fn occupancy(volume: &Volume, window: Option<[f32; 2]>, tf: &TransferFunction) -> Volume {
-    let dims = volume.dims;
-    let bricks = dims.map(|d| d.div_ceil(BRICK).max(1));
-    let ranges = brick_ranges(volume, window, bricks);
-    let visible = VisibleRanges::new(tf);
-    let data = ranges.iter().map(|&(lo, hi)| if visible.any(lo, hi) { 1.0 } else { 0.0 }).collect();
-    Volume::new(bricks, glam::Mat4::IDENTITY, data)
+    BrickRanges::new(volume, window).occupancy(tf)
+}
+
+/// Added to each brick's maximum in [`BrickRanges::max_grid`]: more than the rounding of the
+/// `R16Float` textures (half a unit in the last place, 2^-12 below 1) and of their filtering.
+pub const MAX_GRID_MARGIN: f32 = 1.0 / 256.0;
+
+/// The value range (normalized by the volume's window) of every brick: what the grids of
+/// empty-space skipping are made from. It depends on the samples and the window only, so a new
+/// transfer function rebuilds the occupancy from it without reading the volume again.
+#[derive(Clone, Debug)]
+pub struct BrickRanges {
+    pub bricks: [u32; 3],
+    /// Min and max per brick, x fastest, over the voxels a sample inside the brick can read.
+    ranges: Vec<(f32, f32)>,
+}
+
+impl BrickRanges {
+    /// Reads the volume once, a row at a time.
+    pub fn new(volume: &Volume, window: Option<[f32; 2]>) -> BrickRanges {
+        let bricks = volume.dims.map(|d| d.div_ceil(BRICK).max(1));
+        BrickRanges { bricks, ranges: brick_ranges(volume, window, bricks) }
+    }
+
+    /// `std::skip`'s grid: 1 where `tf` gives some value in the brick's range a non-zero
+    /// opacity, else 0.
+    pub fn occupancy(&self, tf: &TransferFunction) -> Volume {
+        let visible = VisibleRanges::new(tf);
+        let data = self.ranges.iter().map(|&(lo, hi)| if visible.any(lo, hi) { 1.0 } else { 0.0 }).collect();
+        Volume::new(self.bricks, glam::Mat4::IDENTITY, data)
+    }
+
+    /// `std::skip_mip`'s and `std::skip_iso`'s grid: per brick, the largest maximum of the
+    /// brick and its 26 neighbours, plus [`MAX_GRID_MARGIN`]. Read with linear filtering at any
+    /// point, it is at least the maximum of every brick around that point (each of the eight
+    /// texels it blends bounds all eight bricks), so a ray may jump over space where it is at
+    /// most a level knowing no sample there exceeds that level.
+    pub fn max_grid(&self) -> Volume {
+        let [bx, by, bz] = self.bricks.map(|b| b as usize);
+        let at = |x: usize, y: usize, z: usize| self.ranges[(z * by + y) * bx + x].1;
+        let around = |i: usize, n: usize| i.saturating_sub(1)..=(i + 1).min(n - 1);
+        let mut data = Vec::with_capacity(bx * by * bz);
+        for z in 0..bz {
+            for y in 0..by {
+                for x in 0..bx {
+                    let mut m = f32::NEG_INFINITY;
+                    for k in around(z, bz) {
+                        for j in around(y, by) {
+                            for i in around(x, bx) {
+                                m = m.max(at(i, j, k));
+                            }
+                        }
+                    }
+                    data.push(m + MAX_GRID_MARGIN);
+                }
+            }
+        }
+        Volume::new(self.bricks, glam::Mat4::IDENTITY, data)
+    }
 }
 
 /// For each texel along one axis, the voxels a trilinear sample in its interval may read.
@@ -136,6 +189,17 @@ mod tests {
         assert_eq!(occupancy(&volume(&values), Some([0.0, 1.0]), &tf).values(), vec![1.0, 1.0, 0.0, 0.0]);
         // The window normalizes as the upload does: 0.9 in a window [0, 2] is 0.45, invisible.
         assert_eq!(occupancy(&volume(&values), Some([0.0, 2.0]), &tf).values(), vec![0.0; 4]);
+    }
+
+    #[test]
+    fn the_max_grid_bounds_every_brick_around_a_texel() {
+        let mut values = vec![0.1; 32 * 8 * 8];
+        values[8] = 0.9; // voxel 8 along x: read by samples in bricks 0 and 1
+        let volume = Volume::new([32, 8, 8], glam::Mat4::IDENTITY, values);
+        let grid = BrickRanges::new(&volume, Some([0.0, 1.0])).max_grid();
+        let m = MAX_GRID_MARGIN;
+        // Bricks 0 and 1 read 0.9; dilation carries it to brick 2; brick 3 sees only 0.1.
+        assert_eq!(grid.values(), vec![0.9 + m, 0.9 + m, 0.9 + m, 0.1 + m]);
     }
 
     #[test]

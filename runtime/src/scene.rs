@@ -58,9 +58,10 @@ pub struct SceneRenderer {
     resources: Resources,
     /// Grid and transform of each volume, primary first.
     grids: Vec<VolumeGrid>,
-    /// Empty-space skipping: the primary volume (its stored samples, no copy), to rebuild the
-    /// occupancy grid when its transfer function changes. `None` when the scene does not skip.
-    skipping: Option<volume::Volume>,
+    /// Empty-space skipping: the value range of every brick of the primary volume, to rebuild
+    /// the occupancy grid when its transfer function changes without reading the volume again.
+    /// `None` when the scene does not skip.
+    skipping: Option<crate::occupancy::BrickRanges>,
     /// What the loaded volumes were loaded from ([`volumes_key`]).
     volumes_key: String,
     pub views: Vec<SceneView>,
@@ -155,8 +156,12 @@ impl SceneRenderer {
         self.resources = resources;
         self.notices = notices;
         self.grids = loaded.grids;
-        self.skipping = loaded.primary;
+        self.skipping = loaded.primary.as_ref().map(|primary| {
+            let window = self.grids.first().map(|g| g.window);
+            crate::occupancy::BrickRanges::new(primary, window)
+        });
         self.volumes_key = volumes_key(scene);
+        self.upload_max_grid();
         self.update_occupancy(&loaded.primary_tf);
         Ok(())
     }
@@ -255,8 +260,10 @@ impl SceneRenderer {
     }
 
     /// Replaces the transfer function of volume `volume` (its name in the scene) in every view:
-    /// the table is rewritten in place, no shader changes; with empty-space skipping the
-    /// primary volume's occupancy grid is rebuilt.
+    /// the table is rewritten in place, no shader or pipeline changes; with empty-space skipping
+    /// the primary volume's occupancy grid is rebuilt from the brick ranges kept at load (the
+    /// volume is not read again). This is what a viewer calls when only a transfer function
+    /// changed.
     pub fn set_transfer_function(
         &mut self,
         volume: &str,
@@ -276,12 +283,24 @@ impl SceneRenderer {
         Ok(())
     }
 
-    /// Builds the occupancy grid of empty-space skipping for the primary transfer function.
+    /// Builds the occupancy grid of empty-space skipping (`std::skip`) for the primary transfer
+    /// function.
     fn update_occupancy(&mut self, tf: &crate::tf::TransferFunction) {
-        let (Some(primary), Some(window)) = (&self.skipping, self.grids.first().map(|g| g.window)) else { return };
-        let grid = crate::occupancy::occupancy(primary, Some(window), tf);
+        let Some(ranges) = &self.skipping else { return };
+        let grid = ranges.occupancy(tf);
         if let Ok(texture) = VolumeTexture::upload(&self.gpu, "occupancy", &grid, Some([0.0, 1.0])) {
             self.resources.volumes.insert("occupancy".into(), Arc::new(texture));
+        }
+    }
+
+    /// Uploads the brick maxima of `std::skip_mip` and `std::skip_iso` (they depend on the
+    /// samples and the window only: built once per load).
+    fn upload_max_grid(&mut self) {
+        let Some(ranges) = &self.skipping else { return };
+        let grid = ranges.max_grid();
+        // Window [0, 1]: the grid holds normalized values already; above 1 stays above 1.
+        if let Ok(texture) = VolumeTexture::upload(&self.gpu, "brick_max", &grid, Some([0.0, 1.0])) {
+            self.resources.volumes.insert("brick_max".into(), Arc::new(texture));
         }
     }
 
@@ -458,8 +477,9 @@ fn load_volumes(
                 .map_err(|e| RuntimeError::Invalid(format!("volume `{name}`: {e}")))
         };
         let is_primary = v.role.value == Role::Primary;
-        // Only empty-space skipping reads the samples again (its occupancy grid); any other
-        // volume file is streamed into its texture without a copy in memory.
+        // Only empty-space skipping reads the samples again (its brick ranges, taken once the
+        // volume is uploaded; the samples are dropped then); any other volume file is streamed
+        // into its texture without a copy in memory.
         let keep = is_primary && scene.render.empty_space_skipping;
         let curve = match &v.tf {
             Some(TfRef::Preset(p)) => Some(tf::preset_curve(&p.value)?),

@@ -24,6 +24,23 @@
 //! ```
 //! The defaults are written by two synthetic pipeline functions lowered like any other, so the
 //! entry point itself needs no constants.
+//!
+//! With a writer of `contributes` (`compose::contribution`), the loop body becomes
+//! ```wgsl
+//!         reset_sample(&state);
+//!         /* always */
+//!         loop {                        // samples that cannot contribute
+//!             if state.contributes { break; }
+//!             /* end */
+//!             i = i + 1u;
+//!             if i >= uniforms.max_samples || state.terminate { break; }
+//!             reset_sample(&state);
+//!             /* always */
+//!         }
+//!         if !state.contributes { break; } // the ray ended
+//!         /* contributing */
+//!         /* end */
+//! ```
 
 use crate::lower::emitter::Emitter;
 use naga::{Expression as E, Handle, Statement as S};
@@ -40,7 +57,14 @@ pub struct EntryPlan {
     /// Writes the defaults of the sample-lifetime fields.
     pub reset_sample: Handle<naga::Function>,
     pub ray_setup: Vec<Handle<naga::Function>>,
+    /// The sample functions run for every sample, before the `contributes` test.
     pub samples: Vec<Handle<naga::Function>>,
+    /// Member index of `contributes`, when some function writes it (`compose::contribution`).
+    pub contributes: Option<u32>,
+    /// Run after `samples` only while `state.contributes` is true.
+    pub contributing: Vec<Handle<naga::Function>>,
+    /// The `end` step: run for every sample, last.
+    pub sample_end: Vec<Handle<naga::Function>>,
     pub ray_finish: Vec<Handle<naga::Function>>,
     /// The uniform block and the member index of `max_samples: u32` in it.
     pub uniforms: Handle<naga::GlobalVariable>,
@@ -61,7 +85,7 @@ pub(crate) const TERMINATE: &str = "terminate";
 pub(crate) const OUT_COLOR: &str = "out_color";
 /// The fields the entry point reads or writes itself: kept whenever a placed function declares
 /// them, and without data-flow warnings.
-pub(crate) const ENTRY_FIELDS: &[&str] = &[PIXEL, TERMINATE, OUT_COLOR];
+pub(crate) const ENTRY_FIELDS: &[&str] = &[PIXEL, TERMINATE, OUT_COLOR, super::contribution::CONTRIBUTES];
 
 /// The entry point's function as it grows, with the emit discipline lowering uses.
 struct Body {
@@ -108,6 +132,36 @@ impl Body {
     }
 }
 
+/// `i >= uniforms.max_samples || state.terminate`: the sample loop is over.
+fn sample_loop_done(b: &mut Body, plan: &EntryPlan, state: Handle<E>, counter: Handle<E>) -> Handle<E> {
+    let i = b.expr(E::Load { pointer: counter });
+    let block = b.expr(E::GlobalVariable(plan.uniforms));
+    let max_pointer = b.component(block, plan.max_samples);
+    let max = b.expr(E::Load { pointer: max_pointer });
+    let done = b.binary(naga::BinaryOperator::GreaterEqual, i, max);
+    match plan.terminate {
+        Some(member) => {
+            let terminate = load_member(b, state, member);
+            b.binary(naga::BinaryOperator::LogicalOr, done, terminate)
+        }
+        None => done,
+    }
+}
+
+/// `state.MEMBER`.
+fn load_member(b: &mut Body, state: Handle<E>, member: u32) -> Handle<E> {
+    let pointer = b.component(state, member);
+    b.expr(E::Load { pointer })
+}
+
+/// `i = i + 1u;`
+fn increment(b: &mut Body, block: &mut naga::Block, counter: Handle<E>) {
+    let i = b.expr(E::Load { pointer: counter });
+    let one = b.literal(naga::Literal::U32(1));
+    let next = b.binary(naga::BinaryOperator::Add, i, one);
+    b.push(block, S::Store { pointer: counter, value: next });
+}
+
 /// Builds the entry point `main`; its types are added to `module`. The steps follow the WGSL in
 /// the module's documentation, in order (the order of the expressions is the order of their
 /// names in the WGSL).
@@ -123,7 +177,53 @@ pub fn build(module: &mut naga::Module, plan: &EntryPlan) -> naga::EntryPoint {
     for &f in &plan.ray_setup {
         b.call(&mut body, f, state);
     }
-    b.sample_loop(&mut body, plan, state, counter_var);
+
+    let counter = b.expr(E::LocalVariable(counter_var));
+    let zero = b.literal(naga::Literal::U32(0));
+    b.push(&mut body, S::Store { pointer: counter, value: zero });
+    let mut loop_body = naga::Block::new();
+    let done = sample_loop_done(&mut b, plan, state, counter);
+    b.exit_if(&mut loop_body, done, S::Break);
+    b.call(&mut loop_body, plan.reset_sample, state);
+    for &f in &plan.samples {
+        b.call(&mut loop_body, f, state);
+    }
+    if let Some(member) = plan.contributes {
+        // Samples that cannot contribute run only `samples` and `sample_end`, in an inner loop
+        // that moves on to the next sample until one contributes (or the ray ends): a group of
+        // invocations that runs in lockstep (SIMD lanes, a warp) then does the contributing
+        // work together rather than each lane in turn, and where lanes only mask code (as on
+        // lavapipe) the work is not done for samples that skip it. Every invocation still runs
+        // its samples' functions in the same order as with `if contributes { .. }`.
+        let mut skipping = naga::Block::new();
+        let contributes = load_member(&mut b, state, member);
+        b.exit_if(&mut skipping, contributes, S::Break);
+        for &f in &plan.sample_end {
+            b.call(&mut skipping, f, state);
+        }
+        increment(&mut b, &mut skipping, counter);
+        let done = sample_loop_done(&mut b, plan, state, counter);
+        b.exit_if(&mut skipping, done, S::Break);
+        b.call(&mut skipping, plan.reset_sample, state);
+        for &f in &plan.samples {
+            b.call(&mut skipping, f, state);
+        }
+        b.push(&mut loop_body, S::Loop { body: skipping, continuing: naga::Block::new(), break_if: None });
+        // Left without a contributing sample: the ray ended.
+        let contributes = load_member(&mut b, state, member);
+        let ended = b.expr(E::Unary { op: naga::UnaryOperator::LogicalNot, expr: contributes });
+        b.exit_if(&mut loop_body, ended, S::Break);
+    }
+    for &f in &plan.contributing {
+        b.call(&mut loop_body, f, state);
+    }
+    for &f in &plan.sample_end {
+        b.call(&mut loop_body, f, state);
+    }
+    let mut continuing = naga::Block::new();
+    increment(&mut b, &mut continuing, counter);
+    b.push(&mut body, S::Loop { body: loop_body, continuing, break_if: None });
+
     for &f in &plan.ray_finish {
         b.call(&mut body, f, state);
     }
@@ -249,42 +349,5 @@ impl Body {
         let pixel = self.binary(Bo::Divide, centre, size_f);
         let pointer = self.component(state, member);
         self.push(body, S::Store { pointer, value: pixel });
-    }
-
-    /// `i = 0u; loop { if i >= max_samples || state.terminate { break; } reset_sample(&state);
-    /// ... continuing { i = i + 1u; } }`
-    fn sample_loop(
-        &mut self,
-        body: &mut naga::Block,
-        plan: &EntryPlan,
-        state: Handle<E>,
-        counter_var: Handle<naga::LocalVariable>,
-    ) {
-        use naga::BinaryOperator as Bo;
-        let counter = self.expr(E::LocalVariable(counter_var));
-        let zero = self.literal(naga::Literal::U32(0));
-        self.push(body, S::Store { pointer: counter, value: zero });
-        let mut loop_body = naga::Block::new();
-        let i = self.expr(E::Load { pointer: counter });
-        let block = self.expr(E::GlobalVariable(plan.uniforms));
-        let max_pointer = self.component(block, plan.max_samples);
-        let max = self.expr(E::Load { pointer: max_pointer });
-        let mut done = self.binary(Bo::GreaterEqual, i, max);
-        if let Some(member) = plan.terminate {
-            let pointer = self.component(state, member);
-            let terminate = self.expr(E::Load { pointer });
-            done = self.binary(Bo::LogicalOr, done, terminate);
-        }
-        self.exit_if(&mut loop_body, done, S::Break);
-        self.call(&mut loop_body, plan.reset_sample, state);
-        for &f in &plan.samples {
-            self.call(&mut loop_body, f, state);
-        }
-        let mut continuing = naga::Block::new();
-        let i = self.expr(E::Load { pointer: counter });
-        let one = self.literal(naga::Literal::U32(1));
-        let next = self.binary(Bo::Add, i, one);
-        self.push(&mut continuing, S::Store { pointer: counter, value: next });
-        self.push(body, S::Loop { body: loop_body, continuing, break_if: None });
     }
 }

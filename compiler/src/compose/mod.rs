@@ -36,6 +36,7 @@ use rustc_hash::FxHashMap;
 pub mod backends;
 pub mod build;
 pub mod cache;
+pub mod contribution;
 pub(crate) mod entry;
 pub mod explain;
 mod instantiate;

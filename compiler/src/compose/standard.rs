@@ -71,8 +71,19 @@ impl Scene {
         }
         // Last: its functions append to `ray.setup` and `end` after the ones above.
         if r.empty_space_skipping && view.kind.value == ViewKind::Raycast {
-            add("skip", vec![]);
+            add(skip_module(r.compositing.value), vec![]);
         }
         out
+    }
+}
+
+/// The empty-space skipping module of a compositing mode: each skips exactly what cannot change
+/// its image (DVR: bricks the transfer function makes transparent; MIP: bricks whose maximum
+/// cannot beat the ray's; iso: bricks entirely below the iso value).
+fn skip_module(compositing: Compositing) -> &'static str {
+    match compositing {
+        Compositing::Dvr => "skip",
+        Compositing::Mip => "skip_mip",
+        Compositing::Iso => "skip_iso",
     }
 }

@@ -7,6 +7,7 @@
 //! that a dispatch renders (`vec4<u32>`), then every `volume` and `tf` uniform in composition
 //! order, each as its texture and then its sampler.
 
+use super::contribution;
 use super::entry::{self, EntryPlan};
 use super::ir::{Composition, Uniform};
 use crate::ast::{AssignOp, PlacementKind};
@@ -110,7 +111,14 @@ pub fn emit(program: &hir::Program, comp: &Composition, sources: &SourceMap) -> 
     };
     let ray_setup = lowered(&[Step::RaySetup], &mut b)?;
     let sample_steps: Vec<Step> = Step::ALL.iter().copied().filter(|s| !s.is_per_ray()).collect();
-    let samples = lowered(&sample_steps, &mut b)?;
+    let lowered_samples = lowered(&sample_steps, &mut b)?;
+    // The entry point runs them in the order of the contribution schedule.
+    let sample_fns: Vec<(Step, usize)> =
+        sample_steps.iter().flat_map(|&s| (0..comp.step(s).len()).map(move |i| (s, i))).collect();
+    let schedule = contribution::schedule(program, comp);
+    let handles = |fns: &[(Step, usize)]| -> Vec<Handle<naga::Function>> {
+        fns.iter().filter_map(|f| sample_fns.iter().position(|g| g == f).map(|k| lowered_samples[k])).collect()
+    };
     let ray_finish = lowered(&[Step::RayFinish], &mut b)?;
 
     let init_state = lower_defaults(&mut b, program, comp, state_type, "init_state", |_| true)?;
@@ -124,7 +132,10 @@ pub fn emit(program: &hir::Program, comp: &Composition, sources: &SourceMap) -> 
         init_state,
         reset_sample,
         ray_setup,
-        samples,
+        samples: handles(&schedule.always),
+        contributes: member(contribution::CONTRIBUTES).filter(|_| !schedule.contributing.is_empty()),
+        contributing: handles(&schedule.contributing),
+        sample_end: handles(&schedule.end),
         ray_finish,
         uniforms: block,
         max_samples: uniforms.iter().position(|u| u.name == MAX_SAMPLES).unwrap_or_default() as u32,

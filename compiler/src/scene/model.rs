@@ -44,7 +44,8 @@ pub struct Render {
     pub boundary: bool,
     /// Gooch-style tone shading (`std::tone`); needs `shading`.
     pub tone: bool,
-    /// Empty-space skipping in raycast views (`std::skip`); DVR only.
+    /// Empty-space skipping in raycast views (`std::skip`, `std::skip_mip`, `std::skip_iso`):
+    /// `render.empty_space_skipping`, by default on for DVR and iso and off for MIP.
     pub empty_space_skipping: bool,
     /// Initial value of the `step_size` uniform (normalized units); `None`: the uniform's
     /// default, [`DEFAULT_STEP_SIZE`].

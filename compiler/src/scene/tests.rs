@@ -133,10 +133,12 @@ fn standard_modules_follow_the_configuration() {
             "light",
             "composite",
             "lighting",
-            "composite_dvr"
+            "composite_dvr",
+            "skip"
         ]
     );
     assert_eq!(names("axial")[0], "slice");
+    assert!(!names("axial").contains(&"skip"), "slice views do not skip");
     let text = format!(
         "[render]\ncompositing = \"iso\"\niso_value = 0.3\n{MINIMAL}\n[[volume]]\nname = \"gm\"\nrole = \"additional\"\nphantom = \"ball\"\n[[volume]]\nname = \"brain\"\nrole = \"mask\"\npath = \"m.nii\"\n"
     );
@@ -149,6 +151,7 @@ fn standard_modules_follow_the_configuration() {
     assert_eq!(find("composite_iso"), Some(vec![]));
     assert_eq!(find("composite_volume"), None);
     assert_eq!(find("gradient"), None);
+    assert_eq!(find("skip_iso"), Some(vec![]), "iso skips bricks below the surface");
     assert_eq!(scene.uniform_values()["iso_value"], UniformValue::Float(f64::from(0.3f32)));
 }
 

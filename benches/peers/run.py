@@ -1,0 +1,318 @@
+"""The peer benchmark: vrsc against VTK's GPU ray-cast mapper and pygfx's volume raycaster, and
+against a vrsc from before a change, on the same volume, camera, transfer function, image size
+and step along the ray. Each contender is a long-lived process; within a case they take turns
+round by round, so a slow spell of a shared machine hits them alike. Prints median frame times,
+each contender's time over vrsc's, nominal samples per second and the mean image difference to
+vrsc. See README.md beside this file. Not part of CI.
+"""
+
+import argparse
+import json
+import math
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+ROOT = HERE.parent.parent
+MNI_T1 = ROOT / "../shared/data/mni152/mni_icbm152_t1_tal_nlin_sym_09a_converted.nii.gz"
+
+# The camera of every case: vrsc's orbit camera (runtime/src/geometry.rs).
+CAMERA = {"azimuth": 30.0, "elevation": 20.0, "distance": 2.5, "fov": 30.0}
+# Opacities are defined per this distance (vrsc's `ref_step`, VTK's unit distance).
+REF_STEP = 0.0025
+# What each mode means to each contender.
+MODES = {
+    "dvr": {"compositing": "dvr", "shading": False},
+    "dvr_shaded": {"compositing": "dvr", "shading": True},
+    "mip": {"compositing": "mip", "shading": False},
+}
+# The writer of `contributes` per compositing mode (stdlib), for the `noflag` variant.
+FLAG_WRITERS = {
+    "dvr": "remove shading.lights[dvr_contributes];",
+    "mip": "remove classification.primary[mip_contributes];",
+}
+# Variants of the vrsc under test: a line added to [render], and a module (per compositing).
+VARIANTS = {
+    "noskip": ("empty_space_skipping = false", None),
+    "noflag": (None, lambda compositing: FLAG_WRITERS[compositing]),
+}
+VOLUMES = {
+    # The MNI152 T1 (uint8 MRI, 197 x 233 x 189 at 1 mm) with the MR preset over its automatic
+    # window; the head phantom at 256^3 in Hounsfield units with the bone preset.
+    "mni_t1": {"volume": {"file": str(MNI_T1)}, "tf": "mr_default", "window": None},
+    "phantom256": {"volume": {"phantom": "head", "size": 256}, "tf": "ct_bone", "window": None},
+}
+
+
+class Worker:
+    """A contender's process, spoken to in JSON lines."""
+
+    def __init__(self, name, argv, env=None):
+        self.name = name
+        self.process = subprocess.Popen(
+            argv, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True, env=env, cwd=HERE
+        )
+
+    def ask(self, **request):
+        self.process.stdin.write(json.dumps(request) + "\n")
+        self.process.stdin.flush()
+        line = self.process.stdout.readline()
+        if not line:
+            raise RuntimeError(f"{self.name} ended")
+        answer = json.loads(line)
+        if "error" in answer:
+            raise RuntimeError(f"{self.name}: {answer['error']}")
+        return answer
+
+    def close(self):
+        self.process.stdin.close()
+        self.process.wait(timeout=60)
+
+
+def pygfx_step(dims):
+    """pygfx 0.17's step along the ray (volume_ray.wgsl): clamp(sqrt(largest dim) / 20, 0.1,
+    0.8) voxels, here in units of the box's largest side, which every contender is given."""
+    n = max(dims)
+    return min(max(math.sqrt(n) / 20.0, 0.1), 0.8) / n
+
+
+def nominal_samples(case):
+    """Samples per frame without early termination or skipping: ceil((exit - entry) / step) per
+    pixel, in the normalized coordinates vrsc marches in."""
+    w, h = case["size"]
+    extent = np.array(case["extent"], dtype=np.float64)
+    scale = extent / extent.max()
+    eye = np.array(
+        [
+            CAMERA["distance"] * math.sin(math.radians(CAMERA["azimuth"])) * math.cos(math.radians(CAMERA["elevation"])),
+            CAMERA["distance"] * math.cos(math.radians(CAMERA["azimuth"])) * math.cos(math.radians(CAMERA["elevation"])),
+            CAMERA["distance"] * math.sin(math.radians(CAMERA["elevation"])),
+        ]
+    )
+    forward = -eye / np.linalg.norm(eye)
+    right = np.cross(forward, [0.0, 0.0, 1.0])
+    right /= np.linalg.norm(right)
+    up = np.cross(right, forward)
+    tan = math.tan(math.radians(CAMERA["fov"]) / 2)
+    xs = ((np.arange(w) + 0.5) / w * 2 - 1) * tan * (w / h)
+    ys = (1 - (np.arange(h) + 0.5) / h * 2) * tan
+    dirs = forward + xs[None, :, None] * right + ys[:, None, None] * up
+    dirs = dirs / scale
+    dirs /= np.linalg.norm(dirs, axis=-1, keepdims=True)
+    origin = eye / scale + 0.5
+    with np.errstate(divide="ignore", invalid="ignore"):
+        inv = 1.0 / dirs
+        t0 = (0 - origin) * inv
+        t1 = (1 - origin) * inv
+    entry = np.maximum(np.minimum(t0, t1).max(axis=-1), 0)
+    exit_ = np.maximum(t0, t1).min(axis=-1)
+    hit = exit_ > entry
+    return float(np.ceil((exit_[hit] - entry[hit]) / case["step"]).sum())
+
+
+def scene_toml(case, volume):
+    mode = MODES[case["mode"]]
+    source = volume["volume"]
+    source_line = f'path = "{source["file"]}"' if "file" in source else f'phantom = "{source["phantom"]}"'
+    lo, hi = case["window"]
+    lights = 'lights = ["key"]\n' if mode["shading"] else ""
+    return f"""# Written by benches/peers/run.py
+[render]
+compositing = "{mode['compositing']}"
+shading = {str(mode['shading']).lower()}
+{lights}jitter = 0.0
+step_size = {case['step']!r}
+
+[[volume]]
+name = "primary"
+role = "primary"
+{source_line}
+tf = "{volume['tf']}"
+window = [{lo!r}, {hi!r}]
+
+[[view]]
+name = "3d"
+kind = "raycast"
+size = [{case['size'][0]}, {case['size'][1]}]
+camera = {{ azimuth = {CAMERA['azimuth']}, elevation = {CAMERA['elevation']}, distance = {CAMERA['distance']}, fov = {CAMERA['fov']} }}
+"""
+
+
+def build(vrsc, scene, out):
+    result = subprocess.run([str(vrsc), "build", str(scene), "-o", str(out)], capture_output=True, text=True)
+    if result.returncode != 0:
+        raise RuntimeError(f"{vrsc} build {scene}: {result.stderr}")
+
+
+def read_image(path):
+    if path.suffix == ".npy":
+        return np.load(path).astype(np.float64)
+    import imageio.v3 as iio
+
+    return iio.imread(path)[:, :, :3].astype(np.float64)
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--vrsc", default=str(ROOT / "target/release/vrsc"), help="the vrsc that composes")
+    parser.add_argument("--before", help="another vrsc binary (e.g. from before a change), a contender too")
+    parser.add_argument("--worker", default=str(ROOT / "target/release/examples/peer_worker"))
+    parser.add_argument("--volumes", default="mni_t1,phantom256")
+    parser.add_argument("--modes", default="dvr,dvr_shaded,mip")
+    parser.add_argument("--sizes", default="512,256")
+    parser.add_argument(
+        "--contenders",
+        default="vrsc,before,vtk,pygfx",
+        help="vrsc, before (--before's shaders), vtk, pygfx, and the variants of vrsc: noskip (empty-space "
+        "skipping off), noflag (the writer of `contributes` removed: every function runs for every sample)",
+    )
+    parser.add_argument("--rounds", type=int, default=3)
+    parser.add_argument("--frames", type=int, default=1, help="timed frames per round and contender")
+    parser.add_argument("--out", help="folder for scenes, shaders and images (default: a temporary one)")
+    args = parser.parse_args()
+
+    out = Path(args.out or tempfile.mkdtemp(prefix="vrs-peers-"))
+    out.mkdir(parents=True, exist_ok=True)
+    wanted = args.contenders.split(",")
+    if not args.before:
+        wanted = [c for c in wanted if c != "before"]
+    env = dict(os.environ, PYTHONPATH=str(HERE))
+    python = sys.executable
+    workers = {"vrsc": Worker("vrsc", [args.worker])}
+    if "vtk" in wanted:
+        workers["vtk"] = Worker("vtk", [python, str(HERE / "vtk_worker.py")], env)
+    if "pygfx" in wanted:
+        workers["pygfx"] = Worker("pygfx", [python, str(HERE / "pygfx_worker.py")], env)
+    print(f"output: {out}")
+    print(f"vrsc: {args.vrsc}" + (f"; before: {args.before}" if args.before else ""))
+    print(f"{'case':<28} {'contender':<10} {'ms/frame':>9} {'/ vrsc':>7} {'M samples/s':>12} {'mean |diff|':>11}")
+
+    rows = []
+    for volume_name in args.volumes.split(","):
+        volume = VOLUMES[volume_name]
+        if "file" in volume["volume"] and not Path(volume["volume"]["file"]).exists():
+            print(f"{volume_name}: {volume['volume']['file']} is absent, skipped")
+            continue
+        prepared_dir = out / volume_name
+        prepared = workers["vrsc"].ask(
+            cmd="prepare", volume=volume["volume"], window=volume["window"], tf=volume["tf"], out=str(prepared_dir)
+        )
+        for mode in args.modes.split(","):
+            for size in [int(s) for s in args.sizes.split(",")]:
+                case = {
+                    "dir": str(prepared_dir),
+                    "dims": prepared["dims"],
+                    "extent": prepared["extent"],
+                    "window": prepared["window"],
+                    "mode": mode,
+                    "size": [size, size],
+                    "camera": CAMERA,
+                    "step": pygfx_step(prepared["dims"]),
+                    "ref_step": REF_STEP,
+                }
+                rows += run_case(f"{volume_name}/{mode}/{size}", case, volume, workers, wanted, args, out)
+    for worker in workers.values():
+        worker.close()
+    (out / "results.json").write_text(json.dumps(rows, indent=1))
+    print(f"results: {out / 'results.json'}")
+
+
+def run_case(label, case, volume, workers, wanted, args, out):
+    folder = out / label.replace("/", "_")
+    folder.mkdir(parents=True, exist_ok=True)
+    scene = folder / "scene.toml"
+    scene.write_text(scene_toml(case, volume))
+    max_samples = math.ceil(math.sqrt(3.0) / case["step"]) + 2
+    uniforms = {"step_size": case["step"], "jitter": 0.0, "max_samples": max_samples}
+    shaders = {"vrsc": folder / "vrsc"}
+    build(args.vrsc, scene, shaders["vrsc"])
+    # Variants of this vrsc, to measure what each mechanism is worth.
+    for name, (render_line, module) in VARIANTS.items():
+        if name not in wanted:
+            continue
+        text = scene.read_text()
+        if render_line:
+            text = text.replace("[render]\n", f"[render]\n{render_line}\n", 1)
+        if module:
+            item = module(MODES[case["mode"]]["compositing"])
+            (folder / f"{name}.vrs").write_text(item + "\n")
+            text += f'\n[[module]]\npath = "{name}.vrs"\n'
+        variant = folder / f"{name}.toml"
+        variant.write_text(text)
+        shaders[name] = folder / name
+        build(args.vrsc, variant, shaders[name])
+    if "before" in wanted:
+        shaders["before"] = folder / "before"
+        build(args.before, scene, shaders["before"])
+    phantom = volume["volume"].get("size", 128)
+    workers["vrsc"].ask(cmd="open", scene=str(scene), size=case["size"], phantom_size=phantom)
+
+    # Set up every contender that renders this mode.
+    active = []
+    for name in wanted:
+        if name in shaders:
+            active.append(name)
+        elif name in workers:
+            try:
+                workers[name].ask(cmd="setup", **case)
+                active.append(name)
+            except RuntimeError as error:
+                if "no emission-absorption" not in str(error):
+                    print(f"{label}: {name} left out: {error}")
+
+    def time_frames(name, warmup):
+        if name in shaders:
+            request = dict(cmd="time", shader=str(shaders[name]), view="3d", uniforms=uniforms)
+            return workers["vrsc"].ask(**request, frames=args.frames, warmup=warmup)["ms"]
+        return workers[name].ask(cmd="time", frames=args.frames, warmup=warmup)["ms"]
+
+    def image(name):
+        if name in shaders:
+            path = folder / f"{name}.png"
+            workers["vrsc"].ask(cmd="image", shader=str(shaders[name]), view="3d", uniforms=uniforms, out=str(path))
+        else:
+            path = folder / f"{name}.npy"
+            workers[name].ask(cmd="image", out=str(path))
+        return read_image(path)
+
+    images = {name: image(name) for name in active}
+    times = {name: [] for name in active}
+    for round_ in range(args.rounds):
+        for name in active:
+            # One untimed frame before a contender's first turn (pipelines, caches).
+            times[name] += time_frames(name, warmup=round_ == 0)
+    samples = nominal_samples(case)
+    reference = statistics.median(times["vrsc"])
+    rows = []
+    for name in active:
+        ms = statistics.median(times[name])
+        diff = float(np.abs(images[name] - images["vrsc"]).mean())
+        row = {
+            "case": label,
+            "contender": name,
+            "ms": ms,
+            "over_vrsc": ms / reference,
+            "samples_per_frame": samples,
+            "msamples_per_s": samples / ms / 1e3,
+            "mean_abs_diff": diff,
+            "times": times[name],
+        }
+        rows.append(row)
+        print(
+            f"{label:<28} {name:<10} {ms:9.1f} {ms / reference:7.2f} {row['msamples_per_s']:12.1f} {diff:11.2f}",
+            flush=True,
+        )
+    return rows
+
+
+if __name__ == "__main__":
+    started = time.time()
+    main()
+    print(f"took {time.time() - started:.0f} s")

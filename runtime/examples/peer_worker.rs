@@ -1,0 +1,173 @@
+//! The vrsc contender of the peer benchmark (`benches/peers/`): a long-lived process that renders
+//! the shaders `vrsc build` wrote (of this vrsc or of another, such as a build from before a
+//! change) with this runtime, and times them. The benchmark's driver speaks to it in JSON lines
+//! on standard input and output; every answer is one line, `{"error": ...}` on failure.
+//!
+//! - `{"cmd": "prepare", "volume": {"file": P} | {"phantom": NAME, "size": N}, "window": [lo, hi]
+//!   | null, "tf": PRESET, "out": DIR}`: loads the volume as a scene would, writes what the other
+//!   contenders render: `DIR/volume.f32` (normalized by the window, x fastest), `DIR/tf.rgba8`
+//!   (the transfer function over the window, as uploaded) and answers dims, extent and window.
+//! - `{"cmd": "open", "scene": PATH, "size": [w, h], "phantom_size": N}`: opens the scene.
+//! - `{"cmd": "time", "shader": DIR, "view": V, "uniforms": {..}, "frames": N, "warmup": B}`:
+//!   renders view V with `DIR/V.wgsl` and `.json`, N frames (after an untimed one unless
+//!   `warmup` is false); answers their times in ms, from submit to completion (no read-back).
+//! - `{"cmd": "image", "shader": DIR, "view": V, "uniforms": {..}, "out": PNG}`: one frame, read
+//!   back and written.
+//!
+//! Run by the driver as `cargo run --release -p vrs-runtime --example peer_worker`.
+
+use serde_json::{Value, json};
+use std::io::{BufRead, Write};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+use vrs_runtime::{AdapterChoice, Gpu, RenderOptions, SceneRenderer, ViewShader, tf, volume};
+
+struct Worker {
+    gpu: Gpu,
+    scene: Option<SceneRenderer>,
+    /// The shader directory view 0 renders with now.
+    current: Option<PathBuf>,
+}
+
+fn main() {
+    let gpu = match Gpu::headless(AdapterChoice::Software) {
+        Ok(gpu) => gpu,
+        Err(e) => {
+            println!("{}", json!({ "error": format!("no software adapter: {e}") }));
+            return;
+        }
+    };
+    eprintln!("peer_worker: adapter {}", gpu.adapter);
+    let mut worker = Worker { gpu, scene: None, current: None };
+    let stdin = std::io::stdin();
+    let mut stdout = std::io::stdout();
+    for line in stdin.lock().lines() {
+        let Ok(line) = line else { break };
+        if line.trim().is_empty() {
+            continue;
+        }
+        let answer = match serde_json::from_str::<Value>(&line) {
+            Ok(request) => worker.handle(&request).unwrap_or_else(|e| json!({ "error": e })),
+            Err(e) => json!({ "error": format!("not JSON: {e}") }),
+        };
+        let _ = writeln!(stdout, "{answer}");
+        let _ = stdout.flush();
+    }
+}
+
+fn text<'a>(request: &'a Value, key: &str) -> Result<&'a str, String> {
+    request[key].as_str().ok_or_else(|| format!("`{key}` is missing"))
+}
+
+impl Worker {
+    fn handle(&mut self, request: &Value) -> Result<Value, String> {
+        match text(request, "cmd")? {
+            "prepare" => prepare(request),
+            "open" => self.open(request),
+            "time" => self.time(request),
+            "image" => self.image(request),
+            other => Err(format!("unknown command `{other}`")),
+        }
+    }
+
+    fn open(&mut self, request: &Value) -> Result<Value, String> {
+        let size =
+            request["size"].as_array().and_then(|s| Some([s.first()?.as_u64()? as u32, s.get(1)?.as_u64()? as u32]));
+        let n = request["phantom_size"].as_u64().unwrap_or(128) as u32;
+        let options = RenderOptions { size, phantom_size: [n; 3] };
+        let path = Path::new(text(request, "scene")?);
+        self.scene = None;
+        self.current = None;
+        let scene =
+            SceneRenderer::open(self.gpu.clone(), path, options, &mut |_, _, _| {}).map_err(|e| e.to_string())?;
+        self.scene = Some(scene);
+        Ok(json!({ "ok": true }))
+    }
+
+    /// The scene with view 0 rendering `request`'s shader and uniforms.
+    fn ready(&mut self, request: &Value) -> Result<&mut SceneRenderer, String> {
+        let dir = PathBuf::from(text(request, "shader")?);
+        let view = text(request, "view")?;
+        let scene = self.scene.as_mut().ok_or("no scene is open")?;
+        if self.current.as_ref() != Some(&dir) {
+            let shader = ViewShader::load_view(&dir, view).map_err(|e| e.to_string())?;
+            scene.replace_shader(0, shader).map_err(|e| e.to_string())?;
+            self.current = Some(dir);
+        }
+        // A new shader starts from its reflection's defaults: the scene's values again.
+        if let Some(uniforms) = request["uniforms"].as_object() {
+            let renderer = &mut scene.views[0].renderer;
+            for (name, value) in uniforms {
+                if !renderer.has_uniform(name) {
+                    continue;
+                }
+                let result = match value {
+                    Value::Number(n) if n.is_u64() && name == "max_samples" => {
+                        renderer.set_uniform(name, n.as_u64().unwrap_or(0) as u32)
+                    }
+                    Value::Number(n) => renderer.set_uniform(name, n.as_f64().unwrap_or(0.0) as f32),
+                    _ => continue,
+                };
+                result.map_err(|e| e.to_string())?;
+            }
+        }
+        Ok(scene)
+    }
+
+    fn time(&mut self, request: &Value) -> Result<Value, String> {
+        let frames = request["frames"].as_u64().unwrap_or(2) as usize;
+        let warmup = usize::from(request["warmup"].as_bool().unwrap_or(true));
+        let scene = self.ready(request)?;
+        let mut times = Vec::with_capacity(frames);
+        for i in (1 - warmup)..=frames {
+            let mut encoder = scene.gpu().device.create_command_encoder(&Default::default());
+            scene.encode_view(0, &mut encoder).map_err(|e| e.to_string())?;
+            let start = Instant::now();
+            scene.gpu().queue.submit([encoder.finish()]);
+            scene.gpu().wait();
+            if i > 0 {
+                times.push(start.elapsed().as_secs_f64() * 1e3);
+            }
+        }
+        Ok(json!({ "ms": times }))
+    }
+
+    fn image(&mut self, request: &Value) -> Result<Value, String> {
+        let out = PathBuf::from(text(request, "out")?);
+        let scene = self.ready(request)?;
+        let images = scene.render_all().map_err(|e| e.to_string())?;
+        let (_, image) = images.first().ok_or("the scene has no views")?;
+        image.save(&out).map_err(|e| format!("{}: {e}", out.display()))?;
+        Ok(json!({ "ok": true }))
+    }
+}
+
+/// Loads the volume and writes the normalized samples and the transfer-function table.
+fn prepare(request: &Value) -> Result<Value, String> {
+    let spec = &request["volume"];
+    let data = if let Some(file) = spec["file"].as_str() {
+        volume::load(Path::new(file), &mut |_, _| {}).map_err(|e| e.to_string())?
+    } else {
+        let name = spec["phantom"].as_str().ok_or("`volume` needs `file` or `phantom`")?;
+        let n = spec["size"].as_u64().unwrap_or(128) as u32;
+        volume::phantom::phantom(name, [n; 3]).map_err(|e| e.to_string())?
+    };
+    let table = tf::preset(text(request, "tf")?).map_err(|e| e.to_string())?;
+    let window = match request["window"].as_array() {
+        Some(w) => [w[0].as_f64().unwrap_or(0.0) as f32, w[1].as_f64().unwrap_or(1.0) as f32],
+        None => match table.domain {
+            tf::TfDomain::Data(domain) => domain,
+            _ => volume::auto_window(&data),
+        },
+    };
+    let out = PathBuf::from(text(request, "out")?);
+    std::fs::create_dir_all(&out).map_err(|e| e.to_string())?;
+    let mut samples = Vec::with_capacity(data.voxel_count() as usize * 4);
+    data.for_each_normalized(Some(window), 0..data.voxel_count() as usize, |t| {
+        samples.extend_from_slice(&half::f16::from_f32(t).to_f32().to_le_bytes())
+    });
+    std::fs::write(out.join("volume.f32"), samples).map_err(|e| e.to_string())?;
+    std::fs::write(out.join("tf.rgba8"), table.over_window(window).to_rgba8()).map_err(|e| e.to_string())?;
+    let extent = vrs_runtime::geometry::extent(data.dims, data.grid_to_world);
+    Ok(json!({ "dims": data.dims, "extent": extent.to_array(), "window": window }))
+}
