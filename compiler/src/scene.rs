@@ -35,6 +35,9 @@ use std::ops::Range;
 use std::path::{Path, PathBuf};
 use toml::Spanned;
 
+mod view_render;
+pub use view_render::Convention;
+
 /// The size of a view when `size` is not given.
 pub const DEFAULT_VIEW_SIZE: [u32; 2] = [512, 512];
 /// The largest width or height of a view.
@@ -45,9 +48,10 @@ pub const DEFAULT_LIGHT: &str = "key";
 pub const DEFAULT_TF: &str = "grayscale";
 /// The transfer function preset of tag volumes without `tf`.
 pub const DEFAULT_TAG_TF: &str = "labels";
-/// The default of the `step_size` uniform (normalized volume units); `stdlib/raycast.vrs` and
-/// `stdlib/slice.vrs` declare the same value.
-pub const DEFAULT_STEP_SIZE: f32 = 0.0025;
+/// The default of the `step_size` uniform (mm); `stdlib/raycast.vrs` and `stdlib/slice.vrs`
+/// declare the same value. The runtime replaces it by half the primary volume's smallest voxel
+/// spacing when the scene sets no step size.
+pub const DEFAULT_STEP_SIZE: f32 = 0.5;
 /// The most samples per ray a scene may ask for.
 pub const MAX_SAMPLES_LIMIT: u32 = 1 << 16;
 /// Camera defaults: looking at the volume's centre along -z from `distance` 2.5, 30° vertical
@@ -110,10 +114,10 @@ pub struct Render {
     pub tone: bool,
     /// Empty-space skipping in raycast views (`std::skip`); DVR only.
     pub empty_space_skipping: bool,
-    /// Initial value of the `step_size` uniform (normalized units); `None`: the uniform's
-    /// default, [`DEFAULT_STEP_SIZE`].
+    /// Initial value of the `step_size` uniform (mm); `None`: the runtime's default (half the
+    /// primary volume's smallest voxel spacing).
     pub step_size: Option<Located<f32>>,
-    /// The loop bound; `None`: [`Render::max_samples`] derives it from the step size.
+    /// The loop bound; `None`: the runtime derives it from the step size and the volume.
     pub max_samples: Option<Located<u32>>,
     /// Initial value of the `jitter` uniform (0: off, 1: up to one step).
     pub jitter: Option<Located<f32>>,
@@ -130,6 +134,10 @@ pub enum Compositing {
     Mip,
     /// First hit of an iso-surface.
     Iso,
+    /// Minimum intensity projection.
+    Minip,
+    /// Average intensity along the ray (a radiograph-like projection).
+    Average,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Deserialize)]
@@ -213,8 +221,11 @@ pub enum ViewKind {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Axis {
+    #[serde(alias = "sagittal")]
     X,
+    #[serde(alias = "coronal")]
     Y,
+    #[serde(alias = "axial")]
     Z,
 }
 
@@ -251,12 +262,18 @@ pub struct View {
     pub size: [u32; 2],
     /// Raycast views only ([`DEFAULT_CAMERA`] when not given).
     pub camera: Camera,
-    /// Slice views only: the axis the slice plane is normal to.
+    /// Slice views only: the patient axis the slice plane is normal to (`x` or `sagittal`, `y`
+    /// or `coronal`, `z` or `axial`).
     pub axis: Option<Located<Axis>>,
-    /// Slice views only: the plane's position along `axis`, normalized (0.5 without `position`).
+    /// Slice views only: the plane's position along `axis` across the primary volume's box in
+    /// patient space, 0 to 1 (0.5 without `position`).
     pub position: f32,
-    /// Slice views only: slab thickness (normalized units); 0 is a single sample per pixel.
+    /// Slice views only: slab thickness (mm); 0 is a single sample per pixel.
     pub slab: f32,
+    /// Slice views only: how the image puts the patient's sides.
+    pub convention: Convention,
+    /// How this view composites and shades: its `render` table over the scene's `[render]`.
+    pub render: Render,
     /// Modules of this view only, composed after the shared ones.
     pub modules: Vec<ModuleRef>,
     /// The whole `[[view]]` table.
@@ -389,12 +406,16 @@ impl Scene {
         self.views.iter().find(|v| v.name.name == name)
     }
 
-    /// Initial uniform values: `[uniforms]`, plus those that `[render]` sets (`iso_value`,
-    /// `step_size`, `jitter`, `background` when given, and always `max_samples`).
+    /// Initial uniform values of views without their own `render` table: `[uniforms]`, plus
+    /// those that `[render]` sets (`iso_value`, `step_size`, `jitter`, `background` and
+    /// `max_samples` when given). [`Scene::view_uniform_values`] gives a view's own.
     pub fn uniform_values(&self) -> BTreeMap<String, UniformValue> {
+        self.uniform_values_with(&self.render)
+    }
+
+    fn uniform_values_with(&self, r: &Render) -> BTreeMap<String, UniformValue> {
         let mut out: BTreeMap<String, UniformValue> =
             self.uniforms.iter().map(|(k, v)| (k.clone(), v.value.clone())).collect();
-        let r = &self.render;
         let float = |x: f32| UniformValue::Float(f64::from(x));
         if let Some(v) = &r.iso_value {
             out.insert("iso_value".into(), float(v.value));
@@ -408,7 +429,9 @@ impl Scene {
         if let Some(v) = &r.background {
             out.insert("background".into(), UniformValue::Array(v.value.iter().map(|&c| float(c)).collect()));
         }
-        out.insert("max_samples".into(), UniformValue::Int(i64::from(r.max_samples())));
+        if let Some(m) = &r.max_samples {
+            out.insert("max_samples".into(), UniformValue::Int(i64::from(m.value)));
+        }
         out
     }
 
@@ -416,7 +439,7 @@ impl Scene {
     /// (before the scene's `[[module]]`s and then the view's own `modules`). See
     /// `stdlib/README.md`.
     pub fn standard_modules(&self, view: &View) -> Vec<StdModule> {
-        let r = &self.render;
+        let r = &view.render;
         let mut out = Vec::new();
         let mut add = |name: &'static str, instances: Vec<String>| out.push(StdModule { name, instances });
         let additional = self.volume_names(Role::Additional);
@@ -468,6 +491,8 @@ impl Scene {
             }
             Compositing::Mip => add("composite_mip", vec![]),
             Compositing::Iso => add("composite_iso", vec![]),
+            Compositing::Minip => add("composite_minip", vec![]),
+            Compositing::Average => add("composite_average", vec![]),
         }
         // Last: its functions append to `ray.setup` and `end` after the ones above.
         if r.empty_space_skipping && view.kind.value == ViewKind::Raycast {
@@ -483,19 +508,6 @@ pub struct StdModule {
     pub name: &'static str,
     /// Empty for a plain module.
     pub instances: Vec<String>,
-}
-
-impl Render {
-    /// The loop bound: `max_samples` when given, else enough samples of the effective step size
-    /// to cross the unit cube's diagonal (plus two), at most [`MAX_SAMPLES_LIMIT`].
-    pub fn max_samples(&self) -> u32 {
-        if let Some(m) = &self.max_samples {
-            return m.value;
-        }
-        let step = self.step_size.as_ref().map_or(DEFAULT_STEP_SIZE, |s| s.value);
-        let n = (3f32.sqrt() / step).ceil() + 2.0;
-        if n.is_finite() && n < MAX_SAMPLES_LIMIT as f32 { n as u32 } else { MAX_SAMPLES_LIMIT }
-    }
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -547,8 +559,11 @@ pub fn parse_scene_text(text: &str, base: u32, dir: &Path) -> Result<Scene, Scen
     }
 }
 
-fn sort(list: &mut [Diagnostic]) {
+/// Sorts by position; a diagnostic found twice (a shared `[render]` value validated again for a
+/// view's own `render` table) is kept once.
+fn sort(list: &mut Vec<Diagnostic>) {
     list.sort_by(|a, b| (a.span.start, a.code, &a.message).cmp(&(b.span.start, b.code, &b.message)));
+    list.dedup();
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -569,7 +584,7 @@ struct RawScene {
 }
 const SCENE_KEYS: &[&str] = &["render", "volume", "module", "uniforms", "view"];
 
-#[derive(Deserialize, Default)]
+#[derive(Deserialize, Default, Clone)]
 #[serde(deny_unknown_fields)]
 struct RawRender {
     compositing: Option<Spanned<Compositing>>,
@@ -631,10 +646,13 @@ struct RawView {
     axis: Option<Spanned<Axis>>,
     position: Option<Spanned<f32>>,
     slab: Option<Spanned<f32>>,
+    convention: Option<Spanned<Convention>>,
+    render: Option<Spanned<RawRender>>,
     #[serde(default)]
     modules: Vec<Spanned<RawModule>>,
 }
-const VIEW_KEYS: &[&str] = &["name", "kind", "size", "camera", "axis", "position", "slab", "modules"];
+const VIEW_KEYS: &[&str] =
+    &["name", "kind", "size", "camera", "axis", "position", "slab", "convention", "render", "modules"];
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct RawCamera {
@@ -849,11 +867,12 @@ impl Cx<'_> {
     }
 
     fn scene(&mut self, raw: RawScene) -> Scene {
+        let shared = raw.render.clone();
         let render = self.render(raw.render);
         let volumes = self.volumes(raw.volumes);
         let modules = raw.modules.into_iter().map(|m| self.module(m)).collect();
         let uniforms = self.uniforms(raw.uniforms, &render);
-        let views = self.views(raw.views);
+        let views = self.views(raw.views, shared.as_ref(), &render);
         Scene { render, volumes, modules, uniforms, views, dir: self.dir.to_path_buf(), warnings: Vec::new() }
     }
 
@@ -912,12 +931,12 @@ impl Cx<'_> {
         }
         let step_size = r.step_size.as_ref().map(|s| Located { value: *s.get_ref(), span: self.span(s) });
         if let Some(s) = &step_size
-            && !(s.value > 0.0 && s.value <= 1.0)
+            && !(s.value > 0.0 && s.value.is_finite())
         {
             self.emit(
-                self.invalid(s.span, "`step_size` must be greater than 0 and at most 1")
-                    .with_label("normalized volume units")
-                    .with_note("the volume spans [0, 1] on each axis"),
+                self.invalid(s.span, "`step_size` must be a distance greater than 0")
+                    .with_label("millimetres")
+                    .with_note("without `step_size`, rays step half the primary volume's smallest voxel spacing"),
             );
         }
         let max_samples = r.max_samples.as_ref().map(|s| Located { value: *s.get_ref(), span: self.span(s) });
@@ -1203,7 +1222,7 @@ impl Cx<'_> {
         out
     }
 
-    fn views(&mut self, raw: Vec<Spanned<RawView>>) -> Vec<View> {
+    fn views(&mut self, raw: Vec<Spanned<RawView>>, shared: Option<&Spanned<RawRender>>, render: &Render) -> Vec<View> {
         if raw.is_empty() {
             self.emit(
                 self.invalid(Span::new(self.base, self.base), "the scene has no [[view]]")
@@ -1257,6 +1276,7 @@ impl Cx<'_> {
             let mut axis = None;
             let mut position = DEFAULT_SLICE_POSITION;
             let mut slab = 0.0;
+            let mut convention = Convention::default();
             match kind.value {
                 ViewKind::Raycast => {
                     if let Some(c) = &v.camera {
@@ -1266,6 +1286,7 @@ impl Cx<'_> {
                         (v.axis.as_ref().map(|a| a.span()), "axis"),
                         (v.position.as_ref().map(|p| p.span()), "position"),
                         (v.slab.as_ref().map(|s| s.span()), "slab"),
+                        (v.convention.as_ref().map(|c| c.span()), "convention"),
                     ];
                     for (range, key) in slice_keys {
                         if let Some(r) = range {
@@ -1284,7 +1305,7 @@ impl Cx<'_> {
                             self.emit(
                                 self.invalid(kind.span, format!("the slice view `{}` needs an `axis`", name.name))
                                     .with_label("a slice view")
-                                    .with_help("add `axis = \"z\"` (x, y or z: the axis the slice plane is normal to)"),
+                                    .with_help("add `axis = \"axial\"` (axial, coronal or sagittal: the plane's orientation in the patient)"),
                             );
                         }
                     }
@@ -1299,17 +1320,24 @@ impl Cx<'_> {
                     }
                     if let Some(s) = &v.slab {
                         slab = *s.get_ref();
-                        if !(0.0..=1.0).contains(&slab) {
+                        if !(slab >= 0.0 && slab.is_finite()) {
                             self.emit(
-                                self.invalid(self.span(s), "a `slab` thickness must be between 0 and 1")
-                                    .with_label("normalized volume units"),
+                                self.invalid(self.span(s), "a `slab` thickness must be 0 or more")
+                                    .with_label("millimetres"),
                             );
                         }
+                    }
+                    if let Some(c) = &v.convention {
+                        convention = *c.get_ref();
                     }
                 }
             }
             let modules = v.modules.into_iter().map(|m| self.module(m)).collect();
-            out.push(View { name, kind, size, camera, axis, position, slab, modules, span });
+            let render = match &v.render {
+                Some(own) => self.view_render(shared, own),
+                None => render.clone(),
+            };
+            out.push(View { name, kind, size, camera, axis, position, slab, convention, render, modules, span });
         }
         out
     }
@@ -1491,7 +1519,7 @@ modules = [{ path = "compose_2d.vrs" }]
         assert_eq!(axial.axis.as_ref().map(|a| a.value), Some(Axis::Z));
         assert_eq!((axial.position, axial.slab, axial.size), (0.5, 0.0, DEFAULT_VIEW_SIZE));
         let values = scene.uniform_values();
-        assert_eq!(values["max_samples"], UniformValue::Int(i64::from(scene.render.max_samples())));
+        assert!(!values.contains_key("max_samples"), "without `max_samples` the runtime derives it");
         assert!(values.contains_key("clip_plane_gm"));
     }
 
@@ -1631,10 +1659,10 @@ modules = [{ path = "compose_2d.vrs" }]
         let errs = errors(&EXAMPLE.replace("compositing = \"dvr\"", "compositing = \"dvrr\""));
         assert_eq!(errs.len(), 1, "{errs:?}");
         assert_eq!((errs[0].0, errs[0].1, errs[0].2), ("E0702", 2, 15));
-        assert_eq!(errs[0].3, "`dvrr` is not one of `dvr`, `mip`, `iso`");
+        assert_eq!(errs[0].3, "`dvrr` is not one of `dvr`, `mip`, `iso`, `minip`, `average`");
 
         let errs = errors(&EXAMPLE.replace("axis = \"z\"", "axis = \"w\""));
-        assert_eq!((errs[0].1, errs[0].3.as_str()), (29, "`w` is not one of `x`, `y`, `z`"));
+        assert_eq!((errs[0].1, errs[0].3.as_str()), (29, "`w` is not one of `sagittal`, `x`, `coronal`, `y`, `axial`, `z`"));
     }
 
     #[test]
@@ -1720,7 +1748,7 @@ modules = [{ path = "compose_2d.vrs" }]
         let r = &scene.render;
         assert_eq!(r.compositing.value, Compositing::Dvr);
         assert!(!r.shading && r.lights.is_empty() && !r.boundary && !r.tone);
-        assert_eq!(r.max_samples(), 695);
+        assert!(r.max_samples.is_none() && r.step_size.is_none());
         let v = &scene.views[0];
         assert_eq!((v.kind.value, v.size, v.camera), (ViewKind::Raycast, DEFAULT_VIEW_SIZE, DEFAULT_CAMERA));
         let (_, result) = parse(&format!("[render]\nshading = true\n{MINIMAL}"));
