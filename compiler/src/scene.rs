@@ -1662,7 +1662,10 @@ modules = [{ path = "compose_2d.vrs" }]
         assert_eq!(errs[0].3, "`dvrr` is not one of `dvr`, `mip`, `iso`, `minip`, `average`");
 
         let errs = errors(&EXAMPLE.replace("axis = \"z\"", "axis = \"w\""));
-        assert_eq!((errs[0].1, errs[0].3.as_str()), (29, "`w` is not one of `sagittal`, `x`, `coronal`, `y`, `axial`, `z`"));
+        assert_eq!(
+            (errs[0].1, errs[0].3.as_str()),
+            (29, "`w` is not one of `sagittal`, `x`, `coronal`, `y`, `axial`, `z`")
+        );
     }
 
     #[test]

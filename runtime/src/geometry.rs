@@ -58,7 +58,8 @@ impl PatientBox {
             let c = Vec3::new((i & 1) as f32, ((i >> 1) & 1) as f32, ((i >> 2) & 1) as f32);
             volume_to_world.transform_point3(c)
         });
-        let (min, max) = corners.fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(lo, hi), p| (lo.min(p), hi.max(p)));
+        let (min, max) =
+            corners.fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(lo, hi), p| (lo.min(p), hi.max(p)));
         PatientBox { min, max }
     }
 
@@ -218,8 +219,11 @@ impl ShaderPlane {
     /// `aspect` = width / height with square pixels, in normalized volume coordinates.
     pub fn new(plane: SlicePlane, volume_to_world: Mat4, aspect: f32) -> ShaderPlane {
         let to_world = PatientBox::of(volume_to_world).to_world();
-        let (mut origin, mut u, mut v) =
-            (to_world.transform_point3(plane.origin), to_world.transform_vector3(plane.u), to_world.transform_vector3(plane.v));
+        let (mut origin, mut u, mut v) = (
+            to_world.transform_point3(plane.origin),
+            to_world.transform_vector3(plane.u),
+            to_world.transform_vector3(plane.v),
+        );
         // Widen the shorter edge around the centre until the plane has the image's proportions.
         let (lu, lv) = (u.length().max(f32::MIN_POSITIVE), v.length().max(f32::MIN_POSITIVE));
         let aspect = aspect.max(1e-6);

@@ -445,7 +445,12 @@ fn apply_view_uniforms(view: &mut SceneView, grids: &[VolumeGrid]) -> Result<(),
     }
     if let Some((plane, slab)) = view.slice {
         let plane = ShaderPlane::new(plane.oriented(view.convention), to_world, aspect);
-        let uniforms = [("slice_origin", plane.origin), ("slice_u", plane.u), ("slice_v", plane.v), ("slice_normal", plane.normal)];
+        let uniforms = [
+            ("slice_origin", plane.origin),
+            ("slice_u", plane.u),
+            ("slice_v", plane.v),
+            ("slice_normal", plane.normal),
+        ];
         for (name, v) in uniforms {
             if r.has_uniform(name) {
                 r.set_uniform(name, v)?;

@@ -123,13 +123,19 @@ mod tests {
         assert!(err.diagnostics.iter().any(|d| d.message.contains("needs an `iso_value`")), "{:?}", err.diagnostics);
         let text = SCENE.replace("compositing = \"minip\"", "compositing = \"mip\", frobnicate = 1");
         let err = parse_scene_text(&text, 0, Path::new(".")).expect_err("unknown key");
-        assert!(err.diagnostics.iter().any(|d| d.message.contains("unknown key `frobnicate`")), "{:?}", err.diagnostics);
+        assert!(
+            err.diagnostics.iter().any(|d| d.message.contains("unknown key `frobnicate`")),
+            "{:?}",
+            err.diagnostics
+        );
     }
 
     #[test]
     fn every_compositing_mode_has_a_standard_module() {
         for mode in ["dvr", "mip", "minip", "average"] {
-            let text = format!("[render]\ncompositing = \"{mode}\"\n[[volume]]\nname = \"v\"\nrole = \"primary\"\nphantom = \"head\"\n[[view]]\nname = \"3d\"\n");
+            let text = format!(
+                "[render]\ncompositing = \"{mode}\"\n[[volume]]\nname = \"v\"\nrole = \"primary\"\nphantom = \"head\"\n[[view]]\nname = \"3d\"\n"
+            );
             let scene = parse_scene_text(&text, 0, Path::new(".")).unwrap_or_else(|e| panic!("{:?}", e.diagnostics));
             assert_eq!(scene.render.compositing.value.name(), mode);
             let wanted = format!("composite_{mode}");
