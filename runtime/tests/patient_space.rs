@@ -37,13 +37,11 @@ fn render(dir: &Path, text: &str) -> Vec<(String, image::RgbaImage)> {
     r.render_all().unwrap()
 }
 
-/// The abdomen phantom on an anisotropic grid (1 x 1.5 x 2.5 mm), once axis-aligned in RAS and
-/// once stored with index axes (i', j', k') = (inferior-wards, right-wards... see below) in an
-/// LPS header. The same world positions hold the same values, so the pictures must agree to
-/// within the golden images' tolerance (99.5% of pixels within 8/255, mean under 1/255: the
-/// trilinear filter interpolates the axes in another order) and be anything but empty.
-#[test]
-fn a_permuted_and_flipped_grid_renders_like_the_axis_aligned_one() {
+/// Writes the abdomen phantom on an anisotropic grid (1 x 1.5 x 2.5 mm) twice into `dir`:
+/// `aligned.nrrd`, axis-aligned in RAS, and `permuted.nrrd`, the same world positions holding
+/// the same values with the index axes permuted and two of them reversed (i' inferior-wards, j'
+/// right-wards, k' posterior-wards), its header in LPS.
+fn write_abdomen_twice(dir: &Path) {
     let dims = [40u32, 36, 28];
     let [nx, ny, nz] = dims.map(|d| d as usize);
     let spacing = [1.0f32, 1.5, 2.5];
@@ -51,9 +49,8 @@ fn a_permuted_and_flipped_grid_renders_like_the_axis_aligned_one() {
     let values = source.values();
     let at = |i: usize, j: usize, k: usize| values[(k * ny + j) * nx + i];
     let origin = [-20.0f32, -26.0, -33.0];
-    let dir = tempfile::tempdir().unwrap();
     write_nrrd(
-        &dir.path().join("aligned.nrrd"),
+        &dir.join("aligned.nrrd"),
         "right-anterior-superior",
         dims,
         [[spacing[0], 0.0, 0.0], [0.0, spacing[1], 0.0], [0.0, 0.0, spacing[2]]],
@@ -75,13 +72,36 @@ fn a_permuted_and_flipped_grid_renders_like_the_axis_aligned_one() {
     // nz-1); LPS negates x and y.
     let ras_origin = [origin[0], origin[1] + (ny - 1) as f32 * spacing[1], origin[2] + (nz - 1) as f32 * spacing[2]];
     write_nrrd(
-        &dir.path().join("permuted.nrrd"),
+        &dir.join("permuted.nrrd"),
         "left-posterior-superior",
         permuted_dims,
         [[0.0, 0.0, -spacing[2]], [-spacing[0], 0.0, 0.0], [0.0, spacing[1], 0.0]],
         [-ras_origin[0], -ras_origin[1], ras_origin[2]],
         &permuted,
     );
+}
+
+/// Within the golden images' tolerance (99.5% of pixels within 8/255, mean under 1/255: the
+/// trilinear filter interpolates the axes in another order), and not empty.
+fn assert_same_picture(name: &str, a: &image::RgbaImage, b: &image::RgbaImage) {
+    let visible = a.pixels().filter(|p| p[0] > 20 || p[1] > 20 || p[2] > 20).count();
+    assert!(visible > (a.width() * a.height() / 10) as usize, "{name}: the body is visible ({visible} pixels)");
+    let (matching, mean, _) = common::compare(b, a);
+    assert!(
+        matching >= common::MIN_MATCHING && mean <= common::MAX_MEAN_DIFF,
+        "{name}: {:.2}% of pixels within {}/255, mean difference {mean:.3}/255",
+        matching * 100.0,
+        common::CHANNEL_TOLERANCE
+    );
+}
+
+/// The permuted and flipped grid renders the same pictures as the axis-aligned one: an unshaded
+/// DVR and a MIP view from two sides, and axial, coronal (neurological) and sagittal (slab)
+/// planes.
+#[test]
+fn a_permuted_and_flipped_grid_renders_like_the_axis_aligned_one() {
+    let dir = tempfile::tempdir().unwrap();
+    write_abdomen_twice(dir.path());
     let views = "[[view]]\nname = \"dvr\"\nsize = [96, 96]\ncamera = { azimuth = 30.0, elevation = 20.0 }\n\n\
         [[view]]\nname = \"mip\"\nsize = [96, 96]\ncamera = { azimuth = -60.0, elevation = 10.0 }\nrender = { compositing = \"mip\" }\n\n\
         [[view]]\nname = \"axial\"\nkind = \"slice\"\naxis = \"axial\"\nposition = 0.6\nsize = [80, 64]\n\n\
@@ -92,16 +112,30 @@ fn a_permuted_and_flipped_grid_renders_like_the_axis_aligned_one() {
     };
     let aligned = render(dir.path(), &scene("aligned.nrrd"));
     let stored = render(dir.path(), &scene("permuted.nrrd"));
+    assert_eq!(aligned.len(), 5);
     for ((name, a), (_, b)) in aligned.iter().zip(&stored) {
-        let visible = a.pixels().filter(|p| p[0] > 20 || p[1] > 20 || p[2] > 20).count();
-        assert!(visible > (a.width() * a.height() / 10) as usize, "{name}: the body is visible ({visible} pixels)");
-        let (matching, mean, _) = common::compare(b, a);
-        assert!(
-            matching >= common::MIN_MATCHING && mean <= common::MAX_MEAN_DIFF,
-            "{name}: {:.2}% of pixels within {}/255, mean difference {mean:.3}/255",
-            matching * 100.0,
-            common::CHANNEL_TOLERANCE
-        );
+        assert_same_picture(name, a, b);
+    }
+}
+
+/// Volumes line up through patient space: the permuted grid as an additional volume over the
+/// aligned primary shows what the aligned file does in its place.
+#[test]
+fn an_additional_volume_on_another_grid_lines_up_in_patient_space() {
+    let dir = tempfile::tempdir().unwrap();
+    write_abdomen_twice(dir.path());
+    let scene = |file: &str| {
+        format!(
+            "[[volume]]\nname = \"ct\"\nrole = \"primary\"\npath = \"aligned.nrrd\"\ntf = \"ct_soft_tissue\"\n\n\
+             [[volume]]\nname = \"bone\"\nrole = \"additional\"\npath = \"{file}\"\ntf = \"ct_bone\"\n\n\
+             [[view]]\nname = \"3d\"\nsize = [80, 80]\ncamera = {{ azimuth = 40.0, elevation = 25.0 }}\n\n\
+             [[view]]\nname = \"axial\"\nkind = \"slice\"\naxis = \"axial\"\nposition = 0.55\nsize = [80, 64]\n"
+        )
+    };
+    let same_grid = render(dir.path(), &scene("aligned.nrrd"));
+    let other_grid = render(dir.path(), &scene("permuted.nrrd"));
+    for ((name, a), (_, b)) in same_grid.iter().zip(&other_grid) {
+        assert_same_picture(name, a, b);
     }
 }
 
