@@ -80,7 +80,7 @@ fn compare(scene: &mut SceneRenderer, shaders: &[ViewShader], ert_threshold: f32
 fn samples_per_frame(scene: &SceneRenderer, size: u32) -> f64 {
     let view = &scene.views[0];
     let camera = view.camera.expect("a raycast view");
-    let m = camera.inv_view_proj(glam::Vec3::ONE, 1.0);
+    let m = camera.inv_view_proj(glam::Mat4::IDENTITY, 1.0);
     let step = 0.0025f32;
     let mut total = 0f64;
     for y in 0..size {

@@ -168,6 +168,7 @@ fn prepare(request: &Value) -> Result<Value, String> {
     });
     std::fs::write(out.join("volume.f32"), samples).map_err(|e| e.to_string())?;
     std::fs::write(out.join("tf.rgba8"), table.over_window(window).to_rgba8()).map_err(|e| e.to_string())?;
-    let extent = vrs_runtime::geometry::extent(data.dims, data.grid_to_world);
+    use vrs_runtime::geometry::{PatientBox, volume_to_world};
+    let extent = PatientBox::of(volume_to_world(data.dims, data.grid_to_world)).size();
     Ok(json!({ "dims": data.dims, "extent": extent.to_array(), "window": window }))
 }

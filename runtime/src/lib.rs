@@ -42,7 +42,7 @@ pub mod view;
 pub mod volume;
 
 pub use error::RuntimeError;
-pub use geometry::{OrbitCamera, SliceAxis, SlicePlane};
+pub use geometry::{Convention, OrbitCamera, SliceAxis, SlicePlane, slice_edge_labels};
 pub use gpu::{AdapterChoice, Gpu};
 #[cfg(feature = "compiler")]
 pub use scene::{Applied, ProbeAt, ProbeImage, ProbeSpec, RenderOptions, SceneRenderer, VolumeStatus};

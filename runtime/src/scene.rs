@@ -4,7 +4,7 @@
 //! scene uniforms are shared nodes; each view owns its composed pipeline.
 
 use crate::error::RuntimeError;
-use crate::geometry::{self, OrbitCamera, SliceAxis, SlicePlane};
+use crate::geometry::{self, Convention, OrbitCamera, ShaderPlane, SliceAxis, SlicePlane};
 use crate::gpu::Gpu;
 use crate::shader::{PipelineCache, PipelineStats, ViewShader};
 use crate::textures::{TfTexture, VolumeTexture};
@@ -16,7 +16,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use vrsc::compose::build::BuiltScene;
 use vrsc::compose::cache::{CachedBuild, CompositionCache};
-use vrsc::scene::{self as vscene, Role, Scene, TfRef, ViewKind, VolumeSource};
+use vrsc::scene::{self as vscene, Role, Scene, TfRef, UniformValue, ViewKind, VolumeSource};
 
 mod probe;
 mod tf_edit;
@@ -44,8 +44,10 @@ pub struct SceneView {
     pub renderer: ViewRenderer,
     /// Raycast views: the orbit camera.
     pub camera: Option<OrbitCamera>,
-    /// Slice views: the plane and the slab thickness.
+    /// Slice views: the plane and the slab thickness (mm).
     pub slice: Option<(SlicePlane, f32)>,
+    /// Slice views: how the image puts the patient's sides (the scene's `convention`).
+    pub convention: Convention,
 }
 
 /// A loaded scene, ready to render every frame.
@@ -331,9 +333,9 @@ impl SceneRenderer {
     }
 
     fn set_views(&mut self, scene: &Scene, built: &BuiltScene) -> Result<(), RuntimeError> {
-        let values = scene.uniform_values();
         let mut views = Vec::new();
         for (view, output) in scene.views.iter().zip(&built.views) {
+            let values = scene.view_uniform_values(view);
             let shader = output
                 .shader
                 .as_ref()
@@ -348,6 +350,7 @@ impl SceneRenderer {
                     renderer.set_uniform(name, value)?;
                 }
             }
+            self.set_physical_defaults(&mut renderer, &values)?;
             let (camera, slice) = match view.kind.value {
                 ViewKind::Raycast => (Some(orbit(view.camera)), None),
                 ViewKind::Slice => {
@@ -359,16 +362,58 @@ impl SceneRenderer {
                     (None, Some((SlicePlane::new(axis, view.position), view.slab)))
                 }
             };
-            views.push(SceneView { name: output.name.clone(), renderer, camera, slice });
+            let convention = match view.convention {
+                vscene::Convention::Radiological => Convention::Radiological,
+                vscene::Convention::Neurological => Convention::Neurological,
+            };
+            views.push(SceneView { name: output.name.clone(), renderer, camera, slice, convention });
         }
         self.views = views;
         Ok(())
     }
 }
 
+impl SceneRenderer {
+    /// The patient directions at the edges of slice view `index` as it is shown now,
+    /// `[left, right, top, bottom]` (see [`SlicePlane::edge_labels`]); `None` for a raycast view.
+    pub fn slice_edge_labels(&self, index: usize) -> Option<[&'static str; 4]> {
+        let view = self.views.get(index)?;
+        view.slice.map(|(plane, _)| plane.oriented(view.convention).edge_labels())
+    }
+
+    /// Physical sampling where the scene leaves it open: `step_size` half the primary volume's
+    /// smallest voxel spacing, `ref_step` (the distance transfer-function opacities are
+    /// defined for) that spacing, and `max_samples` enough steps for the grid's longest chord.
+    fn set_physical_defaults(
+        &self,
+        renderer: &mut ViewRenderer,
+        values: &std::collections::BTreeMap<String, UniformValue>,
+    ) -> Result<(), RuntimeError> {
+        let Some(primary) = self.grids.first() else { return Ok(()) };
+        let spacing = geometry::smallest_spacing(primary.grid_to_world);
+        let spacing = if spacing.is_finite() { spacing } else { 1.0 };
+        let step = match values.get("step_size") {
+            Some(UniformValue::Float(s)) => *s as f32,
+            Some(UniformValue::Int(s)) => *s as f32,
+            _ => 0.5 * spacing,
+        };
+        let chord = geometry::longest_chord(geometry::volume_to_world(primary.dims, primary.grid_to_world));
+        let samples = (chord / step).ceil() + 2.0;
+        let samples = if samples.is_finite() { samples.min(vscene::MAX_SAMPLES_LIMIT as f32) as u32 } else { 1 };
+        let defaults: [(&str, crate::uniforms::Value); 3] =
+            [("step_size", step.into()), ("ref_step", spacing.into()), ("max_samples", samples.into())];
+        for (name, value) in defaults {
+            if renderer.has_uniform(name) && !values.contains_key(name) {
+                renderer.set_uniform(name, value)?;
+            }
+        }
+        Ok(())
+    }
+}
+
 /// Everything of a scene's volumes that loading reads: equal keys, same textures.
 fn volumes_key(scene: &Scene) -> String {
-    let mut key = format!("skip {}\n", scene.render.empty_space_skipping);
+    let mut key = format!("skip {}\n", scene.skips_empty_space());
     for v in &scene.volumes {
         let source = match &v.source {
             VolumeSource::File(f) => f.resolved.display().to_string(),
@@ -412,15 +457,26 @@ fn apply_view_uniforms(view: &mut SceneView, grids: &[VolumeGrid]) -> Result<(),
     let r = &mut view.renderer;
     let Some(primary) = grids.first() else { return Ok(()) };
     let (primary_dims, primary_g) = (&primary.dims, primary.grid_to_world);
+    let to_world = geometry::volume_to_world(*primary_dims, primary_g);
+    let [w, h] = r.size();
+    let aspect = w as f32 / h.max(1) as f32;
+    if r.has_uniform("volume_to_world") {
+        r.set_uniform("volume_to_world", to_world)?;
+    }
     if let Some(camera) = view.camera
         && r.has_uniform("inv_view_proj")
     {
-        let [w, h] = r.size();
-        let extent = geometry::extent(*primary_dims, primary_g);
-        r.set_uniform("inv_view_proj", camera.inv_view_proj(extent, w as f32 / h.max(1) as f32))?;
+        r.set_uniform("inv_view_proj", camera.inv_view_proj(to_world, aspect))?;
     }
     if let Some((plane, slab)) = view.slice {
-        for (name, v) in [("slice_origin", plane.origin), ("slice_u", plane.u), ("slice_v", plane.v)] {
+        let plane = ShaderPlane::new(plane.oriented(view.convention), to_world, aspect);
+        let uniforms = [
+            ("slice_origin", plane.origin),
+            ("slice_u", plane.u),
+            ("slice_v", plane.v),
+            ("slice_normal", plane.normal),
+        ];
+        for (name, v) in uniforms {
             if r.has_uniform(name) {
                 r.set_uniform(name, v)?;
             }
@@ -480,7 +536,7 @@ fn load_volumes(
         // Only empty-space skipping reads the samples again (its brick ranges, taken once the
         // volume is uploaded; the samples are dropped then); any other volume file is streamed
         // into its texture without a copy in memory.
-        let keep = is_primary && scene.render.empty_space_skipping;
+        let keep = is_primary && scene.skips_empty_space();
         let curve = match &v.tf {
             Some(TfRef::Preset(p)) => Some(tf::preset_curve(&p.value)?),
             Some(TfRef::File(file)) => Some(tf::paraview_curve(&file.resolved)?),

@@ -77,20 +77,21 @@ fn the_clip_plane_cuts_the_clipped_volume_and_spares_the_excluded_one() {
     std::fs::write(&basic, text).unwrap();
     let mut scene = open(&basic);
     let clipped = render(&mut scene, "axial");
-    let blue_left = |image: &RgbaImage| {
-        image.enumerate_pixels().filter(|(x, _, p)| *x < 48 && p[2] > 120 && p[2] > p[0] + 40).count()
+    // The plane x = 0.5 cuts the side x < 0.5, the patient's left: the image's right half in the
+    // radiological convention.
+    let blue_on_cut_side = |image: &RgbaImage| {
+        image.enumerate_pixels().filter(|(x, _, p)| *x >= 48 && p[2] > 120 && p[2] > p[0] + 40).count()
     };
-    assert!(blue_left(&clipped) > 10, "the white matter shows on the cut side: it is not clipped");
+    assert!(blue_on_cut_side(&clipped) > 10, "the white matter shows on the cut side: it is not clipped");
     // A plane with everything on its positive side: nothing is cut.
     scene.set_uniform("clip_plane_gm", [1.0f32, 0.0, 0.0, 2.0]).unwrap();
     let whole = render(&mut scene, "axial");
     let changed = differing(&clipped, &whole);
-    // The plane x = 0.5 cuts the side x < 0.5: the image's left half (image x runs along +x).
     assert!(changed.len() > 20, "the grey matter's colour is cut away ({} pixels changed)", changed.len());
-    assert!(changed.iter().all(|&(x, _)| x < 48), "only the cut side changes: {changed:?}");
+    assert!(changed.iter().all(|&(x, _)| x >= 48), "only the cut side changes: {changed:?}");
     // Where the white matter shows, it shows with or without the cut (a few pixels at its
     // border blend with the grey matter behind it).
-    let (cut, uncut) = (blue_left(&clipped), blue_left(&whole));
+    let (cut, uncut) = (blue_on_cut_side(&clipped), blue_on_cut_side(&whole));
     assert!(cut.abs_diff(uncut) * 20 <= uncut, "white matter on the cut side: {cut} pixels cut, {uncut} whole");
     // The white matter has no clip function at all: it is excluded, so it stays whole.
     let err = scene.set_uniform("clip_plane_wm", [1.0f32, 0.0, 0.0, -0.5]).unwrap_err().to_string();
@@ -102,10 +103,11 @@ fn the_clip_plane_cuts_the_clipped_volume_and_spares_the_excluded_one() {
     assert!(without.views[0].renderer.has_uniform("clip_plane_wm"));
 }
 
-/// The axial view's pixel of a point in normalized volume coordinates (image x along +x, image
-/// y down along -y).
+/// The axial view's pixel of a point in normalized volume coordinates of an axis-aligned RAS
+/// grid with a square axial extent, in the radiological convention (image x along -x, the
+/// patient's right on the left; image y down along -y).
 fn axial_pixel(p: [f32; 3], size: u32) -> (f32, f32) {
-    (p[0] * size as f32, (1.0 - p[1]) * size as f32)
+    ((1.0 - p[0]) * size as f32, (1.0 - p[1]) * size as f32)
 }
 
 #[test]

@@ -68,3 +68,45 @@ fn mni152_t1_renders_with_its_automatic_window() {
         .collect();
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
+
+/// The MNI T1 template in the projection modes and patient-space planes: an average-intensity
+/// 3D view, a 20 mm axial MIP slab and a 10 mm coronal MinIP slab, each with its own `render`
+/// table, and a coronal slice in the neurological convention, against golden images. Skipped, saying why,
+/// without the data.
+#[test]
+fn mni152_t1_projections_and_planes() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/mni152");
+    if !dir.is_dir() {
+        println!("skipped: {} is absent (see ../shared/data/README.md for how to get it)", dir.display());
+        return;
+    }
+    let scene_dir = tempfile::tempdir().unwrap();
+    let text = format!(
+        "[[volume]]\nname = \"t1\"\nrole = \"primary\"\npath = \"{}\"\ntf = \"grayscale\"\n\n\
+         [[view]]\nname = \"average\"\nkind = \"raycast\"\nsize = [96, 96]\nrender = {{ compositing = \"average\" }}\n\n\
+         [[view]]\nname = \"mip_axial\"\nkind = \"slice\"\nsize = [96, 96]\naxis = \"axial\"\nposition = 0.6\nslab = 20.0\n\
+         render = {{ compositing = \"mip\" }}\n\n\
+         [[view]]\nname = \"minip_coronal\"\nkind = \"slice\"\nsize = [96, 96]\naxis = \"coronal\"\nslab = 10.0\n\
+         render = {{ compositing = \"minip\" }}\n\n\
+         [[view]]\nname = \"coronal_neuro\"\nkind = \"slice\"\nsize = [96, 96]\naxis = \"coronal\"\nposition = 0.45\n\
+         convention = \"neurological\"\n",
+        dir.join(FILES[0]).display()
+    );
+    let scene = scene_dir.path().join("scene.toml");
+    std::fs::write(&scene, text).unwrap();
+    let mut renderer = vrs_runtime::SceneRenderer::open(
+        common::software_gpu(),
+        &scene,
+        vrs_runtime::RenderOptions::default(),
+        &mut |_, _, _| {},
+    )
+    .unwrap();
+    assert_eq!(renderer.slice_edge_labels(3), Some(["L", "R", "S", "I"]));
+    let failures: Vec<String> = renderer
+        .render_all()
+        .unwrap()
+        .into_iter()
+        .filter_map(|(view, image)| common::check_golden(&format!("mni152_t1_modes__{view}"), &image).err())
+        .collect();
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}

@@ -189,6 +189,22 @@ fn view_cell(
         }
         (None, None) => {}
     }
+    if let Some([left, right, top, bottom]) = live.renderer().slice_edge_labels(index) {
+        // The patient's directions at the image's edges (radiological or neurological).
+        let font = egui::FontId::proportional(15.0);
+        let colour = Color32::from_rgb(120, 220, 255);
+        let painter = ui.painter();
+        painter.text(image.left_center() + Vec2::new(6.0, 0.0), egui::Align2::LEFT_CENTER, left, font.clone(), colour);
+        painter.text(
+            image.right_center() - Vec2::new(6.0, 0.0),
+            egui::Align2::RIGHT_CENTER,
+            right,
+            font.clone(),
+            colour,
+        );
+        painter.text(image.center_top() + Vec2::new(0.0, 6.0), egui::Align2::CENTER_TOP, top, font.clone(), colour);
+        painter.text(image.center_bottom() - Vec2::new(0.0, 6.0), egui::Align2::CENTER_BOTTOM, bottom, font, colour);
+    }
     if let Some(p) = &slot.probe {
         let legend = match (&p.error, &p.shown) {
             (Some(e), _) => e.clone(),

@@ -195,11 +195,7 @@ impl DataFlowWarnings {
     /// Pushes each warning once; a lost write also names the compositing mode, which decides
     /// which standard functions read the fields.
     fn finish(self, diags: &mut Diagnostics, compositing: scene::Compositing) {
-        let mode = match compositing {
-            scene::Compositing::Dvr => "dvr",
-            scene::Compositing::Mip => "mip",
-            scene::Compositing::Iso => "iso",
-        };
+        let mode = compositing.name();
         for (mut d, views) in self.list {
             let names: Vec<String> = views.iter().map(|v| format!("`{v}`")).collect();
             let which = if names.len() == 1 { "in view" } else { "in views" };

@@ -31,7 +31,7 @@ pub fn reflect(
     wgsl: &str,
     sources: &SourceMap,
 ) -> Reflection {
-    let values = scene.uniform_values();
+    let values = scene.view_uniform_values(view);
     let member = |name: &str| {
         let emitted = crate::lower::emitted_name(name);
         vm.uniform_layout.members.iter().find(|m| m.name == emitted)

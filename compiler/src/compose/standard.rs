@@ -16,7 +16,7 @@ impl Scene {
     /// (before the scene's `[[module]]`s and then the view's own `modules`). See
     /// `stdlib/README.md`.
     pub fn standard_modules(&self, view: &View) -> Vec<StdModule> {
-        let r = &self.render;
+        let r = &view.render;
         let mut out = Vec::new();
         let mut add = |name: &'static str, instances: Vec<String>| out.push(StdModule { name, instances });
         let additional = self.volume_names(Role::Additional);
@@ -68,6 +68,8 @@ impl Scene {
             }
             Compositing::Mip => add("composite_mip", vec![]),
             Compositing::Iso => add("composite_iso", vec![]),
+            Compositing::Minip => add("composite_minip", vec![]),
+            Compositing::Average => add("composite_average", vec![]),
         }
         // Last: its functions append to `ray.setup` and `end` after the ones above.
         if r.empty_space_skipping && view.kind.value == ViewKind::Raycast {
@@ -85,5 +87,6 @@ fn skip_module(compositing: Compositing) -> &'static str {
         Compositing::Dvr => "skip",
         Compositing::Mip => "skip_mip",
         Compositing::Iso => "skip_iso",
+        Compositing::Minip | Compositing::Average => "skip",
     }
 }

@@ -44,9 +44,10 @@ pub const DEFAULT_LIGHT: &str = "key";
 pub const DEFAULT_TF: &str = "grayscale";
 /// The transfer function preset of tag volumes without `tf`.
 pub const DEFAULT_TAG_TF: &str = "labels";
-/// The default of the `step_size` uniform (normalized volume units); `stdlib/raycast.vrs` and
-/// `stdlib/slice.vrs` declare the same value.
-pub const DEFAULT_STEP_SIZE: f32 = 0.0025;
+/// The default of the `step_size` uniform (mm); `stdlib/raycast.vrs` and `stdlib/slice.vrs`
+/// declare the same value. The runtime replaces it by half the primary volume's smallest voxel
+/// spacing when the scene sets no step size.
+pub const DEFAULT_STEP_SIZE: f32 = 0.5;
 /// The most samples per ray a scene may ask for.
 pub const MAX_SAMPLES_LIMIT: u32 = 1 << 16;
 /// Camera defaults: looking at the volume's centre along -z from `distance` 2.5, 30° vertical
@@ -64,11 +65,13 @@ mod raw;
 #[cfg(test)]
 mod tests;
 mod validate;
+mod view_render;
 
 pub use model::*;
 use raw::RawScene;
 use validate::Cx;
 pub use validate::is_view_name;
+pub use view_render::Convention;
 
 // ---------------------------------------------------------------------------------------------
 // Entry points.

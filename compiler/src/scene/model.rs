@@ -47,10 +47,10 @@ pub struct Render {
     /// Empty-space skipping in raycast views (`std::skip`, `std::skip_mip`, `std::skip_iso`):
     /// `render.empty_space_skipping`, by default on for DVR and iso and off for MIP.
     pub empty_space_skipping: bool,
-    /// Initial value of the `step_size` uniform (normalized units); `None`: the uniform's
-    /// default, [`DEFAULT_STEP_SIZE`].
+    /// Initial value of the `step_size` uniform (mm); `None`: the runtime's default (half the
+    /// primary volume's smallest voxel spacing).
     pub step_size: Option<Located<f32>>,
-    /// The loop bound; `None`: [`Render::max_samples`] derives it from the step size.
+    /// The loop bound; `None`: the runtime derives it from the step size and the volume.
     pub max_samples: Option<Located<u32>>,
     /// Initial value of the `jitter` uniform (0: off, 1: up to one step).
     pub jitter: Option<Located<f32>>,
@@ -68,6 +68,10 @@ pub enum Compositing {
     Mip,
     /// First hit of an iso-surface.
     Iso,
+    /// Minimum intensity projection.
+    Minip,
+    /// Average intensity along the ray (a radiograph-like projection).
+    Average,
 }
 
 /// A volume's `role`.
@@ -157,8 +161,11 @@ pub enum ViewKind {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Axis {
+    #[serde(alias = "sagittal")]
     X,
+    #[serde(alias = "coronal")]
     Y,
+    #[serde(alias = "axial")]
     Z,
 }
 
@@ -195,12 +202,18 @@ pub struct View {
     pub size: [u32; 2],
     /// Raycast views only ([`DEFAULT_CAMERA`] when not given).
     pub camera: Camera,
-    /// Slice views only: the axis the slice plane is normal to.
+    /// Slice views only: the patient axis the slice plane is normal to (`x` or `sagittal`, `y`
+    /// or `coronal`, `z` or `axial`).
     pub axis: Option<Located<Axis>>,
-    /// Slice views only: the plane's position along `axis`, normalized (0.5 without `position`).
+    /// Slice views only: the plane's position along `axis` across the primary volume's box in
+    /// patient space, 0 to 1 (0.5 without `position`).
     pub position: f32,
-    /// Slice views only: slab thickness (normalized units); 0 is a single sample per pixel.
+    /// Slice views only: slab thickness (mm); 0 is a single sample per pixel.
     pub slab: f32,
+    /// Slice views only: how the image puts the patient's sides.
+    pub convention: Convention,
+    /// How this view composites and shades: its `render` table over the scene's `[render]`.
+    pub render: Render,
     /// Modules of this view only, composed after the shared ones.
     pub modules: Vec<ModuleRef>,
     /// The whole `[[view]]` table.
@@ -346,12 +359,16 @@ impl Scene {
         self.views.iter().find(|v| v.name.name == name)
     }
 
-    /// Initial uniform values: `[uniforms]`, plus those that `[render]` sets (`iso_value`,
-    /// `step_size`, `jitter`, `background` when given, and always `max_samples`).
+    /// Initial uniform values of views without their own `render` table: `[uniforms]`, plus
+    /// those that `[render]` sets (`iso_value`, `step_size`, `jitter`, `background` and
+    /// `max_samples` when given). [`Scene::view_uniform_values`] gives a view's own.
     pub fn uniform_values(&self) -> BTreeMap<String, UniformValue> {
+        self.uniform_values_with(&self.render)
+    }
+
+    pub(super) fn uniform_values_with(&self, r: &Render) -> BTreeMap<String, UniformValue> {
         let mut out: BTreeMap<String, UniformValue> =
             self.uniforms.iter().map(|(k, v)| (k.clone(), v.value.clone())).collect();
-        let r = &self.render;
         let float = |x: f32| UniformValue::Float(f64::from(x));
         if let Some(v) = &r.iso_value {
             out.insert("iso_value".into(), float(v.value));
@@ -365,20 +382,9 @@ impl Scene {
         if let Some(v) = &r.background {
             out.insert("background".into(), UniformValue::Array(v.value.iter().map(|&c| float(c)).collect()));
         }
-        out.insert("max_samples".into(), UniformValue::Int(i64::from(r.max_samples())));
-        out
-    }
-}
-
-impl Render {
-    /// The loop bound: `max_samples` when given, else enough samples of the effective step size
-    /// to cross the unit cube's diagonal (plus two), at most [`MAX_SAMPLES_LIMIT`].
-    pub fn max_samples(&self) -> u32 {
-        if let Some(m) = &self.max_samples {
-            return m.value;
+        if let Some(m) = &r.max_samples {
+            out.insert("max_samples".into(), UniformValue::Int(i64::from(m.value)));
         }
-        let step = self.step_size.as_ref().map_or(DEFAULT_STEP_SIZE, |s| s.value);
-        let n = (3f32.sqrt() / step).ceil() + 2.0;
-        if n.is_finite() && n < MAX_SAMPLES_LIMIT as f32 { n as u32 } else { MAX_SAMPLES_LIMIT }
+        out
     }
 }

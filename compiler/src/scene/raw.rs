@@ -20,7 +20,7 @@ pub(super) struct RawScene {
 }
 pub(super) const SCENE_KEYS: &[&str] = &["render", "volume", "module", "uniforms", "view"];
 
-#[derive(Deserialize, Default)]
+#[derive(Deserialize, Default, Clone)]
 #[serde(deny_unknown_fields)]
 pub(super) struct RawRender {
     pub(super) compositing: Option<Spanned<Compositing>>,
@@ -83,10 +83,13 @@ pub(super) struct RawView {
     pub(super) axis: Option<Spanned<Axis>>,
     pub(super) position: Option<Spanned<f32>>,
     pub(super) slab: Option<Spanned<f32>>,
+    pub(super) convention: Option<Spanned<Convention>>,
+    pub(super) render: Option<Spanned<RawRender>>,
     #[serde(default)]
     pub(super) modules: Vec<Spanned<RawModule>>,
 }
-pub(super) const VIEW_KEYS: &[&str] = &["name", "kind", "size", "camera", "axis", "position", "slab", "modules"];
+pub(super) const VIEW_KEYS: &[&str] =
+    &["name", "kind", "size", "camera", "axis", "position", "slab", "convention", "render", "modules"];
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(super) struct RawCamera {

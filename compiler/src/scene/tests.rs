@@ -111,7 +111,7 @@ fn the_spec_example_parses() {
     assert_eq!(axial.axis.as_ref().map(|a| a.value), Some(Axis::Z));
     assert_eq!((axial.position, axial.slab, axial.size), (0.5, 0.0, DEFAULT_VIEW_SIZE));
     let values = scene.uniform_values();
-    assert_eq!(values["max_samples"], UniformValue::Int(i64::from(scene.render.max_samples())));
+    assert!(!values.contains_key("max_samples"), "without `max_samples` the runtime derives it");
     assert!(values.contains_key("clip_plane_gm"));
 }
 
@@ -253,10 +253,13 @@ fn bad_enum_values_point_at_the_value() {
     let errs = errors(&EXAMPLE.replace("compositing = \"dvr\"", "compositing = \"dvrr\""));
     assert_eq!(errs.len(), 1, "{errs:?}");
     assert_eq!((errs[0].0, errs[0].1, errs[0].2), ("E0702", 2, 15));
-    assert_eq!(errs[0].3, "`dvrr` is not one of `dvr`, `mip`, `iso`");
+    assert_eq!(errs[0].3, "`dvrr` is not one of `dvr`, `mip`, `iso`, `minip`, `average`");
 
     let errs = errors(&EXAMPLE.replace("axis = \"z\"", "axis = \"w\""));
-    assert_eq!((errs[0].1, errs[0].3.as_str()), (29, "`w` is not one of `x`, `y`, `z`"));
+    assert_eq!(
+        (errs[0].1, errs[0].3.as_str()),
+        (29, "`w` is not one of `sagittal`, `x`, `coronal`, `y`, `axial`, `z`")
+    );
 }
 
 #[test]
@@ -338,7 +341,7 @@ fn defaults() {
     let r = &scene.render;
     assert_eq!(r.compositing.value, Compositing::Dvr);
     assert!(!r.shading && r.lights.is_empty() && !r.boundary && !r.tone);
-    assert_eq!(r.max_samples(), 695);
+    assert!(r.max_samples.is_none() && r.step_size.is_none());
     let v = &scene.views[0];
     assert_eq!((v.kind.value, v.size, v.camera), (ViewKind::Raycast, DEFAULT_VIEW_SIZE, DEFAULT_CAMERA));
     let (_, result) = parse(&format!("[render]\nshading = true\n{MINIMAL}"));

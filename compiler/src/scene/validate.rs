@@ -96,11 +96,12 @@ impl Cx<'_> {
     }
 
     pub(super) fn scene(&mut self, raw: RawScene) -> Scene {
+        let shared = raw.render.clone();
         let render = self.render(raw.render);
         let volumes = self.volumes(raw.volumes);
         let modules = raw.modules.into_iter().map(|m| self.module(m)).collect();
         let uniforms = self.uniforms(raw.uniforms, &render);
-        let views = self.views(raw.views);
+        let views = self.views(raw.views, shared.as_ref(), &render);
         Scene { render, volumes, modules, uniforms, views, dir: self.dir.to_path_buf() }
     }
 
@@ -161,12 +162,12 @@ impl Cx<'_> {
         }
         let step_size = r.step_size.as_ref().map(|s| Located { value: *s.get_ref(), span: self.span(s) });
         if let Some(s) = &step_size
-            && !(s.value > 0.0 && s.value <= 1.0)
+            && !(s.value > 0.0 && s.value.is_finite())
         {
             self.emit(
-                self.invalid(s.span, "`step_size` must be greater than 0 and at most 1")
-                    .with_label("normalized volume units")
-                    .with_note("the volume spans [0, 1] on each axis"),
+                self.invalid(s.span, "`step_size` must be a distance greater than 0")
+                    .with_label("millimetres")
+                    .with_note("without `step_size`, rays step half the primary volume's smallest voxel spacing"),
             );
         }
         let max_samples = r.max_samples.as_ref().map(|s| Located { value: *s.get_ref(), span: self.span(s) });
@@ -450,7 +451,12 @@ impl Cx<'_> {
     }
 
     /// `[[view]]` tables. One check per key, in the table's order, as for [`Self::render`].
-    pub(super) fn views(&mut self, raw: Vec<Spanned<RawView>>) -> Vec<View> {
+    pub(super) fn views(
+        &mut self,
+        raw: Vec<Spanned<RawView>>,
+        shared: Option<&Spanned<RawRender>>,
+        render: &Render,
+    ) -> Vec<View> {
         if raw.is_empty() {
             self.emit(
                 self.invalid(Span::new(self.base, self.base), "the scene has no [[view]]")
@@ -504,6 +510,7 @@ impl Cx<'_> {
             let mut axis = None;
             let mut position = DEFAULT_SLICE_POSITION;
             let mut slab = 0.0;
+            let mut convention = Convention::default();
             match kind.value {
                 ViewKind::Raycast => {
                     if let Some(c) = &v.camera {
@@ -513,6 +520,7 @@ impl Cx<'_> {
                         (v.axis.as_ref().map(|a| a.span()), "axis"),
                         (v.position.as_ref().map(|p| p.span()), "position"),
                         (v.slab.as_ref().map(|s| s.span()), "slab"),
+                        (v.convention.as_ref().map(|c| c.span()), "convention"),
                     ];
                     for (range, key) in slice_keys {
                         if let Some(r) = range {
@@ -531,7 +539,7 @@ impl Cx<'_> {
                             self.emit(
                                 self.invalid(kind.span, format!("the slice view `{}` needs an `axis`", name.name))
                                     .with_label("a slice view")
-                                    .with_help("add `axis = \"z\"` (x, y or z: the axis the slice plane is normal to)"),
+                                    .with_help("add `axis = \"axial\"` (axial, coronal or sagittal: the plane's orientation in the patient)"),
                             );
                         }
                     }
@@ -546,17 +554,24 @@ impl Cx<'_> {
                     }
                     if let Some(s) = &v.slab {
                         slab = *s.get_ref();
-                        if !(0.0..=1.0).contains(&slab) {
+                        if !(slab >= 0.0 && slab.is_finite()) {
                             self.emit(
-                                self.invalid(self.span(s), "a `slab` thickness must be between 0 and 1")
-                                    .with_label("normalized volume units"),
+                                self.invalid(self.span(s), "a `slab` thickness must be 0 or more")
+                                    .with_label("millimetres"),
                             );
                         }
+                    }
+                    if let Some(c) = &v.convention {
+                        convention = *c.get_ref();
                     }
                 }
             }
             let modules = v.modules.into_iter().map(|m| self.module(m)).collect();
-            out.push(View { name, kind, size, camera, axis, position, slab, modules, span });
+            let render = match &v.render {
+                Some(own) => self.view_render(shared, own),
+                None => render.clone(),
+            };
+            out.push(View { name, kind, size, camera, axis, position, slab, convention, render, modules, span });
         }
         out
     }

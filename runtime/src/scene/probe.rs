@@ -113,6 +113,7 @@ impl SceneRenderer {
         }
         probe.view.camera = view.camera;
         probe.view.slice = view.slice;
+        probe.view.convention = view.convention;
         apply_view_uniforms(&mut probe.view, &self.grids)?;
         let mut passes = Vec::with_capacity(probe.layout.passes as usize);
         for pass in 0..probe.layout.passes {
@@ -139,7 +140,13 @@ impl SceneRenderer {
         let Some(variant) = built.variant else { return Err(compose_error(&built.diags, &built.sources)) };
         let shader = ViewShader::new(variant.shader.wgsl, variant.shader.reflection, &self.path)?;
         let renderer = ViewRenderer::new(&self.gpu, &mut self.pipelines, shader, view.renderer.size())?;
-        let view = SceneView { name: view.name.clone(), renderer, camera: view.camera, slice: view.slice };
+        let view = SceneView {
+            name: view.name.clone(),
+            renderer,
+            camera: view.camera,
+            slice: view.slice,
+            convention: view.convention,
+        };
         Ok(Probe { layout: variant.layout, view })
     }
 }

@@ -1,0 +1,154 @@
+//! Per-view render settings and the display convention of slice views.
+//!
+//! A `[[view]]` may hold a `render` table with any `[render]` key; the view's settings are its
+//! own keys over the shared `[render]` table. An inherited key that has no effect in the view
+//! (`lights` or `tone` where the view turns shading off, `iso_value` or `empty_space_skipping`
+//! where it picks another compositing mode) is dropped without a warning: only what the view's
+//! table says itself is checked for effect.
+
+use super::raw::RawRender;
+use super::{Compositing, Cx, Render, Scene, UniformValue, View, ViewKind};
+use serde::Deserialize;
+use std::collections::BTreeMap;
+use toml::Spanned;
+
+/// How a slice view puts the patient's sides: `radiological` (the default) shows the patient's
+/// right on the image's left, as if facing the patient or looking up from the feet;
+/// `neurological` shows it on the right.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Convention {
+    #[default]
+    Radiological,
+    Neurological,
+}
+
+impl Compositing {
+    /// The name the scene writes (`compositing = "NAME"`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Compositing::Dvr => "dvr",
+            Compositing::Mip => "mip",
+            Compositing::Iso => "iso",
+            Compositing::Minip => "minip",
+            Compositing::Average => "average",
+        }
+    }
+}
+
+impl Scene {
+    /// Initial uniform values of `view`: `[uniforms]` and what its render settings set.
+    pub fn view_uniform_values(&self, view: &View) -> BTreeMap<String, UniformValue> {
+        self.uniform_values_with(&view.render)
+    }
+
+    /// Whether some raycast view skips empty space (the runtime then keeps the primary
+    /// volume's samples to build the occupancy grid).
+    pub fn skips_empty_space(&self) -> bool {
+        self.views.iter().any(|v| v.kind.value == ViewKind::Raycast && v.render.empty_space_skipping)
+    }
+}
+
+impl Cx<'_> {
+    /// A view's render settings: its own `render` table over the shared one, validated.
+    pub(super) fn view_render(&mut self, shared: Option<&Spanned<RawRender>>, own: &Spanned<RawRender>) -> Render {
+        let merged = merge(shared.map(|s| s.get_ref()), own.get_ref());
+        self.render(Some(Spanned::new(own.span(), merged)))
+    }
+}
+
+/// `own`'s keys over `shared`'s, without the inherited keys that have no effect with `own`'s
+/// compositing mode and shading.
+fn merge(shared: Option<&RawRender>, own: &RawRender) -> RawRender {
+    let base = shared.cloned().unwrap_or_default();
+    let own = own.clone();
+    let compositing = own.compositing.or(base.compositing);
+    let shading = own.shading.or(base.shading);
+    let mode = compositing.as_ref().map_or(Compositing::Dvr, |c| *c.get_ref());
+    let shaded = shading.as_ref().is_some_and(|s| *s.get_ref());
+    RawRender {
+        iso_value: own.iso_value.or(base.iso_value.filter(|_| mode == Compositing::Iso)),
+        lights: own.lights.or(base.lights.filter(|_| shaded)),
+        tone: own.tone.or(base.tone.filter(|_| shaded)),
+        empty_space_skipping: own
+            .empty_space_skipping
+            .or(base.empty_space_skipping.filter(|_| mode == Compositing::Dvr)),
+        compositing,
+        shading,
+        boundary: own.boundary.or(base.boundary),
+        step_size: own.step_size.or(base.step_size),
+        max_samples: own.max_samples.or(base.max_samples),
+        jitter: own.jitter.or(base.jitter),
+        background: own.background.or(base.background),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::parse_scene_text;
+    use std::path::Path;
+
+    const SCENE: &str = "[render]\nshading = true\nlights = [\"key\", \"fill\"]\ntone = true\nstep_size = 0.4\n\n\
+        [[volume]]\nname = \"v\"\nrole = \"primary\"\nphantom = \"head\"\n\n\
+        [[view]]\nname = \"3d\"\n\n\
+        [[view]]\nname = \"axial\"\nkind = \"slice\"\naxis = \"axial\"\nconvention = \"neurological\"\n\
+        render = { shading = false, compositing = \"minip\" }\n";
+
+    /// The scene of `text` and its diagnostics.
+    fn parse(text: &str) -> (Option<Scene>, Vec<crate::diag::Diagnostic>) {
+        let mut diags = crate::diag::Diagnostics::new();
+        let scene = parse_scene_text(text, 0, Path::new("."), &mut diags);
+        (scene, diags.sorted())
+    }
+
+    fn modules(scene: &Scene, view: &str) -> Vec<&'static str> {
+        scene.standard_modules(scene.view(view).expect("view")).iter().map(|m| m.name).collect()
+    }
+
+    #[test]
+    fn a_view_render_table_overrides_the_shared_one_key_by_key() {
+        let (scene, diagnostics) = parse(SCENE);
+        assert!(diagnostics.is_empty(), "inherited keys without effect are dropped silently: {diagnostics:?}");
+        let scene = scene.expect("a valid scene");
+        let (shaded, flat) = (&scene.views[0], &scene.views[1]);
+        assert!(shaded.render.shading && shaded.render.tone && shaded.render.lights.len() == 2);
+        assert!(!flat.render.shading && !flat.render.tone && flat.render.lights.is_empty());
+        assert_eq!(flat.render.compositing.value, Compositing::Minip);
+        assert!(modules(&scene, "3d").contains(&"light") && modules(&scene, "3d").contains(&"composite_dvr"));
+        let axial = modules(&scene, "axial");
+        assert!(axial.contains(&"composite_minip") && !axial.contains(&"light") && !axial.contains(&"gradient"));
+        // Shared values the view does not replace carry over.
+        let values = scene.view_uniform_values(flat);
+        assert_eq!(values["step_size"], UniformValue::Float(f64::from(0.4f32)));
+        assert_eq!((shaded.convention, flat.convention), (Convention::Radiological, Convention::Neurological));
+        assert_eq!(flat.axis.as_ref().map(|a| a.value), Some(super::super::Axis::Z));
+    }
+
+    #[test]
+    fn a_view_render_table_is_validated_like_render() {
+        let text = SCENE.replace("compositing = \"minip\"", "compositing = \"iso\"");
+        let (scene, diagnostics) = parse(&text);
+        assert!(scene.is_none(), "iso needs iso_value");
+        assert!(diagnostics.iter().any(|d| d.message.contains("needs an `iso_value`")), "{diagnostics:?}");
+        let text = SCENE.replace("compositing = \"minip\"", "compositing = \"mip\", frobnicate = 1");
+        let (scene, diagnostics) = parse(&text);
+        assert!(scene.is_none(), "unknown key");
+        assert!(diagnostics.iter().any(|d| d.message.contains("unknown key `frobnicate`")), "{diagnostics:?}");
+    }
+
+    #[test]
+    fn every_compositing_mode_has_a_standard_module() {
+        for mode in ["dvr", "mip", "minip", "average"] {
+            let text = format!(
+                "[render]\ncompositing = \"{mode}\"\n[[volume]]\nname = \"v\"\nrole = \"primary\"\nphantom = \"head\"\n[[view]]\nname = \"3d\"\n"
+            );
+            let (scene, diagnostics) = parse(&text);
+            let scene = scene.unwrap_or_else(|| panic!("{diagnostics:?}"));
+            assert_eq!(scene.render.compositing.value.name(), mode);
+            let wanted = format!("composite_{mode}");
+            assert!(modules(&scene, "3d").iter().any(|m| *m == wanted), "{mode}");
+            assert!(crate::stdlib::index(&wanted).is_some(), "stdlib/{wanted}.vrs exists");
+        }
+    }
+}
