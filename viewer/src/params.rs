@@ -137,16 +137,20 @@ pub fn show(ui: &mut egui::Ui, groups: &[Group], show_all: &mut bool, message: &
 
 fn uniform_row(ui: &mut egui::Ui, row: &UniformRow, actions: &mut Vec<Action>) {
     let name = &row.info.name;
-    ui.horizontal(|ui| {
-        let label = ui.label(RichText::new(name).monospace());
-        if let Some(doc) = &row.info.doc {
-            label.on_hover_text(doc);
-        }
-        ui.weak(&row.info.ty);
-        if row.changed && ui.small_button("reset").on_hover_text("Back to the scene's value").clicked() {
-            actions.push(Action::ResetUniform(name.clone()));
-        }
-    });
+    let label = ui
+        .horizontal(|ui| {
+            let label = ui.label(RichText::new(name).monospace());
+            let id = label.id;
+            if let Some(doc) = &row.info.doc {
+                label.on_hover_text(doc);
+            }
+            ui.weak(&row.info.ty);
+            if row.changed && ui.small_button("reset").on_hover_text("Back to the scene's value").clicked() {
+                actions.push(Action::ResetUniform(name.clone()));
+            }
+            id
+        })
+        .inner;
     let Some(value) = &row.value else {
         let why = match row.control {
             Control::Resource => "edited in the transfer-function tab",
@@ -156,27 +160,28 @@ fn uniform_row(ui: &mut egui::Ui, row: &UniformRow, actions: &mut Vec<Action>) {
         return;
     };
     let mut edited = value.clone();
-    let changed = ui.push_id(name, |ui| edit(ui, &row.control, &mut edited)).inner;
+    // Every widget is named by the uniform's label (for screen readers and UI tests).
+    let changed = ui.push_id(name, |ui| edit(ui, &row.control, &mut edited, label)).inner;
     if changed && &edited != value {
         actions.push(Action::SetUniform(name.clone(), edited));
     }
 }
 
 /// The control's widget(s) over `value`; whether the user changed it.
-fn edit(ui: &mut egui::Ui, control: &Control, value: &mut Value) -> bool {
+fn edit(ui: &mut egui::Ui, control: &Control, value: &mut Value, label: egui::Id) -> bool {
     match (control, value) {
         (Control::SetByRenderer, _) => {
             ui.weak("set by the viewer every frame (camera, slice, volume placement)");
             false
         }
-        (Control::Checkbox, Value::Bool(v)) => v.iter_mut().any(|b| ui.checkbox(b, "").changed()),
-        (Control::Colour { alpha }, Value::Float(v)) => colour(ui, v, *alpha),
-        (Control::Slider { lo, hi }, v) => component(ui, v, 0, Some((*lo, *hi)), ""),
+        (Control::Checkbox, Value::Bool(v)) => v.iter_mut().any(|b| ui.checkbox(b, "").labelled_by(label).changed()),
+        (Control::Colour { alpha }, Value::Float(v)) => colour(ui, v, *alpha, label),
+        (Control::Slider { lo, hi }, v) => component(ui, v, 0, Some((*lo, *hi)), "", label),
         (Control::Vector { components, ranges }, v) => {
             let mut changed = false;
             for i in 0..*components {
                 let range = ranges.as_ref().and_then(|r| r.get(i).copied());
-                changed |= component(ui, v, i, range, ["x", "y", "z", "w"][i.min(3)]);
+                changed |= component(ui, v, i, range, ["x", "y", "z", "w"][i.min(3)], label);
             }
             changed
         }
@@ -185,26 +190,34 @@ fn edit(ui: &mut egui::Ui, control: &Control, value: &mut Value) -> bool {
             egui::Grid::new("matrix").show(ui, |ui| {
                 for r in 0..*rows {
                     for c in 0..*columns {
-                        changed |= component(ui, v, c * rows + r, None, "");
+                        changed |= component(ui, v, c * rows + r, None, "", label);
                     }
                     ui.end_row();
                 }
             });
             changed
         }
-        (_, v) => component(ui, v, 0, None, ""),
+        (_, v) => component(ui, v, 0, None, "", label),
     }
 }
 
 /// One component of a value: a slider with a range, a drag value without.
-fn component(ui: &mut egui::Ui, value: &mut Value, i: usize, range: Option<(f64, f64)>, label: &str) -> bool {
+fn component(
+    ui: &mut egui::Ui,
+    value: &mut Value,
+    i: usize,
+    range: Option<(f64, f64)>,
+    label: &str,
+    named_by: egui::Id,
+) -> bool {
+    // A value with fewer components than its type (a malformed default) shows nothing.
     let response = match value {
-        Value::Float(v) => number(ui, &mut v[i], range, label, 0.01),
-        Value::Int(v) => number(ui, &mut v[i], range, label, 1.0),
-        Value::Uint(v) => number(ui, &mut v[i], range, label, 1.0),
-        Value::Bool(v) => ui.checkbox(&mut v[i], label),
+        Value::Float(v) => v.get_mut(i).map(|x| number(ui, x, range, label, 0.01)),
+        Value::Int(v) => v.get_mut(i).map(|x| number(ui, x, range, label, 1.0)),
+        Value::Uint(v) => v.get_mut(i).map(|x| number(ui, x, range, label, 1.0)),
+        Value::Bool(v) => v.get_mut(i).map(|x| ui.checkbox(x, label)),
     };
-    response.changed()
+    response.is_some_and(|r| r.labelled_by(named_by).changed())
 }
 
 fn number<N: egui::emath::Numeric>(
@@ -230,18 +243,18 @@ fn number<N: egui::emath::Numeric>(
 
 /// A colour picker over straight RGB(A) values in [0, 1] as the shader sees them (the output
 /// image stores them unchanged, so they are display values).
-fn colour(ui: &mut egui::Ui, v: &mut [f32], alpha: bool) -> bool {
+fn colour(ui: &mut egui::Ui, v: &mut [f32], alpha: bool, label: egui::Id) -> bool {
     let to_byte = |x: f32| (x.clamp(0.0, 1.0) * 255.0).round() as u8;
     let changed = if alpha && v.len() >= 4 {
         let mut rgba = [to_byte(v[0]), to_byte(v[1]), to_byte(v[2]), to_byte(v[3])];
-        let changed = ui.color_edit_button_srgba_unmultiplied(&mut rgba).changed();
+        let changed = ui.color_edit_button_srgba_unmultiplied(&mut rgba).labelled_by(label).changed();
         if changed {
             v[..4].iter_mut().zip(rgba).for_each(|(c, b)| *c = f32::from(b) / 255.0);
         }
         changed
     } else {
         let mut rgb = [to_byte(v[0]), to_byte(v[1]), to_byte(v[2])];
-        let changed = ui.color_edit_button_srgb(&mut rgb).changed();
+        let changed = ui.color_edit_button_srgb(&mut rgb).labelled_by(label).changed();
         if changed {
             v[..3].iter_mut().zip(rgb).for_each(|(c, b)| *c = f32::from(b) / 255.0);
         }

@@ -86,7 +86,12 @@ fn clip_plane_groups() -> Vec<params::Group> {
         let u = reflection.uniform(name)?;
         let json = u.value.as_ref().or(u.default.as_ref())?;
         let flat: Vec<f32> = match json {
-            serde_json::Value::Array(items) => items.iter().filter_map(|v| v.as_f64()).map(|f| f as f32).collect(),
+            serde_json::Value::Array(items) => items
+                .iter()
+                .flat_map(|v| v.as_array().cloned().unwrap_or_else(|| vec![v.clone()]))
+                .filter_map(|v| v.as_f64())
+                .map(|f| f as f32)
+                .collect(),
             scalar => vec![scalar.as_f64()? as f32],
         };
         u.ty.ends_with('f').then_some(Value::Float(flat))

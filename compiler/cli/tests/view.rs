@@ -35,10 +35,11 @@ fn screenshot(display: &str, path: &Path) -> Option<image::RgbaImage> {
     Some(image::open(path).ok()?.to_rgba8())
 }
 
-/// The region of the first view (the left tile of two), below the toolbar.
+/// The region of the first view (the left tile of two, left of the side panel), below the
+/// toolbar.
 fn first_view(shot: &image::RgbaImage) -> image::RgbaImage {
     let (w, h) = shot.dimensions();
-    image::imageops::crop_imm(shot, 0, h / 8, w / 2, h * 3 / 4).to_image()
+    image::imageops::crop_imm(shot, 0, h / 8, w / 3, h * 3 / 4).to_image()
 }
 
 fn distinct_colours(img: &image::RgbaImage) -> usize {
@@ -110,9 +111,11 @@ fn the_window_shows_the_scene_and_an_orbit_changes_the_picture() {
 
     // Orbit: a left-button drag across the first view.
     let (w, h) = (1000, 620);
-    let (x, y) = (w / 4, h / 2);
+    let (x, y) = (w / 6, h / 2);
+    // Paced, so that a loaded machine's slow frames still see a drag and not a click.
     let drag = format!(
-        "mousemove {x} {y} mousedown 1 mousemove {} {y} mousemove {} {y} mousemove {} {y} mouseup 1",
+        "mousemove {x} {y} mousedown 1 sleep 0.4 mousemove {} {y} sleep 0.4 mousemove {} {y} sleep 0.4 \
+         mousemove {} {y} sleep 0.4 mouseup 1",
         x + 40,
         x + 90,
         x + 140

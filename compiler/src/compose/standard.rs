@@ -73,7 +73,9 @@ impl Scene {
         }
         // Last: its functions append to `ray.setup` and `end` after the ones above.
         if r.empty_space_skipping && view.kind.value == ViewKind::Raycast {
-            add(skip_module(r.compositing.value), vec![]);
+            if let Some(module) = skip_module(r.compositing.value) {
+                add(module, vec![]);
+            }
         }
         out
     }
@@ -81,12 +83,13 @@ impl Scene {
 
 /// The empty-space skipping module of a compositing mode: each skips exactly what cannot change
 /// its image (DVR: bricks the transfer function makes transparent; MIP: bricks whose maximum
-/// cannot beat the ray's; iso: bricks entirely below the iso value).
-fn skip_module(compositing: Compositing) -> &'static str {
+/// cannot beat the ray's; iso: bricks entirely below the iso value). MinIP and average read
+/// every sample of the ray, so nothing can be skipped exactly.
+fn skip_module(compositing: Compositing) -> Option<&'static str> {
     match compositing {
-        Compositing::Dvr => "skip",
-        Compositing::Mip => "skip_mip",
-        Compositing::Iso => "skip_iso",
-        Compositing::Minip | Compositing::Average => "skip",
+        Compositing::Dvr => Some("skip"),
+        Compositing::Mip => Some("skip_mip"),
+        Compositing::Iso => Some("skip_iso"),
+        Compositing::Minip | Compositing::Average => None,
     }
 }

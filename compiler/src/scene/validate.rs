@@ -193,8 +193,9 @@ impl Cx<'_> {
         }
         // On by default where it pays: MIP's brick maxima rarely let a ray skip (bright structures
         // border most bricks), and on lavapipe the grid reads cost it 35-55% (benches/peers).
-        let empty_space_skipping =
-            r.empty_space_skipping.as_ref().map_or(compositing.value != Compositing::Mip, |skip| *skip.get_ref());
+        // MinIP and average read every sample: they never skip.
+        let exact = matches!(compositing.value, Compositing::Dvr | Compositing::Iso);
+        let empty_space_skipping = r.empty_space_skipping.as_ref().map_or(exact, |skip| *skip.get_ref());
         Render {
             compositing,
             iso_value,
