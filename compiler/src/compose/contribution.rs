@@ -104,7 +104,7 @@ pub fn schedule(program: &hir::Program, comp: &Composition) -> SampleSchedule {
     if !contributing.iter().any(|&f| reads_textures(program, placed(f))) {
         // Without texture reads the waiting work is a few arithmetic operations: testing the
         // flag (and gathering samples in the entry point's inner loop) costs more than it saves.
-        always.extend(contributing.drain(..));
+        always.append(&mut contributing);
         always.sort_by_key(|f| body.iter().position(|g| g == f));
     }
     SampleSchedule { always, contributing, end }

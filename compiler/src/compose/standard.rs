@@ -72,10 +72,11 @@ impl Scene {
             Compositing::Average => add("composite_average", vec![]),
         }
         // Last: its functions append to `ray.setup` and `end` after the ones above.
-        if r.empty_space_skipping && view.kind.value == ViewKind::Raycast {
-            if let Some(module) = skip_module(r.compositing.value) {
-                add(module, vec![]);
-            }
+        if r.empty_space_skipping
+            && view.kind.value == ViewKind::Raycast
+            && let Some(module) = skip_module(r.compositing.value)
+        {
+            add(module, vec![]);
         }
         out
     }
