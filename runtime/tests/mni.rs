@@ -50,22 +50,9 @@ fn mni152_t1_renders_with_its_automatic_window() {
          [[view]]\nname = \"axial\"\nkind = \"slice\"\nsize = [128, 128]\naxis = \"z\"\nposition = 0.55\n",
         dir.join(FILES[0]).display()
     );
-    let scene = scene_dir.path().join("scene.toml");
-    std::fs::write(&scene, text).unwrap();
-    let mut renderer = vrs_runtime::SceneRenderer::open(
-        common::software_gpu(),
-        &scene,
-        vrs_runtime::RenderOptions::default(),
-        &mut |_, _, _| {},
-    )
-    .unwrap();
+    let mut renderer = open(scene_dir.path(), &text);
     assert!(renderer.notices.iter().any(|n| n.contains("automatic window")), "{:?}", renderer.notices);
-    let failures: Vec<String> = renderer
-        .render_all()
-        .unwrap()
-        .into_iter()
-        .filter_map(|(view, image)| common::check_golden(&format!("mni152_t1__{view}"), &image).err())
-        .collect();
+    let failures = golden_failures(&mut renderer, "mni152_t1__");
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
 
@@ -92,21 +79,25 @@ fn mni152_t1_projections_and_planes() {
          convention = \"neurological\"\n",
         dir.join(FILES[0]).display()
     );
-    let scene = scene_dir.path().join("scene.toml");
-    std::fs::write(&scene, text).unwrap();
-    let mut renderer = vrs_runtime::SceneRenderer::open(
-        common::software_gpu(),
-        &scene,
-        vrs_runtime::RenderOptions::default(),
-        &mut |_, _, _| {},
-    )
-    .unwrap();
+    let mut renderer = open(scene_dir.path(), &text);
     assert_eq!(renderer.slice_edge_labels(3), Some(["L", "R", "S", "I"]));
-    let failures: Vec<String> = renderer
-        .render_all()
-        .unwrap()
-        .into_iter()
-        .filter_map(|(view, image)| common::check_golden(&format!("mni152_t1_modes__{view}"), &image).err())
-        .collect();
+    let failures = golden_failures(&mut renderer, "mni152_t1_modes__");
     assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+/// Opens the scene `text`, written into `dir`, on the software adapter.
+fn open(dir: &Path, text: &str) -> vrs_runtime::SceneRenderer {
+    let scene = dir.join("scene.toml");
+    std::fs::write(&scene, text).unwrap();
+    let options = vrs_runtime::RenderOptions::default();
+    vrs_runtime::SceneRenderer::open(common::software_gpu(), &scene, options, &mut |_, _, _| {}).unwrap()
+}
+
+/// Every view rendered and compared with its golden image `PREFIXVIEW`: the failures.
+fn golden_failures(renderer: &mut vrs_runtime::SceneRenderer, prefix: &str) -> Vec<String> {
+    let images = renderer.render_all().unwrap();
+    images
+        .into_iter()
+        .filter_map(|(view, image)| common::check_golden(&format!("{prefix}{view}"), &image).err())
+        .collect()
 }
