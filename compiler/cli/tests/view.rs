@@ -71,6 +71,31 @@ fn settled(display: &str, path: &Path, limit: Duration) -> image::RgbaImage {
     }
 }
 
+/// Starts Xvfb on a display it picks itself (`-displayfd`), so that no other server's display is
+/// taken and the viewer starts only once the server accepts connections: Xvfb writes the number
+/// when it is ready, which on a fresh machine (font caches to build) can take seconds.
+fn start_xvfb() -> (Killed, String) {
+    use std::io::BufRead;
+    let mut child = Command::new("Xvfb")
+        .args(["-displayfd", "1", "-screen", "0", "1000x620x24", "-nolisten", "tcp"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("Xvfb starts");
+    let mut line = String::new();
+    std::io::BufReader::new(child.stdout.take().unwrap()).read_line(&mut line).expect("Xvfb reports its display");
+    let number = line.trim();
+    assert!(!number.is_empty(), "Xvfb exited before it reported a display");
+    (Killed(child), format!(":{number}"))
+}
+
+/// Fails with what the viewer printed when it is no longer running.
+fn still_running(viewer: &mut Killed, log: &Path) {
+    if let Ok(Some(status)) = viewer.0.try_wait() {
+        panic!("vrsc view exited ({status}); it printed:\n{}", std::fs::read_to_string(log).unwrap_or_default());
+    }
+}
+
 #[test]
 fn the_window_shows_the_scene_and_an_orbit_changes_the_picture() {
     let missing: Vec<&str> = ["Xvfb", "xdotool", "import"].into_iter().filter(|t| !have(t)).collect();
@@ -83,31 +108,30 @@ fn the_window_shows_the_scene_and_an_orbit_changes_the_picture() {
         eprintln!("window test skipped on request: {missing:?} missing");
         return;
     }
-    let display = format!(":{}", 50 + std::process::id() % 200);
-    let _xvfb = Killed(
-        Command::new("Xvfb")
-            .args([display.as_str(), "-screen", "0", "1000x620x24", "-nolisten", "tcp"])
-            .stderr(Stdio::null())
-            .spawn()
-            .expect("Xvfb starts"),
-    );
-    std::thread::sleep(Duration::from_millis(800));
+    let (_xvfb, display) = start_xvfb();
     let scene: PathBuf = [env!("CARGO_MANIFEST_DIR"), "..", "..", "examples", "basic", "scene.toml"].iter().collect();
     let runtime_dir = tempfile::tempdir().unwrap();
-    let _viewer = Killed(
+    let log_path = runtime_dir.path().join("viewer.log");
+    let mut viewer = Killed(
         Command::new(env!("CARGO_BIN_EXE_vrsc"))
             .args(["view", &scene.display().to_string(), "--software"])
             .env("DISPLAY", &display)
             .env("XDG_RUNTIME_DIR", runtime_dir.path())
             .env_remove("WAYLAND_DISPLAY")
-            .stderr(Stdio::null())
+            .stderr(std::fs::File::create(&log_path).unwrap())
             .spawn()
             .expect("vrsc view starts"),
     );
     let dir = tempfile::tempdir().unwrap();
     let shot = dir.path().join("shot.png");
     let before = settled(&display, &shot, Duration::from_secs(90));
-    assert!(distinct_colours(&before) > 20, "the first view is blank: {} colours", distinct_colours(&before));
+    still_running(&mut viewer, &log_path);
+    assert!(
+        distinct_colours(&before) > 20,
+        "the first view is blank: {} colours; the viewer printed:\n{}",
+        distinct_colours(&before),
+        std::fs::read_to_string(&log_path).unwrap_or_default()
+    );
 
     // Orbit: a left-button drag across the first view.
     let (w, h) = (1000, 620);
@@ -123,6 +147,7 @@ fn the_window_shows_the_scene_and_an_orbit_changes_the_picture() {
     let status = Command::new("xdotool").args(drag.split(' ')).env("DISPLAY", &display).status().unwrap();
     assert!(status.success(), "xdotool drives the mouse");
     let after = settled(&display, &shot, Duration::from_secs(90));
+    still_running(&mut viewer, &log_path);
     let difference = mean_difference(&before, &after);
     assert!(difference > 1.0, "the orbit must change the picture (mean difference {difference:.3} of 255)");
     assert!(distinct_colours(&after) > 20, "the orbited view is blank");
