@@ -10,7 +10,6 @@ use crate::diag::{Code, Diagnostic};
 use crate::lexer::Token as T;
 use crate::source::Span;
 use chumsky::prelude::*;
-use chumsky::recursive::Indirect;
 
 /// One entry of a pipeline function's body.
 enum Entry {
@@ -23,7 +22,7 @@ enum Entry {
 pub(super) fn body<'t, I: Tokens<'t>, Er: GrammarError<'t, I>>(
     expr: Rule<'t, I, Dx, Er>,
     ty: Rule<'t, I, TypeExpr, Er>,
-    stmt: Recursive<Indirect<'t, 't, I, St, Extra<Er>>>,
+    stmt: Rule<'t, I, St, Er>,
 ) -> impl Parser<'t, I, (Vec<Decl>, Block), Extra<Er>> + Clone {
     open().then(entry(expr, ty, stmt).repeated().collect::<Vec<Entry>>()).then(close()).map_with(
         move |((open, entries), missing), e| {
@@ -77,7 +76,7 @@ fn split_entries(entries: Vec<Entry>) -> (Vec<Decl>, Vec<Stmt>, Vec<Diagnostic>)
 fn entry<'t, I: Tokens<'t>, Er: GrammarError<'t, I>>(
     expr: Rule<'t, I, Dx, Er>,
     ty: Rule<'t, I, TypeExpr, Er>,
-    stmt: Recursive<Indirect<'t, 't, I, St, Extra<Er>>>,
+    stmt: Rule<'t, I, St, Er>,
 ) -> impl Parser<'t, I, Entry, Extra<Er>> + Clone {
     let attribute = select_ref! { T::Attribute(name) = e => (name.clone(), span_of(e.span())) };
     attribute.or_not().then(choice((declaration(expr, ty).map(Ok), stmt.map(Err)))).map_with(|(attr, entry), e| {

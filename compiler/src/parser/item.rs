@@ -12,7 +12,6 @@ use crate::ast::{
 };
 use crate::lexer::Token as T;
 use chumsky::prelude::*;
-use chumsky::recursive::Indirect;
 
 /// A file's items; a broken item is skipped up to the next item keyword outside brackets.
 pub(super) fn module<'t, I: Tokens<'t>, Er: GrammarError<'t, I>>() -> impl Parser<'t, I, Vec<Item>, Extra<Er>> {
@@ -84,7 +83,7 @@ fn lib_fn<'t, I: Tokens<'t>, Er: GrammarError<'t, I>>(
 fn pipeline<'t, I: Tokens<'t>, Er: GrammarError<'t, I>>(
     expr: Rule<'t, I, Dx, Er>,
     ty: Rule<'t, I, TypeExpr, Er>,
-    stmt: Recursive<Indirect<'t, 't, I, St, Extra<Er>>>,
+    stmt: Rule<'t, I, St, Er>,
 ) -> impl Parser<'t, I, ItemKind, Extra<Er>> + Clone {
     just(T::Pipeline)
         .ignore_then(ident())

@@ -9,7 +9,6 @@ use crate::diag::{Code, Diagnostic};
 use crate::lexer::Token as T;
 use crate::source::Span;
 use chumsky::prelude::*;
-use chumsky::recursive::Indirect;
 
 /// A statement as its kind and the depth of what it holds (0 for none).
 type Nested = (StmtKind, u32);
@@ -19,7 +18,7 @@ pub(super) type Missing = Option<(Option<T>, SimpleSpan)>;
 
 /// The statement rule and the block rule built on it.
 pub(super) struct Statements<'t, I: Tokens<'t>, Er: GrammarError<'t, I>> {
-    pub(super) stmt: Recursive<Indirect<'t, 't, I, St, Extra<Er>>>,
+    pub(super) stmt: Rule<'t, I, St, Er>,
     pub(super) block: Rule<'t, I, (Block, u32), Er>,
 }
 
@@ -28,34 +27,41 @@ pub(super) fn statements<'t, I: Tokens<'t>, Er: GrammarError<'t, I>>(
     expr: Rule<'t, I, Dx, Er>,
     ty: Rule<'t, I, TypeExpr, Er>,
 ) -> Statements<'t, I, Er> {
-    let mut stmt = Recursive::<Indirect<'t, 't, I, St, Extra<Er>>>::declare();
-    let block = block(stmt.clone());
-    let stmt_inner = choice((
-        let_stmt(expr.clone(), ty.clone()),
-        var_stmt(expr.clone(), ty),
-        if_stmt(expr.clone(), block.clone()),
-        for_stmt(expr.clone(), block.clone()),
-        just(T::Return)
-            .ignore_then(value(expr.clone()).or_not())
-            .then_ignore(just(T::Semi))
-            .map(|e| (StmtKind::Return(e), 0)),
-        just(T::Break).then(just(T::Semi)).to((StmtKind::Break, 0)),
-        just(T::Continue).then(just(T::Semi)).to((StmtKind::Continue, 0)),
-        block.clone().map(|(b, depth)| (StmtKind::Block(b), depth)),
-        expr_stmt(expr),
-        // A run of over-deep brackets the lexer already reported, standing alone.
-        just(T::Error).then(just(T::Semi).or_not()).to((StmtKind::Error, 0)),
-    ))
-    .map_with(|(kind, inner), e| {
-        let (st, d) = deepen_stmt(kind, span_of(e.span()), inner);
-        emit(e, d);
-        st
+    // `recursive` hands the rule a weak handle to itself, so the grammar is no reference cycle
+    // (a `Recursive::declare` rule that holds itself is never freed). The block rule outside
+    // holds the rule strongly.
+    let stmt = recursive(|stmt| {
+        let block = block(stmt);
+        let stmt_inner = choice((
+            let_stmt(expr.clone(), ty.clone()),
+            var_stmt(expr.clone(), ty),
+            if_stmt(expr.clone(), block.clone()),
+            for_stmt(expr.clone(), block.clone()),
+            just(T::Return)
+                .ignore_then(value(expr.clone()).or_not())
+                .then_ignore(just(T::Semi))
+                .map(|e| (StmtKind::Return(e), 0)),
+            just(T::Break).then(just(T::Semi)).to((StmtKind::Break, 0)),
+            just(T::Continue).then(just(T::Semi)).to((StmtKind::Continue, 0)),
+            block.map(|(b, depth)| (StmtKind::Block(b), depth)),
+            expr_stmt(expr),
+            // A run of over-deep brackets the lexer already reported, standing alone.
+            just(T::Error).then(just(T::Semi).or_not()).to((StmtKind::Error, 0)),
+        ))
+        .map_with(|(kind, inner), e| {
+            let (st, d) = deepen_stmt(kind, span_of(e.span()), inner);
+            emit(e, d);
+            st
+        })
+        .or(just(T::Semi).to(St { stmt: None, depth: 0 }))
+        .labelled("statement");
+        // What a broken statement or declaration is skipped to.
+        let stmt_skip =
+            skip_statement().map(|span| St { stmt: Some(Stmt { kind: StmtKind::Error, span }), depth: 1 });
+        stmt_inner.recover_with(via_parser(stmt_skip)).boxed()
     })
-    .or(just(T::Semi).to(St { stmt: None, depth: 0 }))
-    .labelled("statement");
-    // What a broken statement or declaration is skipped to.
-    let stmt_skip = skip_statement().map(|span| St { stmt: Some(Stmt { kind: StmtKind::Error, span }), depth: 1 });
-    stmt.define(stmt_inner.recover_with(via_parser(stmt_skip)).boxed());
+    .boxed();
+    let block = block(stmt.clone());
     Statements { stmt, block }
 }
 
@@ -91,7 +97,7 @@ pub(super) fn check_closed(open: Span, missing: Missing) -> Option<Diagnostic> {
 
 /// `{ statements }`, with the depth of its deepest statement.
 fn block<'t, I: Tokens<'t>, Er: GrammarError<'t, I>>(
-    stmt: Recursive<Indirect<'t, 't, I, St, Extra<Er>>>,
+    stmt: impl Parser<'t, I, St, Extra<Er>> + Clone + 't,
 ) -> Rule<'t, I, (Block, u32), Er> {
     open()
         .then(stmt.repeated().collect::<Vec<St>>())
