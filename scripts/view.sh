@@ -11,4 +11,5 @@ if [ -z "${DISPLAY:-}" ] && [ -z "${WAYLAND_DISPLAY:-}" ]; then
     echo "no display (DISPLAY and WAYLAND_DISPLAY are unset): rendering $scene to out/ instead" >&2
     exec cargo run --release --bin vrsc -- render "$scene" -o out
 fi
+. scripts/ensure-window.sh
 exec cargo run --release --bin vrsc -- view "$scene"
