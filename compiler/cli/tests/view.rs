@@ -128,8 +128,9 @@ fn the_window_shows_the_scene_and_an_orbit_changes_the_picture() {
     still_running(&mut viewer, &log_path);
     assert!(
         distinct_colours(&before) > 20,
-        "the first view is blank: {} colours; the viewer printed:\n{}",
+        "the first view is blank: {} colours ({} on the whole screen); the viewer printed:\n{}",
         distinct_colours(&before),
+        screenshot(&display, &shot).map_or(0, |s| distinct_colours(&s)),
         std::fs::read_to_string(&log_path).unwrap_or_default()
     );
 
