@@ -56,8 +56,7 @@ pub(super) fn statements<'t, I: Tokens<'t>, Er: GrammarError<'t, I>>(
         .or(just(T::Semi).to(St { stmt: None, depth: 0 }))
         .labelled("statement");
         // What a broken statement or declaration is skipped to.
-        let stmt_skip =
-            skip_statement().map(|span| St { stmt: Some(Stmt { kind: StmtKind::Error, span }), depth: 1 });
+        let stmt_skip = skip_statement().map(|span| St { stmt: Some(Stmt { kind: StmtKind::Error, span }), depth: 1 });
         stmt_inner.recover_with(via_parser(stmt_skip)).boxed()
     })
     .boxed();

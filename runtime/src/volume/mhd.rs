@@ -348,6 +348,21 @@ mod tests {
         assert!(message.starts_with("corrupt or truncated compressed data: "), "{message}");
     }
 
+    /// A small file whose header claims 1000^3 shorts (2 GB, under the voxel limit) is an error
+    /// at the end of its data, raw or compressed, and nothing is allocated for the claim.
+    #[test]
+    fn a_small_file_claiming_a_huge_volume_is_an_error() {
+        let dir = tempfile::tempdir().unwrap();
+        let huge = HEADER.replace("3 2 2", "1000 1000 1000");
+        let (io, message) = load_err(&dir, "v.mha", &mha(&huge, &[0u8; 4096]));
+        assert!(!io);
+        assert_eq!(message, "header says 2000000000 bytes of data, file has 4096");
+        let compressed = format!("{huge}\nCompressedData = True");
+        let (io, message) = load_err(&dir, "v.mha", &mha(&compressed, &zlib(&[0u8; 4096])));
+        assert!(!io);
+        assert_eq!(message, "header says 2000000000 bytes of data, the decompressed data has 4096");
+    }
+
     #[test]
     fn header_errors() {
         let dir = tempfile::tempdir().unwrap();

@@ -464,6 +464,21 @@ mod tests {
         }
     }
 
+    /// A small file whose header claims 1000^3 shorts (2 GB, under the voxel limit) is an error
+    /// at the end of its data, raw or compressed, and nothing is allocated for the claim.
+    #[test]
+    fn a_small_file_claiming_a_huge_volume_is_an_error() {
+        let dir = tempfile::tempdir().unwrap();
+        let raw = "type: short\ndimension: 3\nsizes: 1000 1000 1000\nendian: little\nencoding: raw";
+        let (io, message) = load_err(&dir, "v.nrrd", &attached(raw, &[0u8; 4096]));
+        assert!(!io);
+        assert_eq!(message, "header says 2000000000 bytes of data, file has 4096");
+        let gz = raw.replace("raw", "gzip");
+        let (io, message) = load_err(&dir, "v.nrrd", &attached(&gz, &gzip(&[0u8; 4096])));
+        assert!(!io);
+        assert_eq!(message, "header says 2000000000 bytes of data, the decompressed data has 4096");
+    }
+
     #[test]
     fn header_errors() {
         let dir = tempfile::tempdir().unwrap();
