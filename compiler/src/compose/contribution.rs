@@ -25,23 +25,54 @@
 use super::ir::{Composition, PlacedFn};
 use crate::hir;
 use crate::steps::Step;
+use crate::types::Type;
 
 /// The state field whose `false` skips the rest of a sample.
 pub const CONTRIBUTES: &str = "contributes";
+/// The state field whose `true` makes the sample the one the ray keeps: the rest of the sample
+/// runs once, after the loop, on the last sample that set it (see the module documentation).
+pub const SELECTED: &str = "selected";
 
 /// One placed sample function: its step and index in that step's list.
 pub type SampleFn = (Step, usize);
+
+/// Which flag the waiting functions of a [`SampleSchedule`] wait for, and when they run.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Gate {
+    /// `contributes`: they run for the samples that leave it `true`.
+    Contributes,
+    /// `selected`, run at every sample that sets it: some function of the loop reads a `@ray`
+    /// field they write, so running them once at the end would change what it sees.
+    SelectedEach,
+    /// `selected`, run once after the loop on the last sample that set it.
+    SelectedOnce(Replay),
+}
+
+/// What the entry point keeps of a selected sample for running the waiting functions after the
+/// loop (field indices into [`Composition::fields`]).
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Replay {
+    /// Saved at each selected sample and put back before the waiting functions run: the fields
+    /// they read that the loop's functions write (every other field they read holds at the end
+    /// what it held then).
+    pub saved: Vec<usize>,
+    /// The `@ray` fields among `saved` that the waiting functions do not write: given back their
+    /// values from the end of the loop after the waiting functions ran, for `ray.finish`.
+    pub restored: Vec<usize>,
+}
 
 /// The order of a sample's functions in the entry point.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct SampleSchedule {
     /// Run for every sample, in this order.
     pub always: Vec<SampleFn>,
-    /// Run after `always` only while `contributes` is true: the deferred functions, then the
-    /// functions after the last writer, in pipeline order. Empty without a writer.
+    /// Wait for the flag [`SampleSchedule::gate`] names: the deferred functions, then the
+    /// functions after its last writer, in pipeline order. Empty without a writer.
     pub contributing: Vec<SampleFn>,
     /// The `end` step, run for every sample after the others.
     pub end: Vec<SampleFn>,
+    /// The flag `contributing` waits for; `None` when it is empty.
+    pub gate: Option<Gate>,
 }
 
 /// The fields one placed function reads and writes (indices into [`Composition::fields`]).
@@ -65,6 +96,12 @@ fn access(program: &hir::Program, placed: &PlacedFn) -> Access {
     out
 }
 
+/// The per-sample `bool` field `name` and the index (in `accesses`) of its last writer.
+fn last_writer(comp: &Composition, accesses: &[Access], name: &str) -> Option<(usize, usize)> {
+    let flag = comp.fields.iter().position(|f| f.name == name && !f.ray && f.ty == Type::BOOL)?;
+    accesses.iter().rposition(|a| a.writes.contains(&flag)).map(|last| (flag, last))
+}
+
 /// The order the entry point runs the sample functions of `comp` in.
 pub fn schedule(program: &hir::Program, comp: &Composition) -> SampleSchedule {
     let body: Vec<SampleFn> = Step::ALL
@@ -75,12 +112,15 @@ pub fn schedule(program: &hir::Program, comp: &Composition) -> SampleSchedule {
     let end: Vec<SampleFn> = (0..comp.step(Step::End).len()).map(|i| (Step::End, i)).collect();
     let placed = |(s, i): SampleFn| &comp.step(s)[i];
     let accesses: Vec<Access> = body.iter().map(|&f| access(program, placed(f))).collect();
-    let end_reads: Vec<usize> = end.iter().flat_map(|&f| access(program, placed(f)).reads).collect();
+    let end_accesses: Vec<Access> = end.iter().map(|&f| access(program, placed(f))).collect();
+    let end_reads: Vec<usize> = end_accesses.iter().flat_map(|a| a.reads.iter().copied()).collect();
 
-    let flag = comp.fields.iter().position(|f| f.name == CONTRIBUTES && !f.ray && f.ty == crate::types::Type::BOOL);
-    let last_writer = flag.and_then(|flag| accesses.iter().rposition(|a| a.writes.contains(&flag)));
-    let (Some(flag), Some(last)) = (flag, last_writer) else {
-        return SampleSchedule { always: body, contributing: Vec::new(), end };
+    // `selected` first: with its writer, `contributes` (a promise that skipping changes nothing)
+    // is not needed.
+    let selecting = last_writer(comp, &accesses, SELECTED);
+    let (Some((flag, last)), selecting) = (selecting.or_else(|| last_writer(comp, &accesses, CONTRIBUTES)), selecting.is_some())
+    else {
+        return SampleSchedule { always: body, contributing: Vec::new(), end, gate: None };
     };
 
     let deferrable = |k: usize| {
@@ -92,29 +132,62 @@ pub fn schedule(program: &hir::Program, comp: &Composition) -> SampleSchedule {
                 .all(|b| !b.reads.iter().any(|r| a.writes.contains(r)) && !b.writes.iter().any(|w| a.reads.contains(w)))
     };
     let mut always = Vec::new();
-    let mut contributing = Vec::new();
+    let mut waiting = Vec::new();
+    let mut always_k = Vec::new();
+    let mut waiting_k = Vec::new();
     for (k, &f) in body.iter().enumerate().take(last + 1) {
         if k < last && deferrable(k) {
-            contributing.push(f);
+            waiting.push(f);
+            waiting_k.push(k);
         } else {
             always.push(f);
+            always_k.push(k);
         }
     }
-    contributing.extend_from_slice(&body[last + 1..]);
-    if !contributing.iter().any(|&f| reads_textures(program, placed(f))) {
+    waiting.extend_from_slice(&body[last + 1..]);
+    waiting_k.extend(last + 1..body.len());
+    if selecting {
+        let loop_fns = always_k.iter().map(|&k| &accesses[k]).chain(&end_accesses);
+        let gate = replay(comp, waiting_k.iter().map(|&k| &accesses[k]), loop_fns);
+        return SampleSchedule { always, contributing: waiting, end, gate: Some(gate) };
+    }
+    if !waiting.iter().any(|&f| reads_textures(program, placed(f))) {
         // Without texture reads the waiting work is a few arithmetic operations: testing the
         // flag (and gathering samples in the entry point's inner loop) costs more than it saves.
-        always.append(&mut contributing);
+        always.append(&mut waiting);
         always.sort_by_key(|f| body.iter().position(|g| g == f));
+        return SampleSchedule { always, contributing: Vec::new(), end, gate: None };
     }
-    SampleSchedule { always, contributing, end }
+    SampleSchedule { always, contributing: waiting, end, gate: Some(Gate::Contributes) }
+}
+
+/// When the functions waiting for `selected` run: once after the loop unless a function of the
+/// loop (`loop_fns`: those that always run, and `end`) reads a `@ray` field they write, and
+/// which fields that needs saved.
+fn replay<'a>(
+    comp: &Composition,
+    waiting: impl Iterator<Item = &'a Access> + Clone,
+    loop_fns: impl Iterator<Item = &'a Access> + Clone,
+) -> Gate {
+    let written_by_waiting = |f: usize| waiting.clone().any(|a| a.writes.contains(&f));
+    let read_in_loop = |f: usize| loop_fns.clone().any(|a| a.reads.contains(&f));
+    let written_in_loop = |f: usize| loop_fns.clone().any(|a| a.writes.contains(&f));
+    let ray_fields_seen = (0..comp.fields.len()).any(|f| comp.fields[f].ray && written_by_waiting(f) && read_in_loop(f));
+    if ray_fields_seen {
+        return Gate::SelectedEach;
+    }
+    let mut saved: Vec<usize> = waiting.clone().flat_map(|a| a.reads.iter().copied()).filter(|&f| written_in_loop(f)).collect();
+    saved.sort_unstable();
+    saved.dedup();
+    let restored = saved.iter().copied().filter(|&f| comp.fields[f].ray && !written_by_waiting(f)).collect();
+    Gate::SelectedOnce(Replay { saved, restored })
 }
 
 /// Whether a placed function reads a volume or a transfer function (declares such a uniform):
 /// the cost that makes waiting for `contributes` worth its test.
 fn reads_textures(program: &hir::Program, placed: &PlacedFn) -> bool {
     let uniforms = &program.pipelines[placed.pipeline].uniforms;
-    uniforms.iter().any(|u| matches!(u.ty, crate::types::Type::Volume | crate::types::Type::Tf))
+    uniforms.iter().any(|u| matches!(u.ty, Type::Volume | Type::Tf))
 }
 
 #[cfg(test)]
