@@ -170,5 +170,48 @@ fn main() {
         with_ert[0] / skip_ert,
         without_ert[0] / skip_no_ert
     );
+
+    gradient_floor(&mut scene, &composed, &dir, &plain_path, options_of(size), &config);
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+fn options_of(size: u32) -> RenderOptions {
+    RenderOptions { size: Some([size, size]), ..RenderOptions::default() }
+}
+
+/// The gradient replaced by one fetch of the volume: not a gradient (the image differs), but no
+/// precomputed gradient texture can cost less than one (four-channel) trilinear fetch per
+/// shaded sample, so the time saved here bounds what such a texture could save over six fetches.
+const ONE_FETCH_GRADIENT: &str = r#"
+pipeline one_fetch_gradient replace sampling.gradient[sample_gradient] {
+    uniform volume: volume;
+    state pos: vec3f = vec3f(0.0);
+    state gradient: vec3f = vec3f(0.0);
+    state.gradient = vec3f(sample(volume, state.pos + vec3f(0.001)) - 0.5, 0.5, 0.5);
+}
+"#;
+
+/// Times the composed shader without skipping (six fetches per gradient) against the same scene
+/// whose gradient is [`ONE_FETCH_GRADIENT`], with early termination.
+fn gradient_floor(
+    scene: &mut SceneRenderer,
+    composed: &ViewShader,
+    dir: &Path,
+    plain: &Path,
+    options: RenderOptions,
+    config: &Config,
+) {
+    std::fs::write(dir.join("one_fetch.vrs"), ONE_FETCH_GRADIENT).expect("module");
+    let text = std::fs::read_to_string(plain).expect("scene") + "\n[[module]]\npath = \"one_fetch.vrs\"\n";
+    let path = dir.join("one_fetch.toml");
+    std::fs::write(&path, text).expect("scene");
+    let one = SceneRenderer::open(scene.gpu().clone(), &path, options, &mut |_, _, _| {}).expect("one-fetch scene");
+    let shaders = [composed.clone(), one.views[0].renderer.shader().clone()];
+    let times = compare(scene, &shaders, 0.99, config);
+    println!(
+        "gradient: six fetches {:7.1} ms/frame, one fetch (the floor of a gradient texture) {:7.1} ms ({:.2}x)",
+        times[0],
+        times[1],
+        times[0] / times[1]
+    );
 }
