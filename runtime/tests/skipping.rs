@@ -75,7 +75,8 @@ fn assert_skipping_keeps_the_image(mode: &str) {
     assert!(without.pixels().filter(|p| p[0] > 0).count() > 500, "{mode}: the head is visible");
     let worst = with.pixels().zip(without.pixels()).flat_map(|(a, b)| (0..4).map(move |c| a[c].abs_diff(b[c]))).max();
     assert!(worst.unwrap_or(0) <= 2, "{mode}: largest channel difference {worst:?}");
-    let (taken, all) = (mean_samples(&render(mode, Some(true), true).0), mean_samples(&render(mode, Some(false), true).0));
+    let (taken, all) =
+        (mean_samples(&render(mode, Some(true), true).0), mean_samples(&render(mode, Some(false), true).0));
     assert!(taken < 0.8 * all, "{mode}: {taken:.1} samples per ray with skipping, {all:.1} without");
 }
 

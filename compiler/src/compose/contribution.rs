@@ -129,7 +129,8 @@ pub fn schedule(program: &hir::Program, comp: &Composition) -> SampleSchedule {
     // `selected` first: with its writer, `contributes` (a promise that skipping changes nothing)
     // is not needed.
     let selecting = last_writer(comp, &accesses, SELECTED);
-    let (Some((flag, last)), selecting) = (selecting.or_else(|| last_writer(comp, &accesses, CONTRIBUTES)), selecting.is_some())
+    let (Some((flag, last)), selecting) =
+        (selecting.or_else(|| last_writer(comp, &accesses, CONTRIBUTES)), selecting.is_some())
     else {
         return SampleSchedule { always: body, contributing: Vec::new(), end, gate: None };
     };
@@ -183,11 +184,13 @@ fn replay<'a>(
     let written_by_waiting = |f: usize| waiting.clone().any(|a| a.writes.contains(&f));
     let read_in_loop = |f: usize| loop_fns.clone().any(|a| a.reads.contains(&f));
     let written_in_loop = |f: usize| loop_fns.clone().any(|a| a.writes.contains(&f));
-    let ray_fields_seen = (0..comp.fields.len()).any(|f| comp.fields[f].ray && written_by_waiting(f) && read_in_loop(f));
+    let ray_fields_seen =
+        (0..comp.fields.len()).any(|f| comp.fields[f].ray && written_by_waiting(f) && read_in_loop(f));
     if ray_fields_seen {
         return Gate::SelectedEach;
     }
-    let mut saved: Vec<usize> = waiting.clone().flat_map(|a| a.reads.iter().copied()).filter(|&f| written_in_loop(f)).collect();
+    let mut saved: Vec<usize> =
+        waiting.clone().flat_map(|a| a.reads.iter().copied()).filter(|&f| written_in_loop(f)).collect();
     saved.sort_unstable();
     saved.dedup();
     let restored = saved.iter().copied().filter(|&f| comp.fields[f].ray && !written_by_waiting(f)).collect();
@@ -235,7 +238,9 @@ mod tests {
             None => "none".to_string(),
             Some(Gate::Contributes) => "contributes".to_string(),
             Some(Gate::SelectedEach) => "each".to_string(),
-            Some(Gate::SelectedOnce(r)) => format!("once saved=[{}] restored=[{}]", fields(&r.saved), fields(&r.restored)),
+            Some(Gate::SelectedOnce(r)) => {
+                format!("once saved=[{}] restored=[{}]", fields(&r.saved), fields(&r.restored))
+            }
         };
         ([show(&s.always), show(&s.contributing), show(&s.end)], gate)
     }
@@ -277,7 +282,10 @@ pipeline walk in end { @ray state best: f32 = -1.0; @ray state t_next: f32 = 0.0
     #[test]
     fn a_ray_field_the_loop_reads_makes_selected_functions_run_at_each_selected_sample() {
         let src = SELECTING.replace("state.t_next += state.best;", "state.t_next += state.best + state.out_color.a;");
-        let src = src.replace("@ray state t_next: f32 = 0.0;", "@ray state t_next: f32 = 0.0; @ray state out_color: vec4f = vec4f(0.0);");
+        let src = src.replace(
+            "@ray state t_next: f32 = 0.0;",
+            "@ray state t_next: f32 = 0.0; @ray state out_color: vec4f = vec4f(0.0);",
+        );
         let (_, gate) = scheduled(&src);
         assert_eq!(gate, "each");
     }
@@ -297,7 +305,10 @@ pipeline walk in end { @ray state best: f32 = -1.0; @ray state t_next: f32 = 0.0
     fn without_texture_reads_selected_functions_still_wait() {
         // Running them for every sample would change the image: they are not folded back.
         let src = SELECTING.replace("uniform t: tf; ", "").replace("lookup(t, state.value)", "vec4f(state.value)");
-        let src = src.replace("uniform v: volume; state pos: vec3f = vec3f(0.0); state g: f32 = 0.0; state.g = sample(v, state.pos);", "state g: f32 = 0.0; state.g = 1.0;");
+        let src = src.replace(
+            "uniform v: volume; state pos: vec3f = vec3f(0.0); state g: f32 = 0.0; state.g = sample(v, state.pos);",
+            "state g: f32 = 0.0; state.g = 1.0;",
+        );
         let ([_, waiting, _], gate) = scheduled(&src);
         assert_eq!(waiting, ["grad", "colour", "pick"]);
         assert_eq!(gate, "once saved=[value] restored=[]");
