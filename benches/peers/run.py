@@ -33,15 +33,15 @@ MODES = {
     "dvr_shaded": {"compositing": "dvr", "shading": True},
     "mip": {"compositing": "mip", "shading": False},
 }
-# The writer of `contributes` per compositing mode (stdlib), for the `noflag` variant.
+# The writer of `contributes` per compositing mode (stdlib), for the `noflag` variant. MIP has
+# none: its `selected` flag defines which sample is composited (removing it changes the image).
 FLAG_WRITERS = {
     "dvr": "remove shading.lights[dvr_contributes];",
-    "mip": "remove classification.primary[mip_contributes];",
 }
 # Variants of the vrsc under test: a line added to [render], and a module (per compositing).
 VARIANTS = {
     "noskip": ("empty_space_skipping = false", None),
-    "noflag": (None, lambda compositing: FLAG_WRITERS[compositing]),
+    "noflag": (None, lambda compositing: FLAG_WRITERS.get(compositing)),
 }
 VOLUMES = {
     # The MNI152 T1 (uint8 MRI, 197 x 233 x 189 at 1 mm) with the MR preset over its automatic
@@ -128,7 +128,7 @@ def scene_toml(case, volume):
 compositing = "{mode['compositing']}"
 shading = {str(mode['shading']).lower()}
 {lights}jitter = 0.0
-step_size = {case['step']!r}
+step_size = {case['step'] * max(case['extent'])!r}
 
 [[volume]]
 name = "primary"
@@ -230,12 +230,24 @@ def run_case(label, case, volume, workers, wanted, args, out):
     scene = folder / "scene.toml"
     scene.write_text(scene_toml(case, volume))
     max_samples = math.ceil(math.sqrt(3.0) / case["step"]) + 2
-    uniforms = {"step_size": case["step"], "jitter": 0.0, "max_samples": max_samples}
+    # vrsc's `step_size` and `ref_step` are millimetres in patient space: the step and the
+    # reference distance as fractions of the box's largest side, times that side. A vrsc from
+    # before physical sampling (`before`) takes them as those fractions (normalized units).
+    side_mm = max(case["extent"])
+    uniforms = {
+        "step_size": case["step"] * side_mm,
+        "ref_step": case["ref_step"] * side_mm,
+        "jitter": 0.0,
+        "max_samples": max_samples,
+    }
+    before_uniforms = dict(uniforms, step_size=case["step"], ref_step=case["ref_step"])
     shaders = {"vrsc": folder / "vrsc"}
     build(args.vrsc, scene, shaders["vrsc"])
     # Variants of this vrsc, to measure what each mechanism is worth.
     for name, (render_line, module) in VARIANTS.items():
         if name not in wanted:
+            continue
+        if module and MODES[case["mode"]]["compositing"] not in FLAG_WRITERS:
             continue
         text = scene.read_text()
         if render_line:
@@ -250,7 +262,13 @@ def run_case(label, case, volume, workers, wanted, args, out):
         build(args.vrsc, variant, shaders[name])
     if "before" in wanted:
         shaders["before"] = folder / "before"
-        build(args.before, scene, shaders["before"])
+        # Only the shaders come from it; the worker opens the volume with today's runtime. A
+        # vrsc from before `[[volume]] window` existed builds the scene without that key.
+        before_scene = folder / "before.toml"
+        lines = [l for l in scene.read_text().splitlines(True) if not l.startswith("window = ")]
+        lines = [f"step_size = {case['step']!r}\n" if l.startswith("step_size = ") else l for l in lines]
+        before_scene.write_text("".join(lines))
+        build(args.before, before_scene, shaders["before"])
     phantom = volume["volume"].get("size", 128)
     workers["vrsc"].ask(cmd="open", scene=str(scene), size=case["size"], phantom_size=phantom)
 
@@ -267,16 +285,20 @@ def run_case(label, case, volume, workers, wanted, args, out):
                 if "no emission-absorption" not in str(error):
                     print(f"{label}: {name} left out: {error}")
 
+    def uniforms_of(name):
+        return before_uniforms if name == "before" else uniforms
+
     def time_frames(name, warmup):
         if name in shaders:
-            request = dict(cmd="time", shader=str(shaders[name]), view="3d", uniforms=uniforms)
+            request = dict(cmd="time", shader=str(shaders[name]), view="3d", uniforms=uniforms_of(name))
             return workers["vrsc"].ask(**request, frames=args.frames, warmup=warmup)["ms"]
         return workers[name].ask(cmd="time", frames=args.frames, warmup=warmup)["ms"]
 
     def image(name):
         if name in shaders:
             path = folder / f"{name}.png"
-            workers["vrsc"].ask(cmd="image", shader=str(shaders[name]), view="3d", uniforms=uniforms, out=str(path))
+            request = dict(cmd="image", shader=str(shaders[name]), view="3d", uniforms=uniforms_of(name), out=str(path))
+            workers["vrsc"].ask(**request)
         else:
             path = folder / f"{name}.npy"
             workers[name].ask(cmd="image", out=str(path))

@@ -20,10 +20,6 @@ pub fn occupancy(volume: &Volume, window: Option<[f32; 2]>, tf: &TransferFunctio
     BrickRanges::new(volume, window).occupancy(tf)
 }
 
-/// Added to each brick's maximum in [`BrickRanges::max_grid`]: more than the rounding of the
-/// `R16Float` textures (half a unit in the last place, 2^-12 below 1) and of their filtering.
-pub const MAX_GRID_MARGIN: f32 = 1.0 / 256.0;
-
 /// The value range (normalized by the volume's window) of every brick: what the grids of
 /// empty-space skipping are made from. It depends on the samples and the window only, so a new
 /// transfer function rebuilds the occupancy from it without reading the volume again.
@@ -49,33 +45,29 @@ impl BrickRanges {
         Volume::new(self.bricks, glam::Mat4::IDENTITY, data)
     }
 
-    /// `std::skip_mip`'s and `std::skip_iso`'s grid: per brick, the largest maximum of the
-    /// brick and its 26 neighbours, plus [`MAX_GRID_MARGIN`]. Read with linear filtering at any
-    /// point, it is at least the maximum of every brick around that point (each of the eight
-    /// texels it blends bounds all eight bricks), so a ray may jump over space where it is at
-    /// most a level knowing no sample there exceeds that level.
+    /// `std::skip_mip`'s and `std::skip_iso`'s grid: per brick, the least `R16Float` value that
+    /// no sample inside it exceeds. The shaders read it at texel centres (`walk_bricks`), where
+    /// linear filtering returns the texel itself, so a ray may leave a brick whose texel is at
+    /// most a level knowing that no sample in it exceeds that level.
     pub fn max_grid(&self) -> Volume {
-        let [bx, by, bz] = self.bricks.map(|b| b as usize);
-        let at = |x: usize, y: usize, z: usize| self.ranges[(z * by + y) * bx + x].1;
-        let around = |i: usize, n: usize| i.saturating_sub(1)..=(i + 1).min(n - 1);
-        let mut data = Vec::with_capacity(bx * by * bz);
-        for z in 0..bz {
-            for y in 0..by {
-                for x in 0..bx {
-                    let mut m = f32::NEG_INFINITY;
-                    for k in around(z, bz) {
-                        for j in around(y, by) {
-                            for i in around(x, bx) {
-                                m = m.max(at(i, j, k));
-                            }
-                        }
-                    }
-                    data.push(m + MAX_GRID_MARGIN);
-                }
-            }
-        }
+        let data = self.ranges.iter().map(|&(lo, hi)| sample_bound(lo, hi)).collect();
         Volume::new(self.bricks, glam::Mat4::IDENTITY, data)
     }
+}
+
+/// The least half float that no trilinear sample of voxels in `[lo, hi]` exceeds, as the
+/// `R16Float` volume texture holds them: every voxel is a half float at most `half(hi)`
+/// (rounding is monotonic), so a brick of one value samples exactly that value, and blending
+/// different values in `f32` may round up past the largest by an `f32` unit in the last place,
+/// which the next half float above it covers. Exact bounds let MIP skip space whose values equal
+/// the ray's maximum (air in front of the head).
+fn sample_bound(lo: f32, hi: f32) -> f32 {
+    // Normalized values lie in [0, 1]; `+ 0.0` turns a -0 into +0.
+    let (lo, hi) = (half::f16::from_f32(lo + 0.0), half::f16::from_f32(hi + 0.0));
+    if lo == hi || !hi.is_finite() || hi.is_sign_negative() {
+        return hi.to_f32();
+    }
+    half::f16::from_bits(hi.to_bits() + 1).to_f32()
 }
 
 /// For each texel along one axis, the voxels a trilinear sample in its interval may read.
@@ -192,14 +184,16 @@ mod tests {
     }
 
     #[test]
-    fn the_max_grid_bounds_every_brick_around_a_texel() {
+    fn the_max_grid_bounds_what_samples_inside_each_brick_read() {
         let mut values = vec![0.1; 32 * 8 * 8];
         values[8] = 0.9; // voxel 8 along x: read by samples in bricks 0 and 1
         let volume = Volume::new([32, 8, 8], glam::Mat4::IDENTITY, values);
         let grid = BrickRanges::new(&volume, Some([0.0, 1.0])).max_grid();
-        let m = MAX_GRID_MARGIN;
-        // Bricks 0 and 1 read 0.9; dilation carries it to brick 2; brick 3 sees only 0.1.
-        assert_eq!(grid.values(), vec![0.9 + m, 0.9 + m, 0.9 + m, 0.1 + m]);
+        let half = |v: f32| half::f16::from_f32(v);
+        let above = |v: f32| half::f16::from_bits(half(v).to_bits() + 1).to_f32();
+        // Bricks 0 and 1 read 0.9 among 0.1s: the next half above 0.9; bricks 2 and 3 read 0.1
+        // alone, which is what every sample there returns.
+        assert_eq!(grid.values(), vec![above(0.9), above(0.9), half(0.1).to_f32(), half(0.1).to_f32()]);
     }
 
     #[test]

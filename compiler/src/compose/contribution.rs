@@ -21,27 +21,69 @@
 //! The flag is tested only when some waiting function reads a volume or a transfer function:
 //! otherwise the waiting work is a few arithmetic operations, and the test (with the entry
 //! point's inner loop) costs more than it saves (unshaded DVR on lavapipe: 30% slower with it).
+//!
+//! `selected` (a per-sample `bool`, default `false`) is the flag of compositing that keeps one
+//! sample of the ray (MIP): a sample that sets it becomes the ray's selected sample, and the
+//! functions that wait for it (found as for `contributes`) run once, after the sample loop and
+//! before `ray.finish`, on the last selected sample. Its writer promises that running them for
+//! every selected sample would leave only the last one's effect. The entry point saves, at each
+//! selected sample, the fields they read that the loop writes ([`Replay`]), and puts them back
+//! before they run. Where a function of the loop reads a `@ray` field that they write, running
+//! them once at the end would change what it sees, so they run at every selected sample instead
+//! ([`Gate::SelectedEach`]; a probe reading `accum` is such a function). With a writer of
+//! `selected`, `contributes` is not tested.
 
 use super::ir::{Composition, PlacedFn};
 use crate::hir;
 use crate::steps::Step;
+use crate::types::Type;
 
 /// The state field whose `false` skips the rest of a sample.
 pub const CONTRIBUTES: &str = "contributes";
+/// The state field whose `true` makes the sample the one the ray keeps: the rest of the sample
+/// runs once, after the loop, on the last sample that set it (see the module documentation).
+pub const SELECTED: &str = "selected";
 
 /// One placed sample function: its step and index in that step's list.
 pub type SampleFn = (Step, usize);
+
+/// Which flag the waiting functions of a [`SampleSchedule`] wait for, and when they run.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Gate {
+    /// `contributes`: they run for the samples that leave it `true`.
+    Contributes,
+    /// `selected`, run at every sample that sets it: some function of the loop reads a `@ray`
+    /// field they write, so running them once at the end would change what it sees.
+    SelectedEach,
+    /// `selected`, run once after the loop on the last sample that set it.
+    SelectedOnce(Replay),
+}
+
+/// What the entry point keeps of a selected sample for running the waiting functions after the
+/// loop (field indices into [`Composition::fields`]).
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Replay {
+    /// Saved at each selected sample and put back before the waiting functions run: the fields
+    /// they read that the loop's functions write (every other field they read holds at the end
+    /// what it held then).
+    pub saved: Vec<usize>,
+    /// The `@ray` fields among `saved` that the waiting functions do not write: given back their
+    /// values from the end of the loop after the waiting functions ran, for `ray.finish`.
+    pub restored: Vec<usize>,
+}
 
 /// The order of a sample's functions in the entry point.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct SampleSchedule {
     /// Run for every sample, in this order.
     pub always: Vec<SampleFn>,
-    /// Run after `always` only while `contributes` is true: the deferred functions, then the
-    /// functions after the last writer, in pipeline order. Empty without a writer.
+    /// Wait for the flag [`SampleSchedule::gate`] names: the deferred functions, then the
+    /// functions after its last writer, in pipeline order. Empty without a writer.
     pub contributing: Vec<SampleFn>,
     /// The `end` step, run for every sample after the others.
     pub end: Vec<SampleFn>,
+    /// The flag `contributing` waits for; `None` when it is empty.
+    pub gate: Option<Gate>,
 }
 
 /// The fields one placed function reads and writes (indices into [`Composition::fields`]).
@@ -65,6 +107,12 @@ fn access(program: &hir::Program, placed: &PlacedFn) -> Access {
     out
 }
 
+/// The per-sample `bool` field `name` and the index (in `accesses`) of its last writer.
+fn last_writer(comp: &Composition, accesses: &[Access], name: &str) -> Option<(usize, usize)> {
+    let flag = comp.fields.iter().position(|f| f.name == name && !f.ray && f.ty == Type::BOOL)?;
+    accesses.iter().rposition(|a| a.writes.contains(&flag)).map(|last| (flag, last))
+}
+
 /// The order the entry point runs the sample functions of `comp` in.
 pub fn schedule(program: &hir::Program, comp: &Composition) -> SampleSchedule {
     let body: Vec<SampleFn> = Step::ALL
@@ -75,12 +123,16 @@ pub fn schedule(program: &hir::Program, comp: &Composition) -> SampleSchedule {
     let end: Vec<SampleFn> = (0..comp.step(Step::End).len()).map(|i| (Step::End, i)).collect();
     let placed = |(s, i): SampleFn| &comp.step(s)[i];
     let accesses: Vec<Access> = body.iter().map(|&f| access(program, placed(f))).collect();
-    let end_reads: Vec<usize> = end.iter().flat_map(|&f| access(program, placed(f)).reads).collect();
+    let end_accesses: Vec<Access> = end.iter().map(|&f| access(program, placed(f))).collect();
+    let end_reads: Vec<usize> = end_accesses.iter().flat_map(|a| a.reads.iter().copied()).collect();
 
-    let flag = comp.fields.iter().position(|f| f.name == CONTRIBUTES && !f.ray && f.ty == crate::types::Type::BOOL);
-    let last_writer = flag.and_then(|flag| accesses.iter().rposition(|a| a.writes.contains(&flag)));
-    let (Some(flag), Some(last)) = (flag, last_writer) else {
-        return SampleSchedule { always: body, contributing: Vec::new(), end };
+    // `selected` first: with its writer, `contributes` (a promise that skipping changes nothing)
+    // is not needed.
+    let selecting = last_writer(comp, &accesses, SELECTED);
+    let (Some((flag, last)), selecting) =
+        (selecting.or_else(|| last_writer(comp, &accesses, CONTRIBUTES)), selecting.is_some())
+    else {
+        return SampleSchedule { always: body, contributing: Vec::new(), end, gate: None };
     };
 
     let deferrable = |k: usize| {
@@ -92,29 +144,64 @@ pub fn schedule(program: &hir::Program, comp: &Composition) -> SampleSchedule {
                 .all(|b| !b.reads.iter().any(|r| a.writes.contains(r)) && !b.writes.iter().any(|w| a.reads.contains(w)))
     };
     let mut always = Vec::new();
-    let mut contributing = Vec::new();
+    let mut waiting = Vec::new();
+    let mut always_k = Vec::new();
+    let mut waiting_k = Vec::new();
     for (k, &f) in body.iter().enumerate().take(last + 1) {
         if k < last && deferrable(k) {
-            contributing.push(f);
+            waiting.push(f);
+            waiting_k.push(k);
         } else {
             always.push(f);
+            always_k.push(k);
         }
     }
-    contributing.extend_from_slice(&body[last + 1..]);
-    if !contributing.iter().any(|&f| reads_textures(program, placed(f))) {
+    waiting.extend_from_slice(&body[last + 1..]);
+    waiting_k.extend(last + 1..body.len());
+    if selecting {
+        let loop_fns = always_k.iter().map(|&k| &accesses[k]).chain(&end_accesses);
+        let gate = replay(comp, waiting_k.iter().map(|&k| &accesses[k]), loop_fns);
+        return SampleSchedule { always, contributing: waiting, end, gate: Some(gate) };
+    }
+    if !waiting.iter().any(|&f| reads_textures(program, placed(f))) {
         // Without texture reads the waiting work is a few arithmetic operations: testing the
         // flag (and gathering samples in the entry point's inner loop) costs more than it saves.
-        always.append(&mut contributing);
+        always.append(&mut waiting);
         always.sort_by_key(|f| body.iter().position(|g| g == f));
+        return SampleSchedule { always, contributing: Vec::new(), end, gate: None };
     }
-    SampleSchedule { always, contributing, end }
+    SampleSchedule { always, contributing: waiting, end, gate: Some(Gate::Contributes) }
+}
+
+/// When the functions waiting for `selected` run: once after the loop unless a function of the
+/// loop (`loop_fns`: those that always run, and `end`) reads a `@ray` field they write, and
+/// which fields that needs saved.
+fn replay<'a>(
+    comp: &Composition,
+    waiting: impl Iterator<Item = &'a Access> + Clone,
+    loop_fns: impl Iterator<Item = &'a Access> + Clone,
+) -> Gate {
+    let written_by_waiting = |f: usize| waiting.clone().any(|a| a.writes.contains(&f));
+    let read_in_loop = |f: usize| loop_fns.clone().any(|a| a.reads.contains(&f));
+    let written_in_loop = |f: usize| loop_fns.clone().any(|a| a.writes.contains(&f));
+    let ray_fields_seen =
+        (0..comp.fields.len()).any(|f| comp.fields[f].ray && written_by_waiting(f) && read_in_loop(f));
+    if ray_fields_seen {
+        return Gate::SelectedEach;
+    }
+    let mut saved: Vec<usize> =
+        waiting.clone().flat_map(|a| a.reads.iter().copied()).filter(|&f| written_in_loop(f)).collect();
+    saved.sort_unstable();
+    saved.dedup();
+    let restored = saved.iter().copied().filter(|&f| comp.fields[f].ray && !written_by_waiting(f)).collect();
+    Gate::SelectedOnce(Replay { saved, restored })
 }
 
 /// Whether a placed function reads a volume or a transfer function (declares such a uniform):
 /// the cost that makes waiting for `contributes` worth its test.
 fn reads_textures(program: &hir::Program, placed: &PlacedFn) -> bool {
     let uniforms = &program.pipelines[placed.pipeline].uniforms;
-    uniforms.iter().any(|u| matches!(u.ty, crate::types::Type::Volume | crate::types::Type::Tf))
+    uniforms.iter().any(|u| matches!(u.ty, Type::Volume | Type::Tf))
 }
 
 #[cfg(test)]
@@ -129,6 +216,12 @@ mod tests {
 
     /// The schedule of one user module composed alone, as substep names.
     fn names(src: &str) -> [Vec<String>; 3] {
+        scheduled(src).0
+    }
+
+    /// The schedule of one user module composed alone, as substep names, and its gate in words:
+    /// `none`, `contributes`, `each` or `once saved=[..] restored=[..]` (field names).
+    fn scheduled(src: &str) -> ([Vec<String>; 3], String) {
         let mut sources = SourceMap::new();
         let mut diags = Diagnostics::new();
         let mut loader = Loader::new(&mut sources, &mut diags);
@@ -137,10 +230,88 @@ mod tests {
         let program = check_program(&graph, &sources, &mut diags);
         assert!(!diags.iter().any(|d| d.is_error()), "check errors");
         let uses = vec![ModuleUse { module, instances: None, span: Span::DUMMY }];
-        let comp = compose(&program, &uses, |_| false, &["out_color", CONTRIBUTES], &mut diags);
+        let comp = compose(&program, &uses, |_| false, &["out_color", CONTRIBUTES, SELECTED], &mut diags);
         let s = schedule(&program, &comp);
         let show = |fs: &[SampleFn]| fs.iter().map(|&(st, i)| comp.step(st)[i].name.clone()).collect();
-        [show(&s.always), show(&s.contributing), show(&s.end)]
+        let fields = |fs: &[usize]| fs.iter().map(|&f| comp.fields[f].name.as_str()).collect::<Vec<_>>().join(",");
+        let gate = match &s.gate {
+            None => "none".to_string(),
+            Some(Gate::Contributes) => "contributes".to_string(),
+            Some(Gate::SelectedEach) => "each".to_string(),
+            Some(Gate::SelectedOnce(r)) => {
+                format!("once saved=[{}] restored=[{}]", fields(&r.saved), fields(&r.restored))
+            }
+        };
+        ([show(&s.always), show(&s.contributing), show(&s.end)], gate)
+    }
+
+    /// MIP's shape: the writer keeps the largest value; classification, a gradient and the
+    /// selection of the colour wait for `selected`.
+    const SELECTING: &str = r#"
+pipeline place in start { @ray state t_next: f32 = 0.0; state pos: vec3f = vec3f(0.0); state.pos = vec3f(state.t_next); }
+pipeline value in sampling.primary { uniform v: volume; state pos: vec3f = vec3f(0.0); state value: f32 = 0.0; state.value = sample(v, state.pos); }
+pipeline grad in sampling.gradient { uniform v: volume; state pos: vec3f = vec3f(0.0); state g: f32 = 0.0; state.g = sample(v, state.pos); }
+pipeline keep before classification {
+    state value: f32 = 0.0; @ray state best: f32 = -1.0; state selected: bool = false;
+    if state.value > state.best { state.best = state.value; state.selected = true; }
+}
+pipeline colour in classification.primary { uniform t: tf; state value: f32 = 0.0; state g: f32 = 0.0; state c: vec4f = vec4f(0.0); state.c = lookup(t, state.value) * state.g; }
+pipeline pick in compositing.alpha { state c: vec4f = vec4f(0.0); @ray state out_color: vec4f = vec4f(0.0); state.out_color = state.c; }
+pipeline walk in end { @ray state best: f32 = -1.0; @ray state t_next: f32 = 0.0; state.t_next += state.best; }
+"#;
+
+    #[test]
+    fn functions_waiting_for_selected_run_once_on_the_saved_fields_of_the_kept_sample() {
+        let ([always, waiting, end], gate) = scheduled(SELECTING);
+        assert_eq!(always, ["place", "value", "keep"]);
+        assert_eq!(waiting, ["grad", "colour", "pick"]);
+        assert_eq!(end, ["walk"]);
+        // `grad` reads `pos`, `colour` reads `value` (both written in the loop); `g` and `c` are
+        // computed by the waiting functions themselves.
+        assert_eq!(gate, "once saved=[pos,value] restored=[]");
+    }
+
+    #[test]
+    fn a_ray_field_the_loop_writes_is_saved_and_given_back_after_the_waiting_functions() {
+        let src = SELECTING
+            .replace("state c: vec4f = vec4f(0.0); state.c = lookup(t, state.value) * state.g;", "state c: vec4f = vec4f(0.0); @ray state best: f32 = -1.0; state.c = lookup(t, state.value) * state.g * state.best;");
+        let (_, gate) = scheduled(&src);
+        assert_eq!(gate, "once saved=[pos,value,best] restored=[best]");
+    }
+
+    #[test]
+    fn a_ray_field_the_loop_reads_makes_selected_functions_run_at_each_selected_sample() {
+        let src = SELECTING.replace("state.t_next += state.best;", "state.t_next += state.best + state.out_color.a;");
+        let src = src.replace(
+            "@ray state t_next: f32 = 0.0;",
+            "@ray state t_next: f32 = 0.0; @ray state out_color: vec4f = vec4f(0.0);",
+        );
+        let (_, gate) = scheduled(&src);
+        assert_eq!(gate, "each");
+    }
+
+    #[test]
+    fn with_a_writer_of_selected_contributes_is_not_tested() {
+        let src = SELECTING.replace(
+            "state.c = lookup(t, state.value) * state.g; }",
+            "state.c = lookup(t, state.value) * state.g; }\npipeline flag in shading.lights { state contributes: bool = true; state c: vec4f = vec4f(0.0); state.contributes = state.c.a > 0.0; }",
+        );
+        let ([_, waiting, _], gate) = scheduled(&src);
+        assert!(gate.starts_with("once"), "{gate}");
+        assert_eq!(waiting, ["grad", "colour", "flag", "pick"]);
+    }
+
+    #[test]
+    fn without_texture_reads_selected_functions_still_wait() {
+        // Running them for every sample would change the image: they are not folded back.
+        let src = SELECTING.replace("uniform t: tf; ", "").replace("lookup(t, state.value)", "vec4f(state.value)");
+        let src = src.replace(
+            "uniform v: volume; state pos: vec3f = vec3f(0.0); state g: f32 = 0.0; state.g = sample(v, state.pos);",
+            "state g: f32 = 0.0; state.g = 1.0;",
+        );
+        let ([_, waiting, _], gate) = scheduled(&src);
+        assert_eq!(waiting, ["grad", "colour", "pick"]);
+        assert_eq!(gate, "once saved=[value] restored=[]");
     }
 
     const PIPELINE: &str = r#"

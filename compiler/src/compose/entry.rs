@@ -59,9 +59,9 @@ pub struct EntryPlan {
     pub ray_setup: Vec<Handle<naga::Function>>,
     /// The sample functions run for every sample, before the `contributes` test.
     pub samples: Vec<Handle<naga::Function>>,
-    /// Member index of `contributes`, when some function writes it (`compose::contribution`).
-    pub contributes: Option<u32>,
-    /// Run after `samples` only while `state.contributes` is true.
+    /// The flag `contributing` waits for, when some function writes one (`compose::contribution`).
+    pub gate: Option<EntryGate>,
+    /// Run after `samples` only as `gate` says.
     pub contributing: Vec<Handle<naga::Function>>,
     /// The `end` step: run for every sample, last.
     pub sample_end: Vec<Handle<naga::Function>>,
@@ -75,6 +75,17 @@ pub struct EntryPlan {
     pub region: Handle<naga::GlobalVariable>,
 }
 
+/// How the entry point runs the functions that wait for a flag (member indices in `State`).
+pub enum EntryGate {
+    /// For the samples whose `flag` is true, after `samples`: `contributes`, and `selected` when
+    /// the loop reads what they write.
+    Each { flag: u32 },
+    /// Once after the loop, on the last sample whose `flag` (`selected`) was true: `saved` is
+    /// kept at each such sample and put back before they run, `restored` given back its value
+    /// from the end of the loop after they ran.
+    Once { flag: u32, saved: Vec<u32>, restored: Vec<u32> },
+}
+
 pub const WORKGROUP_SIZE: [u32; 3] = [8, 8, 1];
 
 /// The state field the entry point sets to the pixel's centre in [0, 1]^2 before ray setup.
@@ -85,7 +96,8 @@ pub(crate) const TERMINATE: &str = "terminate";
 pub(crate) const OUT_COLOR: &str = "out_color";
 /// The fields the entry point reads or writes itself: kept whenever a placed function declares
 /// them, and without data-flow warnings.
-pub(crate) const ENTRY_FIELDS: &[&str] = &[PIXEL, TERMINATE, OUT_COLOR, super::contribution::CONTRIBUTES];
+pub(crate) const ENTRY_FIELDS: &[&str] =
+    &[PIXEL, TERMINATE, OUT_COLOR, super::contribution::CONTRIBUTES, super::contribution::SELECTED];
 
 /// The entry point's function as it grows, with the emit discipline lowering uses.
 struct Body {
@@ -188,7 +200,7 @@ pub fn build(module: &mut naga::Module, plan: &EntryPlan) -> naga::EntryPoint {
     for &f in &plan.samples {
         b.call(&mut loop_body, f, state);
     }
-    if let Some(member) = plan.contributes {
+    if let Some(EntryGate::Each { flag: member }) = plan.gate {
         // Samples that cannot contribute run only `samples` and `sample_end`, in an inner loop
         // that moves on to the next sample until one contributes (or the ray ends): a group of
         // invocations that runs in lockstep (SIMD lanes, a warp) then does the contributing
@@ -214,15 +226,28 @@ pub fn build(module: &mut naga::Module, plan: &EntryPlan) -> naga::EntryPoint {
         let ended = b.expr(E::Unary { op: naga::UnaryOperator::LogicalNot, expr: contributes });
         b.exit_if(&mut loop_body, ended, S::Break);
     }
-    for &f in &plan.contributing {
-        b.call(&mut loop_body, f, state);
-    }
+    let kept = match &plan.gate {
+        Some(EntryGate::Once { flag, saved, .. }) => {
+            let bool_type = add_type(module, naga::TypeInner::Scalar(naga::Scalar::BOOL));
+            let types = (plan.state_type, bool_type);
+            Some(b.keep_selected(&mut body, &mut loop_body, state, (*flag, saved), types))
+        }
+        _ => {
+            for &f in &plan.contributing {
+                b.call(&mut loop_body, f, state);
+            }
+            None
+        }
+    };
     for &f in &plan.sample_end {
         b.call(&mut loop_body, f, state);
     }
     let mut continuing = naga::Block::new();
     increment(&mut b, &mut continuing, counter);
     b.push(&mut body, S::Loop { body: loop_body, continuing, break_if: None });
+    if let (Some(kept), Some(EntryGate::Once { saved, restored, .. })) = (kept, &plan.gate) {
+        b.replay_selected(&mut body, plan, state, kept, saved, restored);
+    }
 
     for &f in &plan.ray_finish {
         b.call(&mut body, f, state);
@@ -258,6 +283,85 @@ pub fn build(module: &mut naga::Module, plan: &EntryPlan) -> naga::EntryPoint {
 
 fn add_type(module: &mut naga::Module, inner: naga::TypeInner) -> Handle<naga::Type> {
     module.types.insert(naga::Type { name: None, inner }, naga::Span::UNDEFINED)
+}
+
+/// The locals of a ray that keeps its selected sample ([`EntryGate::Once`]).
+struct Kept {
+    /// `kept: State`: the saved fields of the last selected sample.
+    state: Handle<E>,
+    /// `kept_any: bool`: whether some sample was selected.
+    any: Handle<E>,
+}
+
+impl Body {
+    fn local(&mut self, name: &str, ty: Handle<naga::Type>) -> Handle<E> {
+        let var = self
+            .func
+            .local_variables
+            .append(naga::LocalVariable { name: Some(name.into()), ty, init: None }, naga::Span::UNDEFINED);
+        self.expr(E::LocalVariable(var))
+    }
+
+    /// `to.MEMBER = from.MEMBER;` for each member.
+    fn copy_members(&mut self, block: &mut naga::Block, to: Handle<E>, from: Handle<E>, members: &[u32]) {
+        for &m in members {
+            let value = load_member(self, from, m);
+            let pointer = self.component(to, m);
+            self.push(block, S::Store { pointer, value });
+        }
+    }
+
+    /// `kept_any = false;` before the loop, and in the loop after the functions that always run
+    /// (`types`: `State` and `bool`):
+    /// `if state.FLAG { kept.F = state.F (saved); kept_any = true; }`.
+    fn keep_selected(
+        &mut self,
+        body: &mut naga::Block,
+        loop_body: &mut naga::Block,
+        state: Handle<E>,
+        (flag, saved): (u32, &[u32]),
+        types: (Handle<naga::Type>, Handle<naga::Type>),
+    ) -> Kept {
+        let kept = Kept { state: self.local("kept", types.0), any: self.local("kept_any", types.1) };
+        let no = self.literal(naga::Literal::Bool(false));
+        self.push(body, S::Store { pointer: kept.any, value: no });
+        let mut accept = naga::Block::new();
+        self.copy_members(&mut accept, kept.state, state, saved);
+        let yes = self.literal(naga::Literal::Bool(true));
+        self.push(&mut accept, S::Store { pointer: kept.any, value: yes });
+        let selected = load_member(self, state, flag);
+        self.push(loop_body, S::If { condition: selected, accept, reject: naga::Block::new() });
+        kept
+    }
+
+    /// After the loop: `if kept_any { ended = state; state.F = kept.F (saved); WAITING;
+    /// state.R = ended.R (restored); }`.
+    fn replay_selected(
+        &mut self,
+        body: &mut naga::Block,
+        plan: &EntryPlan,
+        state: Handle<E>,
+        kept: Kept,
+        saved: &[u32],
+        restored: &[u32],
+    ) {
+        let mut accept = naga::Block::new();
+        let ended = (!restored.is_empty()).then(|| {
+            let ended = self.local("ended", plan.state_type);
+            let value = self.expr(E::Load { pointer: state });
+            self.push(&mut accept, S::Store { pointer: ended, value });
+            ended
+        });
+        self.copy_members(&mut accept, state, kept.state, saved);
+        for &f in &plan.contributing {
+            self.call(&mut accept, f, state);
+        }
+        if let Some(ended) = ended {
+            self.copy_members(&mut accept, state, ended, restored);
+        }
+        let any = self.expr(E::Load { pointer: kept.any });
+        self.push(body, S::If { condition: any, accept, reject: naga::Block::new() });
+    }
 }
 
 /// The pixel an invocation renders, the image's size and the output image.

@@ -133,7 +133,7 @@ pub fn emit(program: &hir::Program, comp: &Composition, sources: &SourceMap) -> 
         reset_sample,
         ray_setup,
         samples: handles(&schedule.always),
-        contributes: member(contribution::CONTRIBUTES).filter(|_| !schedule.contributing.is_empty()),
+        gate: entry_gate(comp, &schedule),
         contributing: handles(&schedule.contributing),
         sample_end: handles(&schedule.end),
         ray_finish,
@@ -150,6 +150,21 @@ pub fn emit(program: &hir::Program, comp: &Composition, sources: &SourceMap) -> 
     module.entry_points.push(entry_point);
     let info = lower::validate(&module, sources, Span::DUMMY)?;
     Ok(ViewModule { module, info, uniforms, uniform_layout, state_layout, bindings })
+}
+
+/// The entry point's form of the schedule's gate: its flag and fields as `State` members.
+fn entry_gate(comp: &Composition, schedule: &contribution::SampleSchedule) -> Option<entry::EntryGate> {
+    let members = |fields: &[usize]| fields.iter().map(|&f| f as u32).collect();
+    let flag = |name: &str| comp.field(name).map(|i| i as u32);
+    match schedule.gate.as_ref()? {
+        contribution::Gate::Contributes => Some(entry::EntryGate::Each { flag: flag(contribution::CONTRIBUTES)? }),
+        contribution::Gate::SelectedEach => Some(entry::EntryGate::Each { flag: flag(contribution::SELECTED)? }),
+        contribution::Gate::SelectedOnce(replay) => Some(entry::EntryGate::Once {
+            flag: flag(contribution::SELECTED)?,
+            saved: members(&replay.saved),
+            restored: members(&replay.restored),
+        }),
+    }
 }
 
 fn empty_layout() -> StructLayout {

@@ -45,7 +45,7 @@ pub struct Render {
     /// Gooch-style tone shading (`std::tone`); needs `shading`.
     pub tone: bool,
     /// Empty-space skipping in raycast views (`std::skip`, `std::skip_mip`, `std::skip_iso`):
-    /// `render.empty_space_skipping`, by default on for DVR and iso and off for MIP.
+    /// `render.empty_space_skipping`, by default on for DVR, MIP and iso.
     pub empty_space_skipping: bool,
     /// Initial value of the `step_size` uniform (mm); `None`: the runtime's default (half the
     /// primary volume's smallest voxel spacing).

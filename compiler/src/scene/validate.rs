@@ -191,10 +191,9 @@ impl Cx<'_> {
                     .with_label("premultiplied RGBA"),
             );
         }
-        // On by default where it pays: MIP's brick maxima rarely let a ray skip (bright structures
-        // border most bricks), and on lavapipe the grid reads cost it 35-55% (benches/peers).
-        // MinIP and average read every sample: they never skip.
-        let exact = matches!(compositing.value, Compositing::Dvr | Compositing::Iso);
+        // On by default wherever skipping is exact; MinIP and average read every sample: they
+        // never skip.
+        let exact = matches!(compositing.value, Compositing::Dvr | Compositing::Mip | Compositing::Iso);
         let empty_space_skipping = r.empty_space_skipping.as_ref().map_or(exact, |skip| *skip.get_ref());
         Render {
             compositing,

@@ -1,0 +1,104 @@
+//! Empty-space skipping (`std::skip`, `std::skip_mip`, `std::skip_iso`) changes nothing but the
+//! work: for each compositing mode that skips, the image with skipping is the one without (up to
+//! the rounding of the sample positions the jumps land on), and the rays take fewer samples.
+
+mod common;
+
+use vrs_runtime::{RenderOptions, SceneRenderer};
+
+/// The head phantom under a bone transfer function, in compositing mode `MODE`, skipping `SKIP`.
+const SCENE: &str = r#"
+[render]
+compositing = "MODE"
+iso_value = 0.45
+empty_space_skipping = SKIP
+jitter = 0.0
+
+[[volume]]
+name = "head"
+role = "primary"
+phantom = "head"
+tf = "ct_bone"
+
+[[view]]
+name = "3d"
+kind = "raycast"
+size = [64, 64]
+camera = { azimuth = 30.0, elevation = 20.0, distance = 2.2 }
+"#;
+
+/// Replaces the pixel's colour by its ray's number of samples over 1000 (in red).
+const COUNT: &str = r#"
+pipeline count_sample in start {
+    @ray state n_samples: f32 = 0.0;
+    state.n_samples += 1.0;
+}
+pipeline show_count after ray.finish {
+    @ray state n_samples: f32 = 0.0;
+    @ray state out_color: vec4f = vec4f(0.0);
+    state.out_color = vec4f(state.n_samples / 1000.0, 0.0, 0.0, 1.0);
+}
+"#;
+
+/// The image of view `3d`, and whether its shader skips (holds a skipping function); `skip`
+/// sets `empty_space_skipping` (`None`: the default).
+fn render(mode: &str, skip: Option<bool>, count: bool) -> (image::RgbaImage, bool) {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let mut text = match skip {
+        Some(skip) => SCENE.replace("MODE", mode).replace("SKIP", &skip.to_string()),
+        None => SCENE.replace("MODE", mode).replace("empty_space_skipping = SKIP\n", ""),
+    };
+    if mode != "iso" {
+        text = text.replace("iso_value = 0.45\n", "");
+    }
+    if count {
+        std::fs::write(dir.path().join("count.vrs"), COUNT).expect("module");
+        text.push_str("\n[[module]]\npath = \"count.vrs\"\n");
+    }
+    let path = dir.path().join("scene.toml");
+    std::fs::write(&path, text).expect("scene");
+    let options = RenderOptions { phantom_size: [64, 64, 64], ..RenderOptions::default() };
+    let mut scene = SceneRenderer::open(common::software_gpu(), &path, options, &mut |_, _, _| {}).expect("scene");
+    let wgsl = scene.views[0].renderer.shader().wgsl.clone();
+    let skips = ["skip_empty(", "skip_below_max(", "skip_below_surface("].iter().any(|f| wgsl.contains(f));
+    (scene.render_all().expect("render").remove(0).1, skips)
+}
+
+fn mean_samples(image: &image::RgbaImage) -> f64 {
+    image.pixels().map(|p| f64::from(p[0]) / 255.0 * 1000.0).sum::<f64>() / f64::from(image.width() * image.height())
+}
+
+fn assert_skipping_keeps_the_image(mode: &str) {
+    let (with, skips) = render(mode, Some(true), false);
+    let (without, skips_without) = render(mode, Some(false), false);
+    assert!(skips && !skips_without, "{mode}: skipping is selected by the key");
+    assert!(without.pixels().filter(|p| p[0] > 0).count() > 500, "{mode}: the head is visible");
+    let worst = with.pixels().zip(without.pixels()).flat_map(|(a, b)| (0..4).map(move |c| a[c].abs_diff(b[c]))).max();
+    assert!(worst.unwrap_or(0) <= 2, "{mode}: largest channel difference {worst:?}");
+    let (taken, all) =
+        (mean_samples(&render(mode, Some(true), true).0), mean_samples(&render(mode, Some(false), true).0));
+    assert!(taken < 0.8 * all, "{mode}: {taken:.1} samples per ray with skipping, {all:.1} without");
+}
+
+#[test]
+fn dvr_skipping_keeps_the_image_with_fewer_samples() {
+    assert_skipping_keeps_the_image("dvr");
+}
+
+#[test]
+fn mip_skipping_keeps_the_image_with_fewer_samples() {
+    assert_skipping_keeps_the_image("mip");
+}
+
+#[test]
+fn iso_skipping_keeps_the_image_with_fewer_samples() {
+    assert_skipping_keeps_the_image("iso");
+}
+
+#[test]
+fn skipping_is_on_by_default_where_it_is_exact() {
+    for mode in ["dvr", "mip", "iso"] {
+        assert!(render(mode, None, false).1, "{mode}: no skipping by default");
+    }
+    assert!(!render("minip", None, false).1, "MinIP reads every sample");
+}
