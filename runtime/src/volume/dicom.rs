@@ -24,7 +24,7 @@ use dicom_pixeldata::{DecodedPixelData, PixelDecoder, PixelRepresentation};
 use dicom_transfer_syntax_registry::{TransferSyntaxIndex, TransferSyntaxRegistry};
 use glam::{DVec3, Mat4};
 
-use super::{LoadErrorKind, SampleSink, Samples, Scaling, VolumeInfo, affine, check_dims, lps_to_ras};
+use super::{LoadErrorKind, SampleSink, Samples, Scaling, VolumeInfo, affine, check_claim, check_dims, lps_to_ras};
 
 /// Relative tolerance of slice spacing: gaps that differ from the series' spacing by more than
 /// this fraction are missing slices or unequal spacing.
@@ -43,6 +43,11 @@ pub(super) fn load(
     let slices = geometry.ordered(&headers)?;
     let dims = check_dims("the series", [u64::from(geometry.columns), u64::from(geometry.rows), slices.len() as u64])?;
     let per_slice = geometry.columns as usize * geometry.rows as usize;
+    // Before anything is allocated for the grid: every file must be able to hold its pixels (a
+    // byte each at least, compressed or not).
+    for slice in &slices {
+        check_claim(per_slice as u64, slice.bytes, true).map_err(|e| file_error(&slice.file, e.to_string()))?;
+    }
     let total: u64 = slices.iter().map(|s| s.bytes).sum();
     // One rescale for the whole series keeps the stored samples (2 bytes a voxel for CT);
     // slices rescaled differently are converted to data units one by one.

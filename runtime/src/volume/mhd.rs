@@ -167,6 +167,14 @@ impl TextHeader for Header {
         VolumeInfo { dims: self.dims, grid_to_world: self.grid_to_world, scaling: Scaling::IDENTITY }
     }
 
+    fn placement(&self) -> Placement {
+        self.data
+    }
+
+    fn past_end(&self, skip: u64) -> LoadErrorKind {
+        LoadErrorKind::Header(format!("`HeaderSize` {skip} is past the end of the data file"))
+    }
+
     fn read_data(
         &self,
         reader: &mut dyn BufRead,
@@ -174,7 +182,7 @@ impl TextHeader for Header {
         file: Option<&Path>,
         sink: &mut dyn SampleSink,
     ) -> Result<(), LoadErrorKind> {
-        let past_end = |skip| LoadErrorKind::Header(format!("`HeaderSize` {skip} is past the end of the data file"));
+        let past_end = |skip| self.past_end(skip);
         raw::read_data(reader, self.data, len, file, &past_end, sink)
     }
 }

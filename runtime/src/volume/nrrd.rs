@@ -169,6 +169,14 @@ impl TextHeader for Header {
         VolumeInfo { dims: self.dims, grid_to_world: self.grid_to_world, scaling: Scaling::IDENTITY }
     }
 
+    fn placement(&self) -> Placement {
+        self.data
+    }
+
+    fn past_end(&self, skip: u64) -> LoadErrorKind {
+        LoadErrorKind::Header(format!("`byte skip` {skip} is past the end of the data"))
+    }
+
     /// Skips `line skip` lines, then reads the data after `byte skip`.
     fn read_data(
         &self,
@@ -189,7 +197,7 @@ impl TextHeader for Header {
             }
             consumed += n;
         }
-        let past_end = |skip| LoadErrorKind::Header(format!("`byte skip` {skip} is past the end of the data"));
+        let past_end = |skip| self.past_end(skip);
         raw::read_data(reader, self.data, len.saturating_sub(consumed), file, &past_end, sink)
     }
 }
