@@ -58,10 +58,13 @@ fn size_of(dir: &Path, render: &str, module: &str) -> Size {
     Size { expressions, statements, wgsl: view.shader.as_ref().expect("a shader").wgsl.len() }
 }
 
+/// One number of a [`Size`].
+type Metric = fn(&Size) -> usize;
+
 /// Asserts that `sizes` (measured at the doubling counts `counts`) grow linearly: every
 /// doubling adds the same amount per added item, within 10%, and adds something.
 fn assert_linear(what: &str, counts: &[usize], sizes: &[Size]) {
-    let metrics: [(&str, fn(&Size) -> usize); 3] =
+    let metrics: [(&str, Metric); 3] =
         [("expressions", |s| s.expressions), ("statements", |s| s.statements), ("WGSL bytes", |s| s.wgsl)];
     for (metric, get) in metrics {
         let per_item: Vec<f64> = counts

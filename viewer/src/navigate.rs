@@ -75,7 +75,7 @@ pub fn step_slice(plane: SlicePlane, voxels: i32, dims: [u32; 3], grid_to_world:
     let Some(step) = voxel_step_along(normal, grid_to_world) else { return plane };
     let patient = PatientBox::of(volume_to_world(dims, grid_to_world));
     let (low, size) = (patient.min[axis], patient.size()[axis]);
-    if !(size > 0.0) {
+    if !(size.is_finite() && size > 0.0) {
         return plane;
     }
     // Distances along the normal from the centre of voxel 0.
