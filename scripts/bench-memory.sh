@@ -3,7 +3,8 @@
 #   bash scripts/bench-memory.sh [SIZE_Z]
 # Writes a 256 x 256 x SIZE_Z (default 500: 65.5 MB of data) int16 NRRD of a smooth pattern and
 # a one-view scene in a temporary folder, renders it once with the release `vrsc` at 64x64
-# under `/usr/bin/time -v`, and prints the data size and the peak resident set size. The
+# under `/usr/bin/time -v` with empty-space skipping on (the default) and off, and prints the
+# data size and the peak resident set size of each. The
 # volume's own memory is the file's data plus the GPU's copy (on lavapipe, the texture lives in
 # system memory too); everything else is the process (Vulkan driver, shader compiler).
 set -euo pipefail
@@ -36,11 +37,12 @@ with open(path, "wb") as f:
             run(row, c, 90, 40)
             f.write(row.tobytes())
 EOF
-# Skipping off: with it (the default) the primary volume's samples are read into memory once to
-# take the brick ranges, which is not the streaming path this measures.
-cat > "$tmp/scene.toml" <<'EOF'
+# Two scenes: the default (empty-space skipping on: the primary volume's brick ranges are taken
+# from the texels as they are uploaded) and skipping off.
+write_scene() {
+    cat > "$tmp/$1.toml" <<EOF2
 [render]
-empty_space_skipping = false
+empty_space_skipping = $2
 
 [[volume]]
 name = "ct"
@@ -50,9 +52,14 @@ path = "ct.nrrd"
 [[view]]
 name = "3d"
 kind = "raycast"
-EOF
+EOF2
+}
+write_scene skipping true
+write_scene no_skipping false
 bytes=$(stat -c %s "$tmp/ct.nrrd")
-/usr/bin/time -v target/release/vrsc render "$tmp/scene.toml" -o "$tmp/out" --size 64x64 2>"$tmp/time.txt" >/dev/null
-peak_kb=$(grep "Maximum resident set size" "$tmp/time.txt" | awk '{print $NF}')
 echo "volume file: $((bytes / 1000000)) MB ($bytes bytes, 256x256x$nz int16)"
-echo "peak resident memory: $((peak_kb / 1024)) MiB ($peak_kb KiB)"
+for scene in skipping no_skipping; do
+    /usr/bin/time -v target/release/vrsc render "$tmp/$scene.toml" -o "$tmp/out" --size 64x64 2>"$tmp/time.txt" >/dev/null
+    peak_kb=$(grep "Maximum resident set size" "$tmp/time.txt" | awk '{print $NF}')
+    echo "peak resident memory, $scene: $((peak_kb / 1024)) MiB ($peak_kb KiB)"
+done

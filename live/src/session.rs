@@ -58,9 +58,11 @@ impl Rebuild {
 /// What the user changed by hand, which a reload keeps wherever it still applies.
 #[derive(Clone, Debug, Default)]
 pub struct UserState {
-    /// Uniform values, with the scene's own value of that uniform when the user set it: once
-    /// the scene file's value changes, the file is the newer intent and wins.
-    uniforms: BTreeMap<String, (Value, Option<UniformValue>)>,
+    /// Uniform values, with the scene's own value of that uniform in each view when the user
+    /// set it: once the scene file's value for a view changes (its `[uniforms]`, or its render
+    /// settings: the view's own `render` table over `[render]`), the file is the newer intent
+    /// and wins in that view.
+    uniforms: BTreeMap<String, (Value, SceneValuesThen)>,
     /// Cameras by view, with the scene's camera then (the same rule).
     cameras: BTreeMap<String, (OrbitCamera, OrbitCamera)>,
     slices: BTreeMap<String, (SlicePlane, SlicePlane)>,
@@ -69,12 +71,24 @@ pub struct UserState {
     curves: BTreeMap<String, (TfCurve, Option<TfCurve>)>,
 }
 
+/// Per view name, the scene file's values of its uniforms ([`vrsc::scene::Scene::view_uniform_values`]).
+type SceneValues = BTreeMap<String, BTreeMap<String, UniformValue>>;
+
+/// Per view name, the scene file's value of one uniform (`None` where it leaves it open).
+type SceneValuesThen = BTreeMap<String, Option<UniformValue>>;
+
+/// Each view's uniform values as `scene` gives them.
+fn scene_values_of(scene: &vrsc::scene::Scene) -> SceneValues {
+    scene.views.iter().map(|v| (v.name.name.clone(), scene.view_uniform_values(v))).collect()
+}
+
 /// A scene renderer that follows its files. See the crate documentation.
 pub struct LiveScene {
     renderer: SceneRenderer,
     user: UserState,
-    /// The scene file's `[uniforms]` (and `[render]` settings) as of the last good rebuild.
-    scene_values: BTreeMap<String, UniformValue>,
+    /// Each view's uniform values in the scene file (`[uniforms]`, and the view's render
+    /// settings) as of the last good rebuild.
+    scene_values: SceneValues,
     /// Each view's camera and slice plane as the scene file sets them.
     scene_cameras: BTreeMap<String, OrbitCamera>,
     scene_slices: BTreeMap<String, SlicePlane>,
@@ -110,7 +124,7 @@ impl LiveScene {
         live.files = vec![live.renderer.path().to_path_buf()];
         if let Ok(cached) = live.renderer.compose() {
             live.files = files_of(&cached.built, live.renderer.path());
-            live.scene_values = cached.scene.map(|s| s.uniform_values()).unwrap_or_default();
+            live.scene_values = cached.scene.as_ref().map(scene_values_of).unwrap_or_default();
             live.built = Some(cached.built);
         }
         live
@@ -157,7 +171,7 @@ impl LiveScene {
             self.files = files;
             return self.failed(compose, Duration::ZERO, Some(built), Failure::Compose);
         }
-        let scene_values = cached.scene.as_ref().map(|s| s.uniform_values()).unwrap_or_default();
+        let scene_values = cached.scene.as_ref().map(scene_values_of).unwrap_or_default();
         let applying = Instant::now();
         let applied = self.renderer.apply(&cached);
         let apply = applying.elapsed();
@@ -192,8 +206,8 @@ impl LiveScene {
     /// Sets a uniform in every view that reads it; it survives reloads (see [`UserState`]).
     pub fn set_uniform(&mut self, name: &str, value: Value) -> Result<(), RuntimeError> {
         self.renderer.set_uniform(name, value.clone())?;
-        let scene_value = self.scene_uniform(name);
-        self.user.uniforms.insert(name.to_string(), (value, scene_value));
+        let then = self.view_names().into_iter().map(|view| (view.clone(), self.scene_uniform(&view, name))).collect();
+        self.user.uniforms.insert(name.to_string(), (value, then));
         self.bump_all();
         Ok(())
     }
@@ -201,16 +215,15 @@ impl LiveScene {
     /// Forgets the user's value of uniform `name`: the scene's value (or the default) is used.
     pub fn reset_uniform(&mut self, name: &str) -> Result<(), RuntimeError> {
         self.user.uniforms.remove(name);
-        // The scene file as of the last good rebuild (a reflection from the composition cache
-        // may carry an older value), else the declaration's default.
-        let scene_value = self.scene_values.get(name).map(UniformValue::to_json);
-        let value = self.renderer.views.iter().find_map(|v| {
-            let info = v.renderer.shader().reflection.uniform(name)?;
-            let json = scene_value.as_ref().or(info.default.as_ref())?;
-            v.renderer.uniforms().value_from_json(name, json)
-        });
-        if let Some(value) = value {
-            self.renderer.set_uniform(name, value)?;
+        // In each view, the scene file's value as of the last good rebuild (a reflection from
+        // the composition cache may carry an older value), else the declaration's default.
+        for view in &mut self.renderer.views {
+            let Some(info) = view.renderer.shader().reflection.uniform(name) else { continue };
+            let scene_value = self.scene_values.get(&view.name).and_then(|values| values.get(name));
+            let json = scene_value.map(UniformValue::to_json).or_else(|| info.default.clone());
+            if let Some(value) = json.and_then(|json| view.renderer.uniforms().value_from_json(name, &json)) {
+                view.renderer.set_uniform(name, value)?;
+            }
         }
         self.bump_all();
         Ok(())
@@ -403,9 +416,10 @@ impl LiveScene {
         Some(self.renderer.views.get(index)?.renderer.output())
     }
 
-    /// The scene file's value of uniform `name` (`None` when it leaves it to the default).
-    fn scene_uniform(&self, name: &str) -> Option<UniformValue> {
-        self.scene_values.get(name).cloned()
+    /// The scene file's value of uniform `name` in view `view` (`None` when it leaves it to
+    /// the default).
+    fn scene_uniform(&self, view: &str, name: &str) -> Option<UniformValue> {
+        self.scene_values.get(view)?.get(name).cloned()
     }
 
     /// Remembers the scene file's cameras and planes (right after a load, before the user's).
@@ -431,12 +445,25 @@ impl LiveScene {
 
     /// Applies the user's settings again after a reload, wherever they still apply: a uniform
     /// that still exists with the same type, a view of the same name and kind; a setting whose
-    /// scene value changed in the meantime gives way to the file.
+    /// scene value changed in the meantime gives way to the file (per view for uniforms: a
+    /// view's own `render` table can change its value alone). A view added since the user set
+    /// a uniform gets the user's value.
     fn restore_user_state(&mut self) {
         let uniforms = std::mem::take(&mut self.user.uniforms);
-        for (name, (value, scene_then)) in uniforms {
-            if self.scene_uniform(&name) == scene_then && self.renderer.set_uniform(&name, value.clone()).is_ok() {
-                self.user.uniforms.insert(name, (value, scene_then));
+        for (name, (value, then)) in uniforms {
+            let mut applies = false;
+            for view in &mut self.renderer.views {
+                let now = self.scene_values.get(&view.name).and_then(|values| values.get(&name)).cloned();
+                let unchanged = then.get(&view.name).is_none_or(|then| *then == now);
+                if unchanged
+                    && view.renderer.has_uniform(&name)
+                    && view.renderer.set_uniform(&name, value.clone()).is_ok()
+                {
+                    applies = true;
+                }
+            }
+            if applies {
+                self.user.uniforms.insert(name, (value, then));
             }
         }
         let gpu = self.renderer.gpu().clone();

@@ -176,3 +176,50 @@ fn an_edited_transfer_function_saves_as_a_colormap_that_loads_back_to_the_same_t
     assert_eq!(loaded.to_rgba8(), edited.to_rgba8());
     assert!(live.generation(0) > generation);
 }
+
+/// `step_size` of view `index`.
+fn step_size(live: &LiveScene, index: usize) -> Option<Value> {
+    live.renderer().views.get(index)?.renderer.uniforms().get("step_size")
+}
+
+/// A view's own `render` table is that view's scene value: changing it in the file beats the
+/// user's value in that view only, and a structural change there recomposes that view alone.
+#[test]
+fn a_change_to_one_views_own_render_table_rebuilds_that_view() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut live = open(dir.path());
+    let two_views = |own: &str| {
+        format!(
+            "{}\n[[view]]\nname = \"side\"\nkind = \"raycast\"\nsize = [32, 32]\nrender = {{ {own} }}\n",
+            scene(0.5, false)
+        )
+    };
+    let path = dir.path().join("scene.toml");
+    std::fs::write(&path, two_views("step_size = 0.5")).unwrap();
+    live.rebuild().outcome.expect("a good edit applies");
+    assert_eq!(step_size(&live, 1), Some(Value::Float(vec![0.5])));
+    live.set_uniform("step_size", Value::Float(vec![2.0])).unwrap();
+    assert_eq!(step_size(&live, 0), Some(Value::Float(vec![2.0])));
+
+    // Only the second view's own table changes: the file wins there; the first view's scene
+    // value did not change, so the user's value stays there.
+    std::fs::write(&path, two_views("step_size = 1.0")).unwrap();
+    let applied = live.rebuild().outcome.expect("a good edit applies");
+    assert_eq!(applied.compiled, 0, "a uniform-only change compiles nothing: {applied:?}");
+    assert_eq!(step_size(&live, 1), Some(Value::Float(vec![1.0])), "the view's own render table wins");
+    assert_eq!(
+        step_size(&live, 0),
+        Some(Value::Float(vec![2.0])),
+        "the user's value stays where the file is unchanged"
+    );
+    // A reset gives each view its own scene value.
+    live.reset_uniform("step_size").unwrap();
+    assert_eq!(step_size(&live, 1), Some(Value::Float(vec![1.0])));
+
+    // Shading in the second view's own table: that view alone is composed and compiled anew.
+    std::fs::write(&path, two_views("step_size = 1.0, shading = true")).unwrap();
+    let applied = live.rebuild().outcome.expect("a good edit applies");
+    assert_eq!(applied.recompiled, ["side"], "{applied:?}");
+    assert!(live.renderer().views[1].renderer.has_uniform("gradient_to_world"));
+    assert!(!live.renderer().views[0].renderer.has_uniform("gradient_to_world"));
+}

@@ -41,6 +41,15 @@ pub fn volume_to_world(dims: [u32; 3], grid_to_world: Mat4) -> Mat4 {
     grid_to_world * normalized_to_index(dims)
 }
 
+/// Gradients in the primary volume's normalized coordinates (value per normalized unit) to
+/// patient space (value per millimetre): the inverse transpose of `volume_to_world`'s linear
+/// part (the shader's `gradient_to_world`). A gradient is a covector: where a grid is stretched
+/// along an axis, its values change more slowly per millimetre along it, and a flipped axis
+/// flips the gradient's component with it.
+pub fn gradient_to_world(volume_to_world: Mat4) -> glam::Mat3 {
+    glam::Mat3::from_mat4(volume_to_world).inverse().transpose()
+}
+
 /// The smallest box along the patient axes (RAS) that holds a volume's grid box: where slice
 /// planes are placed and what the camera frames.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -369,5 +378,17 @@ mod tests {
         let to_world = volume_to_world([10, 10, 10], g);
         assert!((longest_chord(to_world) - Vec3::new(5.0, 10.0, 20.0).length()).abs() < 1e-4);
         assert_eq!(smallest_spacing(g), 0.5);
+    }
+
+    #[test]
+    fn gradients_go_to_patient_space_as_covectors() {
+        // f(w) = a . w in patient space has the gradient a there; in the oblique grid's
+        // normalized coordinates (w = M p + o) it is f(p) = (M^T a) . p + const.
+        let (dims, g) = oblique_grid();
+        let to_world = volume_to_world(dims, g);
+        let a = Vec3::new(0.3, -1.0, 2.0);
+        let normalized = glam::Mat3::from_mat4(to_world).transpose() * a;
+        let back = gradient_to_world(to_world) * normalized;
+        assert!((back - a).length() < 1e-4 * a.length(), "{back}");
     }
 }

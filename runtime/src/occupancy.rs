@@ -33,8 +33,9 @@ pub struct BrickRanges {
 impl BrickRanges {
     /// Reads the volume once, a row at a time.
     pub fn new(volume: &Volume, window: Option<[f32; 2]>) -> BrickRanges {
-        let bricks = volume.dims.map(|d| d.div_ceil(BRICK).max(1));
-        BrickRanges { bricks, ranges: brick_ranges(volume, window, bricks) }
+        let mut builder = RangeBuilder::new(volume.dims);
+        volume.for_each_normalized(window, 0..volume.samples.len(), |t| builder.push(t));
+        builder.finish()
     }
 
     /// `std::skip`'s grid: 1 where `tf` gives some value in the brick's range a non-zero
@@ -85,48 +86,102 @@ fn texel_voxels(voxels: u32, texels: u32) -> Vec<std::ops::RangeInclusive<u32>> 
         .collect()
 }
 
-/// Min and max normalized value per texel, over the voxels its samples may read.
-fn brick_ranges(volume: &Volume, window: Option<[f32; 2]>, bricks: [u32; 3]) -> Vec<(f32, f32)> {
-    // Per axis first (separable): rows' ranges along x, then along y, then along z.
-    let dims = volume.dims;
-    let [nx, ny, nz] = dims.map(|d| d as usize);
-    let [bx, by, bz] = bricks.map(|b| b as usize);
-    let mut row = Vec::with_capacity(nx);
-    let spans = |axis: usize| texel_voxels(dims[axis], bricks[axis]);
-    let (sx, sy, sz) = (spans(0), spans(1), spans(2));
-    let merge = |a: (f32, f32), b: (f32, f32)| (a.0.min(b.0), a.1.max(b.1));
-    let empty = (f32::INFINITY, f32::NEG_INFINITY);
-    let mut along_x = vec![empty; bx * ny * nz];
-    for z in 0..nz {
-        for y in 0..ny {
-            let start = (z * ny + y) * nx;
-            row.clear();
-            volume.for_each_normalized(window, start..start + nx, |t| row.push(t));
-            for (i, span) in sx.iter().enumerate() {
-                let r = span.clone().fold(empty, |r, x| merge(r, (row[x as usize], row[x as usize])));
-                along_x[(z * ny + y) * bx + i] = r;
-            }
+/// Builds [`BrickRanges`] from a volume's normalized values as they arrive in voxel order (x
+/// fastest, then y, then z): a loader's stream or a texture upload can take the ranges on the
+/// way, and only one z slice of row ranges is held, never the volume. The ranges are separable:
+/// each row's along x, each slice's along y as the slice completes, along z at the end.
+pub struct RangeBuilder {
+    dims: [usize; 3],
+    bricks: [u32; 3],
+    /// Per brick along each axis, the voxels its samples may read ([`texel_voxels`]).
+    spans: [Vec<std::ops::RangeInclusive<u32>>; 3],
+    /// The current row's values.
+    row: Vec<f32>,
+    /// The current slice's ranges along x, per row: `bx * ny`.
+    slice: Vec<(f32, f32)>,
+    /// Rows of the current slice done.
+    y: usize,
+    /// Every slice's ranges along x and y: `bx * by * nz`.
+    along_y: Vec<(f32, f32)>,
+    /// Slices done.
+    z: usize,
+}
+
+const EMPTY: (f32, f32) = (f32::INFINITY, f32::NEG_INFINITY);
+
+fn merge(a: (f32, f32), b: (f32, f32)) -> (f32, f32) {
+    (a.0.min(b.0), a.1.max(b.1))
+}
+
+impl RangeBuilder {
+    /// A builder for a volume of `dims` voxels.
+    pub fn new(dims: [u32; 3]) -> RangeBuilder {
+        let bricks = dims.map(|d| d.div_ceil(BRICK).max(1));
+        let spans = [0, 1, 2].map(|axis| texel_voxels(dims[axis], bricks[axis]));
+        let [nx, ny, nz] = dims.map(|d| d as usize);
+        let [bx, by, _] = bricks.map(|b| b as usize);
+        RangeBuilder {
+            dims: [nx, ny, nz],
+            bricks,
+            spans,
+            row: Vec::with_capacity(nx),
+            slice: vec![EMPTY; bx * ny],
+            y: 0,
+            along_y: vec![EMPTY; bx * by * nz],
+            z: 0,
         }
     }
-    let mut along_y = vec![empty; bx * by * nz];
-    for z in 0..nz {
-        for (j, span) in sy.iter().enumerate() {
+
+    /// The next voxel's normalized value; values past the last voxel are ignored.
+    pub fn push(&mut self, t: f32) {
+        if self.z >= self.dims[2] {
+            return;
+        }
+        self.row.push(t);
+        if self.row.len() == self.dims[0] {
+            self.end_row();
+        }
+    }
+
+    fn end_row(&mut self) {
+        let bx = self.bricks[0] as usize;
+        for (i, span) in self.spans[0].iter().enumerate() {
+            let r = span.clone().fold(EMPTY, |r, x| merge(r, (self.row[x as usize], self.row[x as usize])));
+            self.slice[self.y * bx + i] = r;
+        }
+        self.row.clear();
+        self.y += 1;
+        if self.y == self.dims[1] {
+            self.end_slice();
+        }
+    }
+
+    fn end_slice(&mut self) {
+        let [bx, by, _] = self.bricks.map(|b| b as usize);
+        for (j, span) in self.spans[1].iter().enumerate() {
             for i in 0..bx {
-                along_y[(z * by + j) * bx + i] =
-                    span.clone().fold(empty, |r, y| merge(r, along_x[(z * ny + y as usize) * bx + i]));
+                self.along_y[(self.z * by + j) * bx + i] =
+                    span.clone().fold(EMPTY, |r, y| merge(r, self.slice[y as usize * bx + i]));
             }
         }
+        self.y = 0;
+        self.z += 1;
     }
-    let mut ranges = vec![empty; bx * by * bz];
-    for (k, span) in sz.iter().enumerate() {
-        for j in 0..by {
-            for i in 0..bx {
-                ranges[(k * by + j) * bx + i] =
-                    span.clone().fold(empty, |r, z| merge(r, along_y[(z as usize * by + j) * bx + i]));
+
+    /// The ranges of every brick (slices that never arrived count as empty).
+    pub fn finish(self) -> BrickRanges {
+        let [bx, by, bz] = self.bricks.map(|b| b as usize);
+        let mut ranges = vec![EMPTY; bx * by * bz];
+        for (k, span) in self.spans[2].iter().enumerate() {
+            for j in 0..by {
+                for i in 0..bx {
+                    ranges[(k * by + j) * bx + i] =
+                        span.clone().fold(EMPTY, |r, z| merge(r, self.along_y[(z as usize * by + j) * bx + i]));
+                }
             }
         }
+        BrickRanges { bricks: self.bricks, ranges }
     }
-    ranges
 }
 
 /// Answers "does the transfer function give any value in [lo, hi] a non-zero opacity?" in

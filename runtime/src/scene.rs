@@ -158,10 +158,7 @@ impl SceneRenderer {
         self.resources = resources;
         self.notices = notices;
         self.grids = loaded.grids;
-        self.skipping = loaded.primary.as_ref().map(|primary| {
-            let window = self.grids.first().map(|g| g.window);
-            crate::occupancy::BrickRanges::new(primary, window)
-        });
+        self.skipping = loaded.ranges;
         self.volumes_key = volumes_key(scene);
         self.upload_max_grid();
         self.update_occupancy(&loaded.primary_tf);
@@ -327,9 +324,15 @@ impl SceneRenderer {
         view.renderer.encode_into(&self.gpu, &self.resources, encoder, target, region)
     }
 
-    /// The number of voxels along each axis of the primary volume (slice views step by one).
+    /// The number of voxels along each axis of the primary volume.
     pub fn primary_dims(&self) -> Option<[u32; 3]> {
         self.grids.first().map(|g| g.dims)
+    }
+
+    /// The primary volume's grid: its voxel counts and its grid-to-world transform (voxel
+    /// indices to patient space, RAS mm), what slice views step through.
+    pub fn primary_grid(&self) -> Option<([u32; 3], Mat4)> {
+        self.grids.first().map(|g| (g.dims, g.grid_to_world))
     }
 
     fn set_views(&mut self, scene: &Scene, built: &BuiltScene) -> Result<(), RuntimeError> {
@@ -463,6 +466,9 @@ fn apply_view_uniforms(view: &mut SceneView, grids: &[VolumeGrid]) -> Result<(),
     if r.has_uniform("volume_to_world") {
         r.set_uniform("volume_to_world", to_world)?;
     }
+    if r.has_uniform("gradient_to_world") {
+        r.set_uniform("gradient_to_world", geometry::gradient_to_world(to_world))?;
+    }
     if let Some(camera) = view.camera
         && r.has_uniform("inv_view_proj")
     {
@@ -496,19 +502,29 @@ fn apply_view_uniforms(view: &mut SceneView, grids: &[VolumeGrid]) -> Result<(),
 }
 
 /// Whether the renderer sets uniform `name` itself before every frame (what
-/// `apply_view_uniforms` writes: the camera, the slice plane, the transforms between
-/// volumes), so a value set by hand would not last.
+/// `apply_view_uniforms` writes: the camera, the slice plane, the transforms of the primary
+/// volume to patient space and to the other volumes), so a value set by hand would not last.
 pub fn is_set_by_renderer(name: &str) -> bool {
-    matches!(name, "inv_view_proj" | "slice_origin" | "slice_u" | "slice_v" | "slab") || name.starts_with("primary_to_")
+    matches!(
+        name,
+        "inv_view_proj"
+            | "volume_to_world"
+            | "gradient_to_world"
+            | "slice_origin"
+            | "slice_u"
+            | "slice_v"
+            | "slice_normal"
+            | "slab"
+    ) || name.starts_with("primary_to_")
 }
 
 /// What [`load_volumes`] leaves for the renderer besides the uploaded textures.
 struct Loaded {
     /// Every volume's grid, primary first.
     grids: Vec<VolumeGrid>,
-    /// The primary volume when empty-space skipping needs it (else it was streamed or dropped
-    /// once uploaded), and its transfer function.
-    primary: Option<volume::Volume>,
+    /// The primary volume's brick ranges when the scene skips empty space (taken as it was
+    /// uploaded; no volume's samples are kept), and its transfer function.
+    ranges: Option<crate::occupancy::BrickRanges>,
     primary_tf: crate::tf::TransferFunction,
 }
 
@@ -522,7 +538,7 @@ fn load_volumes(
     progress: Progress,
 ) -> Result<Loaded, RuntimeError> {
     let mut grids = Vec::new();
-    let mut primary_volume = None;
+    let mut primary_ranges = None;
     let mut primary_tf = tf::preset(vscene::DEFAULT_TF)?;
     let primary = scene.primary();
     let ordered = std::iter::once(primary).chain(scene.volumes.iter().filter(|v| v.role.value != Role::Primary));
@@ -533,10 +549,10 @@ fn load_volumes(
                 .map_err(|e| RuntimeError::Invalid(format!("volume `{name}`: {e}")))
         };
         let is_primary = v.role.value == Role::Primary;
-        // Only empty-space skipping reads the samples again (its brick ranges, taken once the
-        // volume is uploaded; the samples are dropped then); any other volume file is streamed
-        // into its texture without a copy in memory.
-        let keep = is_primary && scene.skips_empty_space();
+        // Empty-space skipping needs the primary volume's brick ranges, taken from the texels
+        // as they are uploaded: every volume file is streamed into its texture without a copy
+        // in memory.
+        let ranges = is_primary && scene.skips_empty_space();
         let curve = match &v.tf {
             Some(TfRef::Preset(p)) => Some(tf::preset_curve(&p.value)?),
             Some(TfRef::File(file)) => Some(tf::paraview_curve(&file.resolved)?),
@@ -551,9 +567,10 @@ fn load_volumes(
         });
         let uploaded = |data: volume::Volume| -> Result<_, RuntimeError> {
             let window = fixed.unwrap_or_else(|| volume::auto_window(&data));
-            Ok((VolumeTexture::upload(gpu, name, &data, Some(window))?, window, Some(data)))
+            let bricks = ranges.then(|| crate::occupancy::BrickRanges::new(&data, Some(window)));
+            Ok((VolumeTexture::upload(gpu, name, &data, Some(window))?, window, bricks))
         };
-        let (texture, window, data) = match (&v.source, &v.fallback) {
+        let (texture, window, bricks) = match (&v.source, &v.fallback) {
             (VolumeSource::File(file), Some(fallback)) if !file.resolved.exists() => {
                 notices.push(format!(
                     "volume `{name}`: `{}` is absent; using the built-in `{}` phantom instead",
@@ -562,13 +579,9 @@ fn load_volumes(
                 ));
                 uploaded(phantom(&fallback.value)?)?
             }
-            (VolumeSource::File(file), _) if keep => {
-                uploaded(volume::load(&file.resolved, &mut |done, total| progress(name, done, total))?)?
-            }
             (VolumeSource::File(file), _) => {
                 let report = &mut |done, total| progress(name, done, total);
-                let (texture, window) = VolumeTexture::stream_file(gpu, name, &file.resolved, fixed, report)?;
-                (texture, window, None)
+                VolumeTexture::stream_file(gpu, name, &file.resolved, fixed, ranges, report)?
             }
             (VolumeSource::Phantom(p), _) => uploaded(phantom(&p.value)?)?,
         };
@@ -589,8 +602,8 @@ fn load_volumes(
             histogram: texture.histogram.clone(),
             curve,
         });
-        if keep {
-            primary_volume = data;
+        if ranges {
+            primary_ranges = bricks;
         }
         resources.volumes.insert(binding, Arc::new(texture));
         if let Some(table) = table {
@@ -602,5 +615,5 @@ fn load_volumes(
             }
         }
     }
-    Ok(Loaded { grids, primary: primary_volume, primary_tf })
+    Ok(Loaded { grids, ranges: primary_ranges, primary_tf })
 }

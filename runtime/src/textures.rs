@@ -3,6 +3,7 @@
 
 use crate::error::RuntimeError;
 use crate::gpu::Gpu;
+use crate::occupancy::{BrickRanges, RangeBuilder};
 use crate::tf::{TF_WIDTH, TransferFunction};
 use crate::volume::{Histogram, LoadErrorKind, RangeSink, SampleSink, Samples, Volume, VolumeInfo, Window};
 use glam::Mat4;
@@ -43,14 +44,17 @@ impl VolumeTexture {
     /// a first pass finds the value range, a second the percentiles. The last pass converts and
     /// writes the texture as the file is read, so loading holds only the texture (and a slab),
     /// never the file's data. `progress(done, total)` covers every pass. Returns the texture
-    /// and the window it was normalized by.
+    /// and the window it was normalized by, and with `ranges` the value range of every brick
+    /// of empty-space skipping, taken from the texels on the way (so skipping needs no copy of
+    /// the volume either).
     pub fn stream_file(
         gpu: &Gpu,
         name: &str,
         path: &std::path::Path,
         window: Option<[f32; 2]>,
+        ranges: bool,
         progress: &mut dyn FnMut(u64, u64),
-    ) -> Result<(VolumeTexture, [f32; 2]), RuntimeError> {
+    ) -> Result<(VolumeTexture, [f32; 2], Option<BrickRanges>), RuntimeError> {
         let passes = if window.is_some() { 1 } else { 3 };
         let mut pass = 0;
         let mut stream = |sink: &mut dyn SampleSink| {
@@ -70,14 +74,15 @@ impl VolumeTexture {
             }
         };
         let mut writer: Option<TextureWriter> = None;
-        let mut sink = LazyWriter { gpu, name, window, writer: &mut writer, error: None };
+        let mut sink = LazyWriter { gpu, name, window, ranges, writer: &mut writer, error: None };
         let loaded = stream(&mut sink);
         if let Some(error) = sink.error.take() {
             return Err(error);
         }
         loaded?;
         let writer = writer.ok_or_else(|| RuntimeError::Invalid(format!("volume `{name}`: no samples were read")))?;
-        Ok((writer.finish()?, window))
+        let (texture, ranges) = writer.finish_with_ranges()?;
+        Ok((texture, window, ranges))
     }
 }
 
@@ -87,6 +92,8 @@ struct LazyWriter<'g, 'w> {
     gpu: &'g Gpu,
     name: &'w str,
     window: [f32; 2],
+    /// Whether the writer takes the brick ranges of empty-space skipping.
+    ranges: bool,
     writer: &'w mut Option<TextureWriter<'g>>,
     /// A GPU-side refusal (a grid beyond the device's limits), reported instead of the load
     /// error that stops the loader.
@@ -97,7 +104,7 @@ impl SampleSink for LazyWriter<'_, '_> {
     fn begin(&mut self, info: &VolumeInfo) -> Result<(), LoadErrorKind> {
         match TextureWriter::new(self.gpu, self.name, info, self.window) {
             Ok(writer) => {
-                *self.writer = Some(writer);
+                *self.writer = Some(if self.ranges { writer.with_ranges() } else { writer });
                 Ok(())
             }
             Err(error) => {
@@ -139,6 +146,8 @@ pub struct TextureWriter<'g> {
     /// Bytes written since the last submit.
     pending: usize,
     histogram: Vec<u64>,
+    /// The brick ranges of empty-space skipping, when asked for ([`TextureWriter::with_ranges`]).
+    ranges: Option<RangeBuilder>,
 }
 
 impl<'g> TextureWriter<'g> {
@@ -179,13 +188,23 @@ impl<'g> TextureWriter<'g> {
             z: 0,
             pending: 0,
             histogram: vec![0; HISTOGRAM_BINS],
+            ranges: None,
         })
+    }
+
+    /// Also takes the value range of every brick of empty-space skipping from the normalized
+    /// texels as they are written ([`TextureWriter::finish_with_ranges`]).
+    pub fn with_ranges(self) -> TextureWriter<'g> {
+        TextureWriter { ranges: Some(RangeBuilder::new(self.info.dims)), ..self }
     }
 
     /// The next stored sample.
     pub fn push(&mut self, stored: f32) {
         let normalized = self.window.apply(stored);
         self.histogram[((normalized * HISTOGRAM_BINS as f32) as usize).min(HISTOGRAM_BINS - 1)] += 1;
+        if let Some(ranges) = &mut self.ranges {
+            ranges.push(normalized);
+        }
         self.slab.push(half::f16::from_f32(normalized));
         if self.slab.len() >= SLAB_TEXELS.max(self.slice()) {
             self.write();
@@ -227,7 +246,12 @@ impl<'g> TextureWriter<'g> {
 
     /// Writes what is left and returns the texture; an error when fewer samples came than the
     /// grid has (more are ignored: the loaders check the count).
-    pub fn finish(mut self) -> Result<VolumeTexture, RuntimeError> {
+    pub fn finish(self) -> Result<VolumeTexture, RuntimeError> {
+        Ok(self.finish_with_ranges()?.0)
+    }
+
+    /// [`TextureWriter::finish`], with the brick ranges when the writer took them.
+    pub fn finish_with_ranges(mut self) -> Result<(VolumeTexture, Option<BrickRanges>), RuntimeError> {
         self.write();
         if self.z < self.info.dims[2] {
             return Err(RuntimeError::Invalid(format!(
@@ -237,7 +261,8 @@ impl<'g> TextureWriter<'g> {
         }
         let view = self.texture.create_view(&wgpu::TextureViewDescriptor::default());
         let (dims, grid_to_world, histogram) = (self.info.dims, self.info.grid_to_world, self.histogram);
-        Ok(VolumeTexture { texture: self.texture, view, dims, grid_to_world, histogram })
+        let ranges = self.ranges.map(RangeBuilder::finish);
+        Ok((VolumeTexture { texture: self.texture, view, dims, grid_to_world, histogram }, ranges))
     }
 }
 

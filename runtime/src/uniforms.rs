@@ -50,6 +50,11 @@ impl From<glam::Vec4> for Value {
         Value::Float(v.to_array().to_vec())
     }
 }
+impl From<glam::Mat3> for Value {
+    fn from(m: glam::Mat3) -> Value {
+        Value::Float(m.to_cols_array().to_vec())
+    }
+}
 impl From<glam::Mat4> for Value {
     fn from(m: glam::Mat4) -> Value {
         Value::Float(m.to_cols_array().to_vec())

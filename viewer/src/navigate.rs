@@ -1,7 +1,8 @@
 //! What the mouse and keys do to a view, as plain functions of the camera or plane: orbit, pan
 //! and zoom of 3D views; stepping and turning of slice views.
 
-use glam::{Vec2, Vec3};
+use glam::{Mat4, Vec2, Vec3};
+use vrs_runtime::geometry::{PatientBox, volume_to_world};
 use vrs_runtime::{OrbitCamera, SliceAxis, SlicePlane};
 
 /// Degrees of orbit per pixel dragged.
@@ -59,15 +60,58 @@ pub fn slice_position(plane: &SlicePlane) -> f32 {
     plane.origin[axis_index(slice_axis(plane))]
 }
 
-/// The plane moved by `voxels` along its axis (one wheel notch is one voxel of a grid of
-/// `dims`), staying on the volume's voxel centres.
-pub fn step_slice(plane: SlicePlane, voxels: i32, dims: [u32; 3]) -> SlicePlane {
+/// The plane moved by `voxels` voxels along its normal in patient space, on the primary grid
+/// of `dims` voxels that `grid_to_world` (voxel indices to RAS mm) places. One voxel is the
+/// smallest physical extent of a voxel along the normal: the distance along it after which
+/// some index coordinate has moved by one (on an axis-aligned grid, the spacing of the axis
+/// along the normal; on an oblique grid it never jumps a voxel of any axis). Positions snap to
+/// the planes one such step apart through the centre of voxel 0 (on an axis-aligned grid, the
+/// voxel centres) and stay between the grid's outermost voxel centres.
+pub fn step_slice(plane: SlicePlane, voxels: i32, dims: [u32; 3], grid_to_world: Mat4) -> SlicePlane {
     let axis = axis_index(slice_axis(&plane));
-    let n = dims[axis].max(1) as f32;
-    let index = (plane.origin[axis] * n - 0.5).round() + voxels as f32;
+    // The plane's normal in patient space is the patient axis `axis` (planes lie in box
+    // coordinates, whose axes are R, A, S).
+    let normal = Vec3::AXES[axis];
+    let Some(step) = voxel_step_along(normal, grid_to_world) else { return plane };
+    let patient = PatientBox::of(volume_to_world(dims, grid_to_world));
+    let (low, size) = (patient.min[axis], patient.size()[axis]);
+    if !(size.is_finite() && size > 0.0) {
+        return plane;
+    }
+    // Distances along the normal from the centre of voxel 0.
+    let first = grid_to_world.transform_point3(Vec3::ZERO)[axis];
+    let (near, far) = voxel_centre_span(dims, grid_to_world, axis);
+    let (near, far) = (near - first, far - first);
+    let at = low + plane.origin[axis] * size - first;
+    // The tolerance keeps a centre that rounding puts a hair outside the span.
+    let lowest = (near / step - 1e-3).ceil();
+    let highest = (far / step + 1e-3).floor().max(lowest);
+    let index = ((at / step).round() + voxels as f32).clamp(lowest, highest);
     let mut origin = plane.origin;
-    origin[axis] = (index.clamp(0.0, n - 1.0) + 0.5) / n;
+    origin[axis] = (first + index * step - low) / size;
     SlicePlane { origin, ..plane }
+}
+
+/// The smallest physical extent of a voxel along the unit patient-space direction `normal`:
+/// the distance along it over which the fastest-changing voxel index changes by one. `None`
+/// for a degenerate grid.
+fn voxel_step_along(normal: Vec3, grid_to_world: Mat4) -> Option<f32> {
+    let to_index = glam::Mat3::from_mat4(grid_to_world).inverse();
+    let per_mm = (to_index * normal).abs().max_element();
+    let step = 1.0 / per_mm;
+    (step.is_finite() && step > 0.0).then_some(step)
+}
+
+/// The lowest and highest patient coordinate along `axis` of the grid's corner voxel centres.
+fn voxel_centre_span(dims: [u32; 3], grid_to_world: Mat4, axis: usize) -> (f32, f32) {
+    let last = Vec3::from(dims.map(|d| d.max(1) as f32 - 1.0));
+    (0..8)
+        .map(|corner| {
+            let pick = |bit: usize, v: f32| if corner & (1 << bit) != 0 { v } else { 0.0 };
+            let index = Vec3::new(pick(0, last.x), pick(1, last.y), pick(2, last.z));
+            grid_to_world.transform_point3(index)[axis]
+        })
+        .fold((f32::MAX, f32::MIN), |(lo, hi), c| (lo.min(c), hi.max(c)))
 }
 
 /// The plane turned to `axis`, through the volume's centre.
@@ -108,16 +152,74 @@ mod tests {
     #[test]
     fn slices_step_by_one_voxel_and_stop_at_the_ends() {
         let dims = [10, 20, 4];
+        let g = Mat4::IDENTITY;
         let plane = SlicePlane::new(SliceAxis::Z, 1.5 / 4.0); // the centre of voxel 1
-        let up = step_slice(plane, 1, dims);
+        let up = step_slice(plane, 1, dims, g);
         assert!((slice_position(&up) - 2.5 / 4.0).abs() < 1e-6, "{}", slice_position(&up));
-        let between = step_slice(SlicePlane::new(SliceAxis::Z, 0.52), 0, dims);
+        let between = step_slice(SlicePlane::new(SliceAxis::Z, 0.52), 0, dims, g);
         assert!((slice_position(&between) - 2.5 / 4.0).abs() < 1e-6, "snaps to the nearest centre");
-        let far = step_slice(plane, 100, dims);
+        let far = step_slice(plane, 100, dims, g);
         assert!((slice_position(&far) - 3.5 / 4.0).abs() < 1e-6);
-        let low = step_slice(plane, -100, dims);
+        let low = step_slice(plane, -100, dims, g);
         assert!((slice_position(&low) - 0.5 / 4.0).abs() < 1e-6);
         assert_eq!(slice_axis(&turn_slice(plane, SliceAxis::X)), SliceAxis::X);
         assert_eq!(slice_axis(&SlicePlane::new(SliceAxis::Y, 0.2)), SliceAxis::Y);
+    }
+
+    /// The patient-space distance (mm) between two planes normal to `axis`.
+    fn moved_mm(a: &SlicePlane, b: &SlicePlane, dims: [u32; 3], g: Mat4) -> f32 {
+        let size = PatientBox::of(volume_to_world(dims, g)).size();
+        let axis = axis_index(slice_axis(a));
+        (b.origin[axis] - a.origin[axis]) * size[axis]
+    }
+
+    #[test]
+    fn a_permuted_grid_steps_by_the_spacing_along_the_normal() {
+        // Index axes: i -> superior (2 mm), j -> right (0.5 mm), k -> posterior (3 mm).
+        let g = Mat4::from_cols(
+            glam::Vec4::new(0.0, 0.0, 2.0, 0.0),
+            glam::Vec4::new(0.5, 0.0, 0.0, 0.0),
+            glam::Vec4::new(0.0, -3.0, 0.0, 0.0),
+            glam::Vec4::new(10.0, 20.0, -30.0, 1.0),
+        );
+        let dims = [8, 40, 6];
+        for (axis, spacing, count) in [(SliceAxis::Z, 2.0, 8), (SliceAxis::X, 0.5, 40), (SliceAxis::Y, 3.0, 6)] {
+            let start = step_slice(SlicePlane::new(axis, 0.5), 0, dims, g);
+            let next = step_slice(start, 1, dims, g);
+            let moved = moved_mm(&start, &next, dims, g);
+            assert!((moved - spacing).abs() < 1e-3, "{axis:?}: moved {moved} mm, spacing {spacing}");
+            // From one end to the other: every voxel centre once.
+            let bottom = step_slice(start, -1000, dims, g);
+            let top = step_slice(start, 1000, dims, g);
+            let span = moved_mm(&bottom, &top, dims, g);
+            assert!((span - spacing * (count - 1) as f32).abs() < 1e-3, "{axis:?}: span {span}");
+            // The ends are half a voxel inside the box.
+            assert!(
+                (slice_position(&bottom) - 0.5 / count as f32).abs() < 1e-4,
+                "{axis:?}: {}",
+                slice_position(&bottom)
+            );
+        }
+    }
+
+    #[test]
+    fn an_oblique_grid_steps_by_the_smallest_extent_of_a_voxel_along_the_normal() {
+        // 1 x 1 x 4 mm voxels turned by 30 degrees about the patient's x axis: along superior,
+        // index j changes by sin(30)/1 per mm and k by cos(30)/4 per mm, so j is the fastest and
+        // one step is 1 / sin(30) = 2 mm (not the 4 mm slice spacing, nor the 1 mm pixel size).
+        let turn = Mat4::from_rotation_x(30f32.to_radians());
+        let g = turn * Mat4::from_scale(Vec3::new(1.0, 1.0, 4.0));
+        let dims = [32, 32, 16];
+        let start = step_slice(SlicePlane::new(SliceAxis::Z, 0.5), 0, dims, g);
+        let next = step_slice(start, 1, dims, g);
+        let moved = moved_mm(&start, &next, dims, g);
+        assert!((moved - 2.0).abs() < 1e-3, "moved {moved} mm");
+        let back = step_slice(next, -1, dims, g);
+        assert!(moved_mm(&start, &back, dims, g).abs() < 1e-3, "steps are reversible");
+        // A slight tilt (1 degree) of an axis-aligned grid keeps about its slice spacing.
+        let tilted = Mat4::from_rotation_x(1f32.to_radians()) * Mat4::from_scale(Vec3::new(1.0, 1.0, 4.0));
+        let s = step_slice(SlicePlane::new(SliceAxis::Z, 0.5), 0, dims, tilted);
+        let moved = moved_mm(&s, &step_slice(s, 1, dims, tilted), dims, tilted);
+        assert!((moved - 4.0).abs() < 0.3, "moved {moved} mm");
     }
 }

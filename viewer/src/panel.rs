@@ -315,7 +315,7 @@ fn handle_input(ui: &egui::Ui, live: &mut LiveScene, index: usize, response: &eg
             changed = true;
         }
     }
-    if let (Some(plane), Some(dims)) = (live.slice(index), live.renderer().primary_dims()) {
+    if let (Some(plane), Some((dims, grid_to_world))) = (live.slice(index), live.renderer().primary_grid()) {
         let mut next = plane;
         // One wheel notch, whatever its size in points, is one voxel.
         let mut steps = if hovered { notches } else { 0 };
@@ -336,7 +336,7 @@ fn handle_input(ui: &egui::Ui, live: &mut LiveScene, index: usize, response: &eg
             }
         }
         if steps != 0 {
-            next = navigate::step_slice(next, steps, dims);
+            next = navigate::step_slice(next, steps, dims, grid_to_world);
         }
         if next != plane {
             live.set_slice(index, next);

@@ -12,7 +12,9 @@
 //! before the last writer is deferred past it (and so skipped with the rest) when the flag cannot
 //! depend on it and moving it cannot change what it computes, that is when
 //! - it writes only per-sample fields, and not `contributes`;
-//! - no function between it and the last writer reads what it writes, or writes what it reads;
+//! - no function between it and the last writer that does not wait too reads what it writes,
+//!   or writes what it reads (the waiting ones keep their order, so a chain such as the gradient
+//!   and the shading normal made from it waits as a whole);
 //! - no function of `end` reads what it writes (there a skip would show as a default).
 //!
 //! With the standard pipeline this defers the gradient (`sampling.gradient`) past DVR's flag
@@ -135,20 +137,25 @@ pub fn schedule(program: &hir::Program, comp: &Composition) -> SampleSchedule {
         return SampleSchedule { always: body, contributing: Vec::new(), end, gate: None };
     };
 
-    let deferrable = |k: usize| {
+    // From the last writer backwards, so that whether each later function waits is known: a
+    // function that feeds only functions that wait too may wait with them (their order kept).
+    let mut deferred = vec![false; last + 1];
+    for k in (0..last).rev() {
         let a = &accesses[k];
-        let between = &accesses[k + 1..=last];
-        a.writes.iter().all(|&w| w != flag && !comp.fields[w].ray && !end_reads.contains(&w))
-            && between
-                .iter()
-                .all(|b| !b.reads.iter().any(|r| a.writes.contains(r)) && !b.writes.iter().any(|w| a.reads.contains(w)))
-    };
+        let own = a.writes.iter().all(|&w| w != flag && !comp.fields[w].ray && !end_reads.contains(&w));
+        let independent = (k + 1..=last).all(|j| {
+            let b = &accesses[j];
+            deferred[j]
+                || (!b.reads.iter().any(|r| a.writes.contains(r)) && !b.writes.iter().any(|w| a.reads.contains(w)))
+        });
+        deferred[k] = own && independent;
+    }
     let mut always = Vec::new();
     let mut waiting = Vec::new();
     let mut always_k = Vec::new();
     let mut waiting_k = Vec::new();
     for (k, &f) in body.iter().enumerate().take(last + 1) {
-        if k < last && deferrable(k) {
+        if deferred[k] {
             waiting.push(f);
             waiting_k.push(k);
         } else {
@@ -333,6 +340,30 @@ pipeline add in end { state a: f32 = 0.0; @ray state out_color: vec4f = vec4f(0.
         assert_eq!(always, ["value", "classify"]);
         assert_eq!(contributing, ["grad", "shade"]);
         assert_eq!(end, ["add"]);
+    }
+
+    #[test]
+    fn a_chain_of_functions_that_feed_only_waiting_ones_waits_as_a_whole() {
+        // `normal` turns the gradient into what `shade` reads; both wait, in their order.
+        let src = PIPELINE
+            .replace(
+                "pipeline classify in",
+                "pipeline normal after sampling.gradient { state g: f32 = 0.0; state n: f32 = 0.0; state.n = 2.0 * state.g; }\n\
+                 pipeline classify in",
+            )
+            .replace("state.a = state.a * state.g * lookup", "state.a = state.a * state.n * lookup")
+            .replace("uniform t: tf; state g: f32 = 0.0;", "uniform t: tf; state n: f32 = 0.0;");
+        let [always, contributing, _] = names(&src);
+        assert_eq!(always, ["value", "classify"]);
+        assert_eq!(contributing, ["grad", "normal", "shade"]);
+        // A chain the flag depends on does not wait: `classify` reads `n`.
+        let src = src.replace("state.a = state.value;", "state.a = state.value + 0.0 * state.n;").replace(
+            "state value: f32 = 0.0; state a: f32",
+            "state value: f32 = 0.0; state n: f32 = 0.0; state a: f32",
+        );
+        let [always, contributing, _] = names(&src);
+        assert_eq!(always, ["value", "grad", "normal", "classify"]);
+        assert_eq!(contributing, ["shade"]);
     }
 
     #[test]

@@ -35,6 +35,11 @@ impl Scene {
         if r.shading || r.boundary {
             add("gradient", vec![]);
         }
+        // After `gradient`, before `light` and `tone`: its `ray.setup` and `sampling.gradient`
+        // functions must run before theirs and after `sample_gradient`.
+        if r.shading {
+            add("normal", vec![]);
+        }
         add("classify", vec![]);
         if !additional.is_empty() {
             add("classify_volume", additional.clone());

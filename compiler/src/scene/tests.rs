@@ -129,6 +129,7 @@ fn standard_modules_follow_the_configuration() {
             "background",
             "sample_primary",
             "gradient",
+            "normal",
             "classify",
             "light",
             "composite",

@@ -15,6 +15,8 @@ pub mod histogram;
 mod mhd;
 mod nifti;
 mod nrrd;
+#[cfg(test)]
+mod oversized;
 pub mod phantom;
 mod raw;
 mod samples;
@@ -452,6 +454,26 @@ fn check_dims(field: &str, sizes: [u64; 3]) -> Result<[u32; 3], LoadErrorKind> {
         [Ok(x), Ok(y), Ok(z)] if voxels <= u128::from(MAX_VOXELS) => Ok([x, y, z]),
         _ => Err(LoadErrorKind::TooLarge { dims: sizes.to_vec(), voxels }),
     }
+}
+
+/// The most one stored byte can expand to in any encoding the loaders read: deflate's limit
+/// (about 1032 : 1, zlib's technical note), above RLE's (64 : 1) and JPEG's.
+const MAX_EXPANSION: u64 = 1032;
+
+/// Refuses a header that claims more sample bytes (`claimed`) than the `stored` bytes holding
+/// them can give, before any sink allocates for the claim: raw data must hold them all, and
+/// compressed data expands at most [`MAX_EXPANSION`] times. A header whose claim passes is
+/// still checked exactly as its data is read.
+fn check_claim(claimed: u64, stored: u64, compressed: bool) -> Result<(), LoadErrorKind> {
+    if !compressed && claimed > stored {
+        return Err(LoadErrorKind::SizeMismatch { expected: claimed, found: stored, compressed: false });
+    }
+    if compressed && claimed > stored.saturating_mul(MAX_EXPANSION) {
+        return Err(LoadErrorKind::Header(format!(
+            "header says {claimed} bytes of data, more than {stored} compressed bytes can hold"
+        )));
+    }
+    Ok(())
 }
 
 /// How the samples are stored.

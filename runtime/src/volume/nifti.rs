@@ -12,8 +12,8 @@ use glam::{DMat3, DQuat, Mat4, Vec3};
 use nifti::{Endianness, NiftiError, NiftiHeader};
 
 use super::{
-    DataSource, Layout, LoadErrorKind, ProgressReader, SampleSink, ScalarType, Scaling, VolumeInfo, affine, check_dims,
-    is_usable, open, read_samples, skip_bytes,
+    DataSource, Layout, LoadErrorKind, ProgressReader, SampleSink, ScalarType, Scaling, VolumeInfo, affine,
+    check_claim, check_dims, is_usable, open, read_samples, skip_bytes,
 };
 
 /// Bytes in a NIfTI-1 header; the extensions (if any) and the data follow it.
@@ -50,6 +50,8 @@ fn read(reader: &mut dyn Read, gz: bool, len: u64, sink: &mut dyn SampleSink) ->
         )));
     }
     let source = DataSource { available: (!gz).then(|| len.saturating_sub(offset)), ..source };
+    // The whole compressed file bounds a `.nii.gz`'s data; the rest after the offset a `.nii`'s.
+    check_claim(layout.bytes(), if gz { len } else { len.saturating_sub(offset) }, gz)?;
     let info = VolumeInfo { dims, grid_to_world: grid_to_world(&header), scaling: scaling(&header) };
     sink.begin(&info)?;
     read_samples(reader, layout, &source, sink)?;
@@ -374,15 +376,32 @@ mod tests {
         assert_eq!(message, "header says 24 bytes of data, the decompressed data has 22");
     }
 
-    /// The samples of a compressed file are kept as they are decompressed: a small file whose
-    /// header claims 1040^3 voxels (2.2 GB) ends in an error at the end of its data instead of
-    /// an allocation for the claim.
+    /// A small compressed file whose header claims 1040^3 voxels (2.2 GB) is refused before
+    /// anything is allocated: its few compressed bytes cannot expand to the claim. A claim they
+    /// could hold is kept as it is decompressed, and ends in an error at the end of its data.
     #[test]
     fn a_small_gzip_claiming_a_huge_volume_is_an_error() {
         let header = TestHeader { dim: [3, 1040, 1040, 1040, 1, 1, 1, 1], ..TestHeader::default() };
-        let (io, message) = load_err("v.nii.gz", &gzip(&header.file(&[0u8; 4096])));
+        let file = gzip(&header.file(&[0u8; 4096]));
+        let (io, message) = load_err("v.nii.gz", &file);
         assert!(!io);
-        assert_eq!(message, "header says 2249728000 bytes of data, the decompressed data has 4096");
+        let expected =
+            format!("header says 2249728000 bytes of data, more than {} compressed bytes can hold", file.len());
+        assert_eq!(message, expected);
+        let header = TestHeader { dim: [3, 16, 16, 16, 1, 1, 1, 1], ..TestHeader::default() };
+        let (_, message) = load_err("v.nii.gz", &gzip(&header.file(&[0u8; 4096])));
+        assert_eq!(message, "header says 8192 bytes of data, the decompressed data has 4096");
+    }
+
+    /// An uncompressed `.nii` whose header claims more than the file holds.
+    #[test]
+    fn a_small_nii_claiming_a_huge_volume_is_an_error() {
+        let header = TestHeader { dim: [3, 1000, 1000, 1000, 1, 1, 1, 1], ..TestHeader::default() };
+        let (io, message) = load_err("v.nii", &header.file(&[0u8; 64]));
+        assert!(!io);
+        assert_eq!(message, "header says 2000000000 bytes of data, file has 64");
+        let header = TestHeader { dim: [3, 100, 100, 100, 1, 1, 1, 1], ..TestHeader::default() };
+        assert!(load_err("v.nii", &header.file(&[0u8; 64])).1.starts_with("header says 2000000 bytes"));
     }
 
     #[test]

@@ -11,7 +11,8 @@ use std::path::Path;
 use flate2::bufread::{GzDecoder, ZlibDecoder};
 
 use super::{
-    DataSource, Layout, LoadErrorKind, ProgressReader, SampleSink, VolumeInfo, open, read_samples, sibling, skip_bytes,
+    DataSource, Layout, LoadErrorKind, ProgressReader, SampleSink, VolumeInfo, check_claim, open, read_samples,
+    sibling, skip_bytes,
 };
 
 /// A parsed text header, as far as [`load`] needs it to find and read the data.
@@ -32,6 +33,12 @@ pub(super) trait TextHeader {
 
     /// The volume's shape, placement and scaling.
     fn info(&self) -> VolumeInfo;
+
+    /// Where the samples are in the data stream and how they are stored.
+    fn placement(&self) -> Placement;
+
+    /// The format's error for a skip of `skip` bytes that goes past the end of the data.
+    fn past_end(&self, skip: u64) -> LoadErrorKind;
 }
 
 /// Loads a file with a text header: `read_header` parses the header from the start of the file
@@ -49,16 +56,20 @@ pub(super) fn load<H: TextHeader>(
     let (file, len) = open(path, false)?;
     let mut reader = BufReader::new(ProgressReader::new(file, len, &mut *progress));
     let (header, header_len) = read_header(&mut reader)?;
-    sink.begin(&header.info())?;
     let total = match header.data_file() {
         None => {
-            header.read_data(&mut reader, len.saturating_sub(header_len), None, sink)?;
+            let data_len = len.saturating_sub(header_len);
+            check_placement(&header, data_len)?;
+            sink.begin(&header.info())?;
+            header.read_data(&mut reader, data_len, None, sink)?;
             len
         }
         Some(name) => {
             drop(reader);
             let data_path = sibling(path, name);
             let (file, data_len) = open(&data_path, true)?;
+            check_placement(&header, data_len)?;
+            sink.begin(&header.info())?;
             let mut reader = BufReader::new(ProgressReader::new(file, data_len, &mut *progress));
             header.read_data(&mut reader, data_len, Some(&data_path), sink)?;
             data_len
@@ -66,6 +77,15 @@ pub(super) fn load<H: TextHeader>(
     };
     progress(total, total);
     Ok(header.info())
+}
+
+/// Refuses a header whose samples cannot fit in the `len` bytes of its data stream (see
+/// [`check_claim`]), or whose skip goes past them, before the sink is told the grid.
+fn check_placement(header: &impl TextHeader, len: u64) -> Result<(), LoadErrorKind> {
+    let data = header.placement();
+    let skip = data.skip.unwrap_or(0);
+    let stored = len.checked_sub(skip).ok_or_else(|| header.past_end(skip))?;
+    check_claim(data.layout.bytes(), stored, data.encoding != Encoding::Raw)
 }
 
 /// How the data is stored.
