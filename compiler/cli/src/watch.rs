@@ -41,14 +41,19 @@ pub fn watch(printer: &Printer, args: &WatchArgs) -> Outcome {
     };
     eprintln!("rendering on {}", gpu.adapter);
     let Some(mut live) = open_when_good(printer, args, gpu, &mut watcher, &stop) else { return Outcome::Ok };
+    // The files are watched before each report: a client that edits as soon as it reads one
+    // (an editor, a test) must not edit before the watch is in place.
     let rendered = render(&mut live, args.dir);
+    if let Err(e) = watcher.watch(live.files()) {
+        return printer.io_failure(&format!("cannot watch files: {e}"));
+    }
     report(printer, &[], None, &rendered);
     loop {
+        let Some(changed) = next_change(&watcher, &stop) else { return stopped(printer) };
+        let rebuild = live.rebuild();
         if let Err(e) = watcher.watch(live.files()) {
             return printer.io_failure(&format!("cannot watch files: {e}"));
         }
-        let Some(changed) = next_change(&watcher, &stop) else { return stopped(printer) };
-        let rebuild = live.rebuild();
         let changed: Vec<PathBuf> = changed.into_iter().collect();
         if let Some(built) = &rebuild.built {
             printer.print(&built.diags.sorted(), &built.sources);
