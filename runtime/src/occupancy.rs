@@ -71,6 +71,137 @@ fn sample_bound(lo: f32, hi: f32) -> f32 {
     half::f16::from_bits(hi.to_bits() + 1).to_f32()
 }
 
+/// What `std::skip`'s occupancy grid is made from: the brick ranges of the primary volume and of
+/// every additional volume, each with its transfer function. Additional volumes are composited
+/// over the primary (`std::composite_volume`), so a sample is visible where any of them is: a
+/// primary brick is occupied when the primary is visible in it or when it overlaps an
+/// additional volume's occupied brick (its box taken into the primary's normalized coordinates
+/// and bounded there, so oblique and coarser grids are covered too).
+#[derive(Clone, Debug)]
+pub struct SceneRanges {
+    primary: (BrickRanges, VisibleRanges),
+    additional: Vec<AdditionalRanges>,
+}
+
+/// An additional volume's part of [`SceneRanges`].
+#[derive(Clone, Debug)]
+struct AdditionalRanges {
+    name: String,
+    ranges: BrickRanges,
+    /// Its normalized coordinates to the primary's (the inverse of `primary_to_NAME`).
+    to_primary: glam::Mat4,
+    visible: VisibleRanges,
+}
+
+impl SceneRanges {
+    /// The primary volume's ranges and its transfer function (resampled over its window).
+    pub fn new(primary: BrickRanges, tf: &TransferFunction) -> SceneRanges {
+        SceneRanges { primary: (primary, VisibleRanges::new(tf)), additional: Vec::new() }
+    }
+
+    /// Adds additional volume `name`: its ranges, its normalized coordinates to the primary's,
+    /// and its transfer function over its window.
+    pub fn add(&mut self, name: &str, ranges: BrickRanges, to_primary: glam::Mat4, tf: &TransferFunction) {
+        let visible = VisibleRanges::new(tf);
+        self.additional.push(AdditionalRanges { name: name.to_string(), ranges, to_primary, visible });
+    }
+
+    /// The primary volume's ranges (what `std::skip_mip` and `std::skip_iso` bound).
+    pub fn primary(&self) -> &BrickRanges {
+        &self.primary.0
+    }
+
+    /// Takes a new transfer function (over its window) for volume `name`, the primary when
+    /// `primary`; false when the volume takes no part in the grid.
+    pub fn set_tf(&mut self, name: &str, primary: bool, tf: &TransferFunction) -> bool {
+        if primary {
+            self.primary.1 = VisibleRanges::new(tf);
+            return true;
+        }
+        match self.additional.iter_mut().find(|a| a.name == name) {
+            Some(a) => {
+                a.visible = VisibleRanges::new(tf);
+                true
+            }
+            None => false,
+        }
+    }
+
+    /// `std::skip`'s grid over the primary's bricks: 1 where some volume may be visible.
+    pub fn occupancy(&self) -> Volume {
+        let (primary, visible) = &self.primary;
+        let mut occupied: Vec<bool> = primary.ranges.iter().map(|&(lo, hi)| visible.any(lo, hi)).collect();
+        for a in &self.additional {
+            a.mark_footprint(primary.bricks, &mut occupied);
+        }
+        let data = occupied.into_iter().map(|o| if o { 1.0 } else { 0.0 }).collect();
+        Volume::new(primary.bricks, glam::Mat4::IDENTITY, data)
+    }
+}
+
+impl AdditionalRanges {
+    /// Marks in `occupied` (a grid of `bricks` over the primary) every brick that a visible
+    /// sample of this volume may fall in.
+    fn mark_footprint(&self, bricks: [u32; 3], occupied: &mut [bool]) {
+        // Outside its grid the volume samples 0 (std::sample_volume): visible there, it may be
+        // visible anywhere.
+        if self.visible.any(0.0, 0.0) {
+            occupied.fill(true);
+            return;
+        }
+        let n = self.ranges.bricks.map(|b| b as usize);
+        for (index, &(lo, hi)) in self.ranges.ranges.iter().enumerate() {
+            if !self.visible.any(lo, hi) {
+                continue;
+            }
+            let brick = [index % n[0], index / n[0] % n[1], index / (n[0] * n[1])];
+            let (min, max) = self.box_in_primary(brick);
+            if !(min.is_finite() && max.is_finite()) {
+                occupied.fill(true);
+                return;
+            }
+            mark_box(bricks, min, max, occupied);
+        }
+    }
+
+    /// The bounds, in the primary's normalized coordinates, of this volume's brick `brick`.
+    fn box_in_primary(&self, brick: [usize; 3]) -> (glam::Vec3, glam::Vec3) {
+        let n = glam::UVec3::from(self.ranges.bricks).as_vec3();
+        let lo = glam::Vec3::new(brick[0] as f32, brick[1] as f32, brick[2] as f32) / n;
+        let hi = lo + glam::Vec3::ONE / n;
+        let mut min = glam::Vec3::INFINITY;
+        let mut max = glam::Vec3::NEG_INFINITY;
+        for corner in 0..8 {
+            let pick = |bit: usize, l: f32, h: f32| if corner & bit == 0 { l } else { h };
+            let c = glam::Vec3::new(pick(1, lo.x, hi.x), pick(2, lo.y, hi.y), pick(4, lo.z, hi.z));
+            let p = self.to_primary.transform_point3(c);
+            min = min.min(p);
+            max = max.max(p);
+        }
+        (min, max)
+    }
+}
+
+/// Marks the bricks of a grid of `bricks` over [0, 1]^3 that the box `[min, max]` touches,
+/// widened by a little for the rounding of the transforms.
+fn mark_box(bricks: [u32; 3], min: glam::Vec3, max: glam::Vec3, occupied: &mut [bool]) {
+    const SLACK: f32 = 1e-4;
+    let range = |axis: usize| {
+        let n = bricks[axis] as f32;
+        let first = ((min[axis] - SLACK) * n).floor().clamp(0.0, n) as usize;
+        let last = ((max[axis] + SLACK) * n).ceil().clamp(0.0, n) as usize;
+        first..last
+    };
+    let [bx, by, _] = bricks.map(|b| b as usize);
+    for k in range(2) {
+        for j in range(1) {
+            for i in range(0) {
+                occupied[(k * by + j) * bx + i] = true;
+            }
+        }
+    }
+}
+
 /// For each texel along one axis, the voxels a trilinear sample in its interval may read.
 fn texel_voxels(voxels: u32, texels: u32) -> Vec<std::ops::RangeInclusive<u32>> {
     (0..texels)
@@ -186,6 +317,7 @@ impl RangeBuilder {
 
 /// Answers "does the transfer function give any value in [lo, hi] a non-zero opacity?" in
 /// constant time, from a prefix count of visible table entries.
+#[derive(Clone, Debug)]
 struct VisibleRanges {
     prefix: Vec<u32>,
 }
@@ -236,6 +368,33 @@ mod tests {
         assert_eq!(occupancy(&volume(&values), Some([0.0, 1.0]), &tf).values(), vec![1.0, 1.0, 0.0, 0.0]);
         // The window normalizes as the upload does: 0.9 in a window [0, 2] is 0.45, invisible.
         assert_eq!(occupancy(&volume(&values), Some([0.0, 2.0]), &tf).values(), vec![0.0; 4]);
+    }
+
+    #[test]
+    fn an_additional_volume_occupies_the_primary_bricks_its_visible_bricks_overlap() {
+        let above_half =
+            from_points("t", &[(0.0, [1.0; 3]), (1.0, [1.0; 3])], &[(0.0, 0.0), (0.5, 0.0), (0.6, 1.0), (1.0, 1.0)]);
+        let primary = Volume::new([32, 8, 8], glam::Mat4::IDENTITY, vec![0.1; 32 * 8 * 8]);
+        let mut values = vec![0.1; 16 * 8 * 8];
+        values[15] = 0.9; // the additional volume's last voxel along x: its second brick
+        let additional = Volume::new([16, 8, 8], glam::Mat4::IDENTITY, values);
+        let mut scene = SceneRanges::new(BrickRanges::new(&primary, Some([0.0, 1.0])), &above_half);
+        assert_eq!(scene.occupancy().values(), vec![0.0; 4], "the primary alone is transparent");
+        // The same box: the additional brick [0.5, 1] covers the primary's last two bricks, and
+        // the one that only touches it at 0.5 counts too (the box is widened for rounding).
+        let ranges = BrickRanges::new(&additional, Some([0.0, 1.0]));
+        scene.add("a", ranges.clone(), glam::Mat4::IDENTITY, &above_half);
+        assert_eq!(scene.occupancy().values(), vec![0.0, 1.0, 1.0, 1.0]);
+        // Shifted by 0.3 of the box towards -x, it covers [0.2, 0.7]: the first three bricks.
+        let shifted = glam::Mat4::from_translation(glam::Vec3::new(-0.3, 0.0, 0.0));
+        let mut moved = SceneRanges::new(BrickRanges::new(&primary, Some([0.0, 1.0])), &above_half);
+        moved.add("a", ranges, shifted, &above_half);
+        assert_eq!(moved.occupancy().values(), vec![1.0, 1.0, 1.0, 0.0]);
+        // Visible at 0 (what it samples outside its grid): visible anywhere.
+        let everywhere = from_points("t", &[(0.0, [1.0; 3]), (1.0, [1.0; 3])], &[(0.0, 1.0), (1.0, 1.0)]);
+        assert!(moved.set_tf("a", false, &everywhere));
+        assert_eq!(moved.occupancy().values(), vec![1.0; 4]);
+        assert!(!moved.set_tf("b", false, &everywhere), "no volume `b` takes part");
     }
 
     #[test]

@@ -60,10 +60,10 @@ pub struct SceneRenderer {
     resources: Resources,
     /// Grid and transform of each volume, primary first.
     grids: Vec<VolumeGrid>,
-    /// Empty-space skipping: the value range of every brick of the primary volume, to rebuild
-    /// the occupancy grid when its transfer function changes without reading the volume again.
-    /// `None` when the scene does not skip.
-    skipping: Option<crate::occupancy::BrickRanges>,
+    /// Empty-space skipping: the value range of every brick of the primary volume and of the
+    /// additional ones, to rebuild the occupancy grid when a transfer function changes without
+    /// reading a volume again. `None` when the scene does not skip.
+    skipping: Option<crate::occupancy::SceneRanges>,
     /// What the loaded volumes were loaded from ([`volumes_key`]).
     volumes_key: String,
     pub views: Vec<SceneView>,
@@ -161,7 +161,7 @@ impl SceneRenderer {
         self.skipping = loaded.ranges;
         self.volumes_key = volumes_key(scene);
         self.upload_max_grid();
-        self.update_occupancy(&loaded.primary_tf);
+        self.update_occupancy();
         Ok(())
     }
 
@@ -276,17 +276,17 @@ impl SceneRenderer {
             RuntimeError::Invalid(format!("the scene has no volume `{volume}` with a transfer function"))
         })?;
         texture.write(&self.gpu, tf);
-        if is_primary {
-            self.update_occupancy(tf);
+        if self.skipping.as_mut().is_some_and(|s| s.set_tf(volume, is_primary, tf)) {
+            self.update_occupancy();
         }
         Ok(())
     }
 
-    /// Builds the occupancy grid of empty-space skipping (`std::skip`) for the primary transfer
-    /// function.
-    fn update_occupancy(&mut self, tf: &crate::tf::TransferFunction) {
+    /// Builds the occupancy grid of empty-space skipping (`std::skip`) for the current transfer
+    /// functions.
+    fn update_occupancy(&mut self) {
         let Some(ranges) = &self.skipping else { return };
-        let grid = ranges.occupancy(tf);
+        let grid = ranges.occupancy();
         if let Ok(texture) = VolumeTexture::upload(&self.gpu, "occupancy", &grid, Some([0.0, 1.0])) {
             self.resources.volumes.insert("occupancy".into(), Arc::new(texture));
         }
@@ -296,7 +296,7 @@ impl SceneRenderer {
     /// samples and the window only: built once per load).
     fn upload_max_grid(&mut self) {
         let Some(ranges) = &self.skipping else { return };
-        let grid = ranges.max_grid();
+        let grid = ranges.primary().max_grid();
         // Window [0, 1]: the grid holds normalized values already; above 1 stays above 1.
         if let Ok(texture) = VolumeTexture::upload(&self.gpu, "brick_max", &grid, Some([0.0, 1.0])) {
             self.resources.volumes.insert("brick_max".into(), Arc::new(texture));
@@ -522,10 +522,10 @@ pub fn is_set_by_renderer(name: &str) -> bool {
 struct Loaded {
     /// Every volume's grid, primary first.
     grids: Vec<VolumeGrid>,
-    /// The primary volume's brick ranges when the scene skips empty space (taken as it was
-    /// uploaded; no volume's samples are kept), and its transfer function.
-    ranges: Option<crate::occupancy::BrickRanges>,
-    primary_tf: crate::tf::TransferFunction,
+    /// The brick ranges of the primary and additional volumes when the scene skips empty space
+    /// (taken as they were uploaded; no volume's samples are kept), with their transfer
+    /// functions.
+    ranges: Option<crate::occupancy::SceneRanges>,
 }
 
 /// Loads and uploads every volume and transfer function of the scene.
@@ -537,9 +537,9 @@ fn load_volumes(
     notices: &mut Vec<String>,
     progress: Progress,
 ) -> Result<Loaded, RuntimeError> {
-    let mut grids = Vec::new();
-    let mut primary_ranges = None;
-    let mut primary_tf = tf::preset(vscene::DEFAULT_TF)?;
+    let mut grids: Vec<VolumeGrid> = Vec::new();
+    let mut scene_ranges: Option<crate::occupancy::SceneRanges> = None;
+    let default_tf = tf::preset(vscene::DEFAULT_TF)?;
     let primary = scene.primary();
     let ordered = std::iter::once(primary).chain(scene.volumes.iter().filter(|v| v.role.value != Role::Primary));
     for v in ordered {
@@ -549,10 +549,10 @@ fn load_volumes(
                 .map_err(|e| RuntimeError::Invalid(format!("volume `{name}`: {e}")))
         };
         let is_primary = v.role.value == Role::Primary;
-        // Empty-space skipping needs the primary volume's brick ranges, taken from the texels
-        // as they are uploaded: every volume file is streamed into its texture without a copy
-        // in memory.
-        let ranges = is_primary && scene.skips_empty_space();
+        // Empty-space skipping needs the brick ranges of the primary volume and of the
+        // additional ones (composited over it), taken from the texels as they are uploaded:
+        // every volume file is streamed into its texture without a copy in memory.
+        let ranges = matches!(v.role.value, Role::Primary | Role::Additional) && scene.skips_empty_space();
         let curve = match &v.tf {
             Some(TfRef::Preset(p)) => Some(tf::preset_curve(&p.value)?),
             Some(TfRef::File(file)) => Some(tf::paraview_curve(&file.resolved)?),
@@ -602,18 +602,34 @@ fn load_volumes(
             histogram: texture.histogram.clone(),
             curve,
         });
-        if ranges {
-            primary_ranges = bricks;
-        }
         resources.volumes.insert(binding, Arc::new(texture));
-        if let Some(table) = table {
-            let table = table.over_window(window);
+        let table = table.map(|t| t.over_window(window));
+        if let Some(table) = &table {
             let binding = if is_primary { "tf".to_string() } else { format!("tf_{name}") };
-            resources.tfs.insert(binding, Arc::new(TfTexture::upload(gpu, &table)));
-            if is_primary {
-                primary_tf = table;
-            }
+            resources.tfs.insert(binding, Arc::new(TfTexture::upload(gpu, table)));
+        }
+        if let Some(bricks) = bricks {
+            add_ranges(&mut scene_ranges, &grids, bricks, table.as_ref().unwrap_or(&default_tf));
         }
     }
-    Ok(Loaded { grids, ranges: primary_ranges, primary_tf })
+    Ok(Loaded { grids, ranges: scene_ranges })
+}
+
+/// Adds the brick ranges of the volume whose grid is the last of `grids` (the primary's when it
+/// is the first) to `scene`.
+fn add_ranges(
+    scene: &mut Option<crate::occupancy::SceneRanges>,
+    grids: &[VolumeGrid],
+    bricks: crate::occupancy::BrickRanges,
+    tf: &tf::TransferFunction,
+) {
+    let (Some(primary), Some(volume)) = (grids.first(), grids.last()) else { return };
+    match scene {
+        None => *scene = Some(crate::occupancy::SceneRanges::new(bricks, tf)),
+        Some(ranges) => {
+            let primary_to =
+                geometry::primary_to((&primary.dims, primary.grid_to_world), (&volume.dims, volume.grid_to_world));
+            ranges.add(&volume.name, bricks, primary_to.inverse(), tf);
+        }
+    }
 }

@@ -7,28 +7,11 @@
 
 mod common;
 
+use common::write_nrrd;
+
 use std::path::{Path, PathBuf};
 use vrs_runtime::volume::{Volume, phantom};
 use vrs_runtime::{RenderOptions, SceneRenderer};
-
-/// Writes float samples as a NRRD file with `space`, `space directions` and `space origin`.
-fn write_nrrd(path: &Path, space: &str, dims: [u32; 3], directions: [[f32; 3]; 3], origin: [f32; 3], values: &[f32]) {
-    let v = |a: [f32; 3]| format!("({},{},{})", a[0], a[1], a[2]);
-    let header = format!(
-        "NRRD0004\ntype: float\ndimension: 3\nspace: {space}\nsizes: {} {} {}\nspace directions: {} {} {}\n\
-         space origin: {}\nendian: little\nencoding: raw\n\n",
-        dims[0],
-        dims[1],
-        dims[2],
-        v(directions[0]),
-        v(directions[1]),
-        v(directions[2]),
-        v(origin)
-    );
-    let mut bytes = header.into_bytes();
-    bytes.extend(values.iter().flat_map(|x| x.to_le_bytes()));
-    std::fs::write(path, bytes).unwrap();
-}
 
 fn render(dir: &Path, text: &str) -> Vec<(String, image::RgbaImage)> {
     let scene: PathBuf = dir.join("scene.toml");

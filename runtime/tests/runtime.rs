@@ -164,24 +164,6 @@ fn bad_volumes_are_errors_with_exit_codes() {
     assert!(matches!(err, RuntimeError::Invalid(_)) && err.to_string().contains("heart"), "{err}");
 }
 
-#[test]
-fn empty_space_skipping_keeps_the_image() {
-    let gpu = common::software_gpu();
-    let dir = tempfile::tempdir().unwrap();
-    let plain = SCENE.replace("AMBIENT", "0.3").replace("phantom = \"head\"", "phantom = \"head\"\ntf = \"ct_bone\"");
-    let path = temp_scene(dir.path(), &plain);
-    let mut scene = SceneRenderer::open(gpu.clone(), &path, small(), &mut |_, _, _| {}).unwrap();
-    let reference = scene.render_all().unwrap().remove(0).1;
-    let path = temp_scene(dir.path(), &plain.replace("[render]", "[render]\nempty_space_skipping = true"));
-    let mut skipping = SceneRenderer::open(gpu, &path, small(), &mut |_, _, _| {}).unwrap();
-    assert!(skipping.views[0].renderer.shader().wgsl.contains("skip_empty_space"));
-    let skipped = skipping.render_all().unwrap().remove(0).1;
-    // Skipped samples are invisible ones; only float rounding of sample positions differs.
-    let worst =
-        reference.pixels().zip(skipped.pixels()).flat_map(|(a, b)| (0..4).map(move |c| a[c].abs_diff(b[c]))).max();
-    assert!(worst.unwrap_or(0) <= 3, "largest channel difference {worst:?}");
-}
-
 /// A volume file is streamed into its texture (no copy of its samples is kept); the picture is
 /// the one of the same samples uploaded from memory. The head phantom, written as a NRRD file
 /// of floats on the phantom's own grid, against the built-in phantom.

@@ -1,6 +1,7 @@
 //! Empty-space skipping (`std::skip`, `std::skip_mip`, `std::skip_iso`) changes nothing but the
 //! work: for each compositing mode that skips, the image with skipping is the one without (up to
-//! the rounding of the sample positions the jumps land on), and the rays take fewer samples.
+//! the rounding of the sample positions the jumps land on), and the rays take fewer samples;
+//! with DVR, an additional volume's content is never skipped, whatever its grid.
 
 mod common;
 
@@ -101,4 +102,76 @@ fn skipping_is_on_by_default_where_it_is_exact() {
         assert!(render(mode, None, false).1, "{mode}: no skipping by default");
     }
     assert!(!render("minip", None, false).1, "MinIP reads every sample");
+}
+
+/// A primary volume that the transfer function makes transparent everywhere, and an additional
+/// volume on a coarser grid turned 30 degrees, holding a bright ball off the centre: DVR may
+/// skip only where neither is visible, so the ball must show exactly as without skipping.
+const ADDITIONAL: &str = r#"
+[render]
+compositing = "dvr"
+empty_space_skipping = SKIP
+jitter = 0.0
+
+[[volume]]
+name = "head"
+role = "primary"
+phantom = "head"
+tf = "transparent.json"
+
+[[volume]]
+name = "ball"
+role = "additional"
+path = "ball.nrrd"
+tf = "ct_bone"
+
+[[view]]
+name = "3d"
+kind = "raycast"
+size = [64, 64]
+camera = { azimuth = 30.0, elevation = 20.0, distance = 2.2 }
+"#;
+
+/// Writes `ball.nrrd` (20^3 voxels of 5 mm, turned 30 degrees about the patient's z axis, a
+/// ball of 1000 HU in -1000) and `transparent.json` (no opacity anywhere) into `dir`.
+fn write_ball_scene(dir: &std::path::Path) {
+    let n = 20u32;
+    let values: Vec<f32> = (0..n * n * n)
+        .map(|i| {
+            let p = glam::Vec3::new((i % n) as f32, (i / n % n) as f32, (i / (n * n)) as f32);
+            if p.distance(glam::Vec3::new(13.0, 8.0, 10.0)) < 4.0 { 1000.0 } else { -1000.0 }
+        })
+        .collect();
+    let (c, s) = (30f32.to_radians().cos() * 5.0, 30f32.to_radians().sin() * 5.0);
+    let directions = [[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 5.0]];
+    common::write_nrrd(
+        &dir.join("ball.nrrd"),
+        "right-anterior-superior",
+        [n; 3],
+        directions,
+        [-45.0, -55.0, -50.0],
+        &values,
+    );
+    let transparent = r#"[{"Name": "transparent", "RGBPoints": [-1024, 1, 1, 1, 3071, 1, 1, 1], "Points": [-1024, 0, 0.5, 0, 3071, 0, 0.5, 0]}]"#;
+    std::fs::write(dir.join("transparent.json"), transparent).expect("tf");
+}
+
+#[test]
+fn dvr_skipping_never_skips_an_additional_volume() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    write_ball_scene(dir.path());
+    let render = |skip: bool| {
+        let path = dir.path().join(format!("scene_{skip}.toml"));
+        std::fs::write(&path, ADDITIONAL.replace("SKIP", &skip.to_string())).expect("scene");
+        let options = RenderOptions { phantom_size: [64, 64, 64], ..RenderOptions::default() };
+        let mut scene = SceneRenderer::open(common::software_gpu(), &path, options, &mut |_, _, _| {})
+            .unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(scene.views[0].renderer.shader().wgsl.contains("skip_empty("), skip);
+        scene.render_all().expect("render").remove(0).1
+    };
+    let (with, without) = (render(true), render(false));
+    let ball = without.pixels().filter(|p| p[0] > 0).count();
+    assert!(ball > 20, "the ball is visible: {ball} pixels");
+    let worst = with.pixels().zip(without.pixels()).flat_map(|(a, b)| (0..4).map(move |c| a[c].abs_diff(b[c]))).max();
+    assert!(worst.unwrap_or(0) <= 2, "largest channel difference {worst:?}");
 }

@@ -148,14 +148,15 @@ pub fn compose_scene_with(
     let mut views = Vec::with_capacity(composed.len());
     let mut data_flow = DataFlowWarnings::default();
     for (output, view_diags) in composed {
+        let compositing = chosen.iter().find(|v| v.name.name == output.name).map(|v| v.render.compositing.value);
         for d in view_diags.iter() {
-            if !data_flow.add(d, &output.name) {
+            if !data_flow.add(d, &output.name, compositing) {
                 diags.push(d.clone());
             }
         }
         views.push(output);
     }
-    data_flow.finish(&mut diags, scene.render.compositing.value);
+    data_flow.finish(&mut diags);
     let compositions: Vec<&Composition> = views.iter().map(|v| &v.composition).collect();
     let every_view = only_view.is_none() && views.iter().all(|v| v.shader.is_some());
     uniform_check::check_scene_uniforms(&scene, &compositions, every_view, &mut diags);
@@ -175,34 +176,41 @@ pub fn compose_scene_with(
 /// with a note naming them: views that share a module share its mistakes.
 #[derive(Default)]
 struct DataFlowWarnings {
-    /// In the order first seen, with the views that report it.
-    list: Vec<(Diagnostic, Vec<String>)>,
+    /// In the order first seen, with the views that report it and their compositing modes.
+    list: Vec<(Diagnostic, Vec<String>, Vec<scene::Compositing>)>,
 }
 
 impl DataFlowWarnings {
-    /// Takes `d` if it is a data-flow warning (`false` otherwise).
-    fn add(&mut self, d: &Diagnostic, view: &str) -> bool {
+    /// Takes `d`, reported by `view` (compositing with `mode`), if it is a data-flow warning
+    /// (`false` otherwise).
+    fn add(&mut self, d: &Diagnostic, view: &str, mode: Option<scene::Compositing>) -> bool {
         if !matches!(d.code, Code::ReadBeforeWrite | Code::WrittenNeverRead) {
             return false;
         }
-        match self.list.iter_mut().find(|(seen, _)| seen == d) {
-            Some((_, views)) => views.push(view.to_string()),
-            None => self.list.push((d.clone(), vec![view.to_string()])),
+        let entry = match self.list.iter().position(|(seen, _, _)| seen == d) {
+            Some(i) => &mut self.list[i],
+            None => {
+                self.list.push((d.clone(), Vec::new(), Vec::new()));
+                self.list.last_mut().expect("just pushed")
+            }
+        };
+        entry.1.push(view.to_string());
+        if let Some(mode) = mode.filter(|m| !entry.2.contains(m)) {
+            entry.2.push(mode);
         }
         true
     }
 
-    /// Pushes each warning once; a lost write also names the compositing mode, which decides
-    /// which standard functions read the fields.
-    fn finish(self, diags: &mut Diagnostics, compositing: scene::Compositing) {
-        let mode = compositing.name();
-        for (mut d, views) in self.list {
-            let names: Vec<String> = views.iter().map(|v| format!("`{v}`")).collect();
-            let which = if names.len() == 1 { "in view" } else { "in views" };
-            if d.code == Code::WrittenNeverRead {
-                d = d.with_note(format!("with compositing `{mode}`"));
+    /// Pushes each warning once; a lost write also names the views' compositing modes, which
+    /// decide which standard functions read the fields.
+    fn finish(self, diags: &mut Diagnostics) {
+        let quoted = |names: Vec<&str>| names.iter().map(|v| format!("`{v}`")).collect::<Vec<_>>().join(", ");
+        for (mut d, views, modes) in self.list {
+            if d.code == Code::WrittenNeverRead && !modes.is_empty() {
+                d = d.with_note(format!("with compositing {}", quoted(modes.iter().map(|m| m.name()).collect())));
             }
-            diags.push(d.with_note(format!("{which} {}", names.join(", "))));
+            let which = if views.len() == 1 { "in view" } else { "in views" };
+            diags.push(d.with_note(format!("{which} {}", quoted(views.iter().map(String::as_str).collect()))));
         }
     }
 }

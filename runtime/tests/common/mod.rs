@@ -84,3 +84,29 @@ pub fn check_golden(name: &str, actual: &RgbaImage) -> Result<(), String> {
         out.display()
     ))
 }
+
+/// Writes float samples as a NRRD file with `space`, `space directions` and `space origin`.
+pub fn write_nrrd(
+    path: &Path,
+    space: &str,
+    dims: [u32; 3],
+    directions: [[f32; 3]; 3],
+    origin: [f32; 3],
+    values: &[f32],
+) {
+    let v = |a: [f32; 3]| format!("({},{},{})", a[0], a[1], a[2]);
+    let header = format!(
+        "NRRD0004\ntype: float\ndimension: 3\nspace: {space}\nsizes: {} {} {}\nspace directions: {} {} {}\n\
+         space origin: {}\nendian: little\nencoding: raw\n\n",
+        dims[0],
+        dims[1],
+        dims[2],
+        v(directions[0]),
+        v(directions[1]),
+        v(directions[2]),
+        v(origin)
+    );
+    let mut bytes = header.into_bytes();
+    bytes.extend(values.iter().flat_map(|x| x.to_le_bytes()));
+    std::fs::write(path, bytes).unwrap();
+}
