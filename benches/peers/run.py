@@ -163,6 +163,13 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--vrsc", default=str(ROOT / "target/release/vrsc"), help="the vrsc that composes")
     parser.add_argument("--before", help="another vrsc binary (e.g. from before a change), a contender too")
+    parser.add_argument(
+        "--before-units",
+        choices=["normalized", "mm"],
+        default="normalized",
+        help="the units --before takes step sizes in: normalized (a vrsc from before physical sampling, "
+        "the default) or mm (a vrsc with physical sampling and `[[volume]] window`)",
+    )
     parser.add_argument("--worker", default=str(ROOT / "target/release/examples/peer_worker"))
     parser.add_argument("--volumes", default="mni_t1,phantom256")
     parser.add_argument("--modes", default="dvr,dvr_shaded,mip")
@@ -240,7 +247,8 @@ def run_case(label, case, volume, workers, wanted, args, out):
         "jitter": 0.0,
         "max_samples": max_samples,
     }
-    before_uniforms = dict(uniforms, step_size=case["step"], ref_step=case["ref_step"])
+    physical_before = args.before_units == "mm"
+    before_uniforms = uniforms if physical_before else dict(uniforms, step_size=case["step"], ref_step=case["ref_step"])
     shaders = {"vrsc": folder / "vrsc"}
     build(args.vrsc, scene, shaders["vrsc"])
     # Variants of this vrsc, to measure what each mechanism is worth.
@@ -265,8 +273,10 @@ def run_case(label, case, volume, workers, wanted, args, out):
         # Only the shaders come from it; the worker opens the volume with today's runtime. A
         # vrsc from before `[[volume]] window` existed builds the scene without that key.
         before_scene = folder / "before.toml"
-        lines = [l for l in scene.read_text().splitlines(True) if not l.startswith("window = ")]
-        lines = [f"step_size = {case['step']!r}\n" if l.startswith("step_size = ") else l for l in lines]
+        lines = scene.read_text().splitlines(True)
+        if not physical_before:
+            lines = [l for l in lines if not l.startswith("window = ")]
+            lines = [f"step_size = {case['step']!r}\n" if l.startswith("step_size = ") else l for l in lines]
         before_scene.write_text("".join(lines))
         build(args.before, before_scene, shaders["before"])
     phantom = volume["volume"].get("size", 128)

@@ -167,3 +167,20 @@ fn mutations_of_generated_modules_keep_the_promise() {
         }
     }
 }
+
+/// Inputs the fuzzer (`fuzz/check_and_lower`) found breaking the promise, kept so that it stays
+/// kept: each must fail `check` or validate.
+#[test]
+fn fuzz_findings_keep_the_promise() {
+    let cases = common::cases("fuzz");
+    assert!(!cases.is_empty(), "tests/fixtures/fuzz holds the fuzzer's findings");
+    for (name, path) in cases {
+        let text = std::fs::read_to_string(&path).expect("a fuzz finding");
+        let result = catch_unwind(AssertUnwindSafe(|| check_clean_validates(&text)));
+        match result {
+            Ok(Ok(_)) => {}
+            Ok(Err(why)) => panic!("{name} passed `check` but not validation:\n{why}"),
+            Err(_) => panic!("{name} panicked"),
+        }
+    }
+}

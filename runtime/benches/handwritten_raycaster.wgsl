@@ -1,7 +1,8 @@
 // A raycaster written by hand, doing the same work as the composed shader of
 // examples/basic/scene.toml's "3d" view without empty-space skipping (camera ray, steps of
 // `step_size` mm through `volume_to_world`, jitter, trilinear sample, transfer function; for
-// visible samples only: central-difference gradient, one Blinn-Phong light, opacity correction
+// visible samples only: central-difference gradient taken to patient space by
+// `gradient_to_world`, one Blinn-Phong light aimed in patient space, opacity correction
 // for the physical step, front-to-back DVR, the transparent ones gathered in an inner loop as the
 // composer's entry point does; early termination, background). Same bindings and
 // uniform block, so the runtime drives both alike. Used only by benches/render.rs as the
@@ -13,6 +14,7 @@ struct Uniforms {
     step_size: f32,
     jitter: f32,
     light_dir_key: vec3<f32>,
+    gradient_to_world: mat3x3<f32>,
     light_color_key: vec3<f32>,
     diffuse: f32,
     specular: f32,
@@ -69,7 +71,8 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     var t = max(max(t_lo.x, t_lo.y), max(t_lo.z, 0.0)) + u.jitter * hash2(pixel) * dt;
     let t_exit = min(min(t_hi.x, t_hi.y), t_hi.z);
     let h = 1.0 / vec3<f32>(textureDimensions(volume));
-    let view = -dir;
+    // Lighting happens in patient space: the view direction once per ray, the normal per sample.
+    let view = -normalize((u.volume_to_world * vec4<f32>(dir, 0.0)).xyz);
     let light = select(view, normalize(u.light_dir_key), dot(u.light_dir_key, u.light_dir_key) > 0.0);
     var accum = vec4<f32>(0.0);
     var i = 0u;
@@ -102,9 +105,10 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
             value_at(pos + vec3<f32>(0.0, 0.0, h.z)) - value_at(pos - vec3<f32>(0.0, 0.0, h.z))) / (2.0 * h);
         var lit = u.diffuse * u.light_color_key;
         var specular = vec3<f32>(0.0);
-        let len = length(g);
+        let g_world = u.gradient_to_world * g;
+        let len = length(g_world);
         if len >= 1e-6 {
-            var n = -g / len;
+            var n = -g_world / len;
             n = select(n, -n, dot(n, view) < 0.0);
             let d = max(dot(n, light), 0.0);
             var s = 0.0;

@@ -179,9 +179,17 @@ impl Checker<'_> {
             }
             (Some((t, _)), None) => t,
             (None, Some(v)) => v.ty,
-            (None, None) => Type::Error, // the parser requires a type or a value
+            (None, None) => Type::Error,
         };
-        if value.is_none() && !mutable {
+        if value.is_none() && declared.is_none() && mutable {
+            let d = Diagnostic::new(Code::Syntax, span, format!("`var {}` needs a type or a value", name.name))
+                .with_label("no `: type` and no `= value`")
+                .with_help(format!(
+                    "give it a type (`var {0}: f32;`, which starts at zero) or a value (`var {0} = 0.0;`)",
+                    name.name
+                ));
+            self.emit(f, d);
+        } else if value.is_none() && !mutable {
             let d = Diagnostic::new(Code::Syntax, span, format!("`let {}` needs a value", name.name))
                 .with_label("no `= value`")
                 .with_help("give it a value, or declare it with `var` to assign it later");

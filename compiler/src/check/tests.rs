@@ -622,3 +622,10 @@ fn folded_constants_reach_the_hir() {
     let hir::StmtKind::Return(Some(e)) = &body.stmts[0].kind else { panic!("a return: {body:?}") };
     assert!(matches!(&e.kind, hir::ExprKind::Const(v) if v.components == [ScalarValue::F32(8.0)]), "{e:?}");
 }
+
+#[test]
+fn a_var_needs_a_type_or_a_value() {
+    let c = expect("lib fn f() -> f32 {\n    var x;\n    x = 1.0;\n    return x;\n}\n", &[(Code::Syntax, 2)]);
+    assert!(c.message(Code::Syntax).contains("needs a type or a value"));
+    ok("lib fn f() -> f32 {\n    var x: f32;\n    var y = 2.0;\n    x = y;\n    return x;\n}\n");
+}
