@@ -11,14 +11,21 @@ fn fixture(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/fixtures/cli").join(name).join("scene.toml")
 }
 
+/// `vrsc --message-format json ARGS`, to run.
+fn vrsc_json_command(args: &[&str]) -> Command {
+    let mut command = Command::new(env!("CARGO_BIN_EXE_vrsc"));
+    command.args(["--message-format", "json"]).args(args);
+    command
+}
+
 /// Runs `vrsc --message-format json ARGS`: the exit code and the JSON diagnostics printed.
 fn vrsc_json(args: &[&str]) -> (i32, Vec<Value>) {
-    let out = Command::new(env!("CARGO_BIN_EXE_vrsc"))
-        .arg("--message-format")
-        .arg("json")
-        .args(args)
-        .output()
-        .expect("vrsc runs");
+    run_json(vrsc_json_command(args))
+}
+
+/// Runs `command`: the exit code and the JSON diagnostics printed.
+fn run_json(mut command: Command) -> (i32, Vec<Value>) {
+    let out = command.output().expect("vrsc runs");
     let stdout = String::from_utf8_lossy(&out.stdout);
     let diags = stdout.lines().filter_map(|l| serde_json::from_str::<Value>(l).ok()).collect();
     (out.status.code().unwrap_or(-1), diags)
@@ -87,6 +94,27 @@ fn an_output_folder_that_cannot_be_made_is_exit_2_in_json() {
     let (id, _, message) = only(&diags);
     assert_eq!((code, id.as_str()), (2, "E0902"), "{message}");
     assert!(message.starts_with("cannot create"), "{message}");
+}
+
+/// A machine without a graphics adapter, made by pointing the Vulkan loader at a driver list that
+/// does not exist: `render` fails with E0903 (exit 2) in the JSON format, and writes no image.
+#[test]
+fn no_graphics_adapter_is_exit_2_in_json() {
+    let dir = tempfile::tempdir().expect("a folder");
+    let no_driver = dir.path().join("no_driver.json");
+    let mut command = vrsc_json_command(&["render", &fixture("good").display().to_string(), "--output"]);
+    command
+        .arg(dir.path())
+        .env("WGPU_BACKEND", "vulkan")
+        .env("VK_ICD_FILENAMES", &no_driver)
+        .env("VK_DRIVER_FILES", &no_driver)
+        .env_remove("VRS_ADAPTER");
+    let (code, diags) = run_json(command);
+    let (id, _, message) = only(&diags);
+    assert_eq!((code, id.as_str()), (2, "E0903"), "{message}");
+    assert!(message.contains("mesa-vulkan-drivers"), "the hint names the software driver: {message}");
+    let images = std::fs::read_dir(dir.path()).expect("the folder").count();
+    assert_eq!(images, 0, "no image without an adapter");
 }
 
 #[test]
