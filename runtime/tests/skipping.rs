@@ -104,37 +104,26 @@ fn skipping_is_on_by_default_where_it_is_exact() {
     assert!(!render("minip", None, false).1, "MinIP reads every sample");
 }
 
-/// A primary volume that the transfer function makes transparent everywhere, and an additional
-/// volume on a coarser grid turned 30 degrees, holding a bright ball off the centre: DVR may
-/// skip only where neither is visible, so the ball must show exactly as without skipping.
-const ADDITIONAL: &str = r#"
-[render]
-compositing = "dvr"
-empty_space_skipping = SKIP
-jitter = 0.0
-
-[[volume]]
-name = "head"
-role = "primary"
-phantom = "head"
-tf = "transparent.json"
-
+/// An additional volume on a coarser grid turned 30 degrees, holding a bright ball off the
+/// centre, appended to `SCENE` in DVR with a primary the transfer function makes transparent
+/// everywhere: DVR may skip only where neither is visible, so the ball must show exactly as
+/// without skipping.
+const BALL: &str = r#"
 [[volume]]
 name = "ball"
 role = "additional"
 path = "ball.nrrd"
 tf = "ct_bone"
-
-[[view]]
-name = "3d"
-kind = "raycast"
-size = [64, 64]
-camera = { azimuth = 30.0, elevation = 20.0, distance = 2.2 }
 "#;
+
+fn ball_scene(skip: bool) -> String {
+    let primary = SCENE.replace("MODE", "dvr").replace("SKIP", &skip.to_string()).replace("iso_value = 0.45\n", "");
+    primary.replace("tf = \"ct_bone\"", "tf = \"transparent.json\"") + BALL
+}
 
 /// Writes `ball.nrrd` (20^3 voxels of 5 mm, turned 30 degrees about the patient's z axis, a
 /// ball of 1000 HU in -1000) and `transparent.json` (no opacity anywhere) into `dir`.
-fn write_ball_scene(dir: &std::path::Path) {
+fn write_ball_files(dir: &std::path::Path) {
     let n = 20u32;
     let values: Vec<f32> = (0..n * n * n)
         .map(|i| {
@@ -159,10 +148,10 @@ fn write_ball_scene(dir: &std::path::Path) {
 #[test]
 fn dvr_skipping_never_skips_an_additional_volume() {
     let dir = tempfile::tempdir().expect("temp dir");
-    write_ball_scene(dir.path());
+    write_ball_files(dir.path());
     let render = |skip: bool| {
         let path = dir.path().join(format!("scene_{skip}.toml"));
-        std::fs::write(&path, ADDITIONAL.replace("SKIP", &skip.to_string())).expect("scene");
+        std::fs::write(&path, ball_scene(skip)).expect("scene");
         let options = RenderOptions { phantom_size: [64, 64, 64], ..RenderOptions::default() };
         let mut scene = SceneRenderer::open(common::software_gpu(), &path, options, &mut |_, _, _| {})
             .unwrap_or_else(|e| panic!("{e}"));
