@@ -191,8 +191,11 @@ def main():
     if not args.before:
         wanted = [c for c in wanted if c != "before"]
     env = dict(os.environ, PYTHONPATH=str(HERE))
+    # The Vulkan loader prints an error on every start without a valid runtime folder.
+    if not os.path.isdir(env.get("XDG_RUNTIME_DIR", "")):
+        env["XDG_RUNTIME_DIR"] = tempfile.mkdtemp(prefix="vrs-peers-runtime-")
     python = sys.executable
-    workers = {"vrsc": Worker("vrsc", [args.worker])}
+    workers = {"vrsc": Worker("vrsc", [args.worker], env)}
     if "vtk" in wanted:
         workers["vtk"] = Worker("vtk", [python, str(HERE / "vtk_worker.py")], env)
     if "pygfx" in wanted:
