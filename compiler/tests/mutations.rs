@@ -123,6 +123,16 @@ fn mutate(rng: &mut Rng, src: &[u8]) -> Vec<u8> {
     out
 }
 
+/// The promise: `text` does not panic the front end, and if `check` accepts it, it validates.
+/// `what` names the input in the failure.
+fn assert_keeps_the_promise(what: &str, text: &str) {
+    match catch_unwind(AssertUnwindSafe(|| check_clean_validates(text))) {
+        Ok(Ok(_)) => {}
+        Ok(Err(why)) => panic!("{what} passed `check` but not validation:\n{why}\n{text}"),
+        Err(_) => panic!("{what} panicked; input:\n{text}"),
+    }
+}
+
 #[test]
 fn random_mutations_never_panic() {
     let mut sources = Vec::new();
@@ -139,14 +149,7 @@ fn random_mutations_never_panic() {
         let (name, src) = &sources[round % sources.len()];
         let mutated = mutate(&mut rng, src);
         let text = String::from_utf8_lossy(&mutated).into_owned();
-        let result = catch_unwind(AssertUnwindSafe(|| check_clean_validates(&text)));
-        match result {
-            Ok(Ok(_)) => {}
-            Ok(Err(why)) => {
-                panic!("round {round}: a mutation of {name} passed `check` but not validation:\n{why}\n{text}")
-            }
-            Err(_) => panic!("round {round}: a mutation of {name} panicked; input:\n{text}"),
-        }
+        assert_keeps_the_promise(&format!("round {round}: a mutation of {name}"), &text);
     }
 }
 
@@ -159,12 +162,7 @@ fn mutations_of_generated_modules_keep_the_promise() {
         let source = generate(&mut Choices::Seeded(round + 1));
         let mutated = mutate(&mut rng, source.as_bytes());
         let text = String::from_utf8_lossy(&mutated).into_owned();
-        let result = catch_unwind(AssertUnwindSafe(|| check_clean_validates(&text)));
-        match result {
-            Ok(Ok(_)) => {}
-            Ok(Err(why)) => panic!("round {round}: a mutant passed `check` but not validation:\n{why}\n{text}"),
-            Err(_) => panic!("round {round}: a mutant panicked; input:\n{text}"),
-        }
+        assert_keeps_the_promise(&format!("round {round}: a mutant"), &text);
     }
 }
 
@@ -176,11 +174,6 @@ fn fuzz_findings_keep_the_promise() {
     assert!(!cases.is_empty(), "tests/fixtures/fuzz holds the fuzzer's findings");
     for (name, path) in cases {
         let text = std::fs::read_to_string(&path).expect("a fuzz finding");
-        let result = catch_unwind(AssertUnwindSafe(|| check_clean_validates(&text)));
-        match result {
-            Ok(Ok(_)) => {}
-            Ok(Err(why)) => panic!("{name} passed `check` but not validation:\n{why}"),
-            Err(_) => panic!("{name} panicked"),
-        }
+        assert_keeps_the_promise(&name, &text);
     }
 }
