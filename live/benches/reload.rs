@@ -118,7 +118,7 @@ fn orbit(example: &str) {
             println!("{example}: the full frame fits the budget: no preview needed while orbiting");
             return;
         };
-        let target = create_output(live.renderer().gpu(), preview);
+        let target = create_output(live.renderer().gpu(), preview).expect("a preview target");
         let t = frame(&mut live, &target, Region::whole(preview));
         refiner.finished(&work, t);
         previews.push((scale, preview, t));

@@ -108,10 +108,13 @@ impl ViewFrames {
         let gpu = live.renderer().gpu().clone();
         let mut encoder = gpu.device.create_command_encoder(&Default::default());
         let encoded = match work {
-            Work::Preview { size, .. } => {
-                let target = self.preview_target(&gpu, size).create_view(&Default::default());
-                live.encode(index, &mut encoder, &target, Region::whole(size))
-            }
+            Work::Preview { size, .. } => match self.preview_target(&gpu, size) {
+                Ok(target) => {
+                    let target = target.create_view(&Default::default());
+                    live.encode(index, &mut encoder, &target, Region::whole(size))
+                }
+                Err(e) => Err(e),
+            },
             Work::Tile { region, .. } => match live.output(index) {
                 Some(output) => {
                     let target = output.create_view(&Default::default());
@@ -125,7 +128,15 @@ impl ViewFrames {
             return Err(e);
         }
         let submitted = Instant::now();
-        let submission = gpu.queue.submit([encoder.finish()]);
+        let submission = gpu.capture("rendering", || gpu.queue.submit([encoder.finish()]));
+        // A refused submission, or an error another thread left, abandons this piece of work:
+        // the picture shown stays the last good one.
+        let fault = submission.as_ref().err().cloned().or_else(|| gpu.take_fault());
+        if let Some(fault) = fault {
+            self.refiner.abandoned();
+            return Err(fault.into());
+        }
+        let Ok(submission) = submission else { return Ok(false) };
         self.pending = Some((work, submitted, waiter.watch(submission)));
         Ok(true)
     }
@@ -162,10 +173,11 @@ impl ViewFrames {
         }
     }
 
-    fn preview_target(&mut self, gpu: &vrs_runtime::Gpu, size: [u32; 2]) -> &wgpu::Texture {
-        if self.preview.as_ref().is_none_or(|(_, s)| *s != size) {
-            self.preview = Some((create_output(gpu, size), size));
-        }
-        &self.preview.as_ref().expect("just made").0
+    fn preview_target(&mut self, gpu: &vrs_runtime::Gpu, size: [u32; 2]) -> Result<&wgpu::Texture, RuntimeError> {
+        let preview = match self.preview.take() {
+            Some((texture, made)) if made == size => (texture, made),
+            _ => (create_output(gpu, size)?, size),
+        };
+        Ok(&self.preview.insert(preview).0)
     }
 }

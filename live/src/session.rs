@@ -380,18 +380,20 @@ impl LiveScene {
         Some(self.renderer.views.get(index)?.renderer.size())
     }
 
-    /// Renders view `index` at `size` from now on (kept across reloads).
-    pub fn set_size(&mut self, index: usize, size: [u32; 2]) {
+    /// Renders view `index` at `size` from now on (kept across reloads). A size the device
+    /// cannot hold is an error, and the view keeps its size and picture.
+    pub fn set_size(&mut self, index: usize, size: [u32; 2]) -> Result<(), RuntimeError> {
         let size = [size[0].max(1), size[1].max(1)];
         if self.size(index) == Some(size) {
-            return;
+            return Ok(());
         }
         let gpu = self.renderer.gpu().clone();
-        let Some(view) = self.renderer.views.get_mut(index) else { return };
-        view.renderer.resize(&gpu, size);
+        let Some(view) = self.renderer.views.get_mut(index) else { return Ok(()) };
+        view.renderer.resize(&gpu, size)?;
         let name = view.name.clone();
         self.user.sizes.insert(name.clone(), size);
         self.bump(&name);
+        Ok(())
     }
 
     /// Records `region` of view `index` into `target` (a texture of
@@ -478,8 +480,11 @@ impl LiveScene {
             {
                 view.slice = Some((*plane, slab));
             }
-            if let Some(&size) = self.user.sizes.get(&view.name) {
-                view.renderer.resize(&gpu, size);
+            if let Some(&size) = self.user.sizes.get(&view.name)
+                && view.renderer.resize(&gpu, size).is_err()
+            {
+                // It fitted the old pipeline's device; if it no longer does, the scene's wins.
+                self.user.sizes.remove(&view.name);
             }
         }
         let curves = std::mem::take(&mut self.user.curves);

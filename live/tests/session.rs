@@ -88,7 +88,7 @@ fn user_uniforms_and_cameras_survive_a_reload_unless_the_scene_changes_them() {
     live.set_uniform("k", Value::Float(vec![0.9])).unwrap();
     let camera = OrbitCamera { azimuth: 123.0, ..live.camera(0).unwrap() };
     live.set_camera(0, camera);
-    live.set_size(0, [48, 40]);
+    live.set_size(0, [48, 40]).expect("a size the device holds");
 
     // A structural edit elsewhere: the user's value, camera and size stay.
     std::fs::write(dir.path().join("dim.vrs"), MODULE.replace("* k;", "* k * 1.0;")).unwrap();
@@ -222,4 +222,20 @@ fn a_change_to_one_views_own_render_table_rebuilds_that_view() {
     assert_eq!(applied.recompiled, ["side"], "{applied:?}");
     assert!(live.renderer().views[1].renderer.has_uniform("gradient_to_world"));
     assert!(!live.renderer().views[0].renderer.has_uniform("gradient_to_world"));
+}
+
+/// A size the GPU refuses (beyond its 2D texture limit) is an error of `set_size`: the view
+/// keeps its size, its output texture and so its last good picture, and renders as before.
+#[test]
+fn a_size_the_gpu_refuses_keeps_the_last_good_picture() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut live = open(dir.path());
+    let before = live.render_all().expect("renders")[0].1.clone();
+    let output = live.output(0).cloned();
+    let refused = live.set_size(0, [65536, 16]).expect_err("beyond every device's limit");
+    assert!(matches!(refused, vrs_runtime::RuntimeError::Device(_)), "{refused}");
+    assert_eq!(live.size(0), Some([32, 32]));
+    assert!(live.output(0) == output.as_ref(), "the output texture is the one with the last picture");
+    assert_eq!(live.render_all().expect("still renders")[0].1, before);
+    assert_eq!(live.renderer().gpu().take_fault(), None, "the error was captured, not left behind");
 }

@@ -17,6 +17,9 @@ pub enum RuntimeError {
         path: PathBuf,
         message: String,
     },
+    /// wgpu refused or could not make a resource, a bind group or a submission (validation,
+    /// out of memory), or an error escaped every capture.
+    Device(crate::gpu::GpuFault),
     /// wgpu refused the shader or pipeline (a bug in the composer if it validated).
     Pipeline {
         view: String,
@@ -44,7 +47,7 @@ impl RuntimeError {
     /// `vrsc build` reports those as E0702, and a render exits the same).
     pub fn exit_code(&self) -> u8 {
         match self {
-            RuntimeError::Io { .. } | RuntimeError::Gpu(_) => 2,
+            RuntimeError::Io { .. } | RuntimeError::Gpu(_) | RuntimeError::Device(_) => 2,
             _ => 1,
         }
     }
@@ -54,6 +57,7 @@ impl fmt::Display for RuntimeError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             RuntimeError::Gpu(e) => write!(f, "{e}"),
+            RuntimeError::Device(e) => write!(f, "{e}"),
             RuntimeError::Io { path, error } => write!(f, "`{}`: {error}", path.display()),
             RuntimeError::Shader { path, message } => write!(f, "`{}`: {message}", path.display()),
             RuntimeError::Pipeline { view, message } => {
@@ -74,6 +78,12 @@ impl std::error::Error for RuntimeError {}
 impl From<crate::gpu::GpuError> for RuntimeError {
     fn from(e: crate::gpu::GpuError) -> RuntimeError {
         RuntimeError::Gpu(e)
+    }
+}
+
+impl From<crate::gpu::GpuFault> for RuntimeError {
+    fn from(e: crate::gpu::GpuFault) -> RuntimeError {
+        RuntimeError::Device(e)
     }
 }
 

@@ -1,8 +1,14 @@
 //! The device the runtime renders with: created headless, or an application's own.
 
 use std::fmt;
+use std::sync::{Arc, Mutex};
 
 /// A wgpu device and queue, and what adapter they came from.
+///
+/// wgpu's default answer to an error nobody captured is a panic. Every `Gpu` replaces it: the
+/// runtime captures the errors of what it creates and submits ([`Gpu::capture`]), and anything
+/// that escapes is kept as a [`GpuFault`] for the next [`Gpu::take_fault`], so a wgpu error
+/// always reaches the user as a value.
 #[derive(Clone)]
 pub struct Gpu {
     pub device: wgpu::Device,
@@ -11,6 +17,68 @@ pub struct Gpu {
     pub adapter: String,
     /// Whether it is a CPU (software) adapter such as lavapipe.
     pub software: bool,
+    /// Errors no error scope captured, oldest first.
+    uncaptured: Arc<Mutex<Vec<GpuFault>>>,
+}
+
+/// A wgpu error: validation (what the runtime asked for does not fit the device or its rules),
+/// out of memory, or internal; with what the runtime was doing.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct GpuFault {
+    /// What the runtime was doing: "creating the output image of view `3d`".
+    pub doing: String,
+    pub kind: GpuFaultKind,
+    /// wgpu's own report, its causes included.
+    pub message: String,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum GpuFaultKind {
+    Validation,
+    OutOfMemory,
+    Internal,
+}
+
+impl GpuFault {
+    fn new(doing: &str, error: &wgpu::Error) -> GpuFault {
+        let kind = match error {
+            wgpu::Error::OutOfMemory { .. } => GpuFaultKind::OutOfMemory,
+            wgpu::Error::Validation { .. } => GpuFaultKind::Validation,
+            wgpu::Error::Internal { .. } => GpuFaultKind::Internal,
+        };
+        GpuFault { doing: doing.to_string(), kind, message: full_message(error) }
+    }
+}
+
+impl fmt::Display for GpuFault {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let what = match self.kind {
+            GpuFaultKind::Validation => "refused",
+            GpuFaultKind::OutOfMemory => "ran out of memory",
+            GpuFaultKind::Internal => "failed",
+        };
+        write!(f, "the GPU {what} {}: {}", self.doing, self.message)
+    }
+}
+
+impl std::error::Error for GpuFault {}
+
+/// An error and its causes on one line, without wgpu's headings ("Validation Error", "Caused
+/// by:") and blank lines.
+fn full_message(error: &wgpu::Error) -> String {
+    let mut text = error.to_string();
+    let mut source = std::error::Error::source(error);
+    while let Some(cause) = source {
+        let line = cause.to_string();
+        if !text.contains(&line) {
+            text.push_str(": ");
+            text.push_str(&line);
+        }
+        source = cause.source();
+    }
+    let headings = ["Validation Error", "Caused by:", "Out of Memory"];
+    let lines = text.lines().map(str::trim).filter(|l| !l.is_empty() && !headings.contains(l));
+    lines.collect::<Vec<_>>().join(": ")
 }
 
 /// Which adapters [`Gpu::headless`] may pick.
@@ -56,9 +124,12 @@ impl Gpu {
         let descriptor = wgpu::DeviceDescriptor {
             label: Some("vrs-runtime"),
             required_features: wgpu::Features::empty(),
-            // Volumes need the adapter's largest 3D textures, not WebGPU's default 2048.
+            // Volumes need the adapter's largest 3D textures, not WebGPU's default 2048; images
+            // may be as large as the adapter allows (a scene's views stay within the 8192
+            // every device holds).
             required_limits: wgpu::Limits {
                 max_texture_dimension_3d: limits.max_texture_dimension_3d,
+                max_texture_dimension_2d: limits.max_texture_dimension_2d,
                 max_buffer_size: limits.max_buffer_size,
                 ..wgpu::Limits::default()
             },
@@ -66,17 +137,48 @@ impl Gpu {
         };
         let (device, queue) = pollster::block_on(adapter.request_device(&descriptor))
             .map_err(|e| GpuError(format!("cannot open a device on {}: {e}", info.name)))?;
-        Ok(Gpu {
-            device,
-            queue,
-            adapter: format!("{} ({:?})", info.name, info.backend),
-            software: info.device_type == wgpu::DeviceType::Cpu,
-        })
+        let mut gpu = Gpu::from_device(device, queue);
+        gpu.adapter = format!("{} ({:?})", info.name, info.backend);
+        gpu.software = info.device_type == wgpu::DeviceType::Cpu;
+        Ok(gpu)
     }
 
-    /// Wraps an application's own device and queue.
+    /// Wraps an application's own device and queue; errors nobody captures are kept for
+    /// [`Gpu::take_fault`] from now on, instead of wgpu's panic.
     pub fn from_device(device: wgpu::Device, queue: wgpu::Queue) -> Gpu {
-        Gpu { device, queue, adapter: "application device".into(), software: false }
+        let uncaptured: Arc<Mutex<Vec<GpuFault>>> = Arc::default();
+        let kept = uncaptured.clone();
+        device.on_uncaptured_error(Arc::new(move |error: wgpu::Error| {
+            if let Ok(mut faults) = kept.lock() {
+                faults.push(GpuFault::new("rendering", &error));
+            }
+        }));
+        Gpu { device, queue, adapter: "application device".into(), software: false, uncaptured }
+    }
+
+    /// Runs `work` (resource or pipeline creation, encoding, a submission) with its wgpu
+    /// errors captured: validation, out of memory and internal errors come back as the
+    /// [`GpuFault`] of `doing`, the first one wgpu reported.
+    pub fn capture<T>(&self, doing: &str, work: impl FnOnce() -> T) -> Result<T, GpuFault> {
+        let internal = self.device.push_error_scope(wgpu::ErrorFilter::Internal);
+        let memory = self.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+        let validation = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let value = work();
+        // Scopes pop innermost first.
+        let errors = [validation, memory, internal].map(|scope| pollster::block_on(scope.pop()));
+        match errors.iter().flatten().next() {
+            Some(error) => Err(GpuFault::new(doing, error)),
+            None => Ok(value),
+        }
+    }
+
+    /// The oldest error that escaped every capture since the last call (work another thread
+    /// submitted, say), and forgets the others: the first is the cause.
+    pub fn take_fault(&self) -> Option<GpuFault> {
+        let mut faults = self.uncaptured.lock().ok()?;
+        let first = (!faults.is_empty()).then(|| faults.remove(0));
+        faults.clear();
+        first
     }
 
     /// Waits until the GPU finished all submitted work.

@@ -26,6 +26,7 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
+pub mod bindings;
 pub mod error;
 pub mod geometry;
 pub mod gpu;
@@ -43,7 +44,7 @@ pub mod volume;
 
 pub use error::RuntimeError;
 pub use geometry::{Convention, OrbitCamera, SliceAxis, SlicePlane, slice_edge_labels};
-pub use gpu::{AdapterChoice, Gpu};
+pub use gpu::{AdapterChoice, Gpu, GpuFault};
 #[cfg(feature = "compiler")]
 pub use scene::{Applied, ProbeAt, ProbeImage, ProbeSpec, RenderOptions, SceneRenderer, VolumeStatus};
 pub use shader::{PipelineCache, ViewShader};

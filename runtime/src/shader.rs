@@ -1,6 +1,7 @@
 //! A view's compiled shader: WGSL text and its reflection, loaded from `vrsc build`'s output
 //! or handed over by the compiler; and the pipeline cache keyed by the structural hash.
 
+use crate::bindings;
 use crate::error::RuntimeError;
 use crate::gpu::Gpu;
 use crate::reflection::{Reflection, content_hash};
@@ -58,11 +59,19 @@ pub struct PipelineStats {
     pub misses: u64,
 }
 
+/// A view's compute pipeline and the bind-group layouts it was made with, one per group, both
+/// from the shader's reflection ([`crate::bindings`]).
+pub struct ViewPipeline {
+    pub pipeline: wgpu::ComputePipeline,
+    pub groups: Vec<wgpu::BindGroupLayout>,
+}
+
 /// Compute pipelines by structural hash: a configuration seen before reuses its pipeline, and a
-/// uniform-only change (same hash) never compiles again.
+/// uniform-only change (same hash) never compiles again. The hash covers the WGSL and the
+/// bindings, so equal keys have equal layouts.
 #[derive(Default)]
 pub struct PipelineCache {
-    pipelines: HashMap<String, Arc<wgpu::ComputePipeline>>,
+    pipelines: HashMap<String, Arc<ViewPipeline>>,
     stats: PipelineStats,
 }
 
@@ -76,7 +85,7 @@ impl PipelineCache {
     }
 
     /// The pipeline of `shader`, compiled on first use.
-    pub fn get(&mut self, gpu: &Gpu, shader: &ViewShader) -> Result<Arc<wgpu::ComputePipeline>, RuntimeError> {
+    pub fn get(&mut self, gpu: &Gpu, shader: &ViewShader) -> Result<Arc<ViewPipeline>, RuntimeError> {
         let key = &shader.reflection.structural_hash;
         if let Some(pipeline) = self.pipelines.get(key) {
             self.stats.hits += 1;
@@ -89,24 +98,38 @@ impl PipelineCache {
     }
 }
 
-/// Creates the shader module and compute pipeline, turning wgpu's validation errors into values.
-fn compile(gpu: &Gpu, shader: &ViewShader) -> Result<wgpu::ComputePipeline, RuntimeError> {
-    let view = &shader.reflection.view;
-    let scope = gpu.device.push_error_scope(wgpu::ErrorFilter::Validation);
-    let module = gpu.device.create_shader_module(wgpu::ShaderModuleDescriptor {
-        label: Some(view),
-        source: wgpu::ShaderSource::Wgsl(shader.wgsl.as_ref().into()),
+/// Creates the shader module, the layouts of its reflected bindings and the compute pipeline,
+/// turning wgpu's errors into values.
+fn compile(gpu: &Gpu, shader: &ViewShader) -> Result<ViewPipeline, RuntimeError> {
+    let reflection = &shader.reflection;
+    let view = &reflection.view;
+    let made = gpu.capture(&format!("the shader of view `{view}`"), || {
+        let module = gpu.device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some(view),
+            source: wgpu::ShaderSource::Wgsl(shader.wgsl.as_ref().into()),
+        });
+        let groups: Vec<wgpu::BindGroupLayout> = (0..bindings::group_count(reflection))
+            .map(|group| {
+                gpu.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                    label: Some(view),
+                    entries: &bindings::layout_entries(reflection, group),
+                })
+            })
+            .collect();
+        let layout = gpu.device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some(view),
+            bind_group_layouts: &groups.iter().map(Some).collect::<Vec<_>>(),
+            immediate_size: 0,
+        });
+        let pipeline = gpu.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some(view),
+            layout: Some(&layout),
+            module: &module,
+            entry_point: Some(&reflection.entry_point),
+            compilation_options: Default::default(),
+            cache: None,
+        });
+        ViewPipeline { pipeline, groups }
     });
-    let pipeline = gpu.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-        label: Some(view),
-        layout: None,
-        module: &module,
-        entry_point: Some(&shader.reflection.entry_point),
-        compilation_options: Default::default(),
-        cache: None,
-    });
-    match pollster::block_on(scope.pop()) {
-        Some(error) => Err(RuntimeError::Pipeline { view: view.clone(), message: error.to_string() }),
-        None => Ok(pipeline),
-    }
+    made.map_err(|fault| RuntimeError::Pipeline { view: view.clone(), message: fault.message })
 }

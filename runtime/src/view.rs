@@ -1,10 +1,10 @@
 //! Rendering one view: its pipeline, its uniform block and buffer, its output image, and the
 //! shared volumes and transfer functions it binds by name.
 
+use crate::bindings::{self, DispatchResources};
 use crate::error::RuntimeError;
 use crate::gpu::Gpu;
-use crate::reflection::BindingKind;
-use crate::shader::{PipelineCache, ViewShader};
+use crate::shader::{PipelineCache, ViewPipeline, ViewShader};
 use crate::textures::{TfTexture, VolumeTexture, linear_sampler};
 use crate::uniforms::{UniformBlock, Value};
 use std::collections::HashMap;
@@ -27,7 +27,7 @@ impl Resources {
 /// One view's GPU state. Changing uniforms only rewrites the uniform buffer.
 pub struct ViewRenderer {
     shader: ViewShader,
-    pipeline: Arc<wgpu::ComputePipeline>,
+    pipeline: Arc<ViewPipeline>,
     uniforms: UniformBlock,
     uniform_buffer: wgpu::Buffer,
     output: wgpu::Texture,
@@ -47,13 +47,16 @@ impl ViewRenderer {
     ) -> Result<ViewRenderer, RuntimeError> {
         let pipeline = cache.get(gpu, &shader)?;
         let uniforms = UniformBlock::new(&shader.reflection);
-        let uniform_buffer = gpu.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("uniforms"),
-            size: uniforms.bytes().len() as u64,
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        let output = create_output(gpu, size);
+        let doing = format!("creating the uniform buffer of view `{}`", shader.reflection.view);
+        let uniform_buffer = gpu.capture(&doing, || {
+            gpu.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("uniforms"),
+                size: uniforms.bytes().len() as u64,
+                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            })
+        })?;
+        let output = create_output(gpu, size)?;
         Ok(ViewRenderer { shader, pipeline, uniforms, uniform_buffer, output, size })
     }
 
@@ -93,12 +96,14 @@ impl ViewRenderer {
         &self.output
     }
 
-    /// Changes the output size (a new, uninitialised output texture); uniforms stay.
-    pub fn resize(&mut self, gpu: &Gpu, size: [u32; 2]) {
+    /// Changes the output size (a new, uninitialised output texture); uniforms stay. A size
+    /// the device cannot hold is an error, and the renderer keeps its size and image.
+    pub fn resize(&mut self, gpu: &Gpu, size: [u32; 2]) -> Result<(), RuntimeError> {
         if size != self.size {
+            self.output = create_output(gpu, size)?;
             self.size = size;
-            self.output = create_output(gpu, size);
         }
+        Ok(())
     }
 
     /// Records the view's compute pass into `encoder`: the whole image, into [`Self::output`].
@@ -128,22 +133,43 @@ impl ViewRenderer {
         if let Some(bytes) = self.uniforms.take_changes() {
             gpu.queue.write_buffer(&self.uniform_buffer, 0, bytes);
         }
-        let region_buffer = wgpu::util::DeviceExt::create_buffer_init(
-            &gpu.device,
-            &wgpu::util::BufferInitDescriptor {
-                label: Some("region"),
-                contents: bytemuck::cast_slice(&[region.x0, region.y0, region.x1, region.y1]),
-                usage: wgpu::BufferUsages::UNIFORM,
-            },
-        );
-        let bind_group = self.bind_group(gpu, resources, target, &region_buffer)?;
-        let [wx, wy, _] = self.shader.reflection.workgroup_size;
+        let reflection = &self.shader.reflection;
+        let doing = format!("binding the resources of view `{}`", reflection.view);
+        let region_buffer = gpu.capture(&doing, || {
+            wgpu::util::DeviceExt::create_buffer_init(
+                &gpu.device,
+                &wgpu::util::BufferInitDescriptor {
+                    label: Some("region"),
+                    contents: bytemuck::cast_slice(&[region.x0, region.y0, region.x1, region.y1]),
+                    usage: wgpu::BufferUsages::UNIFORM,
+                },
+            )
+        })?;
+        let own = DispatchResources { uniforms: &self.uniform_buffer, region: &region_buffer, output: target };
+        let mut groups = Vec::with_capacity(self.pipeline.groups.len());
+        for (group, layout) in (0u32..).zip(&self.pipeline.groups) {
+            let entries = bindings::group_entries(reflection, group, resources, &own)?;
+            let made = gpu.capture(&doing, || {
+                gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                    label: Some(&reflection.view),
+                    layout,
+                    entries: &entries,
+                })
+            });
+            groups.push(made?);
+        }
+        let [wx, wy, _] = reflection.workgroup_size;
         let (w, h) = (region.x1.saturating_sub(region.x0), region.y1.saturating_sub(region.y0));
-        let mut pass =
-            encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("raycast"), timestamp_writes: None });
-        pass.set_pipeline(&self.pipeline);
-        pass.set_bind_group(0, &bind_group, &[]);
-        pass.dispatch_workgroups(w.div_ceil(wx.max(1)), h.div_ceil(wy.max(1)), 1);
+        let doing = format!("recording the pass of view `{}`", reflection.view);
+        gpu.capture(&doing, || {
+            let mut pass = encoder
+                .begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("raycast"), timestamp_writes: None });
+            pass.set_pipeline(&self.pipeline.pipeline);
+            for (group, bind_group) in (0u32..).zip(&groups) {
+                pass.set_bind_group(group, bind_group, &[]);
+            }
+            pass.dispatch_workgroups(w.div_ceil(wx.max(1)), h.div_ceil(wy.max(1)), 1);
+        })?;
         Ok(())
     }
 
@@ -153,12 +179,15 @@ impl ViewRenderer {
         self.encode(gpu, resources, &mut encoder)?;
         let [w, h] = self.size;
         let padded_row = (w * 4).div_ceil(ROW_ALIGNMENT) * ROW_ALIGNMENT;
-        let readback = gpu.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("readback"),
-            size: u64::from(padded_row) * u64::from(h),
-            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
+        let doing = format!("rendering view `{}`", self.shader.reflection.view);
+        let readback = gpu.capture(&doing, || {
+            gpu.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("readback"),
+                size: u64::from(padded_row) * u64::from(h),
+                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            })
+        })?;
         encoder.copy_texture_to_buffer(
             self.output.as_image_copy(),
             wgpu::TexelCopyBufferInfo {
@@ -171,10 +200,14 @@ impl ViewRenderer {
             },
             wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
         );
-        gpu.queue.submit([encoder.finish()]);
+        gpu.capture(&doing, || gpu.queue.submit([encoder.finish()]))?;
         let slice = readback.slice(..);
         slice.map_async(wgpu::MapMode::Read, |_| {});
         gpu.wait();
+        // Whatever escaped the captures (nothing should) fails the render rather than a panic.
+        if let Some(fault) = gpu.take_fault() {
+            return Err(fault.into());
+        }
         let mapped =
             slice.get_mapped_range().map_err(|e| RuntimeError::Invalid(format!("cannot read the image back: {e}")))?;
         let mut pixels = Vec::with_capacity((w * h * 4) as usize);
@@ -185,42 +218,6 @@ impl ViewRenderer {
         readback.unmap();
         unpremultiply(&mut pixels);
         image::RgbaImage::from_raw(w, h, pixels).ok_or_else(|| RuntimeError::Invalid("image size mismatch".into()))
-    }
-
-    fn bind_group(
-        &self,
-        gpu: &Gpu,
-        resources: &Resources,
-        output_view: &wgpu::TextureView,
-        region: &wgpu::Buffer,
-    ) -> Result<wgpu::BindGroup, RuntimeError> {
-        let view_name = &self.shader.reflection.view;
-        let missing = |what: &str, name: &str| {
-            RuntimeError::Invalid(format!("view `{view_name}` reads {what} `{name}`, but none is bound"))
-        };
-        let mut entries = Vec::new();
-        for binding in &self.shader.reflection.bindings {
-            let resource = match binding.kind {
-                BindingKind::UniformBlock => self.uniform_buffer.as_entire_binding(),
-                BindingKind::OutputImage => wgpu::BindingResource::TextureView(output_view),
-                BindingKind::Region => region.as_entire_binding(),
-                BindingKind::VolumeTexture => wgpu::BindingResource::TextureView(
-                    &resources.volumes.get(&binding.name).ok_or_else(|| missing("volume", &binding.name))?.view,
-                ),
-                BindingKind::TfTexture => wgpu::BindingResource::TextureView(
-                    &resources.tfs.get(&binding.name).ok_or_else(|| missing("transfer function", &binding.name))?.view,
-                ),
-                BindingKind::VolumeSampler | BindingKind::TfSampler => {
-                    wgpu::BindingResource::Sampler(&resources.sampler)
-                }
-            };
-            entries.push(wgpu::BindGroupEntry { binding: binding.binding, resource });
-        }
-        Ok(gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some(view_name),
-            layout: &self.pipeline.get_bind_group_layout(0),
-            entries: &entries,
-        }))
     }
 }
 
@@ -246,8 +243,14 @@ impl Region {
 }
 
 /// A texture a view can render into (see [`ViewRenderer::encode_into`]): `Rgba8Unorm`, written
-/// as storage, sampled by an application, copied out for read-back.
-pub fn create_output(gpu: &Gpu, [w, h]: [u32; 2]) -> wgpu::Texture {
+/// as storage, sampled by an application, copied out for read-back. A size beyond the device's
+/// limits (or its memory) is an error.
+pub fn create_output(gpu: &Gpu, [w, h]: [u32; 2]) -> Result<wgpu::Texture, RuntimeError> {
+    let doing = format!("creating a {w}x{h} image");
+    Ok(gpu.capture(&doing, || output_texture(gpu, [w, h]))?)
+}
+
+fn output_texture(gpu: &Gpu, [w, h]: [u32; 2]) -> wgpu::Texture {
     gpu.device.create_texture(&wgpu::TextureDescriptor {
         label: Some("view output"),
         size: wgpu::Extent3d { width: w.max(1), height: h.max(1), depth_or_array_layers: 1 },

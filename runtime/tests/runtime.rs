@@ -248,3 +248,28 @@ fn an_outlier_voxel_does_not_change_the_picture() {
         }
     }
 }
+
+/// wgpu's default answer to an error outside any capture is a panic; the runtime's device keeps
+/// it instead, for the caller to take as a value.
+#[test]
+fn a_wgpu_error_outside_any_capture_is_kept_not_a_panic() {
+    let gpu = common::software_gpu();
+    let too_wide = gpu.device.limits().max_texture_dimension_2d + 1;
+    let _texture = gpu.device.create_texture(&wgpu::TextureDescriptor {
+        label: Some("too wide"),
+        size: wgpu::Extent3d { width: too_wide, height: 1, depth_or_array_layers: 1 },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format: wgpu::TextureFormat::Rgba8Unorm,
+        usage: wgpu::TextureUsages::TEXTURE_BINDING,
+        view_formats: &[],
+    });
+    let fault = gpu.take_fault().expect("the error is kept");
+    assert_eq!(fault.kind, vrs_runtime::gpu::GpuFaultKind::Validation);
+    assert!(fault.message.contains("exceeds the limit"), "{fault}");
+    assert_eq!(gpu.take_fault(), None, "taken once");
+    // The same mistake inside a capture is that capture's error.
+    let captured = vrs_runtime::view::create_output(&gpu, [too_wide, 1]).expect_err("refused");
+    assert!(matches!(captured, vrs_runtime::RuntimeError::Device(_)), "{captured}");
+}

@@ -170,9 +170,8 @@ fn view_cell(
         image = Rect::from_center_size(image.center(), Vec2::splat(side));
     }
     let size = [(image.width() * pixels_per_point) as u32, (image.height() * pixels_per_point) as u32];
-    if size[0] >= 8 && size[1] >= 8 {
-        live.set_size(index, size);
-    }
+    // A size the device cannot hold keeps the last size and picture (drawn scaled), and says so.
+    let refused = (size[0] >= 8 && size[1] >= 8).then(|| live.set_size(index, size).err()).flatten();
     let response = ui.interact(image, ui.scope_id().with(("view", index)), Sense::click_and_drag());
     if handle_input(ui, live, index, &response) {
         slot.frames.input(now);
@@ -215,7 +214,10 @@ fn view_cell(
         let font = egui::FontId::monospace(11.0);
         ui.painter().text(at, egui::Align2::LEFT_BOTTOM, legend, font, Color32::from_rgb(255, 230, 150));
     }
-    let caption = format!("{} — {}", slot.name, describe(&slot.frames, size));
+    let caption = match refused {
+        Some(e) => format!("{} — {e}", slot.name),
+        None => format!("{} — {}", slot.name, describe(&slot.frames, size)),
+    };
     ui.painter().text(cell.min, egui::Align2::LEFT_TOP, caption, egui::FontId::proportional(13.0), Color32::LIGHT_GRAY);
     let menu = Rect::from_min_max(
         egui::pos2(cell.max.x - 150.0, cell.min.y),

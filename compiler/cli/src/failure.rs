@@ -20,15 +20,22 @@ pub fn io(message: impl Into<String>) -> Diagnostic {
 
 /// Whether a diagnostic is about the machine rather than the input (exit 2).
 pub fn is_environment(d: &Diagnostic) -> bool {
-    matches!(d.code, Code::Io | Code::Device)
+    matches!(d.code, Code::Io | Code::Device | Code::GpuRefused)
 }
+
+/// What a refused resource or pipeline means for the user.
+const GPU_REFUSED_NOTE: &str = "the scene composed, but this GPU refused the work; a smaller image \
+(`--size`) or volume may fit, and if it does not, please report it with the scene";
 
 /// A runtime error of rendering `scene`: about a volume or transfer function of the scene, an
 /// E0702 at the value that names it; about the machine, E0902 or E0903.
 pub fn runtime(e: &RuntimeError, scene: &Scene) -> Diagnostic {
     let message = e.to_string();
     match e {
-        RuntimeError::Gpu(_) | RuntimeError::Pipeline { .. } => Diagnostic::new(Code::Device, Span::DUMMY, message),
+        RuntimeError::Gpu(_) => Diagnostic::new(Code::Device, Span::DUMMY, message),
+        RuntimeError::Device(_) | RuntimeError::Pipeline { .. } => {
+            Diagnostic::new(Code::GpuRefused, Span::DUMMY, message).with_note(GPU_REFUSED_NOTE)
+        }
         RuntimeError::Io { .. } => io(message),
         RuntimeError::Volume(load) => {
             let span = volume_span(scene, &load.path);

@@ -349,12 +349,16 @@ fn view(scene: &Path, software: bool, budget_ms: u64) -> Outcome {
     }
 }
 
+/// The largest `--size` side: any device's limit lies below it.
+const MAX_SIZE_ARG: u32 = 65536;
+
 fn parse_size(text: &str) -> Result<[u32; 2], String> {
     let (w, h) = text.split_once(['x', 'X']).ok_or("expected WxH, for example 512x512")?;
-    let parse = |s: &str| s.trim().parse::<u32>().ok().filter(|&n| (1..=16384).contains(&n));
+    // Beyond a scene's limit the device decides: a size it cannot hold is its E0904.
+    let parse = |s: &str| s.trim().parse::<u32>().ok().filter(|&n| (1..=MAX_SIZE_ARG).contains(&n));
     match (parse(w), parse(h)) {
         (Some(w), Some(h)) => Ok([w, h]),
-        _ => Err("width and height must be whole numbers from 1 to 16384".into()),
+        _ => Err(format!("width and height must be whole numbers from 1 to {MAX_SIZE_ARG}")),
     }
 }
 

@@ -117,6 +117,27 @@ fn no_graphics_adapter_is_exit_2_in_json() {
     assert_eq!(images, 0, "no image without an adapter");
 }
 
+/// An image larger than the device holds: the scene builds, the GPU refuses the output texture,
+/// and `render` reports E0904 (exit 2) with wgpu's reason, in JSON and in human form, and writes
+/// no image.
+#[test]
+fn an_image_beyond_the_device_limit_is_e0904_exit_2() {
+    let dir = tempfile::tempdir().expect("a folder");
+    let scene = fixture("good").display().to_string();
+    let out = dir.path().display().to_string();
+    let args = ["render", scene.as_str(), "--software", "--size", "65536x16", "--output", out.as_str()];
+    let (code, diags) = vrsc_json(&args);
+    let (id, line, message) = only(&diags);
+    assert_eq!((code, id.as_str(), line), (2, "E0904", 0), "{message}");
+    assert!(message.contains("exceeds the limit"), "wgpu's reason is kept: {message}");
+    let human = Command::new(env!("CARGO_BIN_EXE_vrsc")).args(args).output().expect("vrsc runs");
+    let stderr = String::from_utf8_lossy(&human.stderr);
+    assert_eq!(human.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("error[E0904]") && !stderr.contains("panicked"), "{stderr}");
+    let images = std::fs::read_dir(dir.path()).expect("the folder").count();
+    assert_eq!(images, 0, "no image when the GPU refuses");
+}
+
 #[test]
 fn a_missing_scene_file_is_exit_2_in_json() {
     let (code, diags) = build(Path::new("no/such/scene.toml"));

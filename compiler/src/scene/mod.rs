@@ -36,8 +36,9 @@ use toml::Spanned;
 
 /// The size of a view when `size` is not given.
 pub const DEFAULT_VIEW_SIZE: [u32; 2] = [512, 512];
-/// The largest width or height of a view.
-pub const MAX_VIEW_SIZE: u32 = 16384;
+/// The largest width or height of a view in a scene: the 2D texture size every WebGPU device
+/// holds (`maxTextureDimension2D`), so a scene `build` accepts fits any device's output image.
+pub const MAX_VIEW_SIZE: u32 = 8192;
 /// The light that `shading = true` gets when `lights` is not given.
 pub const DEFAULT_LIGHT: &str = "key";
 /// The transfer function preset of primary and additional volumes without `tf`.

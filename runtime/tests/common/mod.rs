@@ -1,6 +1,8 @@
 //! Shared set-up of the runtime's integration tests.
 #![allow(dead_code)]
 
+pub mod cells;
+
 use image::RgbaImage;
 use std::path::{Path, PathBuf};
 use vrs_runtime::{AdapterChoice, Gpu};

@@ -1,0 +1,97 @@
+//! The one source of a view's bindings: its reflection (`reflection.bindings`, built by the
+//! compiler in the same pass that declares them in the shader) gives both the bind-group
+//! layout the pipeline is made with and the bind group each dispatch uses, so the two cannot
+//! drift apart. wgpu's layout derived from the shader would list only the bindings the entry
+//! point reaches, which is not what the reflection promises (an additional volume that MIP
+//! samples but never composites is declared, and bound, all the same).
+
+use crate::error::RuntimeError;
+use crate::reflection::{BindingInfo, BindingKind, Reflection};
+use crate::view::Resources;
+
+/// What a binding of each kind is in the layout.
+fn binding_type(kind: BindingKind) -> wgpu::BindingType {
+    let texture = |view_dimension| wgpu::BindingType::Texture {
+        sample_type: wgpu::TextureSampleType::Float { filterable: true },
+        view_dimension,
+        multisampled: false,
+    };
+    match kind {
+        BindingKind::UniformBlock | BindingKind::Region => wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Uniform,
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        BindingKind::OutputImage => wgpu::BindingType::StorageTexture {
+            access: wgpu::StorageTextureAccess::WriteOnly,
+            format: wgpu::TextureFormat::Rgba8Unorm,
+            view_dimension: wgpu::TextureViewDimension::D2,
+        },
+        BindingKind::VolumeTexture => texture(wgpu::TextureViewDimension::D3),
+        BindingKind::TfTexture => texture(wgpu::TextureViewDimension::D2),
+        BindingKind::VolumeSampler | BindingKind::TfSampler => {
+            wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering)
+        }
+    }
+}
+
+/// The bindings of group `group`, in binding order.
+fn in_group(reflection: &Reflection, group: u32) -> impl Iterator<Item = &BindingInfo> {
+    reflection.bindings.iter().filter(move |b| b.group == group)
+}
+
+/// The groups the reflection uses, 0 to the highest (wgpu numbers pipeline layouts' groups by
+/// position, so a gap is an empty group).
+pub fn group_count(reflection: &Reflection) -> u32 {
+    reflection.bindings.iter().map(|b| b.group + 1).max().unwrap_or(0)
+}
+
+/// The layout of group `group` of a view, from its reflection.
+pub fn layout_entries(reflection: &Reflection, group: u32) -> Vec<wgpu::BindGroupLayoutEntry> {
+    in_group(reflection, group)
+        .map(|b| wgpu::BindGroupLayoutEntry {
+            binding: b.binding,
+            visibility: wgpu::ShaderStages::COMPUTE,
+            ty: binding_type(b.kind),
+            count: None,
+        })
+        .collect()
+}
+
+/// What one dispatch binds besides the shared resources.
+pub struct DispatchResources<'a> {
+    pub uniforms: &'a wgpu::Buffer,
+    pub region: &'a wgpu::Buffer,
+    pub output: &'a wgpu::TextureView,
+}
+
+/// The entries of group `group` for one dispatch: the same bindings, in the same order, as
+/// [`layout_entries`]. A volume or transfer function the view reads but the scene did not load
+/// is an error naming it.
+pub fn group_entries<'a>(
+    reflection: &'a Reflection,
+    group: u32,
+    shared: &'a Resources,
+    own: &DispatchResources<'a>,
+) -> Result<Vec<wgpu::BindGroupEntry<'a>>, RuntimeError> {
+    let missing = |what: &str, name: &str| {
+        RuntimeError::Invalid(format!("view `{}` reads {what} `{name}`, but none is bound", reflection.view))
+    };
+    in_group(reflection, group)
+        .map(|b| {
+            let resource = match b.kind {
+                BindingKind::UniformBlock => own.uniforms.as_entire_binding(),
+                BindingKind::OutputImage => wgpu::BindingResource::TextureView(own.output),
+                BindingKind::Region => own.region.as_entire_binding(),
+                BindingKind::VolumeTexture => wgpu::BindingResource::TextureView(
+                    &shared.volumes.get(&b.name).ok_or_else(|| missing("volume", &b.name))?.view,
+                ),
+                BindingKind::TfTexture => wgpu::BindingResource::TextureView(
+                    &shared.tfs.get(&b.name).ok_or_else(|| missing("transfer function", &b.name))?.view,
+                ),
+                BindingKind::VolumeSampler | BindingKind::TfSampler => wgpu::BindingResource::Sampler(&shared.sampler),
+            };
+            Ok(wgpu::BindGroupEntry { binding: b.binding, resource })
+        })
+        .collect()
+}

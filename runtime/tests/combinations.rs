@@ -1,0 +1,97 @@
+//! Every combination of the options a scene documents renders or is refused at build: each
+//! cell of the product of compositing mode (in the shared `[render]` table or the view's own
+//! `render` table), the volumes beside the primary one, view kind, shading and lights,
+//! empty-space skipping and probing either composes and renders a 16x16 image on lavapipe
+//! with no wgpu error (and, probed, no NaN or infinite value in its output colour), or `build`
+//! refuses it with an error at a scene value. The cells come from `common::cells`.
+
+mod common;
+
+use common::cells::{Cell, Placement};
+use std::collections::HashMap;
+use vrs_runtime::{ProbeSpec, RenderOptions, SceneRenderer};
+
+/// What happened to the cells.
+#[derive(Default, Debug)]
+struct Tally {
+    rendered: usize,
+    probed: usize,
+    refused: usize,
+    pipelines: u64,
+}
+
+#[test]
+fn every_combination_renders_or_is_refused_at_build() {
+    let gpu = common::software_gpu();
+    let cells = Cell::all();
+    let mut tally = Tally::default();
+    // The shader of each cell written in the shared table, to compare the view-table cells with.
+    let mut shared_shaders: HashMap<String, String> = HashMap::new();
+    for group in cells.chunk_by(|a, b| a.roles == b.roles) {
+        let dir = tempfile::tempdir().expect("a temporary folder");
+        let path = dir.path().join("scene.toml");
+        std::fs::write(&path, group[0].scene()).expect("scene written");
+        let options = RenderOptions { size: Some([16, 16]), phantom_size: [24, 24, 24] };
+        let mut renderer = SceneRenderer::open(gpu.clone(), &path, options, &mut |_, _, _| {})
+            .unwrap_or_else(|e| panic!("{}: {e}", group[0].describe()));
+        for cell in group {
+            std::fs::write(&path, cell.scene()).expect("scene written");
+            if let Some(hash) = run_cell(&mut renderer, cell, &mut tally) {
+                let key = cell_key(cell);
+                match cell.placement {
+                    Placement::Shared => {
+                        shared_shaders.insert(key, hash);
+                    }
+                    Placement::Own => assert_eq!(
+                        shared_shaders.get(&key),
+                        Some(&hash),
+                        "{}: a view's own render table composes another shader than the shared table",
+                        cell.describe()
+                    ),
+                }
+            }
+        }
+        tally.pipelines += renderer.pipeline_stats().misses;
+    }
+    eprintln!("{} cells: {tally:?}", cells.len());
+    assert_eq!(tally.rendered + tally.probed + tally.refused, cells.len());
+    assert!(tally.rendered > 0 && tally.probed > 0, "{tally:?}");
+}
+
+/// Builds and renders one cell; the structural hash of its view's shader when it rendered.
+fn run_cell(renderer: &mut SceneRenderer, cell: &Cell, tally: &mut Tally) -> Option<String> {
+    let what = cell.describe();
+    let cached = renderer.compose().unwrap_or_else(|e| panic!("{what}: {e}"));
+    let diags = &cached.built.diags;
+    if diags.has_errors() {
+        for d in diags.sorted().iter().filter(|d| d.is_error()) {
+            assert!(!d.span.is_dummy(), "{what}: refused without naming a scene value: {}", d.message);
+        }
+        tally.refused += 1;
+        return None;
+    }
+    renderer.apply(&cached).unwrap_or_else(|e| panic!("{what}: composed but did not load: {e}"));
+    if cell.probe {
+        let probe = renderer.render_probe(0, &ProbeSpec::of("out_color")).unwrap_or_else(|e| panic!("{what}: {e}"));
+        let (w, h) = probe.image.dimensions();
+        for (x, y) in (0..h).flat_map(|y| (0..w).map(move |x| (x, y))) {
+            let value = probe.values.at(x, y).unwrap_or_else(|| panic!("{what}: pixel ({x}, {y}) has no colour"));
+            assert!(value.iter().all(|c| c.is_finite()), "{what}: pixel ({x}, {y}) is {value:?}");
+        }
+        tally.probed += 1;
+    } else {
+        let images = renderer.render_all().unwrap_or_else(|e| panic!("{what}: {e}"));
+        assert_eq!(images.len(), 1, "{what}");
+        tally.rendered += 1;
+    }
+    if let Some(fault) = renderer.gpu().take_fault() {
+        panic!("{what}: a wgpu error escaped: {fault}");
+    }
+    Some(renderer.views[0].renderer.shader().reflection.structural_hash.clone())
+}
+
+/// A cell without its placement and probe: cells equal but for these compose the same view.
+fn cell_key(cell: &Cell) -> String {
+    let plain = Cell { placement: Placement::Shared, probe: false, ..*cell };
+    plain.describe()
+}

@@ -1,0 +1,147 @@
+//! The space of scene options that the combination test covers, generated as a product of its
+//! axes (never listed by hand), and the scene text of each cell.
+
+use std::fmt::Write;
+
+/// The compositing modes of `[render] compositing`.
+pub const MODES: [&str; 5] = ["dvr", "mip", "minip", "average", "iso"];
+
+/// Where the cell's render settings are written: the shared `[render]` table, or the view's own
+/// `render` table over a shared one that says something else in every key.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Placement {
+    Shared,
+    Own,
+}
+
+/// The volumes beside the primary one.
+pub const ROLE_SETS: [&[Role]; 5] =
+    [&[], &[Role::Mask], &[Role::Tag], &[Role::Additional], &[Role::Additional, Role::Additional]];
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Role {
+    Mask,
+    Tag,
+    Additional,
+}
+
+/// Shading off, or on with this many lights.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Lighting {
+    Off,
+    Lights(usize),
+}
+
+pub const LIGHTINGS: [Lighting; 4] = [Lighting::Off, Lighting::Lights(0), Lighting::Lights(1), Lighting::Lights(3)];
+
+/// One combination of options.
+#[derive(Clone, Copy, Debug)]
+pub struct Cell {
+    pub mode: &'static str,
+    pub placement: Placement,
+    pub roles: &'static [Role],
+    pub slice: bool,
+    pub lighting: Lighting,
+    pub skipping: bool,
+    pub probe: bool,
+}
+
+impl Cell {
+    /// Every cell: the product of every axis, the volume set outermost (cells that share it
+    /// share loaded volumes), then skipping (which changes what is loaded with them).
+    pub fn all() -> Vec<Cell> {
+        let mut cells = Vec::new();
+        for roles in ROLE_SETS {
+            for skipping in [true, false] {
+                for mode in MODES {
+                    for placement in [Placement::Shared, Placement::Own] {
+                        for slice in [false, true] {
+                            for lighting in LIGHTINGS {
+                                for probe in [false, true] {
+                                    cells.push(Cell { mode, placement, roles, slice, lighting, skipping, probe });
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        cells
+    }
+
+    /// The cell as a scene: a head phantom, its other volumes, one 16x16 view.
+    pub fn scene(&self) -> String {
+        let own = render_table(self.mode, self.lighting, self.skipping);
+        let mut text = String::new();
+        match self.placement {
+            Placement::Shared => writeln!(text, "[render]\n{}", own.join("\n")),
+            Placement::Own => {
+                // Every shared key differs from the view's, so each must be overridden or dropped.
+                let other_mode = if self.mode == "dvr" { "mip" } else { "dvr" };
+                let other_lighting =
+                    if self.lighting == Lighting::Lights(3) { Lighting::Off } else { Lighting::Lights(3) };
+                let shared = render_table(other_mode, other_lighting, !self.skipping);
+                writeln!(text, "[render]\n{}", shared.join("\n"))
+            }
+        }
+        .expect("a string");
+        text.push_str(&volumes(self.roles));
+        let kind = if self.slice { "kind = \"slice\"\naxis = \"axial\"\nslab = 6.0" } else { "kind = \"raycast\"" };
+        write!(text, "\n[[view]]\nname = \"v\"\n{kind}\nsize = [16, 16]\n").expect("a string");
+        if self.placement == Placement::Own {
+            writeln!(text, "render = {{ {} }}", own.join(", ")).expect("a string");
+        }
+        text
+    }
+
+    /// The cell in a line, for failure messages.
+    pub fn describe(&self) -> String {
+        let roles: Vec<String> = self.roles.iter().map(|r| format!("{r:?}").to_lowercase()).collect();
+        format!(
+            "{} ({:?} render table), volumes [primary{}], {}, {:?}, skipping {}, probe {}",
+            self.mode,
+            self.placement,
+            roles.iter().map(|r| format!(", {r}")).collect::<String>(),
+            if self.slice { "slice" } else { "raycast" },
+            self.lighting,
+            self.skipping,
+            self.probe
+        )
+    }
+}
+
+/// The render keys of a mode, a lighting and skipping, as `key = value` lines.
+fn render_table(mode: &str, lighting: Lighting, skipping: bool) -> Vec<String> {
+    let mut keys = vec![format!("compositing = \"{mode}\"")];
+    if mode == "iso" {
+        keys.push("iso_value = 0.45".into());
+    }
+    match lighting {
+        Lighting::Off => keys.push("shading = false".into()),
+        Lighting::Lights(n) => {
+            let names: Vec<String> = ["key", "fill", "back"][..n].iter().map(|l| format!("\"{l}\"")).collect();
+            keys.push("shading = true".into());
+            keys.push(format!("lights = [{}]", names.join(", ")));
+        }
+    }
+    keys.push(format!("empty_space_skipping = {skipping}"));
+    keys
+}
+
+/// `[[volume]]` tables: the head phantom as the primary volume, then one volume per role.
+pub fn volumes(roles: &[Role]) -> String {
+    let mut text =
+        "\n[[volume]]\nname = \"head\"\nrole = \"primary\"\nphantom = \"head\"\ntf = \"ct_bone\"\n".to_string();
+    for (i, role) in roles.iter().enumerate() {
+        let table = match role {
+            Role::Mask => format!("name = \"mask{i}\"\nrole = \"mask\"\nphantom = \"head\""),
+            Role::Tag => format!("name = \"tag{i}\"\nrole = \"tag\"\nphantom = \"abdomen\"\ntf = \"labels\""),
+            Role::Additional => {
+                let tf = ["ct_soft_tissue", "hot_metal"][i % 2];
+                format!("name = \"extra{i}\"\nrole = \"additional\"\nphantom = \"abdomen\"\ntf = \"{tf}\"")
+            }
+        };
+        write!(text, "\n[[volume]]\n{table}\n").expect("a string");
+    }
+    text
+}
