@@ -105,7 +105,7 @@ codes! {
     Internal = "E0901", Error, "a compiler bug: the generated IR did not validate";
     // Outside the input (exit code 2).
     Io = "E0902", Error, "a file given on the command line cannot be read, or an output cannot be written";
-    Device = "E0903", Error, "no GPU adapter, or the GPU refused or lost the work";
+    Device = "E0903", Error, "no GPU adapter, or no device could be opened on it";
     GpuRefused = "E0904", Error, "the GPU refused a resource, a pipeline or a submission (validation, out of memory)";
     // Warnings.
     UnusedUse = "W0001", Warning, "a `use` of a library function the body never calls";

@@ -606,7 +606,7 @@ fn load_volumes(
         let table = table.map(|t| t.over_window(window));
         if let Some(table) = &table {
             let binding = if is_primary { "tf".to_string() } else { format!("tf_{name}") };
-            resources.tfs.insert(binding, Arc::new(TfTexture::upload(gpu, table)));
+            resources.tfs.insert(binding, Arc::new(TfTexture::upload(gpu, table)?));
         }
         if let Some(bricks) = bricks {
             add_ranges(&mut scene_ranges, &grids, bricks, table.as_ref().unwrap_or(&default_tf));

@@ -2,7 +2,7 @@
 //! every view that binds it.
 
 use crate::error::RuntimeError;
-use crate::gpu::Gpu;
+use crate::gpu::{Gpu, GpuFault};
 use crate::occupancy::{BrickRanges, RangeBuilder};
 use crate::tf::{TF_WIDTH, TransferFunction};
 use crate::volume::{Histogram, LoadErrorKind, RangeSink, SampleSink, Samples, Volume, VolumeInfo, Window};
@@ -166,16 +166,18 @@ impl<'g> TextureWriter<'g> {
                 "volume `{name}`: a {w}x{h}x{d} grid exceeds this device's 3D texture limit of {max} per axis"
             )));
         }
-        let texture = gpu.device.create_texture(&wgpu::TextureDescriptor {
-            label: Some(name),
-            size: wgpu::Extent3d { width: w, height: h, depth_or_array_layers: d },
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D3,
-            format: wgpu::TextureFormat::R16Float,
-            usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
-            view_formats: &[],
-        });
+        let texture = gpu.capture(&format!("creating the {w}x{h}x{d} texture of volume `{name}`"), || {
+            gpu.device.create_texture(&wgpu::TextureDescriptor {
+                label: Some(name),
+                size: wgpu::Extent3d { width: w, height: h, depth_or_array_layers: d },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D3,
+                format: wgpu::TextureFormat::R16Float,
+                usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+                view_formats: &[],
+            })
+        })?;
         let slice = w as usize * h as usize;
         let capacity = SLAB_TEXELS.max(slice) + slice;
         Ok(TextureWriter {
@@ -259,6 +261,10 @@ impl<'g> TextureWriter<'g> {
                 self.name, self.z, self.info.dims[2]
             )));
         }
+        // The slab writes ran outside any capture (they are many): what they raised is here.
+        if let Some(fault) = self.gpu.take_fault() {
+            return Err(GpuFault { doing: format!("uploading volume `{}`", self.name), ..fault }.into());
+        }
         let view = self.texture.create_view(&wgpu::TextureViewDescriptor::default());
         let (dims, grid_to_world, histogram) = (self.info.dims, self.info.grid_to_world, self.histogram);
         let ranges = self.ranges.map(RangeBuilder::finish);
@@ -291,21 +297,23 @@ pub struct TfTexture {
 }
 
 impl TfTexture {
-    pub fn upload(gpu: &Gpu, tf: &TransferFunction) -> TfTexture {
+    pub fn upload(gpu: &Gpu, tf: &TransferFunction) -> Result<TfTexture, RuntimeError> {
         let size = wgpu::Extent3d { width: TF_WIDTH, height: 1, depth_or_array_layers: 1 };
-        let texture = gpu.device.create_texture(&wgpu::TextureDescriptor {
-            label: Some(&tf.name),
-            size,
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format: wgpu::TextureFormat::Rgba8Unorm,
-            usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
-            view_formats: &[],
-        });
+        let texture = gpu.capture(&format!("creating the texture of transfer function `{}`", tf.name), || {
+            gpu.device.create_texture(&wgpu::TextureDescriptor {
+                label: Some(&tf.name),
+                size,
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format: wgpu::TextureFormat::Rgba8Unorm,
+                usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+                view_formats: &[],
+            })
+        })?;
         let tf_texture = TfTexture { view: texture.create_view(&Default::default()), texture };
         tf_texture.write(gpu, tf);
-        tf_texture
+        Ok(tf_texture)
     }
 
     /// Replaces the table (a transfer-function edit: no new texture, no new pipeline).
