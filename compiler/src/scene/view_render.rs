@@ -2,9 +2,9 @@
 //!
 //! A `[[view]]` may hold a `render` table with any `[render]` key; the view's settings are its
 //! own keys over the shared `[render]` table. An inherited key that has no effect in the view
-//! (`lights` or `tone` where the view turns shading off, `iso_value` or `empty_space_skipping`
-//! where it picks another compositing mode) is dropped without a warning: only what the view's
-//! table says itself is checked for effect.
+//! (`lights` or `tone` where the view turns shading off, `iso_value` where it picks another
+//! compositing mode, `empty_space_skipping` where it picks one that never skips: MinIP, average)
+//! is dropped without a warning: only what the view's table says itself is checked for effect.
 
 use super::raw::RawRender;
 use super::{Compositing, Cx, Render, Scene, UniformValue, View, ViewKind};
@@ -70,9 +70,11 @@ fn merge(shared: Option<&RawRender>, own: &RawRender) -> RawRender {
         iso_value: own.iso_value.or(base.iso_value.filter(|_| mode == Compositing::Iso)),
         lights: own.lights.or(base.lights.filter(|_| shaded)),
         tone: own.tone.or(base.tone.filter(|_| shaded)),
-        empty_space_skipping: own
+        // Every mode that skips takes the shared choice (MIP and iso dropped it, and skipped
+        // where the scene said not to); MinIP and average never skip.
+        empty_space_skipping: own.empty_space_skipping.or(base
             .empty_space_skipping
-            .or(base.empty_space_skipping.filter(|_| mode == Compositing::Dvr)),
+            .filter(|_| matches!(mode, Compositing::Dvr | Compositing::Mip | Compositing::Iso))),
         compositing,
         shading,
         boundary: own.boundary.or(base.boundary),
@@ -123,6 +125,25 @@ mod tests {
         assert_eq!(values["step_size"], UniformValue::Float(f64::from(0.4f32)));
         assert_eq!((shaded.convention, flat.convention), (Convention::Radiological, Convention::Neurological));
         assert_eq!(flat.axis.as_ref().map(|a| a.value), Some(super::super::Axis::Z));
+    }
+
+    #[test]
+    fn every_mode_that_skips_inherits_the_shared_skipping_choice() {
+        for (mode, skips) in [("dvr", true), ("mip", true), ("iso", true), ("minip", false), ("average", false)] {
+            let text = format!(
+                "[render]\nempty_space_skipping = false\n\n[[volume]]\nname = \"v\"\nrole = \"primary\"\n\
+                 phantom = \"head\"\n\n[[view]]\nname = \"3d\"\nrender = {{ compositing = \"{mode}\", iso_value = 0.5 }}\n"
+            );
+            let text = if mode == "iso" { text } else { text.replace(", iso_value = 0.5", "") };
+            let (scene, diagnostics) = parse(&text);
+            assert!(diagnostics.is_empty(), "{mode}: {diagnostics:?}");
+            let scene = scene.expect("a valid scene");
+            assert!(!scene.views[0].render.empty_space_skipping, "{mode} inherits `false`");
+            assert!(!modules(&scene, "3d").iter().any(|m| m.starts_with("skip")), "{mode}");
+            // And with the shared table silent, the mode's own default.
+            let (scene, _) = parse(&text.replace("empty_space_skipping = false\n", ""));
+            assert_eq!(scene.expect("a valid scene").views[0].render.empty_space_skipping, skips, "{mode}");
+        }
     }
 
     #[test]

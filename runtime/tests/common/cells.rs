@@ -6,13 +6,17 @@ use std::fmt::Write;
 /// The compositing modes of `[render] compositing`.
 pub const MODES: [&str; 5] = ["dvr", "mip", "minip", "average", "iso"];
 
-/// Where the cell's render settings are written: the shared `[render]` table, or the view's own
-/// `render` table over a shared one that says something else in every key.
+/// Where the cell's render settings are written: the shared `[render]` table; the view's own
+/// `render` table over a shared one that says something else in every key; or the shared
+/// table for every key but the compositing mode, which the view's table gives (over another).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Placement {
     Shared,
     Own,
+    Inherited,
 }
+
+pub const PLACEMENTS: [Placement; 3] = [Placement::Shared, Placement::Own, Placement::Inherited];
 
 /// The volumes beside the primary one.
 pub const ROLE_SETS: [&[Role]; 5] =
@@ -54,7 +58,7 @@ impl Cell {
         for roles in ROLE_SETS {
             for skipping in [true, false] {
                 for mode in MODES {
-                    for placement in [Placement::Shared, Placement::Own] {
+                    for placement in PLACEMENTS {
                         for slice in [false, true] {
                             for lighting in LIGHTINGS {
                                 for probe in [false, true] {
@@ -72,24 +76,34 @@ impl Cell {
     /// The cell as a scene: a head phantom, its other volumes, one 16x16 view.
     pub fn scene(&self) -> String {
         let own = render_table(self.mode, self.lighting, self.skipping);
-        let mut text = String::new();
-        match self.placement {
-            Placement::Shared => writeln!(text, "[render]\n{}", own.join("\n")),
+        let other_mode = if self.mode == "dvr" { "mip" } else { "dvr" };
+        let shared = match self.placement {
+            Placement::Shared => own.clone(),
             Placement::Own => {
                 // Every shared key differs from the view's, so each must be overridden or dropped.
-                let other_mode = if self.mode == "dvr" { "mip" } else { "dvr" };
                 let other_lighting =
                     if self.lighting == Lighting::Lights(3) { Lighting::Off } else { Lighting::Lights(3) };
-                let shared = render_table(other_mode, other_lighting, !self.skipping);
-                writeln!(text, "[render]\n{}", shared.join("\n"))
+                render_table(other_mode, other_lighting, !self.skipping)
             }
-        }
-        .expect("a string");
+            Placement::Inherited => {
+                let mut keys = render_table(other_mode, self.lighting, self.skipping);
+                keys.retain(|k| !k.starts_with("iso_value"));
+                keys
+            }
+        };
+        let mut text = format!("[render]\n{}\n", shared.join("\n"));
         text.push_str(&volumes(self.roles));
         let kind = if self.slice { "kind = \"slice\"\naxis = \"axial\"\nslab = 6.0" } else { "kind = \"raycast\"" };
         write!(text, "\n[[view]]\nname = \"v\"\n{kind}\nsize = [16, 16]\n").expect("a string");
-        if self.placement == Placement::Own {
-            writeln!(text, "render = {{ {} }}", own.join(", ")).expect("a string");
+        match self.placement {
+            Placement::Shared => {}
+            Placement::Own => writeln!(text, "render = {{ {} }}", own.join(", ")).expect("a string"),
+            Placement::Inherited => {
+                let mode: Vec<&String> =
+                    own.iter().filter(|k| k.starts_with("compositing") || k.starts_with("iso_value")).collect();
+                let mode: Vec<&str> = mode.iter().map(|k| k.as_str()).collect();
+                writeln!(text, "render = {{ {} }}", mode.join(", ")).expect("a string");
+            }
         }
         text
     }
