@@ -267,7 +267,12 @@ fn signature(builtin: Builtin, args: &[Type]) -> Signature {
         ),
         Any | All => sig("takes one bool or vecN<bool>", one(args, is_bool).map(|_| Type::BOOL)),
         Sample => sig_usage("sample(v, p)", "takes a volume and a vec3f position", sample(args)),
-        Lookup => sig_usage("lookup(t, x)", "takes a tf and an f32", lookup(args)),
+        Lookup => sig_usage(
+            "lookup(t, x)",
+            "takes a tf and an f32 (a 1D table), or a tf and a vec2f (a 2D table such as a \
+             pre-integrated one)",
+            lookup(args),
+        ),
         Dims => sig_usage("dims(v)", "takes a volume", dims(args)),
     }
 }
@@ -334,8 +339,11 @@ fn sample(args: &[Type]) -> Option<Type> {
     (args == [Type::Volume, Type::vec(3, Scalar::F32)]).then_some(Type::F32)
 }
 
+/// `lookup(t, x)` reads a 1D table at `x`; `lookup(t, xy)` a 2D one at `xy` (a `tf` is a 2D
+/// texture: a 1D table is one row, which reads the same at every y).
 fn lookup(args: &[Type]) -> Option<Type> {
-    (args == [Type::Tf, Type::F32]).then_some(Type::vec(4, Scalar::F32))
+    let coordinate_ok = matches!(args, [Type::Tf, Type::F32]) || args == [Type::Tf, Type::vec(2, Scalar::F32)];
+    coordinate_ok.then_some(Type::vec(4, Scalar::F32))
 }
 
 fn dims(args: &[Type]) -> Option<Type> {
@@ -590,6 +598,7 @@ mod tests {
             ("all", &["bool"], "bool"),
             ("sample", &["volume", "vec3f"], "f32"),
             ("lookup", &["tf", "f32"], "vec4f"),
+            ("lookup", &["tf", "vec2f"], "vec4f"),
             ("dims", &["volume"], "vec3u"),
         ];
         for &(name, args, want) in table {
@@ -630,7 +639,8 @@ mod tests {
             ("select", &["volume", "volume", "bool"]),
             ("any", &["vec3f"]),
             ("sample", &["tf", "vec3f"]),
-            ("lookup", &["tf", "vec2f"]),
+            ("lookup", &["tf", "vec3f"]),
+            ("lookup", &["tf", "vec2i"]),
             ("dims", &["tf"]),
         ];
         for &(name, args) in table {

@@ -1,7 +1,7 @@
 //! The standard modules a view is composed with: the selection policy of `stdlib/README.md`,
 //! owned by the composer (the scene only says what the user asked for).
 
-use crate::scene::{Compositing, Role, Scene, View, ViewKind};
+use crate::scene::{Compositing, Role, Scene, Shadows, ToneMapping, View, ViewKind};
 
 /// A standard module chosen by configuration: `std::NAME`, with instances for a template.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -20,6 +20,7 @@ impl Scene {
         let mut out = Vec::new();
         let mut add = |name: &'static str, instances: Vec<String>| out.push(StdModule { name, instances });
         let additional = self.volume_names(Role::Additional);
+        let additional_names = additional.clone();
         let masks = self.volume_names(Role::Mask);
         let tags = self.volume_names(Role::Tag);
         match view.kind.value {
@@ -83,7 +84,35 @@ impl Scene {
         {
             add(module, vec![]);
         }
+        // After `classify`: it replaces `classify_primary`.
+        if r.preintegration && r.compositing.value == Compositing::Dvr {
+            add("preintegrate", vec![]);
+        }
+        // After `light`: each shadow runs just before its light's substep.
+        if r.shading && r.shadows == Shadows::Rays && !r.lights.is_empty() {
+            add("shadow_ray", r.lights.iter().map(|l| l.name.clone()).collect());
+        }
+        // Last: `linear_color` follows every classification function, and `expose`, the
+        // operator and `encode_srgb` run in that order just before `blend_background` (after
+        // `average_finish`).
+        if let Some(operator) = tone_operator(r.tone_mapping) {
+            add("hdr", vec![]);
+            if !additional_names.is_empty() {
+                add("hdr_volume", additional_names);
+            }
+            add(operator, vec![]);
+        }
         out
+    }
+}
+
+/// The tone operator module of a tone mapping (`None`: no HDR).
+fn tone_operator(tone_mapping: ToneMapping) -> Option<&'static str> {
+    match tone_mapping {
+        ToneMapping::Off => None,
+        ToneMapping::Exposure => Some("tonemap_exposure"),
+        ToneMapping::Reinhard => Some("tonemap_reinhard"),
+        ToneMapping::Aces => Some("tonemap_aces"),
     }
 }
 

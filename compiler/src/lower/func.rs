@@ -862,9 +862,14 @@ impl<'a> FnCtx<'a> {
                 arity(2)?;
                 let (image, sampler) = self.resource(&args[0])?;
                 let x = self.expr(&args[1], block)?;
-                let half = self.append(E::Literal(naga::Literal::F32(0.5)), span);
-                let ty = self.b.ty(Type::vec(2, Scalar::F32), span)?;
-                let coordinate = self.append(E::Compose { ty, components: vec![x, half] }, span);
+                let two_d = Type::vec(2, Scalar::F32);
+                let coordinate = if args[1].ty == two_d {
+                    x
+                } else {
+                    let half = self.append(E::Literal(naga::Literal::F32(0.5)), span);
+                    let ty = self.b.ty(two_d, span)?;
+                    self.append(E::Compose { ty, components: vec![x, half] }, span)
+                };
                 self.sample(image, sampler, coordinate, span)
             }
             B::Dims => {

@@ -56,6 +56,42 @@ pub struct Render {
     pub jitter: Option<Located<f32>>,
     /// Initial value of the `background` uniform (premultiplied RGBA).
     pub background: Option<Located<[f32; 4]>>,
+    /// High-dynamic-range light and its tone operator (`std::hdr`, `std::tonemap_*`).
+    pub tone_mapping: ToneMapping,
+    /// Initial value of the `exposure` uniform (stops); only with tone mapping.
+    pub exposure: Option<Located<f32>>,
+    /// Initial value of the `white_point` uniform; only with Reinhard's operator.
+    pub white_point: Option<Located<f32>>,
+    /// Pre-integrated classification of the primary volume (`std::preintegrate`); DVR only.
+    pub preintegration: bool,
+    /// Volumetric shadows of the lights (`std::shadow_ray`); needs shading.
+    pub shadows: Shadows,
+}
+
+/// `[render] tone_mapping`: how linear radiance is mapped to the display.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ToneMapping {
+    /// No HDR: colours are display values throughout, stored as composited.
+    #[default]
+    Off,
+    /// Exposure, clipped at white.
+    Exposure,
+    /// Reinhard's global operator with a white point.
+    Reinhard,
+    /// A filmic curve (Narkowicz's ACES fit).
+    Aces,
+}
+
+/// `[render] shadows`: how light is attenuated on its way to a sample.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Shadows {
+    /// Lights reach every sample unattenuated.
+    #[default]
+    Off,
+    /// A shadow ray per sample and light through the primary volume (reference quality).
+    Rays,
 }
 
 /// `[render] compositing`.
@@ -384,6 +420,12 @@ impl Scene {
         }
         if let Some(m) = &r.max_samples {
             out.insert("max_samples".into(), UniformValue::Int(i64::from(m.value)));
+        }
+        if let Some(v) = &r.exposure {
+            out.insert("exposure".into(), float(v.value));
+        }
+        if let Some(v) = &r.white_point {
+            out.insert("white_point".into(), float(v.value));
         }
         out
     }

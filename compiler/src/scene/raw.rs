@@ -34,6 +34,11 @@ pub(super) struct RawRender {
     pub(super) max_samples: Option<Spanned<u32>>,
     pub(super) jitter: Option<Spanned<f32>>,
     pub(super) background: Option<Spanned<[f32; 4]>>,
+    pub(super) tone_mapping: Option<Spanned<ToneMapping>>,
+    pub(super) exposure: Option<Spanned<f32>>,
+    pub(super) white_point: Option<Spanned<f32>>,
+    pub(super) preintegration: Option<Spanned<bool>>,
+    pub(super) shadows: Option<Spanned<Shadows>>,
 }
 pub(super) const RENDER_KEYS: &[&str] = &[
     "compositing",
@@ -47,6 +52,11 @@ pub(super) const RENDER_KEYS: &[&str] = &[
     "max_samples",
     "jitter",
     "background",
+    "tone_mapping",
+    "exposure",
+    "white_point",
+    "preintegration",
+    "shadows",
 ];
 
 #[derive(Deserialize)]

@@ -191,6 +191,7 @@ impl Cx<'_> {
                     .with_label("premultiplied RGBA"),
             );
         }
+        let light = self.light_settings(&r, compositing.value, shading, lights.is_empty());
         // On by default wherever skipping is exact; MinIP and average read every sample: they
         // never skip.
         let exact = matches!(compositing.value, Compositing::Dvr | Compositing::Mip | Compositing::Iso);
@@ -207,7 +208,59 @@ impl Cx<'_> {
             max_samples,
             jitter,
             background,
+            tone_mapping: light.tone_mapping,
+            exposure: light.exposure,
+            white_point: light.white_point,
+            preintegration: light.preintegration,
+            shadows: light.shadows,
         }
+    }
+
+    /// The keys of light transport: tone mapping and its values, pre-integration, shadows.
+    fn light_settings(&mut self, r: &RawRender, compositing: Compositing, shading: bool, no_lights: bool) -> Light {
+        let tone_mapping = r.tone_mapping.as_ref().map_or(ToneMapping::Off, |t| *t.get_ref());
+        let located = |v: &Option<Spanned<f32>>, cx: &Self| v.as_ref().map(|s| Located { value: *s.get_ref(), span: cx.span(s) });
+        let mut exposure = located(&r.exposure, self);
+        if let Some(e) = &exposure {
+            if tone_mapping == ToneMapping::Off {
+                self.ignored_at(e.span, "exposure", "without `tone_mapping`");
+                exposure = None;
+            } else if !e.value.is_finite() {
+                self.emit(self.invalid(e.span, "`exposure` must be a finite number of stops"));
+            }
+        }
+        let mut white_point = located(&r.white_point, self);
+        if let Some(w) = &white_point {
+            if tone_mapping != ToneMapping::Reinhard {
+                self.ignored_at(w.span, "white_point", "unless `tone_mapping = \"reinhard\"`");
+                white_point = None;
+            } else if !(w.value > 0.0 && w.value.is_finite()) {
+                self.emit(
+                    self.invalid(w.span, "`white_point` must be a radiance greater than 0")
+                        .with_label("the smallest radiance shown as white"),
+                );
+            }
+        }
+        let mut preintegration = r.preintegration.as_ref().is_some_and(|p| *p.get_ref());
+        if preintegration && compositing != Compositing::Dvr {
+            self.ignored(r.preintegration.as_ref().expect("set"), "preintegration", "unless compositing is \"dvr\"");
+            preintegration = false;
+        }
+        let mut shadows = r.shadows.as_ref().map_or(Shadows::Off, |s| *s.get_ref());
+        if shadows != Shadows::Off {
+            let span = self.span(r.shadows.as_ref().expect("set"));
+            if !shading {
+                self.emit(
+                    self.invalid(span, "shadows need `shading = true`")
+                        .with_label("shadows attenuate the lights")
+                        .with_help("add `shading = true` to [render]"),
+                );
+            } else if no_lights {
+                self.ignored_at(span, "shadows", "without lights");
+                shadows = Shadows::Off;
+            }
+        }
+        Light { tone_mapping, exposure, white_point, preintegration, shadows }
     }
 
     /// Checks a list of instance-like names: identifiers, not keywords, no duplicates.
@@ -604,4 +657,13 @@ impl Cx<'_> {
 /// `[A-Za-z0-9_-]+`: a view name, which names output files (`3d` is fine).
 pub fn is_view_name(s: &str) -> bool {
     !s.is_empty() && s.chars().all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
+}
+
+/// [`Cx::light_settings`]'s result.
+struct Light {
+    tone_mapping: ToneMapping,
+    exposure: Option<Located<f32>>,
+    white_point: Option<Located<f32>>,
+    preintegration: bool,
+    shadows: Shadows,
 }

@@ -82,6 +82,11 @@ fn merge(shared: Option<&RawRender>, own: &RawRender) -> RawRender {
         max_samples: own.max_samples.or(base.max_samples),
         jitter: own.jitter.or(base.jitter),
         background: own.background.or(base.background),
+        tone_mapping: own.tone_mapping.or(base.tone_mapping),
+        exposure: own.exposure.or(base.exposure),
+        white_point: own.white_point.or(base.white_point),
+        preintegration: own.preintegration.or(base.preintegration.filter(|_| mode == Compositing::Dvr)),
+        shadows: own.shadows.or(base.shadows.filter(|_| shaded)),
     }
 }
 
