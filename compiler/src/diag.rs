@@ -94,6 +94,7 @@ codes! {
     NoDefault = "E0605", Error, "a state field that no declaration in the composed pipeline gives a default";
     UninstantiatedTemplate = "E0606", Error, "a template module used without instances";
     InvalidInstance = "E0607", Error, "an instance name that is not an identifier, or is listed twice";
+    UnboundResource = "E0608", Error, "a `volume` or `tf` uniform that the scene does not bind";
     // Scenes.
     SceneSyntax = "E0701", Error, "a scene file that is not valid TOML";
     SceneInvalid = "E0702", Error, "a scene value that is missing, of the wrong type, out of range or in conflict with another";

@@ -9,6 +9,7 @@ use crate::gpu::Gpu;
 use crate::shader::{PipelineCache, PipelineStats, ViewShader};
 use crate::textures::{TfTexture, VolumeTexture};
 use crate::tf::TfDomain;
+use crate::tf::preintegrate::PreintegratedTable;
 use crate::view::{Resources, ViewRenderer};
 use crate::{tf, volume};
 use glam::Mat4;
@@ -22,6 +23,10 @@ mod probe;
 mod tf_edit;
 pub use probe::{ProbeAt, ProbeImage, ProbeSpec};
 pub use tf_edit::VolumeStatus;
+
+/// The binding of `std::preintegrate`'s table (one name, the compiler's: its build checks
+/// what the runtime binds).
+use vrsc::compose::uniform_check::PREINTEGRATION_TABLE as PREINTEGRATED;
 
 /// Choices a scene file does not make.
 #[derive(Clone, Debug)]
@@ -146,6 +151,7 @@ impl SceneRenderer {
         };
         renderer.load_scene_volumes(scene, progress)?;
         renderer.set_views(scene, built)?;
+        renderer.update_preintegration()?;
         Ok(renderer)
     }
 
@@ -226,6 +232,7 @@ impl SceneRenderer {
         let old: Vec<(String, String)> = self.views.iter().map(|v| (v.name.clone(), structural_hash(v))).collect();
         let misses = self.pipelines.stats().misses;
         self.set_views(&scene, &cached.built)?;
+        self.update_preintegration()?;
         let recompiled = self
             .views
             .iter()
@@ -278,6 +285,36 @@ impl SceneRenderer {
         texture.write(&self.gpu, tf);
         if self.skipping.as_mut().is_some_and(|s| s.set_tf(volume, is_primary, tf)) {
             self.update_occupancy();
+        }
+        if is_primary && let Some(table) = self.resources.tfs.get(PREINTEGRATED) {
+            table.write_table(&self.gpu, &PreintegratedTable::new(tf).to_rgba16f());
+        }
+        Ok(())
+    }
+
+    /// Makes the pre-integration table of the primary volume's transfer function
+    /// (`std::preintegrate`'s `tf_preint`) when some view binds it, from the function as it is
+    /// now; drops it when none does.
+    fn update_preintegration(&mut self) -> Result<(), RuntimeError> {
+        let bound = |v: &SceneView| v.renderer.shader().reflection.bindings.iter().any(|b| b.name == PREINTEGRATED);
+        if !self.views.iter().any(bound) {
+            self.resources.tfs.remove(PREINTEGRATED);
+            return Ok(());
+        }
+        let Some(primary) = self.grids.first() else { return Ok(()) };
+        let tf = match &primary.curve {
+            Some(curve) => curve.table(),
+            None => tf::preset(vscene::DEFAULT_TF)?,
+        };
+        let table = PreintegratedTable::new(&tf.over_window(primary.window));
+        let bytes = table.to_rgba16f();
+        match self.resources.tfs.get(PREINTEGRATED) {
+            Some(texture) => texture.write_table(&self.gpu, &bytes),
+            None => {
+                let size = [table.size, table.size];
+                let texture = TfTexture::upload_table(&self.gpu, PREINTEGRATED, size, &bytes)?;
+                self.resources.tfs.insert(PREINTEGRATED.into(), Arc::new(texture));
+            }
         }
         Ok(())
     }

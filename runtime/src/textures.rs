@@ -327,6 +327,45 @@ impl TfTexture {
     }
 }
 
+impl TfTexture {
+    /// A 2D table of float RGBA entries (`Rgba16Float`, filterable everywhere) bound like a
+    /// transfer function: the pre-integration table of `std::preintegrate`, whose alpha is an
+    /// extinction that may exceed 1.
+    pub fn upload_table(gpu: &Gpu, name: &str, size: [u32; 2], rgba16f: &[u8]) -> Result<TfTexture, RuntimeError> {
+        let [w, h] = size;
+        let texture = gpu.capture(&format!("creating the {w}x{h} table `{name}`"), || {
+            gpu.device.create_texture(&wgpu::TextureDescriptor {
+                label: Some(name),
+                size: wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format: wgpu::TextureFormat::Rgba16Float,
+                usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+                view_formats: &[],
+            })
+        })?;
+        let table = TfTexture { view: texture.create_view(&Default::default()), texture };
+        table.write_table(gpu, rgba16f);
+        Ok(table)
+    }
+
+    /// Replaces the entries of a table made by [`TfTexture::upload_table`] (same size).
+    pub fn write_table(&self, gpu: &Gpu, rgba16f: &[u8]) {
+        let size = self.texture.size();
+        gpu.queue.write_texture(
+            self.texture.as_image_copy(),
+            rgba16f,
+            wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(size.width * 8),
+                rows_per_image: Some(size.height),
+            },
+            size,
+        );
+    }
+}
+
 /// Trilinear filtering, clamped at the edges: how every volume and transfer function is read.
 pub fn linear_sampler(gpu: &Gpu) -> wgpu::Sampler {
     gpu.device.create_sampler(&wgpu::SamplerDescriptor {

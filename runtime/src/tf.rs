@@ -21,6 +21,7 @@ use std::path::{Path, PathBuf};
 use serde_json::Value;
 
 mod curve;
+pub mod preintegrate;
 pub use curve::TfCurve;
 
 /// Entries in a transfer function table.

@@ -160,6 +160,8 @@ pub fn compose_scene_with(
     let compositions: Vec<&Composition> = views.iter().map(|v| &v.composition).collect();
     let every_view = only_view.is_none() && views.iter().all(|v| v.shader.is_some());
     uniform_check::check_scene_uniforms(&scene, &compositions, every_view, &mut diags);
+    let named: Vec<(&str, &Composition)> = views.iter().map(|v| (v.name.as_str(), &v.composition)).collect();
+    uniform_check::check_resources(&scene, &named, &mut diags);
     if let Some(name) = only_view
         && views.is_empty()
     {

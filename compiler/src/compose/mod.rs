@@ -49,7 +49,7 @@ pub(crate) mod reflect;
 pub(crate) mod standard;
 #[cfg(test)]
 mod tests;
-pub(crate) mod uniform_check;
+pub mod uniform_check;
 pub(crate) mod view;
 
 use instantiate::{Source, Unit, instantiate};

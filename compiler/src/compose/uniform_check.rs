@@ -1,11 +1,13 @@
-//! The scene's `[uniforms]` against the composed views: every entry must name a uniform that
-//! some view reads (E0702 with a did-you-mean otherwise), and its value must have that
-//! uniform's type and length (E0702 at the value). The runtime sets the same values by the same
-//! rules, so a scene that `build` accepts never fails there for its uniforms.
+//! The scene against the composed views' uniforms: every `[uniforms]` entry must name a
+//! uniform that some view reads (E0702 with a did-you-mean otherwise), and its value must have
+//! that uniform's type and length (E0702 at the value); every `volume` and `tf` uniform a view
+//! reads must be one the runtime binds for this scene (E0608 at its declaration). The runtime
+//! sets values and binds resources by the same rules, so a scene that `build` accepts never
+//! fails there for its uniforms.
 
 use super::ir::Composition;
 use crate::diag::{Code, Diagnostic, Diagnostics};
-use crate::scene::{Scene, UniformSetting, UniformValue};
+use crate::scene::{Role, Scene, UniformSetting, UniformValue};
 use crate::suggest::did_you_mean;
 use crate::types::{Scalar, Type};
 
@@ -132,4 +134,60 @@ mod tests {
         assert_eq!(mismatch(m2, &Array(vec![Array(vec![Int(1), Int(0)]), Array(vec![Int(0), Int(1)])])), None);
         assert!(mismatch(m2, &Array(vec![Int(1), Int(0)])).is_some());
     }
+}
+
+/// The `volume` and `tf` uniforms the runtime binds for `scene`: `volume` and `tf` (the primary
+/// volume), `volume_NAME` for every other volume and `tf_NAME` for those with a transfer
+/// function (all but masks), `tf_preint` (built from the primary's transfer function when a
+/// view reads it), and the grids of empty-space skipping, `occupancy` and `brick_max`, when
+/// some raycast view skips.
+pub fn bound_resources(scene: &Scene) -> Vec<(String, Type)> {
+    let mut out = vec![("volume".to_string(), Type::Volume), ("tf".to_string(), Type::Tf)];
+    out.push((PREINTEGRATION_TABLE.to_string(), Type::Tf));
+    for v in scene.volumes.iter().filter(|v| v.role.value != Role::Primary) {
+        out.push((format!("volume_{}", v.name.name), Type::Volume));
+        if v.role.value != Role::Mask {
+            out.push((format!("tf_{}", v.name.name), Type::Tf));
+        }
+    }
+    if scene.skips_empty_space() {
+        out.extend(["occupancy", "brick_max"].map(|n| (n.to_string(), Type::Volume)));
+    }
+    out
+}
+
+/// The uniform of `std::preintegrate`'s table.
+pub const PREINTEGRATION_TABLE: &str = "tf_preint";
+
+/// Checks that every resource uniform of each composed view (named) is one the runtime binds.
+pub fn check_resources(scene: &Scene, views: &[(&str, &Composition)], diags: &mut Diagnostics) {
+    let bound = bound_resources(scene);
+    for (view, composition) in views {
+        for u in composition.uniforms.iter().filter(|u| u.ty.is_resource()) {
+            if bound.iter().any(|(name, ty)| *name == u.name && *ty == u.ty) {
+                continue;
+            }
+            diags.push(unbound(view, u, &bound));
+        }
+    }
+}
+
+fn unbound(view: &str, u: &super::ir::Uniform, bound: &[(String, Type)]) -> Diagnostic {
+    let kind = if u.ty == Type::Volume { "volume" } else { "transfer function" };
+    let names: Vec<&str> = bound.iter().filter(|(_, ty)| *ty == u.ty).map(|(n, _)| n.as_str()).collect();
+    let mut d = Diagnostic::new(
+        Code::UnboundResource,
+        u.span,
+        format!("view `{view}` reads the {kind} `{}`, which this scene does not have", u.name),
+    )
+    .with_label(format!("a `{}` uniform", u.ty))
+    .with_note(format!("this scene binds: {}", names.join(", ")));
+    d = match did_you_mean(&u.name, names.iter().copied()) {
+        Some(best) => d.with_help(format!("did you mean `{best}`?")),
+        None => d.with_help(
+            "a volume's uniform is `volume_NAME` and its transfer function's `tf_NAME` for a [[volume]] named \
+             NAME (`volume` and `tf` for the primary one); add that volume to the scene",
+        ),
+    };
+    d
 }

@@ -219,7 +219,8 @@ impl Cx<'_> {
     /// The keys of light transport: tone mapping and its values, pre-integration, shadows.
     fn light_settings(&mut self, r: &RawRender, compositing: Compositing, shading: bool, no_lights: bool) -> Light {
         let tone_mapping = r.tone_mapping.as_ref().map_or(ToneMapping::Off, |t| *t.get_ref());
-        let located = |v: &Option<Spanned<f32>>, cx: &Self| v.as_ref().map(|s| Located { value: *s.get_ref(), span: cx.span(s) });
+        let located =
+            |v: &Option<Spanned<f32>>, cx: &Self| v.as_ref().map(|s| Located { value: *s.get_ref(), span: cx.span(s) });
         let mut exposure = located(&r.exposure, self);
         if let Some(e) = &exposure {
             if tone_mapping == ToneMapping::Off {
