@@ -30,6 +30,7 @@ pub mod bindings;
 pub mod error;
 pub mod geometry;
 pub mod gpu;
+pub mod light_volume;
 pub mod occupancy;
 pub mod probe;
 pub mod reflection;

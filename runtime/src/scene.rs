@@ -9,7 +9,6 @@ use crate::gpu::Gpu;
 use crate::shader::{PipelineCache, PipelineStats, ViewShader};
 use crate::textures::{TfTexture, VolumeTexture};
 use crate::tf::TfDomain;
-use crate::tf::preintegrate::PreintegratedTable;
 use crate::view::{Resources, ViewRenderer};
 use crate::{tf, volume};
 use glam::Mat4;
@@ -19,14 +18,13 @@ use vrsc::compose::build::BuiltScene;
 use vrsc::compose::cache::{CachedBuild, CompositionCache};
 use vrsc::scene::{self as vscene, Role, Scene, TfRef, UniformValue, ViewKind, VolumeSource};
 
+mod derived;
 mod probe;
 mod tf_edit;
 pub use probe::{ProbeAt, ProbeImage, ProbeSpec};
 pub use tf_edit::VolumeStatus;
 
-/// The binding of `std::preintegrate`'s table (one name, the compiler's: its build checks
-/// what the runtime binds).
-use vrsc::compose::uniform_check::PREINTEGRATION_TABLE as PREINTEGRATED;
+use derived::PREINTEGRATED;
 
 /// Choices a scene file does not make.
 #[derive(Clone, Debug)]
@@ -77,6 +75,8 @@ pub struct SceneRenderer {
     pub notices: Vec<String>,
     /// Probe variants composed so far ([`SceneRenderer::render_probe`]).
     probes: probe::ProbeCache,
+    /// What the light volumes were computed from.
+    derived: derived::Derived,
 }
 
 /// What [`SceneRenderer::apply`] changed.
@@ -148,10 +148,11 @@ impl SceneRenderer {
             views: Vec::new(),
             notices: Vec::new(),
             probes: probe::ProbeCache::default(),
+            derived: derived::Derived::default(),
         };
         renderer.load_scene_volumes(scene, progress)?;
         renderer.set_views(scene, built)?;
-        renderer.update_preintegration()?;
+        renderer.update_derived()?;
         Ok(renderer)
     }
 
@@ -166,6 +167,7 @@ impl SceneRenderer {
         self.grids = loaded.grids;
         self.skipping = loaded.ranges;
         self.volumes_key = volumes_key(scene);
+        self.derived.generation += 1;
         self.upload_max_grid();
         self.update_occupancy();
         Ok(())
@@ -232,7 +234,7 @@ impl SceneRenderer {
         let old: Vec<(String, String)> = self.views.iter().map(|v| (v.name.clone(), structural_hash(v))).collect();
         let misses = self.pipelines.stats().misses;
         self.set_views(&scene, &cached.built)?;
-        self.update_preintegration()?;
+        self.update_derived()?;
         let recompiled = self
             .views
             .iter()
@@ -250,6 +252,7 @@ impl SceneRenderer {
 
     /// Renders every view; images in view order.
     pub fn render_all(&mut self) -> Result<Vec<(String, image::RgbaImage)>, RuntimeError> {
+        self.update_light_volumes()?;
         let mut images = Vec::new();
         for view in &mut self.views {
             apply_view_uniforms(view, &self.grids)?;
@@ -286,34 +289,10 @@ impl SceneRenderer {
         if self.skipping.as_mut().is_some_and(|s| s.set_tf(volume, is_primary, tf)) {
             self.update_occupancy();
         }
-        if is_primary && let Some(table) = self.resources.tfs.get(PREINTEGRATED) {
-            table.write_table(&self.gpu, &PreintegratedTable::new(tf).to_rgba16f());
-        }
-        Ok(())
-    }
-
-    /// Makes the pre-integration table of the primary volume's transfer function
-    /// (`std::preintegrate`'s `tf_preint`) when some view binds it, from the function as it is
-    /// now; drops it when none does.
-    fn update_preintegration(&mut self) -> Result<(), RuntimeError> {
-        let bound = |v: &SceneView| v.renderer.shader().reflection.bindings.iter().any(|b| b.name == PREINTEGRATED);
-        if !self.views.iter().any(bound) {
-            self.resources.tfs.remove(PREINTEGRATED);
-            return Ok(());
-        }
-        let Some(primary) = self.grids.first() else { return Ok(()) };
-        let tf = match &primary.curve {
-            Some(curve) => curve.table(),
-            None => tf::preset(vscene::DEFAULT_TF)?,
-        };
-        let table = PreintegratedTable::new(&tf.over_window(primary.window));
-        let bytes = table.to_rgba16f();
-        match self.resources.tfs.get(PREINTEGRATED) {
-            Some(texture) => texture.write_table(&self.gpu, &bytes),
-            None => {
-                let size = [table.size, table.size];
-                let texture = TfTexture::upload_table(&self.gpu, PREINTEGRATED, size, &bytes)?;
-                self.resources.tfs.insert(PREINTEGRATED.into(), Arc::new(texture));
+        if is_primary {
+            self.derived.generation += 1;
+            if let Some(table) = self.resources.tfs.get(PREINTEGRATED) {
+                table.write_table(&self.gpu, &crate::tf::preintegrate::PreintegratedTable::new(tf).to_rgba16f());
             }
         }
         Ok(())
@@ -342,6 +321,7 @@ impl SceneRenderer {
 
     /// Records one frame of view `index` (for benchmarks: no read-back).
     pub fn encode_view(&mut self, index: usize, encoder: &mut wgpu::CommandEncoder) -> Result<(), RuntimeError> {
+        self.update_light_volumes()?;
         let view = &mut self.views[index];
         apply_view_uniforms(view, &self.grids)?;
         view.renderer.encode(&self.gpu, &self.resources, encoder)
@@ -356,6 +336,7 @@ impl SceneRenderer {
         target: &wgpu::TextureView,
         region: crate::view::Region,
     ) -> Result<(), RuntimeError> {
+        self.update_light_volumes()?;
         let view = self.views.get_mut(index).ok_or_else(|| RuntimeError::Invalid(format!("no view {index}")))?;
         apply_view_uniforms(view, &self.grids)?;
         view.renderer.encode_into(&self.gpu, &self.resources, encoder, target, region)

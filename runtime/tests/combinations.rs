@@ -7,7 +7,7 @@
 
 mod common;
 
-use common::cells::{Cell, Placement};
+use common::cells::{Cell, LightCell, Placement};
 use std::collections::HashMap;
 use vrs_runtime::{ProbeSpec, RenderOptions, SceneRenderer};
 
@@ -56,6 +56,48 @@ fn every_combination_renders_or_is_refused_at_build() {
     eprintln!("{} cells: {tally:?}", cells.len());
     assert_eq!(tally.rendered + tally.probed + tally.refused, cells.len());
     assert!(tally.rendered > 0 && tally.probed > 0, "{tally:?}");
+}
+
+/// Every combination of tone mapping, pre-integration and shadows with the compositing modes,
+/// view kinds, shading and an additional volume renders or is refused by `build` (with an
+/// error at a scene value: shadows without shading), and no rendered pixel's colour is NaN.
+#[test]
+fn every_light_option_renders_or_is_refused_at_build() {
+    let gpu = common::software_gpu();
+    let cells = LightCell::all();
+    let (mut rendered, mut refused) = (0, 0);
+    for group in cells.chunk_by(|a, b| a.additional == b.additional) {
+        let dir = tempfile::tempdir().expect("a temporary folder");
+        let path = dir.path().join("scene.toml");
+        let first = LightCell { shadows: "off", ..group[0] };
+        std::fs::write(&path, first.scene()).expect("scene written");
+        let options = RenderOptions { size: Some([16, 16]), phantom_size: [24, 24, 24] };
+        let mut renderer = SceneRenderer::open(gpu.clone(), &path, options, &mut |_, _, _| {})
+            .unwrap_or_else(|e| panic!("{}: {e}", first.describe()));
+        for cell in group {
+            let what = cell.describe();
+            std::fs::write(&path, cell.scene()).expect("scene written");
+            let cached = renderer.compose().unwrap_or_else(|e| panic!("{what}: {e}"));
+            if cached.built.diags.has_errors() {
+                for d in cached.built.diags.sorted().iter().filter(|d| d.is_error()) {
+                    assert!(!d.span.is_dummy(), "{what}: refused without naming a scene value: {}", d.message);
+                }
+                assert!(cell.shadows != "off" && !cell.shading, "{what}: refused: {:?}", cached.built.diags.sorted());
+                refused += 1;
+                continue;
+            }
+            renderer.apply(&cached).unwrap_or_else(|e| panic!("{what}: composed but did not load: {e}"));
+            let probe = renderer.render_probe(0, &ProbeSpec::of("out_color")).unwrap_or_else(|e| panic!("{what}: {e}"));
+            let values = (0..16 * 16).filter_map(|i| probe.values.at(i % 16, i / 16));
+            assert!(values.flatten().all(|c| c.is_finite()), "{what}: a colour is not finite");
+            if let Some(fault) = renderer.gpu().take_fault() {
+                panic!("{what}: a wgpu error escaped: {fault}");
+            }
+            rendered += 1;
+        }
+    }
+    eprintln!("{} light cells: {rendered} rendered, {refused} refused", cells.len());
+    assert_eq!(rendered + refused, cells.len());
 }
 
 /// Builds and renders one cell; the structural hash of its view's shader when it rendered.

@@ -78,7 +78,7 @@ fn tone_mapping_maps_known_radiance_to_known_bytes() {
 /// A 16 x 16 x 64 volume of 1 mm voxels: value 1000 in slices 8 to 47 (a slab 40 mm thick), 0
 /// elsewhere, under a transfer function of opacity `A` per millimetre from 500 up (the slab's
 /// top is halfway between slices 47 and 48, at 47.5 mm). An axial slice inside the slab, lit
-/// from superior (+z), reads the shadow ray's transmittance at its one sample.
+/// from superior (+z), reads the light's transmittance at its one sample.
 const SLAB_SCENE: &str = r#"
 [render]
 compositing = "dvr"
@@ -98,7 +98,6 @@ tf = "slab.json"
 [uniforms]
 light_dir_key = [0.0, 0.0, 1.0]
 ref_step = 1.0
-shadow_step_factor = 1.0
 
 [[view]]
 name = "axial"
@@ -112,30 +111,40 @@ size = [8, 8]
 /// exactly (0.05 would be stored as 13/255 all the same).
 const A: f64 = 13.0 / 255.0;
 
-/// Shadow rays attenuate as Beer-Lambert says: through L mm of a slab whose opacity per
-/// millimetre is A, the transmittance is (1 - A)^L. The ray steps 0.25 mm, so its path in the
-/// slab is known to within a step at each end: the tolerance is the transmittance of one step
-/// either way, (1 - A)^0.25: 1.3% relative.
+/// Shadows attenuate as Beer-Lambert says: through L mm of a slab whose opacity per
+/// millimetre is A, the transmittance is (1 - A)^L. Shadow rays step 0.25 mm, so their path in
+/// the slab is known to within a step: the tolerance is the transmittance of one step,
+/// (1 - A)^0.25, 1.3% relative. The light volume (1 mm texels here, marched in 0.5 mm steps,
+/// read trilinearly) is known to within a texel: (1 - A)^1, 5.1% relative.
 #[test]
-fn shadow_rays_give_the_beer_lambert_transmittance_of_a_slab() {
+fn shadows_give_the_beer_lambert_transmittance_of_a_slab() {
     let dir = tempfile::tempdir().expect("a folder");
     write_nrrd(&dir.path().join("slab.nrrd"), [16, 16, 64], |_, _, k| if (8..48).contains(&k) { 1000 } else { 0 });
     let tf = format!(
         r#"[{{"Name": "slab", "RGBPoints": [0, 1, 1, 1, 1000, 1, 1, 1], "Points": [0, 0, 0.5, 0, 499, 0, 0.5, 0, 501, {A}, 0.5, 0, 1000, {A}, 0.5, 0]}}]"#
     );
     std::fs::write(dir.path().join("slab.json"), tf).expect("tf written");
-    // Slice positions (the fraction of the grid's box along z) and the path to the slab's top:
-    // the plane lies at 64 p - 0.5 mm (voxel centres at whole millimetres).
-    for position in [0.625f64, 0.5, 0.25] {
-        let plane = 64.0 * position - 0.5;
-        let path = 47.5 - plane;
-        let mut renderer = open(dir.path(), &SLAB_SCENE.replace("POSITION", &position.to_string()));
-        let spec = ProbeSpec { field: "shadow_key".into(), at: Some(ProbeAt::Sample(0)) };
-        let probe = renderer.render_probe(0, &spec).expect("the shadow probes");
-        let t = probe.values.at(4, 4).expect("the centre has a value")[0];
-        let want = (1.0 - A).powf(path);
-        let tolerance = want * (1.0 - (1.0 - A).powf(0.25));
-        assert!((t - want).abs() <= tolerance, "{path} mm of slab: transmittance {t:.4}, Beer-Lambert {want:.4}");
+    for (method, tolerance_mm) in [("rays", 0.25), ("volume", 1.0)] {
+        // Slice positions (the fraction of the grid's box along z) and the path to the slab's
+        // top: the plane lies at 64 p - 0.5 mm (voxel centres at whole millimetres).
+        for position in [0.625f64, 0.5, 0.25] {
+            let path = 47.5 - (64.0 * position - 0.5);
+            let mut scene =
+                SLAB_SCENE.replace("POSITION", &position.to_string()).replace("\"rays\"", &format!("\"{method}\""));
+            if method == "rays" {
+                scene = scene.replace("ref_step = 1.0", "ref_step = 1.0\nshadow_step_factor = 1.0");
+            }
+            let mut renderer = open(dir.path(), &scene);
+            let spec = ProbeSpec { field: "shadow_key".into(), at: Some(ProbeAt::Sample(0)) };
+            let probe = renderer.render_probe(0, &spec).expect("the shadow probes");
+            let t = probe.values.at(4, 4).expect("the centre has a value")[0];
+            let want = (1.0 - A).powf(path);
+            let tolerance = want * (1.0 - (1.0 - A).powf(tolerance_mm));
+            assert!(
+                (t - want).abs() <= tolerance,
+                "{method}, {path} mm of slab: transmittance {t:.4}, Beer-Lambert {want:.4}"
+            );
+        }
     }
 }
 
@@ -211,4 +220,60 @@ fn preintegration_renders_a_thin_feature_at_a_coarse_step_without_slab_artifacts
     // And at the fine step the two agree (the table is the point-sampled function for short segments).
     let fine = mean_difference(&ramp(dir.path(), 0.25, true), &reference);
     assert!(fine <= 1.0, "at 0.25 mm pre-integration differs by {fine:.2}");
+}
+
+/// Bad input to light transport is refused by `build` at its value, or renders finite pixels:
+/// negative exposure, a light of zero intensity, a transfer function of zero opacity, one of a
+/// single point (a pre-integration table of one entry), a white point of zero.
+#[test]
+fn bad_light_input_is_refused_or_renders_finite_pixels() {
+    let dir = tempfile::tempdir().expect("a folder");
+    let tfs = [
+        (
+            "zero.json",
+            r#"[{"Name": "zero", "RGBPoints": [0, 1, 1, 1, 1000, 1, 0, 0], "Points": [0, 0, 0.5, 0, 1000, 0, 0.5, 0]}]"#,
+        ),
+        ("one.json", r#"[{"Name": "one", "RGBPoints": [500, 1, 1, 1], "Points": [500, 0.5, 0.5, 0]}]"#),
+    ];
+    for (name, text) in tfs {
+        std::fs::write(dir.path().join(name), text).expect("tf written");
+    }
+    let cases: [(&str, &str, &str, bool); 6] = [
+        ("tone_mapping = \"exposure\"\nexposure = -8.0", "", "ct_bone", true),
+        ("tone_mapping = \"reinhard\"\nshadows = \"rays\"", "light_color_key = [0.0, 0.0, 0.0]", "ct_bone", true),
+        ("tone_mapping = \"aces\"\npreintegration = true\nshadows = \"rays\"", "", "zero.json", true),
+        (
+            "tone_mapping = \"reinhard\"\npreintegration = true",
+            "light_color_key = [100.0, 100.0, 100.0]",
+            "one.json",
+            true,
+        ),
+        ("tone_mapping = \"reinhard\"\nwhite_point = 0.0", "", "ct_bone", false),
+        ("tone_mapping = \"exposure\"\nexposure = inf", "", "ct_bone", false),
+    ];
+    for (render, uniforms, tf, renders) in cases {
+        let scene = format!(
+            "[render]\ncompositing = \"dvr\"\nshading = true\n{render}\n\n[[volume]]\nname = \"head\"\nrole = \"primary\"\n\
+             phantom = \"head\"\ntf = \"{tf}\"\n\n[uniforms]\n{uniforms}\n\n[[view]]\nname = \"v\"\nkind = \"raycast\"\nsize = [16, 16]\n"
+        );
+        let path = dir.path().join("scene.toml");
+        std::fs::write(&path, &scene).expect("scene written");
+        let built = vrsc::compose::build::build_scene(&path, None).expect("the scene reads");
+        if !renders {
+            let errors: Vec<_> = built.diags.sorted().into_iter().filter(|d| d.is_error()).collect();
+            assert!(!errors.is_empty() && errors.iter().all(|d| !d.span.is_dummy()), "{render}: {errors:?}");
+            continue;
+        }
+        assert!(!built.diags.has_errors(), "{render} / {tf}: {:?}", built.diags.sorted());
+        let mut renderer = open(dir.path(), &scene);
+        for field in ["out_color", "radiance", "luminance"] {
+            let probe = renderer.render_probe(0, &ProbeSpec::of(field)).unwrap_or_else(|e| panic!("{render}: {e}"));
+            let values: Vec<f64> =
+                (0..16 * 16).filter_map(|i| probe.values.at(i % 16, i / 16)).flatten().copied().collect();
+            assert!(
+                !values.is_empty() && values.iter().all(|v| v.is_finite()),
+                "{render} / {tf}: {field} is not finite"
+            );
+        }
+    }
 }

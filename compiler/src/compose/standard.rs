@@ -89,8 +89,11 @@ impl Scene {
             add("preintegrate", vec![]);
         }
         // After `light`: each shadow runs just before its light's substep.
-        if r.shading && r.shadows == Shadows::Rays && !r.lights.is_empty() {
-            add("shadow_ray", r.lights.iter().map(|l| l.name.clone()).collect());
+        if let Some(module) = shadow_module(r.shadows)
+            && r.shading
+            && !r.lights.is_empty()
+        {
+            add(module, r.lights.iter().map(|l| l.name.clone()).collect());
         }
         // Last: `linear_color` follows every classification function, and `expose`, the
         // operator and `encode_srgb` run in that order just before `blend_background` (after
@@ -103,6 +106,15 @@ impl Scene {
             add(operator, vec![]);
         }
         out
+    }
+}
+
+/// The module of a shadow method, instantiated per light (`None`: no shadows).
+fn shadow_module(shadows: Shadows) -> Option<&'static str> {
+    match shadows {
+        Shadows::Off => None,
+        Shadows::Rays => Some("shadow_ray"),
+        Shadows::Volume => Some("shadow_volume"),
     }
 }
 

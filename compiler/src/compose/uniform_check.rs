@@ -112,30 +112,6 @@ fn scalar_mismatch(scalar: Scalar, v: &UniformValue) -> Option<String> {
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use UniformValue::{Array, Bool, Float, Int};
-
-    #[test]
-    fn shapes_and_kinds() {
-        let vec2f = Type::vec(2, Scalar::F32);
-        assert_eq!(mismatch(vec2f, &Array(vec![Float(0.1), Int(1)])), None);
-        assert!(
-            mismatch(vec2f, &Array(vec![Float(0.07), Float(0.11), Float(0.2)]))
-                .is_some_and(|m| m.contains("array of 3"))
-        );
-        assert!(mismatch(Type::BOOL, &Int(0)).is_some_and(|m| m.contains("true")));
-        assert_eq!(mismatch(Type::BOOL, &Bool(false)), None);
-        assert!(mismatch(Type::U32, &Int(-1)).is_some());
-        assert!(mismatch(Type::I32, &Float(1.5)).is_some());
-        assert!(mismatch(Type::F32, &Float(1e300)).is_some());
-        let m2 = Type::Matrix { cols: 2, rows: 2 };
-        assert_eq!(mismatch(m2, &Array(vec![Array(vec![Int(1), Int(0)]), Array(vec![Int(0), Int(1)])])), None);
-        assert!(mismatch(m2, &Array(vec![Int(1), Int(0)])).is_some());
-    }
-}
-
 /// The `volume` and `tf` uniforms the runtime binds for `scene`: `volume` and `tf` (the primary
 /// volume), `volume_NAME` for every other volume and `tf_NAME` for those with a transfer
 /// function (all but masks), `tf_preint` (built from the primary's transfer function when a
@@ -153,8 +129,14 @@ pub fn bound_resources(scene: &Scene) -> Vec<(String, Type)> {
     if scene.skips_empty_space() {
         out.extend(["occupancy", "brick_max"].map(|n| (n.to_string(), Type::Volume)));
     }
+    for light in scene.volume_shadow_lights() {
+        out.push((format!("{LIGHT_VOLUME_PREFIX}{light}"), Type::Volume));
+    }
     out
 }
+
+/// The uniform of light NAME's light volume (`std::shadow_volume`) is this prefix and NAME.
+pub const LIGHT_VOLUME_PREFIX: &str = "shadow_volume_";
 
 /// The uniform of `std::preintegrate`'s table.
 pub const PREINTEGRATION_TABLE: &str = "tf_preint";
@@ -190,4 +172,28 @@ fn unbound(view: &str, u: &super::ir::Uniform, bound: &[(String, Type)]) -> Diag
         ),
     };
     d
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use UniformValue::{Array, Bool, Float, Int};
+
+    #[test]
+    fn shapes_and_kinds() {
+        let vec2f = Type::vec(2, Scalar::F32);
+        assert_eq!(mismatch(vec2f, &Array(vec![Float(0.1), Int(1)])), None);
+        assert!(
+            mismatch(vec2f, &Array(vec![Float(0.07), Float(0.11), Float(0.2)]))
+                .is_some_and(|m| m.contains("array of 3"))
+        );
+        assert!(mismatch(Type::BOOL, &Int(0)).is_some_and(|m| m.contains("true")));
+        assert_eq!(mismatch(Type::BOOL, &Bool(false)), None);
+        assert!(mismatch(Type::U32, &Int(-1)).is_some());
+        assert!(mismatch(Type::I32, &Float(1.5)).is_some());
+        assert!(mismatch(Type::F32, &Float(1e300)).is_some());
+        let m2 = Type::Matrix { cols: 2, rows: 2 };
+        assert_eq!(mismatch(m2, &Array(vec![Array(vec![Int(1), Int(0)]), Array(vec![Int(0), Int(1)])])), None);
+        assert!(mismatch(m2, &Array(vec![Int(1), Int(0)])).is_some());
+    }
 }

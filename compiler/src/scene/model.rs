@@ -92,6 +92,9 @@ pub enum Shadows {
     Off,
     /// A shadow ray per sample and light through the primary volume (reference quality).
     Rays,
+    /// A light volume per light, computed when the light or the transfer function changes,
+    /// read once per sample and light (interactive).
+    Volume,
 }
 
 /// `[render] compositing`.

@@ -206,8 +206,8 @@ fn unknown_keys_point_at_the_key() {
     assert_eq!(errs[0].3, "unknown key `azimut` in the `camera` of a [[view]]");
     assert_eq!((errs[0].1, errs[0].2), (23, 12));
 
-    let errs = errors(&EXAMPLE.replace("shading = true", "shadows = true"));
-    assert_eq!((errs[0].0, errs[0].1, errs[0].3.as_str()), ("E0703", 3, "unknown key `shadows` in [render]"));
+    let errs = errors(&EXAMPLE.replace("shading = true", "shadowing = true"));
+    assert_eq!((errs[0].0, errs[0].1, errs[0].3.as_str()), ("E0703", 3, "unknown key `shadowing` in [render]"));
 
     let errs = errors(&format!("{MINIMAL}modules = [{{ path = \"a.vrs\", instance = [\"x\"] }}]\n"));
     assert_eq!(errs[0].3, "unknown key `instance` in a module of a [[view]]");

@@ -42,6 +42,19 @@ impl Scene {
         self.uniform_values_with(&view.render)
     }
 
+    /// The lights that cast volume shadows (`shadows = "volume"`) in some view, each once, in
+    /// view order: the runtime computes a light volume for each.
+    pub fn volume_shadow_lights(&self) -> Vec<String> {
+        let mut out: Vec<String> = Vec::new();
+        let shadowed = self.views.iter().filter(|v| v.render.shading && v.render.shadows == super::Shadows::Volume);
+        for light in shadowed.flat_map(|v| &v.render.lights) {
+            if !out.contains(&light.name) {
+                out.push(light.name.clone());
+            }
+        }
+        out
+    }
+
     /// Whether some raycast view skips empty space (the runtime then keeps the primary
     /// volume's samples to build the occupancy grid).
     pub fn skips_empty_space(&self) -> bool {

@@ -159,3 +159,73 @@ pub fn volumes(roles: &[Role]) -> String {
     }
     text
 }
+
+/// The light-transport options: tone mapping, pre-integration and shadows, crossed with the
+/// modes, view kinds, shading (one light) and an additional volume.
+#[derive(Clone, Copy, Debug)]
+pub struct LightCell {
+    pub tone_mapping: &'static str,
+    pub preintegration: bool,
+    pub shadows: &'static str,
+    pub mode: &'static str,
+    pub slice: bool,
+    pub shading: bool,
+    pub additional: bool,
+}
+
+impl LightCell {
+    pub fn all() -> Vec<LightCell> {
+        let mut cells = Vec::new();
+        for additional in [false, true] {
+            for tone_mapping in ["off", "exposure", "reinhard", "aces"] {
+                for preintegration in [false, true] {
+                    for shadows in ["off", "rays", "volume"] {
+                        for mode in MODES {
+                            for slice in [false, true] {
+                                for shading in [false, true] {
+                                    cells.push(LightCell {
+                                        tone_mapping,
+                                        preintegration,
+                                        shadows,
+                                        mode,
+                                        slice,
+                                        shading,
+                                        additional,
+                                    });
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        cells
+    }
+
+    pub fn scene(&self) -> String {
+        let mut render = vec![format!("compositing = \"{}\"", self.mode), format!("shading = {}", self.shading)];
+        if self.mode == "iso" {
+            render.push("iso_value = 0.45".into());
+        }
+        render.push(format!("tone_mapping = \"{}\"", self.tone_mapping));
+        if self.preintegration {
+            render.push("preintegration = true".into());
+        }
+        if self.shadows != "off" {
+            render.push(format!("shadows = \"{}\"", self.shadows));
+        }
+        let roles: &[Role] = if self.additional { &[Role::Additional] } else { &[] };
+        let kind = if self.slice { "kind = \"slice\"\naxis = \"axial\"\nslab = 6.0" } else { "kind = \"raycast\"" };
+        // A light from above the head and the right, so that shadows fall somewhere.
+        let uniforms = if self.shading { "[uniforms]\nlight_dir_key = [0.3, 0.2, 1.0]\n" } else { "" };
+        format!(
+            "[render]\n{}\n{}\n{uniforms}\n[[view]]\nname = \"v\"\n{kind}\nsize = [16, 16]\n",
+            render.join("\n"),
+            volumes(roles)
+        )
+    }
+
+    pub fn describe(&self) -> String {
+        format!("{self:?}")
+    }
+}

@@ -1,0 +1,127 @@
+//! Resources made from the primary volume and its transfer function for the views that read
+//! them: the pre-integration table of `std::preintegrate` (`tf_preint`) and the light volumes
+//! of `std::shadow_volume` (`shadow_volume_NAME`). Each is made when some view binds it and made
+//! again when what it was made from changes (the transfer function, a light's direction,
+//! `ref_step`); nothing is made for views that do not read it.
+
+use super::{SceneRenderer, SceneView};
+use crate::error::RuntimeError;
+use crate::geometry;
+use crate::light_volume::{LightKey, LightVolumePass, Primary};
+use crate::textures::TfTexture;
+use crate::tf::{self, preintegrate::PreintegratedTable};
+use crate::uniforms::Value;
+use glam::Vec3;
+use std::collections::HashMap;
+use std::sync::Arc;
+use vrsc::compose::uniform_check::{LIGHT_VOLUME_PREFIX, PREINTEGRATION_TABLE};
+use vrsc::scene as vscene;
+
+/// The binding of `std::preintegrate`'s table (the compiler's name: its build checks what the
+/// runtime binds).
+pub(super) const PREINTEGRATED: &str = PREINTEGRATION_TABLE;
+
+/// What the derived resources were made from.
+#[derive(Default)]
+pub(super) struct Derived {
+    /// Counts changes of the primary volume and its transfer function.
+    pub generation: u64,
+    pass: Option<LightVolumePass>,
+    /// Each light volume's key, by binding name.
+    lights: HashMap<String, LightKey>,
+}
+
+/// The names bound by some view that start with `prefix`, each once.
+fn bound_with_prefix(views: &[SceneView], prefix: &str) -> Vec<String> {
+    let mut out: Vec<String> = Vec::new();
+    for view in views {
+        for b in &view.renderer.shader().reflection.bindings {
+            if b.name.starts_with(prefix) && !out.contains(&b.name) {
+                out.push(b.name.clone());
+            }
+        }
+    }
+    out
+}
+
+impl SceneRenderer {
+    /// The table and the light volumes, as the views need them now.
+    pub(super) fn update_derived(&mut self) -> Result<(), RuntimeError> {
+        self.update_preintegration()?;
+        self.update_light_volumes()
+    }
+
+    /// Makes the pre-integration table of the primary volume's transfer function when some
+    /// view binds it, from the function as it is now; drops it when none does.
+    fn update_preintegration(&mut self) -> Result<(), RuntimeError> {
+        if bound_with_prefix(&self.views, PREINTEGRATED).iter().all(|n| n != PREINTEGRATED) {
+            self.resources.tfs.remove(PREINTEGRATED);
+            return Ok(());
+        }
+        let Some(primary) = self.grids.first() else { return Ok(()) };
+        let tf = match &primary.curve {
+            Some(curve) => curve.table(),
+            None => tf::preset(vscene::DEFAULT_TF)?,
+        };
+        let table = PreintegratedTable::new(&tf.over_window(primary.window));
+        let bytes = table.to_rgba16f();
+        match self.resources.tfs.get(PREINTEGRATED) {
+            Some(texture) => texture.write_table(&self.gpu, &bytes),
+            None => {
+                let size = [table.size, table.size];
+                let texture = TfTexture::upload_table(&self.gpu, PREINTEGRATED, size, &bytes)?;
+                self.resources.tfs.insert(PREINTEGRATED.into(), Arc::new(texture));
+            }
+        }
+        Ok(())
+    }
+
+    /// Computes the light volume of every light some view reads one of, whose light direction,
+    /// `ref_step` or transfer function changed since it was computed (a few compares when
+    /// nothing did: called before every frame).
+    pub(super) fn update_light_volumes(&mut self) -> Result<(), RuntimeError> {
+        let names = bound_with_prefix(&self.views, LIGHT_VOLUME_PREFIX);
+        for name in names {
+            let light = &name[LIGHT_VOLUME_PREFIX.len()..];
+            let key = self.light_key(light);
+            if self.derived.lights.get(&name) == Some(&key) && self.resources.volumes.contains_key(&name) {
+                continue;
+            }
+            let texture = self.compute_light_volume(&key)?;
+            self.resources.volumes.insert(name.clone(), Arc::new(texture));
+            self.derived.lights.insert(name, key);
+        }
+        Ok(())
+    }
+
+    /// What light `light`'s volume depends on, from the first view that reads its direction.
+    fn light_key(&self, light: &str) -> LightKey {
+        let uniform = |name: &str| self.views.iter().find_map(|v| v.renderer.uniforms().get(name));
+        let direction = match uniform(&format!("light_dir_{light}")) {
+            Some(Value::Float(v)) if v.len() == 3 => Vec3::new(v[0], v[1], v[2]),
+            _ => Vec3::ZERO,
+        };
+        let ref_step = match uniform("ref_step") {
+            Some(Value::Float(v)) if v.len() == 1 => v[0],
+            _ => 1.0,
+        };
+        LightKey { direction, ref_step, generation: self.derived.generation }
+    }
+
+    fn compute_light_volume(&mut self, key: &LightKey) -> Result<crate::textures::VolumeTexture, RuntimeError> {
+        let missing = |what: &str| RuntimeError::Invalid(format!("a light volume needs the primary {what}"));
+        let grid = self.grids.first().ok_or_else(|| missing("volume"))?;
+        let volume_to_world = geometry::volume_to_world(grid.dims, grid.grid_to_world);
+        if self.derived.pass.is_none() {
+            self.derived.pass = Some(LightVolumePass::new(&self.gpu)?);
+        }
+        let pass = self.derived.pass.as_ref().ok_or_else(|| missing("pass"))?;
+        let primary = Primary {
+            texture: self.resources.volumes.get("volume").ok_or_else(|| missing("volume"))?,
+            tf: self.resources.tfs.get("tf").ok_or_else(|| missing("transfer function"))?,
+            sampler: &self.resources.sampler,
+            volume_to_world,
+        };
+        pass.compute(&self.gpu, &primary, key)
+    }
+}
