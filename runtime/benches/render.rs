@@ -12,8 +12,11 @@
 //! (deterministic, under valgrind). Samples per second counts the samples the rays take
 //! without early termination (computed on the CPU from the same camera).
 
+#[path = "timing.rs"]
+mod timing;
+
 use std::path::Path;
-use std::time::Instant;
+use timing::{frame_times, median};
 use vrs_runtime::reflection::{Reflection, content_hash};
 use vrs_runtime::{AdapterChoice, Gpu, RenderOptions, SceneRenderer, ViewShader};
 
@@ -39,27 +42,6 @@ impl Config {
             only: std::env::var("VRS_BENCH_ONLY").ok(),
         }
     }
-}
-
-/// Times `frames` frames of view 0 (after one untimed frame), in ms.
-fn frame_times(scene: &mut SceneRenderer, frames: usize) -> Vec<f64> {
-    let mut times = Vec::with_capacity(frames);
-    for i in 0..=frames {
-        let mut encoder = scene.gpu().device.create_command_encoder(&Default::default());
-        scene.encode_view(0, &mut encoder).expect("encode");
-        let start = Instant::now();
-        scene.gpu().queue.submit([encoder.finish()]);
-        scene.gpu().wait();
-        if i > 0 {
-            times.push(start.elapsed().as_secs_f64() * 1e3);
-        }
-    }
-    times
-}
-
-fn median(mut times: Vec<f64>) -> f64 {
-    times.sort_by(f64::total_cmp);
-    times[times.len() / 2]
 }
 
 /// Median frame time of each shader, the shaders taking turns round after round so that a slow

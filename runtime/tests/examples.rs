@@ -9,12 +9,12 @@ use image::RgbaImage;
 use std::path::{Path, PathBuf};
 use vrs_runtime::{RenderOptions, SceneRenderer};
 
-/// Copies an example's scenes and modules (not its data or images) into `dir`.
+/// Copies an example's scenes, modules and transfer functions (not its data or images) into `dir`.
 fn copy_example(name: &str, dir: &Path) {
     let src = common::root().join("examples").join(name);
     for entry in std::fs::read_dir(&src).expect("example folder").filter_map(Result::ok) {
         let path = entry.path();
-        if path.extension().is_some_and(|x| x == "toml" || x == "vrs") {
+        if path.extension().is_some_and(|x| x == "toml" || x == "vrs" || x == "json") {
             std::fs::copy(&path, dir.join(entry.file_name())).expect("copy");
         }
     }
@@ -42,7 +42,7 @@ fn differing(a: &RgbaImage, b: &RgbaImage) -> Vec<(u32, u32)> {
 #[test]
 fn every_example_scene_renders_its_golden_images() {
     let mut failures = Vec::new();
-    for example in ["clip_plane", "ablation"] {
+    for example in ["clip_plane", "ablation", "light"] {
         let dir = tempfile::tempdir().unwrap();
         copy_example(example, dir.path());
         let mut scenes: Vec<PathBuf> = std::fs::read_dir(dir.path())
