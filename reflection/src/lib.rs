@@ -79,6 +79,9 @@ pub enum BindingKind {
     VolumeSampler,
     TfTexture,
     TfSampler,
+    /// `texture_storage_2d<r32float, write>`, as large as the output image: each pixel's
+    /// `metered_luminance`, which the runtime reduces on the GPU for automatic exposure.
+    LuminanceImage,
 }
 
 /// One `@group(g) @binding(n)` of the view's shader.

@@ -21,10 +21,11 @@ const MNI_T1: &str = "../shared/data/mni152/mni_icbm152_t1_tal_nlin_sym_09a_conv
 
 /// The light example's scene with one 3D view whose render table is `render`.
 fn scene(volume: &str, size: u32, render: &str) -> String {
+    let light = "[uniforms]\nlight_dir_key = [0.8, 0.3, 0.6]\nlight_color_key = [2.0, 2.0, 2.0]\n";
+    let uniforms = if render.contains("shading = false") { "" } else { light };
     format!(
         "[render]\ncompositing = \"dvr\"\nshading = true\nlights = [\"key\"]\njitter = 1.0\n\n\
-         [[volume]]\nname = \"t1\"\nrole = \"primary\"\n{volume}\ntf = \"skin.json\"\n\n\
-         [uniforms]\nlight_dir_key = [0.8, 0.3, 0.6]\nlight_color_key = [2.0, 2.0, 2.0]\n\n\
+         [[volume]]\nname = \"t1\"\nrole = \"primary\"\n{volume}\ntf = \"skin.json\"\n\n{uniforms}\n\
          [[view]]\nname = \"3d\"\nkind = \"raycast\"\nsize = [{size}, {size}]\n\
          camera = {{ azimuth = 35.0, elevation = 15.0, distance = 2.4 }}\nrender = {{ {render} }}\n"
     )
@@ -57,6 +58,9 @@ fn main() {
         ("shaded + shadow rays", "shadows = \"rays\""),
         ("shaded, step 2 mm", "step_size = 2.0"),
         ("shaded, step 2 mm, pre-integrated", "step_size = 2.0, preintegration = true"),
+        ("unshaded", "shading = false"),
+        ("unshaded + HDR (Reinhard)", "shading = false, tone_mapping = \"reinhard\""),
+        ("unshaded + HDR, automatic exposure", "shading = false, tone_mapping = \"reinhard\", auto_exposure = true"),
     ];
     let mut renderers: Vec<SceneRenderer> = variants
         .iter()
@@ -78,6 +82,8 @@ fn main() {
         println!("{name:<36} {ms:8.1} ms");
     }
     println!("HDR over shaded:                     {:.3}x (target <= 1.15)", medians[1] / medians[0]);
+    println!("HDR over unshaded DVR:               {:.3}x (target <= 1.15)", medians[7] / medians[6]);
+    println!("HDR + automatic exposure over DVR:   {:.3}x", medians[8] / medians[6]);
     println!("light-volume shadows over shaded:    {:.3}x (target <= 2)", medians[2] / medians[0]);
     println!("shadow rays over shaded:             {:.3}x", medians[3] / medians[0]);
     println!("pre-integrated over point (2 mm):    {:.3}x", medians[5] / medians[4]);

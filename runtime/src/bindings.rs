@@ -27,6 +27,11 @@ fn binding_type(kind: BindingKind) -> wgpu::BindingType {
             format: wgpu::TextureFormat::Rgba8Unorm,
             view_dimension: wgpu::TextureViewDimension::D2,
         },
+        BindingKind::LuminanceImage => wgpu::BindingType::StorageTexture {
+            access: wgpu::StorageTextureAccess::WriteOnly,
+            format: wgpu::TextureFormat::R32Float,
+            view_dimension: wgpu::TextureViewDimension::D2,
+        },
         BindingKind::VolumeTexture => texture(wgpu::TextureViewDimension::D3),
         BindingKind::TfTexture => texture(wgpu::TextureViewDimension::D2),
         BindingKind::VolumeSampler | BindingKind::TfSampler => {
@@ -63,6 +68,8 @@ pub struct DispatchResources<'a> {
     pub uniforms: &'a wgpu::Buffer,
     pub region: &'a wgpu::Buffer,
     pub output: &'a wgpu::TextureView,
+    /// The luminance image of a view that meters (`crate::metering`).
+    pub luminance: Option<&'a wgpu::TextureView>,
 }
 
 /// The entries of group `group` for one dispatch: the same bindings, in the same order, as
@@ -83,6 +90,9 @@ pub fn group_entries<'a>(
                 BindingKind::UniformBlock => own.uniforms.as_entire_binding(),
                 BindingKind::OutputImage => wgpu::BindingResource::TextureView(own.output),
                 BindingKind::Region => own.region.as_entire_binding(),
+                BindingKind::LuminanceImage => wgpu::BindingResource::TextureView(
+                    own.luminance.ok_or_else(|| missing("a luminance image", "luminance_image"))?,
+                ),
                 BindingKind::VolumeTexture => wgpu::BindingResource::TextureView(
                     &shared.volumes.get(&b.name).ok_or_else(|| missing("volume", &b.name))?.view,
                 ),

@@ -31,6 +31,7 @@ pub mod error;
 pub mod geometry;
 pub mod gpu;
 pub mod light_volume;
+pub mod metering;
 pub mod occupancy;
 pub mod probe;
 pub mod reflection;

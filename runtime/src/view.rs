@@ -4,6 +4,7 @@
 use crate::bindings::{self, DispatchResources};
 use crate::error::RuntimeError;
 use crate::gpu::Gpu;
+use crate::metering::Metering;
 use crate::shader::{PipelineCache, ViewPipeline, ViewShader};
 use crate::textures::{TfTexture, VolumeTexture, linear_sampler};
 use crate::uniforms::{UniformBlock, Value};
@@ -32,6 +33,8 @@ pub struct ViewRenderer {
     uniform_buffer: wgpu::Buffer,
     output: wgpu::Texture,
     size: [u32; 2],
+    /// Automatic exposure's luminance image and reduction, for a view that meters.
+    metering: Option<Metering>,
 }
 
 /// Rows of a texture-to-buffer copy are padded to this many bytes.
@@ -57,7 +60,8 @@ impl ViewRenderer {
             })
         })?;
         let output = create_output(gpu, size)?;
-        Ok(ViewRenderer { shader, pipeline, uniforms, uniform_buffer, output, size })
+        let metering = Metering::of(gpu, &shader.reflection).transpose()?;
+        Ok(ViewRenderer { shader, pipeline, uniforms, uniform_buffer, output, size, metering })
     }
 
     pub fn shader(&self) -> &ViewShader {
@@ -145,7 +149,16 @@ impl ViewRenderer {
                 },
             )
         })?;
-        let own = DispatchResources { uniforms: &self.uniform_buffer, region: &region_buffer, output: target };
+        let target_size = target.texture().size();
+        let luminance = match &mut self.metering {
+            Some(metering) => {
+                metering.before_pass(encoder, &self.uniform_buffer);
+                Some(metering.image(gpu, [target_size.width, target_size.height])?)
+            }
+            None => None,
+        };
+        let own =
+            DispatchResources { uniforms: &self.uniform_buffer, region: &region_buffer, output: target, luminance };
         let mut groups = Vec::with_capacity(self.pipeline.groups.len());
         for (group, layout) in (0u32..).zip(&self.pipeline.groups) {
             let entries = bindings::group_entries(reflection, group, resources, &own)?;
@@ -170,12 +183,20 @@ impl ViewRenderer {
             }
             pass.dispatch_workgroups(w.div_ceil(wx.max(1)), h.div_ceil(wy.max(1)), 1);
         })?;
+        if let Some(metering) = &self.metering {
+            metering.after_pass(gpu, encoder)?;
+        }
         Ok(())
     }
 
     /// Renders and reads the image back (straight alpha RGBA8).
+    /// A view that meters its exposure renders twice: the first pass meters the picture the
+    /// second one is exposed for.
     pub fn render(&mut self, gpu: &Gpu, resources: &Resources) -> Result<image::RgbaImage, RuntimeError> {
         let mut encoder = gpu.device.create_command_encoder(&Default::default());
+        if self.metering.is_some() {
+            self.encode(gpu, resources, &mut encoder)?;
+        }
         self.encode(gpu, resources, &mut encoder)?;
         let [w, h] = self.size;
         let padded_row = (w * 4).div_ceil(ROW_ALIGNMENT) * ROW_ALIGNMENT;

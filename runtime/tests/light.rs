@@ -277,3 +277,15 @@ fn bad_light_input_is_refused_or_renders_finite_pixels() {
         }
     }
 }
+
+/// Automatic exposure meters the picture on the GPU: a picture of uniform radiance R comes out
+/// at the key (0.18, sRGB byte 118) whatever R is, bright (2.0) or dim (0.02), and a manual
+/// exposure of one stop on top doubles it (0.36, byte 161).
+#[test]
+fn automatic_exposure_maps_the_scene_average_to_middle_grey() {
+    for (radiance, exposure, want) in [(2.0f32, 0.0f32, 118u8), (0.02, 0.0, 118), (2.0, 1.0, 161)] {
+        let keys = format!("tone_mapping = \"exposure\"\nauto_exposure = true\nexposure = {exposure}");
+        let got = tone_mapped(&keys, [radiance; 3]);
+        assert!(got.iter().all(|&c| c.abs_diff(want) <= 1), "radiance {radiance}, exposure {exposure}: {got:?}");
+    }
+}

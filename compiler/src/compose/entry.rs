@@ -73,6 +73,9 @@ pub struct EntryPlan {
     pub output: Handle<naga::GlobalVariable>,
     /// `var<uniform> region: vec4<u32>`: the pixels the dispatch renders.
     pub region: Handle<naga::GlobalVariable>,
+    /// The luminance image and the `State` member stored into it after `ray.finish` (when the
+    /// composition meters luminance).
+    pub metering: Option<(Handle<naga::GlobalVariable>, u32)>,
 }
 
 /// How the entry point runs the functions that wait for a flag (member indices in `State`).
@@ -94,10 +97,13 @@ pub(crate) const PIXEL: &str = "pixel";
 pub(crate) const TERMINATE: &str = "terminate";
 /// The state field the entry point stores as the pixel's colour after ray finish.
 pub(crate) const OUT_COLOR: &str = "out_color";
+/// The state field whose value the entry point also stores, after ray finish, into the view's
+/// luminance image (a binding only views with this field get), for automatic exposure.
+pub(crate) const METERED_LUMINANCE: &str = "metered_luminance";
 /// The fields the entry point reads or writes itself: kept whenever a placed function declares
 /// them, and without data-flow warnings.
 pub(crate) const ENTRY_FIELDS: &[&str] =
-    &[PIXEL, TERMINATE, OUT_COLOR, super::contribution::CONTRIBUTES, super::contribution::SELECTED];
+    &[PIXEL, TERMINATE, OUT_COLOR, METERED_LUMINANCE, super::contribution::CONTRIBUTES, super::contribution::SELECTED];
 
 /// The entry point's function as it grows, with the emit discipline lowering uses.
 struct Body {
@@ -264,6 +270,13 @@ pub fn build(module: &mut naga::Module, plan: &EntryPlan) -> naga::EntryPoint {
         }
     };
     b.push(&mut body, S::ImageStore { image: output, coordinate: p, array_index: None, value: color });
+    if let Some((image, member)) = plan.metering {
+        let pointer = b.component(state, member);
+        let luminance = b.expr(E::Load { pointer });
+        let value = b.expr(E::Splat { size: naga::VectorSize::Quad, value: luminance });
+        let image = b.expr(E::GlobalVariable(image));
+        b.push(&mut body, S::ImageStore { image, coordinate: p, array_index: None, value });
+    }
     b.push(&mut body, S::Return { value: None });
 
     let mut func = b.func;

@@ -104,6 +104,9 @@ impl Scene {
                 add("hdr_volume", additional_names);
             }
             add(operator, vec![]);
+            if r.auto_exposure {
+                add("auto_exposure", vec![]);
+            }
         }
         out
     }

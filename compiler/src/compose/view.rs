@@ -71,7 +71,8 @@ pub fn emit(program: &hir::Program, comp: &Composition, sources: &SourceMap) -> 
         bind("uniforms", BindingKind::UniformBlock),
         Span::DUMMY,
     )?;
-    let output = add_output_image(&mut b, bind("output", BindingKind::OutputImage));
+    let output =
+        add_storage_image(&mut b, "output", naga::StorageFormat::Rgba8Unorm, bind("output", BindingKind::OutputImage));
     let region = add_region(&mut b, bind("region", BindingKind::Region));
     let access: Vec<UniformAccess> = comp
         .uniforms
@@ -96,6 +97,13 @@ pub fn emit(program: &hir::Program, comp: &Composition, sources: &SourceMap) -> 
         })
         .collect();
 
+    // Last of the bindings, so a view that does not meter keeps its numbering.
+    let metering = comp.field(entry::METERED_LUMINANCE).map(|member| {
+        let format = naga::StorageFormat::R32Float;
+        let image =
+            add_storage_image(&mut b, "luminance_image", format, bind("luminance_image", BindingKind::LuminanceImage));
+        (image, member as u32)
+    });
     let lowered = |steps: &[Step], b: &mut ModuleBuilder| -> Result<Vec<Handle<naga::Function>>, Diagnostic> {
         let mut out = Vec::new();
         for placed in steps.iter().flat_map(|&s| comp.step(s)) {
@@ -141,6 +149,7 @@ pub fn emit(program: &hir::Program, comp: &Composition, sources: &SourceMap) -> 
         max_samples: uniforms.iter().position(|u| u.name == MAX_SAMPLES).unwrap_or_default() as u32,
         output,
         region,
+        metering,
     };
     let state_layout = b.struct_layout(state_type).unwrap_or_else(empty_layout);
     let block_type = b.module.global_variables[block].ty;
@@ -171,13 +180,18 @@ fn empty_layout() -> StructLayout {
     StructLayout { size: 0, alignment: 1, members: Vec::new() }
 }
 
-fn add_output_image(b: &mut ModuleBuilder, binding: ResourceBinding) -> Handle<naga::GlobalVariable> {
-    let class =
-        naga::ImageClass::Storage { format: naga::StorageFormat::Rgba8Unorm, access: naga::StorageAccess::STORE };
+/// A write-only 2D storage image `name` of `format`.
+fn add_storage_image(
+    b: &mut ModuleBuilder,
+    name: &str,
+    format: naga::StorageFormat,
+    binding: ResourceBinding,
+) -> Handle<naga::GlobalVariable> {
+    let class = naga::ImageClass::Storage { format, access: naga::StorageAccess::STORE };
     let inner = naga::TypeInner::Image { dim: naga::ImageDimension::D2, arrayed: false, class };
     let ty = b.module.types.insert(naga::Type { name: None, inner }, naga::Span::UNDEFINED);
     let var = naga::GlobalVariable {
-        name: Some("output".into()),
+        name: Some(name.into()),
         space: naga::AddressSpace::Handle,
         binding: Some(binding),
         ty,

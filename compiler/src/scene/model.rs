@@ -60,6 +60,9 @@ pub struct Render {
     pub tone_mapping: ToneMapping,
     /// Initial value of the `exposure` uniform (stops); only with tone mapping.
     pub exposure: Option<Located<f32>>,
+    /// Automatic exposure from the scene's log-average luminance (`std::auto_exposure`); only
+    /// with tone mapping.
+    pub auto_exposure: bool,
     /// Initial value of the `white_point` uniform; only with Reinhard's operator.
     pub white_point: Option<Located<f32>>,
     /// Pre-integrated classification of the primary volume (`std::preintegrate`); DVR only.

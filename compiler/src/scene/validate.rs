@@ -210,6 +210,7 @@ impl Cx<'_> {
             background,
             tone_mapping: light.tone_mapping,
             exposure: light.exposure,
+            auto_exposure: light.auto_exposure,
             white_point: light.white_point,
             preintegration: light.preintegration,
             shadows: light.shadows,
@@ -229,6 +230,11 @@ impl Cx<'_> {
             } else if !e.value.is_finite() {
                 self.emit(self.invalid(e.span, "`exposure` must be a finite number of stops"));
             }
+        }
+        let mut auto_exposure = r.auto_exposure.as_ref().is_some_and(|a| *a.get_ref());
+        if auto_exposure && tone_mapping == ToneMapping::Off {
+            self.ignored(r.auto_exposure.as_ref().expect("set"), "auto_exposure", "without `tone_mapping`");
+            auto_exposure = false;
         }
         let mut white_point = located(&r.white_point, self);
         if let Some(w) = &white_point {
@@ -261,7 +267,7 @@ impl Cx<'_> {
                 shadows = Shadows::Off;
             }
         }
-        Light { tone_mapping, exposure, white_point, preintegration, shadows }
+        Light { tone_mapping, exposure, auto_exposure, white_point, preintegration, shadows }
     }
 
     /// Checks a list of instance-like names: identifiers, not keywords, no duplicates.
@@ -664,6 +670,7 @@ pub fn is_view_name(s: &str) -> bool {
 struct Light {
     tone_mapping: ToneMapping,
     exposure: Option<Located<f32>>,
+    auto_exposure: bool,
     white_point: Option<Located<f32>>,
     preintegration: bool,
     shadows: Shadows,

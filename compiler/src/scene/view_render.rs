@@ -97,6 +97,7 @@ fn merge(shared: Option<&RawRender>, own: &RawRender) -> RawRender {
         background: own.background.or(base.background),
         tone_mapping: own.tone_mapping.or(base.tone_mapping),
         exposure: own.exposure.or(base.exposure),
+        auto_exposure: own.auto_exposure.or(base.auto_exposure),
         white_point: own.white_point.or(base.white_point),
         preintegration: own.preintegration.or(base.preintegration.filter(|_| mode == Compositing::Dvr)),
         shadows: own.shadows.or(base.shadows.filter(|_| shaded)),

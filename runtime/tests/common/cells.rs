@@ -177,6 +177,7 @@ impl LightCell {
     pub fn all() -> Vec<LightCell> {
         let mut cells = Vec::new();
         for additional in [false, true] {
+            // "exposure" meters automatically: its operator is a clip, the metering is the risk.
             for tone_mapping in ["off", "exposure", "reinhard", "aces"] {
                 for preintegration in [false, true] {
                     for shadows in ["off", "rays", "volume"] {
@@ -208,6 +209,9 @@ impl LightCell {
             render.push("iso_value = 0.45".into());
         }
         render.push(format!("tone_mapping = \"{}\"", self.tone_mapping));
+        if self.tone_mapping == "exposure" {
+            render.push("auto_exposure = true".into());
+        }
         if self.preintegration {
             render.push("preintegration = true".into());
         }

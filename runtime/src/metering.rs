@@ -1,0 +1,178 @@
+//! Automatic exposure on the GPU (`std::auto_exposure`): a view that meters writes each pixel's
+//! `metered_luminance` into its luminance image (`BindingKind::LuminanceImage`); after the
+//! view's pass a reduction pass takes the log-average over the pixels with content into a small
+//! buffer, and before the next pass that value is copied into the view's uniform block at
+//! `scene_luminance`. Nothing is read back: the exposure follows the picture one frame late
+//! (a one-off render meters with a first pass).
+
+use crate::error::RuntimeError;
+use crate::gpu::Gpu;
+use crate::reflection::{BindingKind, Reflection};
+
+/// The uniform the reduction's result is copied into.
+pub const SCENE_LUMINANCE: &str = "scene_luminance";
+
+/// `scene_luminance` before anything was metered: middle grey, so exposure starts neutral.
+const START: f32 = 0.18;
+
+const SHADER: &str = r#"
+struct Metered {
+    value: f32,
+}
+@group(0) @binding(0) var luminance: texture_2d<f32>;
+@group(0) @binding(1) var<storage, read_write> result: Metered;
+
+var<workgroup> sums: array<vec2<f32>, 256>;
+
+@compute @workgroup_size(256)
+fn main(@builtin(local_invocation_index) i: u32) {
+    let size = textureDimensions(luminance);
+    let n = size.x * size.y;
+    var sum = vec2<f32>(0.0);
+    for (var k = i; k < n; k += 256u) {
+        let l = textureLoad(luminance, vec2<u32>(k % size.x, k / size.x), 0).x;
+        // Pixels that show nothing (the background) do not count; 1e-4 keeps log finite.
+        if l > 0.0 && l < 1e30 {
+            sum += vec2<f32>(log(l + 1e-4), 1.0);
+        }
+    }
+    sums[i] = sum;
+    workgroupBarrier();
+    for (var half = 128u; half > 0u; half >>= 1u) {
+        if i < half {
+            sums[i] += sums[i + half];
+        }
+        workgroupBarrier();
+    }
+    if i == 0u && sums[0].y > 0.0 {
+        result.value = exp(sums[0].x / sums[0].y);
+    }
+}
+"#;
+
+/// A metering view's luminance images, its reduction and its result.
+pub struct Metering {
+    pipeline: wgpu::ComputePipeline,
+    layout: wgpu::BindGroupLayout,
+    /// 4 bytes: the last log-average luminance.
+    result: wgpu::Buffer,
+    /// Byte offset of `scene_luminance` in the uniform block.
+    offset: u64,
+    /// The luminance image of the last target size.
+    image: Option<([u32; 2], wgpu::TextureView)>,
+}
+
+impl Metering {
+    /// The metering of a view whose reflection has a luminance image and `scene_luminance`;
+    /// `None` for every other view.
+    pub fn of(gpu: &Gpu, reflection: &Reflection) -> Option<Result<Metering, RuntimeError>> {
+        reflection.bindings.iter().find(|b| b.kind == BindingKind::LuminanceImage)?;
+        let offset = reflection.uniforms.iter().find(|u| u.name == SCENE_LUMINANCE)?.offset?;
+        Some(
+            gpu.capture("making the luminance reduction", || Metering::new(gpu, u64::from(offset))).map_err(Into::into),
+        )
+    }
+
+    fn new(gpu: &Gpu, offset: u64) -> Metering {
+        let entries = [
+            wgpu::BindGroupLayoutEntry {
+                binding: 0,
+                visibility: wgpu::ShaderStages::COMPUTE,
+                ty: wgpu::BindingType::Texture {
+                    sample_type: wgpu::TextureSampleType::Float { filterable: false },
+                    view_dimension: wgpu::TextureViewDimension::D2,
+                    multisampled: false,
+                },
+                count: None,
+            },
+            wgpu::BindGroupLayoutEntry {
+                binding: 1,
+                visibility: wgpu::ShaderStages::COMPUTE,
+                ty: wgpu::BindingType::Buffer {
+                    ty: wgpu::BufferBindingType::Storage { read_only: false },
+                    has_dynamic_offset: false,
+                    min_binding_size: None,
+                },
+                count: None,
+            },
+        ];
+        let layout = gpu
+            .device
+            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some("metering"), entries: &entries });
+        let pipeline_layout = gpu.device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("metering"),
+            bind_group_layouts: &[Some(&layout)],
+            immediate_size: 0,
+        });
+        let module = gpu.device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("metering"),
+            source: wgpu::ShaderSource::Wgsl(SHADER.into()),
+        });
+        let pipeline = gpu.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some("metering"),
+            layout: Some(&pipeline_layout),
+            module: &module,
+            entry_point: Some("main"),
+            compilation_options: Default::default(),
+            cache: None,
+        });
+        let result = wgpu::util::DeviceExt::create_buffer_init(
+            &gpu.device,
+            &wgpu::util::BufferInitDescriptor {
+                label: Some("scene luminance"),
+                contents: bytemuck::cast_slice(&[START]),
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            },
+        );
+        Metering { pipeline, layout, result, offset, image: None }
+    }
+
+    /// The luminance image for a target of `size` pixels (made anew when the size changes).
+    pub fn image(&mut self, gpu: &Gpu, size: [u32; 2]) -> Result<&wgpu::TextureView, RuntimeError> {
+        if self.image.as_ref().is_none_or(|(made, _)| *made != size) {
+            let [w, h] = size;
+            let texture = gpu.capture(&format!("creating a {w}x{h} luminance image"), || {
+                gpu.device.create_texture(&wgpu::TextureDescriptor {
+                    label: Some("luminance"),
+                    size: wgpu::Extent3d { width: w.max(1), height: h.max(1), depth_or_array_layers: 1 },
+                    mip_level_count: 1,
+                    sample_count: 1,
+                    dimension: wgpu::TextureDimension::D2,
+                    format: wgpu::TextureFormat::R32Float,
+                    usage: wgpu::TextureUsages::STORAGE_BINDING | wgpu::TextureUsages::TEXTURE_BINDING,
+                    view_formats: &[],
+                })
+            })?;
+            self.image = Some((size, texture.create_view(&Default::default())));
+        }
+        let (_, view) = self.image.as_ref().ok_or_else(|| RuntimeError::Invalid("no luminance image".into()))?;
+        Ok(view)
+    }
+
+    /// Before the view's pass: the last metered value into the uniform block (after the
+    /// block's own write, which queue writes come before).
+    pub fn before_pass(&self, encoder: &mut wgpu::CommandEncoder, uniforms: &wgpu::Buffer) {
+        encoder.copy_buffer_to_buffer(&self.result, 0, uniforms, self.offset, 4);
+    }
+
+    /// After the view's pass: the reduction of the luminance image into the result.
+    pub fn after_pass(&self, gpu: &Gpu, encoder: &mut wgpu::CommandEncoder) -> Result<(), RuntimeError> {
+        let Some((_, image)) = &self.image else { return Ok(()) };
+        let bind_group = gpu.capture("binding the luminance reduction", || {
+            gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("metering"),
+                layout: &self.layout,
+                entries: &[
+                    wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(image) },
+                    wgpu::BindGroupEntry { binding: 1, resource: self.result.as_entire_binding() },
+                ],
+            })
+        })?;
+        let mut pass = encoder
+            .begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("metering"), timestamp_writes: None });
+        pass.set_pipeline(&self.pipeline);
+        pass.set_bind_group(0, &bind_group, &[]);
+        pass.dispatch_workgroups(1, 1, 1);
+        Ok(())
+    }
+}
