@@ -289,3 +289,22 @@ fn automatic_exposure_maps_the_scene_average_to_middle_grey() {
         assert!(got.iter().all(|&c| c.abs_diff(want) <= 1), "radiance {radiance}, exposure {exposure}: {got:?}");
     }
 }
+
+/// The tone operator is a pipeline function like any other: a user's replaces it by its
+/// substep, and its `display` is what the pixel shows (0.5 in linear light: sRGB byte 188).
+#[test]
+fn a_user_function_replaces_the_tone_operator() {
+    let dir = tempfile::tempdir().expect("a folder");
+    std::fs::write(dir.path().join("known.vrs"), KNOWN_RADIANCE).expect("module written");
+    let flat = "pipeline flat replace ray.finish[reinhard] {\n    @ray state display: vec3f = vec3f(0.0);\n\n    \
+                state.display = vec3f(0.5);\n}\n";
+    std::fs::write(dir.path().join("flat.vrs"), flat).expect("module written");
+    let scene = "[render]\ncompositing = \"dvr\"\ntone_mapping = \"reinhard\"\n\n[[volume]]\nname = \"head\"\n\
+                 role = \"primary\"\nphantom = \"head\"\ntf = \"ct_bone\"\n\n[[module]]\npath = \"known.vrs\"\n\n\
+                 [[module]]\npath = \"flat.vrs\"\n\n[uniforms]\nknown = [3.0, 1.0, 0.2, 1.0]\n\n\
+                 [[view]]\nname = \"3d\"\nkind = \"raycast\"\nsize = [4, 4]\n";
+    let mut renderer = open(dir.path(), scene);
+    let image = &renderer.render_all().expect("renders")[0].1;
+    let p = image.get_pixel(2, 2);
+    assert!(p.0[..3].iter().all(|&c| c.abs_diff(188) <= 1), "{p:?}");
+}
