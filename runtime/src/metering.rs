@@ -8,6 +8,7 @@
 use crate::error::RuntimeError;
 use crate::gpu::Gpu;
 use crate::reflection::{BindingKind, Reflection};
+use crate::textures::Image2d;
 
 /// The uniform the reduction's result is copied into.
 pub const SCENE_LUMINANCE: &str = "scene_luminance";
@@ -131,18 +132,9 @@ impl Metering {
     pub fn image(&mut self, gpu: &Gpu, size: [u32; 2]) -> Result<&wgpu::TextureView, RuntimeError> {
         if self.image.as_ref().is_none_or(|(made, _)| *made != size) {
             let [w, h] = size;
-            let texture = gpu.capture(&format!("creating a {w}x{h} luminance image"), || {
-                gpu.device.create_texture(&wgpu::TextureDescriptor {
-                    label: Some("luminance"),
-                    size: wgpu::Extent3d { width: w.max(1), height: h.max(1), depth_or_array_layers: 1 },
-                    mip_level_count: 1,
-                    sample_count: 1,
-                    dimension: wgpu::TextureDimension::D2,
-                    format: wgpu::TextureFormat::R32Float,
-                    usage: wgpu::TextureUsages::STORAGE_BINDING | wgpu::TextureUsages::TEXTURE_BINDING,
-                    view_formats: &[],
-                })
-            })?;
+            let usage = wgpu::TextureUsages::STORAGE_BINDING | wgpu::TextureUsages::TEXTURE_BINDING;
+            let image = Image2d { label: "luminance", size, format: wgpu::TextureFormat::R32Float, usage };
+            let texture = image.create(gpu, &format!("creating a {w}x{h} luminance image"))?;
             self.image = Some((size, texture.create_view(&Default::default())));
         }
         let (_, view) = self.image.as_ref().ok_or_else(|| RuntimeError::Invalid("no luminance image".into()))?;

@@ -298,19 +298,9 @@ pub struct TfTexture {
 
 impl TfTexture {
     pub fn upload(gpu: &Gpu, tf: &TransferFunction) -> Result<TfTexture, RuntimeError> {
-        let size = wgpu::Extent3d { width: TF_WIDTH, height: 1, depth_or_array_layers: 1 };
-        let texture = gpu.capture(&format!("creating the texture of transfer function `{}`", tf.name), || {
-            gpu.device.create_texture(&wgpu::TextureDescriptor {
-                label: Some(&tf.name),
-                size,
-                mip_level_count: 1,
-                sample_count: 1,
-                dimension: wgpu::TextureDimension::D2,
-                format: wgpu::TextureFormat::Rgba8Unorm,
-                usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
-                view_formats: &[],
-            })
-        })?;
+        let image =
+            Image2d { label: &tf.name, size: [TF_WIDTH, 1], format: wgpu::TextureFormat::Rgba8Unorm, usage: TABLE };
+        let texture = image.create(gpu, &format!("creating the texture of transfer function `{}`", tf.name))?;
         let tf_texture = TfTexture { view: texture.create_view(&Default::default()), texture };
         tf_texture.write(gpu, tf);
         Ok(tf_texture)
@@ -333,18 +323,8 @@ impl TfTexture {
     /// extinction that may exceed 1.
     pub fn upload_table(gpu: &Gpu, name: &str, size: [u32; 2], rgba16f: &[u8]) -> Result<TfTexture, RuntimeError> {
         let [w, h] = size;
-        let texture = gpu.capture(&format!("creating the {w}x{h} table `{name}`"), || {
-            gpu.device.create_texture(&wgpu::TextureDescriptor {
-                label: Some(name),
-                size: wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
-                mip_level_count: 1,
-                sample_count: 1,
-                dimension: wgpu::TextureDimension::D2,
-                format: wgpu::TextureFormat::Rgba16Float,
-                usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
-                view_formats: &[],
-            })
-        })?;
+        let image = Image2d { label: name, size, format: wgpu::TextureFormat::Rgba16Float, usage: TABLE };
+        let texture = image.create(gpu, &format!("creating the {w}x{h} table `{name}`"))?;
         let table = TfTexture { view: texture.create_view(&Default::default()), texture };
         table.write_table(gpu, rgba16f);
         Ok(table)
@@ -363,6 +343,37 @@ impl TfTexture {
             },
             size,
         );
+    }
+}
+
+/// A table: sampled, written from the CPU.
+const TABLE: wgpu::TextureUsages = wgpu::TextureUsages::TEXTURE_BINDING.union(wgpu::TextureUsages::COPY_DST);
+
+/// A 2D texture of one mip level: what every image and table of the runtime is.
+pub(crate) struct Image2d<'a> {
+    pub label: &'a str,
+    pub size: [u32; 2],
+    pub format: wgpu::TextureFormat,
+    pub usage: wgpu::TextureUsages,
+}
+
+impl Image2d<'_> {
+    /// Creates it, its errors captured as those of `doing`; a zero side is one texel.
+    pub fn create(&self, gpu: &Gpu, doing: &str) -> Result<wgpu::Texture, RuntimeError> {
+        let [w, h] = self.size;
+        let texture = gpu.capture(doing, || {
+            gpu.device.create_texture(&wgpu::TextureDescriptor {
+                label: Some(self.label),
+                size: wgpu::Extent3d { width: w.max(1), height: h.max(1), depth_or_array_layers: 1 },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format: self.format,
+                usage: self.usage,
+                view_formats: &[],
+            })
+        })?;
+        Ok(texture)
     }
 }
 

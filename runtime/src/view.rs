@@ -6,7 +6,7 @@ use crate::error::RuntimeError;
 use crate::gpu::Gpu;
 use crate::metering::Metering;
 use crate::shader::{PipelineCache, ViewPipeline, ViewShader};
-use crate::textures::{TfTexture, VolumeTexture, linear_sampler};
+use crate::textures::{Image2d, TfTexture, VolumeTexture, linear_sampler};
 use crate::uniforms::{UniformBlock, Value};
 use std::collections::HashMap;
 use std::sync::Arc;
@@ -267,24 +267,12 @@ impl Region {
 /// as storage, sampled by an application, copied out for read-back. A size beyond the device's
 /// limits (or its memory) is an error.
 pub fn create_output(gpu: &Gpu, [w, h]: [u32; 2]) -> Result<wgpu::Texture, RuntimeError> {
-    let doing = format!("creating a {w}x{h} image");
-    Ok(gpu.capture(&doing, || output_texture(gpu, [w, h]))?)
-}
-
-fn output_texture(gpu: &Gpu, [w, h]: [u32; 2]) -> wgpu::Texture {
-    gpu.device.create_texture(&wgpu::TextureDescriptor {
-        label: Some("view output"),
-        size: wgpu::Extent3d { width: w.max(1), height: h.max(1), depth_or_array_layers: 1 },
-        mip_level_count: 1,
-        sample_count: 1,
-        dimension: wgpu::TextureDimension::D2,
-        format: wgpu::TextureFormat::Rgba8Unorm,
-        usage: wgpu::TextureUsages::STORAGE_BINDING
-            | wgpu::TextureUsages::TEXTURE_BINDING
-            | wgpu::TextureUsages::COPY_SRC
-            | wgpu::TextureUsages::COPY_DST,
-        view_formats: &[],
-    })
+    let usage = wgpu::TextureUsages::STORAGE_BINDING
+        | wgpu::TextureUsages::TEXTURE_BINDING
+        | wgpu::TextureUsages::COPY_SRC
+        | wgpu::TextureUsages::COPY_DST;
+    let image = Image2d { label: "view output", size: [w, h], format: wgpu::TextureFormat::Rgba8Unorm, usage };
+    image.create(gpu, &format!("creating a {w}x{h} image"))
 }
 
 /// The shader writes premultiplied colour; PNG wants straight alpha.
