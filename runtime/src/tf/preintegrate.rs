@@ -192,23 +192,13 @@ impl Integrals {
 
     /// `[T(v), K(v)]` for `v` in [0, 1], linear between the sub-interval bounds.
     fn prefix_at(&self, v: f64) -> [f64; 4] {
-        let intervals = self.prefix.len() - 1;
-        let at = v.clamp(0.0, 1.0) * intervals as f64;
-        let k = (at.floor() as usize).min(intervals - 1);
-        let t = at - k as f64;
-        let (p0, p1) = (self.prefix[k], self.prefix[k + 1]);
-        std::array::from_fn(|c| p0[c] + (p1[c] - p0[c]) * t)
+        interpolate(&self.prefix, v)
     }
 
     /// The point-sampled `[r, g, b, tau]` at `v`: the entries interpolated as a linear sampler
     /// does, then `tau = -ln(1 - a)`.
     fn point(&self, v: f64) -> [f64; 4] {
-        let last = self.entries.len() - 1;
-        let at = v.clamp(0.0, 1.0) * last as f64;
-        let below = (at.floor() as usize).min(last - 1);
-        let t = at - below as f64;
-        let (e0, e1) = (self.entries[below], self.entries[below + 1]);
-        let [r, g, b, a] = std::array::from_fn(|c| e0[c] + (e1[c] - e0[c]) * t);
+        let [r, g, b, a] = interpolate(&self.entries, v);
         [r, g, b, -(-a).ln_1p()]
     }
 
@@ -239,6 +229,16 @@ fn mean_neg_ln(p: f64, q: f64) -> f64 {
     } else {
         (q - q * q.ln() - p + p * p.ln()) / d
     }
+}
+
+/// `rows` (at least two, evenly over [0, 1]) at `v`, linearly between neighbours.
+fn interpolate(rows: &[[f64; 4]], v: f64) -> [f64; 4] {
+    let last = rows.len() - 1;
+    let at = v.clamp(0.0, 1.0) * last as f64;
+    let below = (at.floor() as usize).min(last - 1);
+    let t = at - below as f64;
+    let (r0, r1) = (rows[below], rows[below + 1]);
+    std::array::from_fn(|c| r0[c] + (r1[c] - r0[c]) * t)
 }
 
 #[cfg(test)]
