@@ -82,6 +82,12 @@ pub enum BindingKind {
     /// `texture_storage_2d<r32float, write>`, as large as the output image: each pixel's
     /// `metered_luminance`, which the runtime reduces on the GPU for automatic exposure.
     LuminanceImage,
+    /// `texture_2d<f32>` (`r32float`, not filterable): the depth of the view's mesh layer (0 near
+    /// .. 1 far, 1 where no opaque mesh is), which the entry point loads into `geometry_depth`.
+    GeometryDepth,
+    /// `texture_2d<f32>` (`rgba8unorm`): the colour of the view's mesh layer, premultiplied,
+    /// which the entry point loads into `geometry_color`.
+    GeometryColor,
 }
 
 /// One `@group(g) @binding(n)` of the view's shader.

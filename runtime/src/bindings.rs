@@ -32,6 +32,11 @@ fn binding_type(kind: BindingKind) -> wgpu::BindingType {
             format: wgpu::TextureFormat::R32Float,
             view_dimension: wgpu::TextureViewDimension::D2,
         },
+        BindingKind::GeometryDepth | BindingKind::GeometryColor => wgpu::BindingType::Texture {
+            sample_type: wgpu::TextureSampleType::Float { filterable: false },
+            view_dimension: wgpu::TextureViewDimension::D2,
+            multisampled: false,
+        },
         BindingKind::VolumeTexture => texture(wgpu::TextureViewDimension::D3),
         BindingKind::TfTexture => texture(wgpu::TextureViewDimension::D2),
         BindingKind::VolumeSampler | BindingKind::TfSampler => {
@@ -70,6 +75,8 @@ pub struct DispatchResources<'a> {
     pub output: &'a wgpu::TextureView,
     /// The luminance image of a view that meters (`crate::metering`).
     pub luminance: Option<&'a wgpu::TextureView>,
+    /// The depth and colour images of the view's mesh layer (`crate::mesh_layer`).
+    pub mesh_layer: Option<(&'a wgpu::TextureView, &'a wgpu::TextureView)>,
 }
 
 /// The entries of group `group` for one dispatch: the same bindings, in the same order, as
@@ -92,6 +99,12 @@ pub fn group_entries<'a>(
                 BindingKind::Region => own.region.as_entire_binding(),
                 BindingKind::LuminanceImage => wgpu::BindingResource::TextureView(
                     own.luminance.ok_or_else(|| missing("a luminance image", "luminance_image"))?,
+                ),
+                BindingKind::GeometryDepth => wgpu::BindingResource::TextureView(
+                    own.mesh_layer.ok_or_else(|| missing("a mesh layer", "geometry_depth"))?.0,
+                ),
+                BindingKind::GeometryColor => wgpu::BindingResource::TextureView(
+                    own.mesh_layer.ok_or_else(|| missing("a mesh layer", "geometry_color"))?.1,
                 ),
                 BindingKind::VolumeTexture => wgpu::BindingResource::TextureView(
                     &shared.volumes.get(&b.name).ok_or_else(|| missing("volume", &b.name))?.view,

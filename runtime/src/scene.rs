@@ -19,6 +19,7 @@ use vrsc::compose::cache::{CachedBuild, CompositionCache};
 use vrsc::scene::{self as vscene, Role, Scene, TfRef, UniformValue, ViewKind, VolumeSource};
 
 mod derived;
+mod meshes;
 mod probe;
 mod tf_edit;
 pub use probe::{ProbeAt, ProbeImage, ProbeSpec};
@@ -51,6 +52,8 @@ pub struct SceneView {
     pub slice: Option<(SlicePlane, f32)>,
     /// Slice views: how the image puts the patient's sides (the scene's `convention`).
     pub convention: Convention,
+    /// The meshes its mesh layer draws (indices into the scene's meshes).
+    pub meshes: Vec<usize>,
 }
 
 /// A loaded scene, ready to render every frame.
@@ -77,6 +80,8 @@ pub struct SceneRenderer {
     probes: probe::ProbeCache,
     /// What the light volumes were computed from.
     derived: derived::Derived,
+    /// The scene's meshes as last made.
+    meshes: meshes::SceneMeshes,
 }
 
 /// What [`SceneRenderer::apply`] changed.
@@ -149,9 +154,11 @@ impl SceneRenderer {
             notices: Vec::new(),
             probes: probe::ProbeCache::default(),
             derived: derived::Derived::default(),
+            meshes: meshes::SceneMeshes::default(),
         };
         renderer.load_scene_volumes(scene, progress)?;
         renderer.set_views(scene, built)?;
+        renderer.load_meshes(scene)?;
         renderer.update_derived()?;
         Ok(renderer)
     }
@@ -234,6 +241,7 @@ impl SceneRenderer {
         let old: Vec<(String, String)> = self.views.iter().map(|v| (v.name.clone(), structural_hash(v))).collect();
         let misses = self.pipelines.stats().misses;
         self.set_views(&scene, &cached.built)?;
+        self.load_meshes(&scene)?;
         self.update_derived()?;
         let recompiled = self
             .views
@@ -253,6 +261,7 @@ impl SceneRenderer {
     /// Renders every view; images in view order.
     pub fn render_all(&mut self) -> Result<Vec<(String, image::RgbaImage)>, RuntimeError> {
         self.update_light_volumes()?;
+        self.update_followed_meshes()?;
         let mut images = Vec::new();
         for view in &mut self.views {
             apply_view_uniforms(view, &self.grids)?;
@@ -322,6 +331,7 @@ impl SceneRenderer {
     /// Records one frame of view `index` (for benchmarks: no read-back).
     pub fn encode_view(&mut self, index: usize, encoder: &mut wgpu::CommandEncoder) -> Result<(), RuntimeError> {
         self.update_light_volumes()?;
+        self.update_followed_meshes()?;
         let view = &mut self.views[index];
         apply_view_uniforms(view, &self.grids)?;
         view.renderer.encode(&self.gpu, &self.resources, encoder)
@@ -337,6 +347,7 @@ impl SceneRenderer {
         region: crate::view::Region,
     ) -> Result<(), RuntimeError> {
         self.update_light_volumes()?;
+        self.update_followed_meshes()?;
         let view = self.views.get_mut(index).ok_or_else(|| RuntimeError::Invalid(format!("no view {index}")))?;
         apply_view_uniforms(view, &self.grids)?;
         view.renderer.encode_into(&self.gpu, &self.resources, encoder, target, region)
@@ -387,7 +398,8 @@ impl SceneRenderer {
                 vscene::Convention::Radiological => Convention::Radiological,
                 vscene::Convention::Neurological => Convention::Neurological,
             };
-            views.push(SceneView { name: output.name.clone(), renderer, camera, slice, convention });
+            let meshes = view.meshes.clone();
+            views.push(SceneView { name: output.name.clone(), renderer, camera, slice, convention, meshes });
         }
         self.views = views;
         Ok(())
@@ -516,8 +528,19 @@ fn apply_view_uniforms(view: &mut SceneView, grids: &[VolumeGrid]) -> Result<(),
             r.set_uniform(&uniform, m)?;
         }
     }
+    if view.renderer.reads_mesh_layer()
+        && let Some((camera, inv_proj)) = meshes::layer_camera(view, primary)
+    {
+        if view.renderer.has_uniform(GEOMETRY_INV_PROJ) {
+            view.renderer.set_uniform(GEOMETRY_INV_PROJ, inv_proj)?;
+        }
+        view.renderer.set_mesh_layer(camera, view.meshes.clone());
+    }
     Ok(())
 }
+
+/// `std::meshes`' matrix from the mesh layer's clip space to normalized volume coordinates.
+const GEOMETRY_INV_PROJ: &str = "geometry_inv_proj";
 
 /// Whether the renderer sets uniform `name` itself before every frame (what
 /// `apply_view_uniforms` writes: the camera, the slice plane, the transforms of the primary
@@ -533,6 +556,7 @@ pub fn is_set_by_renderer(name: &str) -> bool {
             | "slice_v"
             | "slice_normal"
             | "slab"
+            | GEOMETRY_INV_PROJ
     ) || name.starts_with("primary_to_")
 }
 

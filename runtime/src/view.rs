@@ -4,7 +4,9 @@
 use crate::bindings::{self, DispatchResources};
 use crate::error::RuntimeError;
 use crate::gpu::Gpu;
+use crate::mesh_layer::{LayerCamera, MeshInstance, MeshLayer, pipelines::MeshPipelines};
 use crate::metering::Metering;
+use crate::reflection::BindingKind;
 use crate::shader::{PipelineCache, ViewPipeline, ViewShader};
 use crate::textures::{Image2d, TfTexture, VolumeTexture, linear_sampler};
 use crate::uniforms::{UniformBlock, Value};
@@ -17,11 +19,24 @@ pub struct Resources {
     pub volumes: HashMap<String, Arc<VolumeTexture>>,
     pub tfs: HashMap<String, Arc<TfTexture>>,
     pub sampler: wgpu::Sampler,
+    /// The scene's meshes, which views' mesh layers draw (by index).
+    pub meshes: Vec<MeshInstance>,
+    /// Counts changes of `meshes`' surfaces (a layer drawn from an older one is drawn again).
+    pub mesh_generation: u64,
+    /// Made with the first mesh.
+    pub mesh_pipelines: Option<MeshPipelines>,
 }
 
 impl Resources {
     pub fn new(gpu: &Gpu) -> Resources {
-        Resources { volumes: HashMap::new(), tfs: HashMap::new(), sampler: linear_sampler(gpu) }
+        Resources {
+            volumes: HashMap::new(),
+            tfs: HashMap::new(),
+            sampler: linear_sampler(gpu),
+            meshes: Vec::new(),
+            mesh_generation: 0,
+            mesh_pipelines: None,
+        }
     }
 }
 
@@ -35,6 +50,11 @@ pub struct ViewRenderer {
     size: [u32; 2],
     /// Automatic exposure's luminance image and reduction, for a view that meters.
     metering: Option<Metering>,
+    /// The mesh layer under the volume, for a view whose shader reads it: its images, the
+    /// camera it is drawn with and the meshes it draws (indices into `Resources::meshes`).
+    mesh_layer: Option<MeshLayer>,
+    layer_camera: Option<LayerCamera>,
+    layer_meshes: Vec<usize>,
 }
 
 /// Rows of a texture-to-buffer copy are padded to this many bytes.
@@ -61,7 +81,18 @@ impl ViewRenderer {
         })?;
         let output = create_output(gpu, size)?;
         let metering = Metering::of(gpu, &shader.reflection).transpose()?;
-        Ok(ViewRenderer { shader, pipeline, uniforms, uniform_buffer, output, size, metering })
+        Ok(ViewRenderer {
+            shader,
+            pipeline,
+            uniforms,
+            uniform_buffer,
+            output,
+            size,
+            metering,
+            mesh_layer: None,
+            layer_camera: None,
+            layer_meshes: Vec::new(),
+        })
     }
 
     pub fn shader(&self) -> &ViewShader {
@@ -85,6 +116,49 @@ impl ViewRenderer {
 
     pub fn uniforms(&self) -> &UniformBlock {
         &self.uniforms
+    }
+
+    /// Whether the shader reads a mesh layer (`geometry_depth` or `geometry_color`).
+    pub fn reads_mesh_layer(&self) -> bool {
+        self.shader
+            .reflection
+            .bindings
+            .iter()
+            .any(|b| matches!(b.kind, BindingKind::GeometryDepth | BindingKind::GeometryColor))
+    }
+
+    /// How the mesh layer looks at the meshes and which it draws (indices into
+    /// `Resources::meshes`); without it the layer is empty (depth 1, no colour).
+    pub fn set_mesh_layer(&mut self, camera: LayerCamera, meshes: Vec<usize>) {
+        self.layer_camera = Some(camera);
+        self.layer_meshes = meshes;
+    }
+
+    /// The mesh layer's images as last drawn, at the size of the last target (for probes and
+    /// tests).
+    pub fn mesh_layer(&self) -> Option<&MeshLayer> {
+        self.mesh_layer.as_ref()
+    }
+
+    /// Records the mesh layer for a target of `size` pixels (drawn again only when what it shows
+    /// changed).
+    fn encode_mesh_layer(
+        &mut self,
+        gpu: &Gpu,
+        resources: &Resources,
+        encoder: &mut wgpu::CommandEncoder,
+        size: [u32; 2],
+    ) -> Result<(), RuntimeError> {
+        if self.mesh_layer.as_ref().is_none_or(|l| l.size() != size) {
+            self.mesh_layer = Some(MeshLayer::new(gpu, size)?);
+        }
+        let layer = self.mesh_layer.as_mut().expect("made above");
+        let meshes: Vec<&MeshInstance> = match (&self.layer_camera, &resources.mesh_pipelines) {
+            (Some(_), Some(_)) => self.layer_meshes.iter().filter_map(|&i| resources.meshes.get(i)).collect(),
+            _ => Vec::new(),
+        };
+        let camera = self.layer_camera.unwrap_or(LayerCamera::Projection { world_to_clip: glam::Mat4::IDENTITY });
+        layer.encode(gpu, resources.mesh_pipelines.as_ref(), encoder, &camera, &meshes, resources.mesh_generation)
     }
 
     /// Swaps in another shader of the same view (a structural change), keeping the size. Uniform
@@ -137,6 +211,11 @@ impl ViewRenderer {
         if let Some(bytes) = self.uniforms.take_changes() {
             gpu.queue.write_buffer(&self.uniform_buffer, 0, bytes);
         }
+        let reads_layer = self.reads_mesh_layer();
+        if reads_layer {
+            let size = target.texture().size();
+            self.encode_mesh_layer(gpu, resources, encoder, [size.width, size.height])?;
+        }
         let reflection = &self.shader.reflection;
         let doing = format!("binding the resources of view `{}`", reflection.view);
         let region_buffer = gpu.capture(&doing, || {
@@ -157,8 +236,14 @@ impl ViewRenderer {
             }
             None => None,
         };
-        let own =
-            DispatchResources { uniforms: &self.uniform_buffer, region: &region_buffer, output: target, luminance };
+        let mesh_layer = self.mesh_layer.as_ref().filter(|_| reads_layer).map(MeshLayer::views);
+        let own = DispatchResources {
+            uniforms: &self.uniform_buffer,
+            region: &region_buffer,
+            output: target,
+            luminance,
+            mesh_layer,
+        };
         let mut groups = Vec::with_capacity(self.pipeline.groups.len());
         for (group, layout) in (0u32..).zip(&self.pipeline.groups) {
             let entries = bindings::group_entries(reflection, group, resources, &own)?;

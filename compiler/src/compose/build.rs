@@ -3,6 +3,7 @@
 
 use super::entry;
 use super::ir::{Composition, ModuleUse};
+use super::layer_check;
 use super::limits;
 use super::reflect::{self, Reflection};
 use super::uniform_check;
@@ -162,6 +163,7 @@ pub fn compose_scene_with(
     uniform_check::check_scene_uniforms(&scene, &compositions, every_view, &mut diags);
     let named: Vec<(&str, &Composition)> = views.iter().map(|v| (v.name.as_str(), &v.composition)).collect();
     uniform_check::check_resources(&scene, &named, &mut diags);
+    layer_check::check_layers(&scene, &named, &mut diags);
     if let Some(name) = only_view
         && views.is_empty()
     {

@@ -76,6 +76,10 @@ pub struct EntryPlan {
     /// The luminance image and the `State` member stored into it after `ray.finish` (when the
     /// composition meters luminance).
     pub metering: Option<(Handle<naga::GlobalVariable>, u32)>,
+    /// The mesh layer's images and the `State` members loaded from them before `ray.setup`
+    /// (`geometry_depth`, `geometry_color`), for the fields the composition has, with the
+    /// member's number of components (1: the texel's first).
+    pub geometry: Vec<(Handle<naga::GlobalVariable>, u32, u32)>,
 }
 
 /// How the entry point runs the functions that wait for a flag (member indices in `State`).
@@ -100,10 +104,24 @@ pub(crate) const OUT_COLOR: &str = "out_color";
 /// The state field whose value the entry point also stores, after ray finish, into the view's
 /// luminance image (a binding only views with this field get), for automatic exposure.
 pub(crate) const METERED_LUMINANCE: &str = "metered_luminance";
+/// The state field the entry point loads, before ray setup, from the depth of the view's mesh
+/// layer (a binding only views with this field get).
+pub const GEOMETRY_DEPTH: &str = "geometry_depth";
+/// The state field the entry point loads, before ray setup, from the colour of the view's mesh
+/// layer (a binding only views with this field get).
+pub const GEOMETRY_COLOR: &str = "geometry_color";
 /// The fields the entry point reads or writes itself: kept whenever a placed function declares
 /// them, and without data-flow warnings.
-pub(crate) const ENTRY_FIELDS: &[&str] =
-    &[PIXEL, TERMINATE, OUT_COLOR, METERED_LUMINANCE, super::contribution::CONTRIBUTES, super::contribution::SELECTED];
+pub(crate) const ENTRY_FIELDS: &[&str] = &[
+    PIXEL,
+    TERMINATE,
+    OUT_COLOR,
+    METERED_LUMINANCE,
+    GEOMETRY_DEPTH,
+    GEOMETRY_COLOR,
+    super::contribution::CONTRIBUTES,
+    super::contribution::SELECTED,
+];
 
 /// The entry point's function as it grows, with the emit discipline lowering uses.
 struct Body {
@@ -191,6 +209,9 @@ pub fn build(module: &mut naga::Module, plan: &EntryPlan) -> naga::EntryPoint {
     b.call(&mut body, plan.init_state, state);
     if let Some(member) = plan.pixel {
         b.store_pixel_centre(&mut body, state, member, p, size);
+    }
+    for &(image, member, components) in &plan.geometry {
+        b.load_layer_texel(&mut body, state, (image, member, components), p, size);
     }
     for &f in &plan.ray_setup {
         b.call(&mut body, f, state);
@@ -466,5 +487,34 @@ impl Body {
         let pixel = self.binary(Bo::Divide, centre, size_f);
         let pointer = self.component(state, member);
         self.push(body, S::Store { pointer, value: pixel });
+    }
+
+    /// `state.MEMBER = textureLoad(image, min(p * dims / size, dims - 1), 0);` (`.x` for a
+    /// scalar member): the texel of a layer image (of any size) under the pixel, so previews
+    /// and tiles read the right one.
+    fn load_layer_texel(
+        &mut self,
+        body: &mut naga::Block,
+        state: Handle<E>,
+        (image, member, components): (Handle<naga::GlobalVariable>, u32, u32),
+        p: Handle<E>,
+        size: Handle<E>,
+    ) {
+        use naga::BinaryOperator as Bo;
+        let image = self.expr(E::GlobalVariable(image));
+        let dims = self.expr(E::ImageQuery { image, query: naga::ImageQuery::Size { level: None } });
+        let scaled = self.binary(Bo::Multiply, p, dims);
+        let texel = self.binary(Bo::Divide, scaled, size);
+        let one = self.literal(naga::Literal::U32(1));
+        let one = self.expr(E::Splat { size: naga::VectorSize::Bi, value: one });
+        let last = self.binary(Bo::Subtract, dims, one);
+        let texel =
+            self.expr(E::Math { fun: naga::MathFunction::Min, arg: texel, arg1: Some(last), arg2: None, arg3: None });
+        let level = self.literal(naga::Literal::U32(0));
+        let texel =
+            self.expr(E::ImageLoad { image, coordinate: texel, array_index: None, sample: None, level: Some(level) });
+        let value = if components == 1 { self.component(texel, 0) } else { texel };
+        let pointer = self.component(state, member);
+        self.push(body, S::Store { pointer, value });
     }
 }

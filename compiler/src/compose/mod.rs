@@ -41,6 +41,7 @@ pub(crate) mod entry;
 pub mod explain;
 mod instantiate;
 pub(crate) mod ir;
+pub mod layer_check;
 pub mod limits;
 mod merge;
 pub(crate) mod place;

@@ -108,6 +108,11 @@ impl Scene {
                 add("auto_exposure", vec![]);
             }
         }
+        // Last: `stop_at_meshes` follows the ray setup (and skipping's first walk), and
+        // `blend_meshes` runs after `encode_srgb` (mesh colours are display colours).
+        if !view.meshes.is_empty() {
+            add("meshes", vec![]);
+        }
         out
     }
 }

@@ -104,6 +104,20 @@ pub fn emit(program: &hir::Program, comp: &Composition, sources: &SourceMap) -> 
             add_storage_image(&mut b, "luminance_image", format, bind("luminance_image", BindingKind::LuminanceImage));
         (image, member as u32)
     });
+    // After the luminance image: the mesh layer's images, for the fields the composition has.
+    // Both are `texture_2d<f32>` read with `textureLoad` (a depth texture cannot be loaded in
+    // every back end's compute shaders; the layer keeps its depth as `r32float` colour).
+    let layers =
+        [(entry::GEOMETRY_DEPTH, BindingKind::GeometryDepth), (entry::GEOMETRY_COLOR, BindingKind::GeometryColor)];
+    let class = naga::ImageClass::Sampled { kind: naga::ScalarKind::Float, multi: false };
+    let geometry = layers
+        .into_iter()
+        .filter_map(|(field, kind)| {
+            let member = comp.field(field)? as u32;
+            let components = comp.fields[member as usize].ty.components() as u32;
+            Some((add_image(&mut b, &format!("{field}_image"), class, bind(field, kind)), member, components))
+        })
+        .collect();
     let lowered = |steps: &[Step], b: &mut ModuleBuilder| -> Result<Vec<Handle<naga::Function>>, Diagnostic> {
         let mut out = Vec::new();
         for placed in steps.iter().flat_map(|&s| comp.step(s)) {
@@ -150,6 +164,7 @@ pub fn emit(program: &hir::Program, comp: &Composition, sources: &SourceMap) -> 
         output,
         region,
         metering,
+        geometry,
     };
     let state_layout = b.struct_layout(state_type).unwrap_or_else(empty_layout);
     let block_type = b.module.global_variables[block].ty;
@@ -187,7 +202,16 @@ fn add_storage_image(
     format: naga::StorageFormat,
     binding: ResourceBinding,
 ) -> Handle<naga::GlobalVariable> {
-    let class = naga::ImageClass::Storage { format, access: naga::StorageAccess::STORE };
+    add_image(b, name, naga::ImageClass::Storage { format, access: naga::StorageAccess::STORE }, binding)
+}
+
+/// A 2D image `name` of `class` (with no sampler: read with `textureLoad`, or stored to).
+fn add_image(
+    b: &mut ModuleBuilder,
+    name: &str,
+    class: naga::ImageClass,
+    binding: ResourceBinding,
+) -> Handle<naga::GlobalVariable> {
     let inner = naga::TypeInner::Image { dim: naga::ImageDimension::D2, arrayed: false, class };
     let ty = b.module.types.insert(naga::Type { name: None, inner }, naga::Span::UNDEFINED);
     let var = naga::GlobalVariable {

@@ -83,6 +83,8 @@ impl Cx<'_> {
             "[[volume]]".into()
         } else if is(VIEW_KEYS) {
             "[[view]]".into()
+        } else if is(super::mesh::MESH_KEYS) {
+            "[[mesh]]".into()
         } else if is(CAMERA_KEYS) {
             "the `camera` of a [[view]]".into()
         } else if is(MODULE_KEYS) {

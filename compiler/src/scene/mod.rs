@@ -61,6 +61,7 @@ pub const DEFAULT_SLICE_POSITION: f32 = 0.5;
 const RENDER_UNIFORMS: &[&str] = &["iso_value", "step_size", "max_samples", "jitter", "background"];
 
 mod errors;
+mod mesh;
 mod model;
 mod raw;
 #[cfg(test)]
@@ -68,6 +69,7 @@ mod tests;
 mod validate;
 mod view_render;
 
+pub use mesh::{Coordinates, DEFAULT_MESH_COLOR, Mesh, MeshSource, Point, SHAPES};
 pub use model::*;
 use raw::RawScene;
 use validate::Cx;

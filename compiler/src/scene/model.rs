@@ -25,6 +25,8 @@ pub struct Scene {
     pub uniforms: BTreeMap<String, UniformSetting>,
     /// `[[view]]` tables, in file order.
     pub views: Vec<View>,
+    /// `[[mesh]]` tables, in file order.
+    pub meshes: Vec<Mesh>,
     /// The directory that relative paths were resolved against.
     pub dir: PathBuf,
 }
@@ -258,6 +260,10 @@ pub struct View {
     pub render: Render,
     /// Modules of this view only, composed after the shared ones.
     pub modules: Vec<ModuleRef>,
+    /// The meshes this view draws (indices into `Scene::meshes`, in scene order): its `meshes`
+    /// list, else every mesh of the scene. With any, the view has a mesh layer under its volume
+    /// layer (`std::meshes`).
+    pub meshes: Vec<usize>,
     /// The whole `[[view]]` table.
     pub span: Span,
 }

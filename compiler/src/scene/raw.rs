@@ -17,8 +17,10 @@ pub(super) struct RawScene {
     pub(super) uniforms: BTreeMap<Spanned<String>, Spanned<UniformValue>>,
     #[serde(default, rename = "view")]
     pub(super) views: Vec<Spanned<RawView>>,
+    #[serde(default, rename = "mesh")]
+    pub(super) meshes: Vec<Spanned<super::mesh::RawMesh>>,
 }
-pub(super) const SCENE_KEYS: &[&str] = &["render", "volume", "module", "uniforms", "view"];
+pub(super) const SCENE_KEYS: &[&str] = &["render", "volume", "module", "uniforms", "view", "mesh"];
 
 #[derive(Deserialize, Default, Clone)]
 #[serde(deny_unknown_fields)]
@@ -99,9 +101,10 @@ pub(super) struct RawView {
     pub(super) render: Option<Spanned<RawRender>>,
     #[serde(default)]
     pub(super) modules: Vec<Spanned<RawModule>>,
+    pub(super) meshes: Option<Spanned<Vec<Spanned<String>>>>,
 }
 pub(super) const VIEW_KEYS: &[&str] =
-    &["name", "kind", "size", "camera", "axis", "position", "slab", "convention", "render", "modules"];
+    &["name", "kind", "size", "camera", "axis", "position", "slab", "convention", "render", "modules", "meshes"];
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(super) struct RawCamera {

@@ -101,8 +101,9 @@ impl Cx<'_> {
         let volumes = self.volumes(raw.volumes);
         let modules = raw.modules.into_iter().map(|m| self.module(m)).collect();
         let uniforms = self.uniforms(raw.uniforms, &render);
-        let views = self.views(raw.views, shared.as_ref(), &render);
-        Scene { render, volumes, modules, uniforms, views, dir: self.dir.to_path_buf() }
+        let meshes = self.meshes(raw.meshes);
+        let views = self.views(raw.views, shared.as_ref(), &render, &meshes);
+        Scene { render, volumes, modules, uniforms, views, meshes, dir: self.dir.to_path_buf() }
     }
 
     /// `[render]`. One check per key, in the table's order; the checks share only the table,
@@ -516,6 +517,7 @@ impl Cx<'_> {
         raw: Vec<Spanned<RawView>>,
         shared: Option<&Spanned<RawRender>>,
         render: &Render,
+        meshes: &[Mesh],
     ) -> Vec<View> {
         if raw.is_empty() {
             self.emit(
@@ -631,7 +633,21 @@ impl Cx<'_> {
                 Some(own) => self.view_render(shared, own),
                 None => render.clone(),
             };
-            out.push(View { name, kind, size, camera, axis, position, slab, convention, render, modules, span });
+            let meshes = self.view_meshes(v.meshes.as_ref(), meshes);
+            out.push(View {
+                name,
+                kind,
+                size,
+                camera,
+                axis,
+                position,
+                slab,
+                convention,
+                render,
+                modules,
+                meshes,
+                span,
+            });
         }
         out
     }

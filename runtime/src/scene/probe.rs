@@ -146,6 +146,7 @@ impl SceneRenderer {
             camera: view.camera,
             slice: view.slice,
             convention: view.convention,
+            meshes: view.meshes.clone(),
         };
         Ok(Probe { layout: variant.layout, view })
     }

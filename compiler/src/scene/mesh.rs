@@ -1,0 +1,366 @@
+//! `[[mesh]]` tables: opaque or translucent surfaces drawn with the volumes (a needle, an organ
+//! surface, a tracked instrument), from a file or a built-in shape, in patient space (RAS mm).
+//! The scene only says what each mesh is; the runtime loads the files (its checks run at
+//! `build`) and rasterizes them into the views' geometry layer.
+
+use super::*;
+use crate::lexer::is_identifier;
+
+/// A mesh's surface: a file, or a built-in shape whose parameters are millimetres in patient
+/// space (RAS).
+#[derive(Clone, Debug, PartialEq)]
+pub enum MeshSource {
+    /// `path = "FILE"`: OBJ, STL or PLY, by extension.
+    File { file: FileRef, coordinates: Coordinates },
+    /// `shape = "needle"`: a shaft of `length` mm and `radius` ending in a cone whose apex is
+    /// `tip`; `direction` points from the tip towards the handle.
+    Needle { tip: Point, direction: Point, length: f32, radius: f32 },
+    /// `shape = "cylinder"`: from `base` to `tip`, closed.
+    Cylinder { base: Point, tip: Point, radius: f32 },
+    /// `shape = "sphere"`.
+    Sphere { centre: Point, radius: f32 },
+    /// `shape = "box"`: the axis-aligned box from `min` to `max`.
+    Box { min: Point, max: Point },
+}
+
+/// The axes a mesh file's coordinates use.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Coordinates {
+    /// Right, anterior, superior: patient space as the scene uses it.
+    #[default]
+    Ras,
+    /// Left, posterior, superior (3D Slicer's and ITK's files): x and y are negated on load.
+    Lps,
+}
+
+/// A point or direction of a built-in shape: three numbers, or the name of a `vec3f` uniform
+/// whose value (patient space, mm) the shape follows as it changes.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Point {
+    Value([f32; 3]),
+    Uniform(Located<String>),
+}
+
+impl Point {
+    /// The uniform this point follows, if it follows one.
+    pub fn uniform(&self) -> Option<&Located<String>> {
+        match self {
+            Point::Uniform(u) => Some(u),
+            Point::Value(_) => None,
+        }
+    }
+}
+
+/// `[[mesh]]`.
+#[derive(Clone, Debug)]
+pub struct Mesh {
+    /// An identifier: views list meshes by name (`meshes = [...]`), the panel shows it.
+    pub name: Ident,
+    pub source: MeshSource,
+    /// Display colour (sRGB, 0 to 1).
+    pub color: [f32; 3],
+    /// 1 is opaque (rays end at the surface); below 1 the surface is blended (see "Meshes" in
+    /// the reference).
+    pub opacity: f32,
+    /// Applied after loading, in millimetres: four columns of a 4x4 matrix.
+    pub transform: Option<Located<[[f32; 4]; 4]>>,
+    /// The whole table.
+    pub span: Span,
+}
+
+impl Mesh {
+    /// The uniforms the mesh's shape follows, each with the span of its use.
+    pub fn followed_uniforms(&self) -> Vec<&Located<String>> {
+        let points: Vec<&Point> = match &self.source {
+            MeshSource::File { .. } => vec![],
+            MeshSource::Needle { tip, direction, .. } => vec![tip, direction],
+            MeshSource::Cylinder { base, tip, .. } => vec![base, tip],
+            MeshSource::Sphere { centre, .. } => vec![centre],
+            MeshSource::Box { min, max } => vec![min, max],
+        };
+        points.into_iter().filter_map(Point::uniform).collect()
+    }
+}
+
+/// Default mesh colour: a light grey, like a metal instrument.
+pub const DEFAULT_MESH_COLOR: [f32; 3] = [0.85, 0.85, 0.85];
+/// Default needle length (mm), a typical ablation applicator's shaft.
+pub const DEFAULT_NEEDLE_LENGTH: f32 = 150.0;
+/// Default needle radius (mm): a 14-gauge applicator.
+pub const DEFAULT_NEEDLE_RADIUS: f32 = 1.0;
+
+// ---------------------------------------------------------------------------------------------
+// Raw tables.
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawMesh {
+    pub(super) name: Spanned<String>,
+    pub(super) path: Option<Spanned<String>>,
+    pub(super) shape: Option<Spanned<String>>,
+    pub(super) coordinates: Option<Spanned<Coordinates>>,
+    pub(super) tip: Option<Spanned<RawPoint>>,
+    pub(super) direction: Option<Spanned<RawPoint>>,
+    pub(super) base: Option<Spanned<RawPoint>>,
+    #[serde(alias = "center")]
+    pub(super) centre: Option<Spanned<RawPoint>>,
+    pub(super) min: Option<Spanned<RawPoint>>,
+    pub(super) max: Option<Spanned<RawPoint>>,
+    pub(super) length: Option<Spanned<f32>>,
+    pub(super) radius: Option<Spanned<f32>>,
+    pub(super) color: Option<Spanned<[f32; 3]>>,
+    pub(super) opacity: Option<Spanned<f32>>,
+    pub(super) transform: Option<Spanned<[[f32; 4]; 4]>>,
+}
+pub(super) const MESH_KEYS: &[&str] = &[
+    "name",
+    "path",
+    "shape",
+    "coordinates",
+    "tip",
+    "direction",
+    "base",
+    "centre",
+    "min",
+    "max",
+    "length",
+    "radius",
+    "color",
+    "opacity",
+    "transform",
+];
+
+/// The built-in shapes, as `shape` names them.
+pub const SHAPES: &[&str] = &["needle", "cylinder", "sphere", "box"];
+
+#[derive(Deserialize)]
+#[serde(untagged)]
+pub(super) enum RawPoint {
+    Value([f32; 3]),
+    Uniform(String),
+}
+
+// ---------------------------------------------------------------------------------------------
+// Validation.
+
+impl Cx<'_> {
+    pub(super) fn meshes(&mut self, raw: Vec<Spanned<RawMesh>>) -> Vec<Mesh> {
+        let mut out: Vec<Mesh> = Vec::new();
+        for m in raw {
+            let span = self.span(&m);
+            let m = m.into_inner();
+            let name = Ident { name: m.name.get_ref().clone(), span: self.span(&m.name) };
+            if self.check_name(&name.name, name.span, "mesh")
+                && let Some(earlier) = out.iter().find(|o| o.name.name == name.name)
+            {
+                let earlier = earlier.name.span;
+                self.emit(
+                    self.invalid(name.span, format!("two meshes are named `{}`", name.name))
+                        .with_label("second mesh with this name")
+                        .with_secondary(earlier, "first here"),
+                );
+            }
+            let source = self.mesh_source(&m, &name);
+            let color = match &m.color {
+                Some(c) => self.unit_components(c, "color"),
+                None => DEFAULT_MESH_COLOR,
+            };
+            let opacity = match &m.opacity {
+                Some(o) => self.unit_components(&Spanned::new(o.span(), [*o.get_ref()]), "opacity")[0],
+                None => 1.0,
+            };
+            let transform = m.transform.as_ref().map(|t| {
+                let span = self.span(t);
+                if t.get_ref().iter().flatten().any(|x| !x.is_finite()) {
+                    self.emit(self.invalid(span, "a mesh `transform` must hold finite numbers"));
+                }
+                Located { value: *t.get_ref(), span }
+            });
+            out.push(Mesh { name, source, color, opacity, transform, span });
+        }
+        out
+    }
+
+    /// Each component in [0, 1].
+    fn unit_components<const N: usize>(&mut self, value: &Spanned<[f32; N]>, key: &str) -> [f32; N] {
+        let v = *value.get_ref();
+        if v.iter().any(|c| !(0.0..=1.0).contains(c)) {
+            self.emit(self.invalid(self.span(value), format!("a mesh `{key}` is between 0 and 1")));
+        }
+        v
+    }
+
+    fn mesh_source(&mut self, m: &RawMesh, name: &Ident) -> MeshSource {
+        match (&m.path, &m.shape) {
+            (Some(path), None) => {
+                self.keys_unused(m, &[], "on a mesh read from a file");
+                let coordinates = m.coordinates.as_ref().map_or(Coordinates::Ras, |c| *c.get_ref());
+                MeshSource::File { file: self.file_ref(path, "path"), coordinates }
+            }
+            (None, Some(shape)) => self.shape(m, shape),
+            (Some(path), Some(shape)) => {
+                self.emit(
+                    self.invalid(self.span(shape), "a mesh has either `path` or `shape`, not both")
+                        .with_label("second source")
+                        .with_secondary(self.span(path), "the mesh's file"),
+                );
+                MeshSource::File { file: self.file_ref(path, "path"), coordinates: Coordinates::Ras }
+            }
+            (None, None) => {
+                self.emit(
+                    self.invalid(name.span, format!("the mesh `{}` has no surface", name.name))
+                        .with_label("neither `path` nor `shape`")
+                        .with_help(
+                            "add `path = \"FILE\"` (OBJ, STL or PLY) or `shape = \"needle\"` (needle, cylinder, sphere, box)",
+                        ),
+                );
+                MeshSource::Box { min: Point::Value([0.0; 3]), max: Point::Value([1.0; 3]) }
+            }
+        }
+    }
+
+    /// A built-in shape and its parameters; parameters of other shapes are warned about.
+    fn shape(&mut self, m: &RawMesh, shape: &Spanned<String>) -> MeshSource {
+        let span = self.span(shape);
+        if let Some(c) = &m.coordinates {
+            self.ignored(c, "coordinates", "on a built-in shape (its values are patient space, RAS)");
+        }
+        let source = match shape.get_ref().as_str() {
+            "needle" => {
+                self.keys_unused(m, &["tip", "direction", "length", "radius"], "on a needle");
+                MeshSource::Needle {
+                    tip: self.point(&m.tip, "tip", span),
+                    direction: self.point(&m.direction, "direction", span),
+                    length: self.size(&m.length, "length", DEFAULT_NEEDLE_LENGTH),
+                    radius: self.size(&m.radius, "radius", DEFAULT_NEEDLE_RADIUS),
+                }
+            }
+            "cylinder" => {
+                self.keys_unused(m, &["base", "tip", "radius"], "on a cylinder");
+                MeshSource::Cylinder {
+                    base: self.point(&m.base, "base", span),
+                    tip: self.point(&m.tip, "tip", span),
+                    radius: self.size(&m.radius, "radius", DEFAULT_NEEDLE_RADIUS),
+                }
+            }
+            "sphere" => {
+                self.keys_unused(m, &["centre", "radius"], "on a sphere");
+                let radius = match &m.radius {
+                    Some(_) => self.size(&m.radius, "radius", 1.0),
+                    None => {
+                        self.emit(self.invalid(span, "a sphere needs a `radius` (mm)"));
+                        1.0
+                    }
+                };
+                MeshSource::Sphere { centre: self.point(&m.centre, "centre", span), radius }
+            }
+            "box" => {
+                self.keys_unused(m, &["min", "max"], "on a box");
+                MeshSource::Box { min: self.point(&m.min, "min", span), max: self.point(&m.max, "max", span) }
+            }
+            other => {
+                let mut d = self
+                    .invalid(span, format!("`{other}` is not a built-in shape"))
+                    .with_note(format!("the shapes are {}", SHAPES.join(", ")));
+                if let Some(s) = crate::suggest::did_you_mean(other, SHAPES.iter().copied()) {
+                    d = d.with_help(format!("did you mean `{s}`?"));
+                }
+                self.emit(d);
+                MeshSource::Box { min: Point::Value([0.0; 3]), max: Point::Value([1.0; 3]) }
+            }
+        };
+        source
+    }
+
+    /// A required point of a shape.
+    fn point(&mut self, raw: &Option<Spanned<RawPoint>>, key: &str, shape: Span) -> Point {
+        let Some(p) = raw else {
+            self.emit(
+                self.invalid(shape, format!("this shape needs `{key}`"))
+                    .with_help(format!("add `{key} = [x, y, z]` (patient space, mm) or the name of a vec3f uniform")),
+            );
+            return Point::Value([0.0; 3]);
+        };
+        let span = self.span(p);
+        match p.get_ref() {
+            RawPoint::Value(v) => {
+                if v.iter().any(|x| !x.is_finite()) {
+                    self.emit(self.invalid(span, format!("`{key}` must hold finite numbers")));
+                }
+                Point::Value(*v)
+            }
+            RawPoint::Uniform(name) => {
+                if !is_identifier(name) {
+                    self.emit(
+                        self.invalid(span, format!("`{name}` is not a uniform name"))
+                            .with_help(format!("give `{key}` as `[x, y, z]` or name a vec3f uniform")),
+                    );
+                }
+                Point::Uniform(Located { value: name.clone(), span })
+            }
+        }
+    }
+
+    /// A positive size in millimetres, or `default`.
+    fn size(&mut self, raw: &Option<Spanned<f32>>, key: &str, default: f32) -> f32 {
+        let Some(v) = raw else { return default };
+        let x = *v.get_ref();
+        if !(x.is_finite() && x > 0.0) {
+            self.emit(self.invalid(self.span(v), format!("a mesh `{key}` must be positive (mm), not {x}")));
+            return default;
+        }
+        x
+    }
+
+    /// Warns about the shape keys given that `used` does not list.
+    fn keys_unused(&mut self, m: &RawMesh, used: &[&str], why: &str) {
+        let point = |p: &Option<Spanned<RawPoint>>| p.as_ref().map(Spanned::span);
+        let keys = [
+            ("tip", point(&m.tip)),
+            ("direction", point(&m.direction)),
+            ("base", point(&m.base)),
+            ("centre", point(&m.centre)),
+            ("min", point(&m.min)),
+            ("max", point(&m.max)),
+            ("length", m.length.as_ref().map(Spanned::span)),
+            ("radius", m.radius.as_ref().map(Spanned::span)),
+        ];
+        for (key, range) in keys {
+            if let Some(r) = range
+                && !used.contains(&key)
+            {
+                let span = self.range(r);
+                self.ignored_at(span, key, why);
+            }
+        }
+    }
+}
+
+impl Cx<'_> {
+    /// A view's `meshes` list as indices into the scene's meshes; every mesh without one.
+    pub(super) fn view_meshes(&mut self, list: Option<&Spanned<Vec<Spanned<String>>>>, meshes: &[Mesh]) -> Vec<usize> {
+        let Some(list) = list else { return (0..meshes.len()).collect() };
+        let mut out = Vec::new();
+        for name in list.get_ref() {
+            match meshes.iter().position(|m| &m.name.name == name.get_ref()) {
+                Some(i) if !out.contains(&i) => out.push(i),
+                Some(_) => {
+                    self.emit(self.invalid(self.span(name), format!("the mesh `{}` is listed twice", name.get_ref())))
+                }
+                None => {
+                    let mut d = self
+                        .invalid(self.span(name), format!("the scene has no mesh `{}`", name.get_ref()))
+                        .with_label("not a [[mesh]] name");
+                    if let Some(s) =
+                        crate::suggest::did_you_mean(name.get_ref(), meshes.iter().map(|m| m.name.name.as_str()))
+                    {
+                        d = d.with_help(format!("did you mean `{s}`?"));
+                    }
+                    self.emit(d);
+                }
+            }
+        }
+        out
+    }
+}

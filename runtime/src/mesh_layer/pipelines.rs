@@ -1,0 +1,201 @@
+//! The render pipelines of mesh layers, made once per renderer: opaque surfaces (depth written),
+//! translucent ones (back faces, then front faces, blended over what is drawn, depth tested but
+//! not written) and slice outlines (flat colour, depth written).
+
+use crate::error::RuntimeError;
+use crate::gpu::Gpu;
+
+/// The depth buffer's format (the depth test).
+pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+/// The depth image's format: the opaque surfaces' depth as colour, which every back end's
+/// compute shaders can load (a depth texture is not loadable in GLSL compute shaders).
+pub const DEPTH_IMAGE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Float;
+/// The colour image's format (premultiplied alpha).
+pub const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
+/// Bytes of one draw's uniforms, a multiple of every device's uniform offset alignment.
+pub const DRAW_SLOT: u64 = 512;
+
+/// One draw's uniforms, as the shader's `Draw` lays them out.
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct DrawUniforms {
+    /// Patient space (RAS mm) to clip space.
+    pub world_to_clip: [[f32; 4]; 4],
+    /// Clip space to patient space: the view direction of each vertex.
+    pub clip_to_world: [[f32; 4]; 4],
+    /// The mesh's placement (its vertices to patient space).
+    pub model: [[f32; 4]; 4],
+    /// The inverse transpose of `model` (normals).
+    pub normal_model: [[f32; 4]; 4],
+    /// sRGB colour and opacity.
+    pub color: [f32; 4],
+    /// x: 1 for flat colour (outlines), 0 for a lit surface.
+    pub flat: [f32; 4],
+}
+
+const SHADER: &str = r#"
+struct Draw {
+    world_to_clip: mat4x4<f32>,
+    clip_to_world: mat4x4<f32>,
+    model: mat4x4<f32>,
+    normal_model: mat4x4<f32>,
+    color: vec4<f32>,
+    flat_colour: vec4<f32>,
+}
+@group(0) @binding(0) var<uniform> draw: Draw;
+
+struct Varyings {
+    @builtin(position) clip: vec4<f32>,
+    @location(0) normal: vec3<f32>,
+    @location(1) to_eye: vec3<f32>,
+}
+
+fn unproject(ndc: vec3<f32>) -> vec3<f32> {
+    let p = draw.clip_to_world * vec4<f32>(ndc, 1.0);
+    return p.xyz / p.w;
+}
+
+@vertex
+fn vs(@location(0) position: vec3<f32>, @location(1) normal: vec3<f32>) -> Varyings {
+    var out: Varyings;
+    let world = draw.model * vec4<f32>(position, 1.0);
+    out.clip = draw.world_to_clip * world;
+    out.normal = (draw.normal_model * vec4<f32>(normal, 0.0)).xyz;
+    // Towards the viewer along the pixel's ray (perspective and orthographic alike).
+    let ndc = out.clip.xy / out.clip.w;
+    out.to_eye = unproject(vec3<f32>(ndc, 0.0)) - unproject(vec3<f32>(ndc, 1.0));
+    return out;
+}
+
+struct Fragment {
+    @location(0) color: vec4<f32>,
+    @location(1) depth: f32,
+}
+
+@fragment
+fn fs(in: Varyings) -> Fragment {
+    var rgb = draw.color.rgb;
+    if draw.flat_colour.x < 0.5 {
+        // A headlight: two-sided Lambert with a small highlight, so shapes read as surfaces.
+        let n = normalize(in.normal);
+        let v = normalize(in.to_eye);
+        let facing = abs(dot(n, v));
+        rgb = min(rgb * (0.3 + 0.7 * facing) + vec3<f32>(0.2 * pow(facing, 40.0)), vec3<f32>(1.0));
+    }
+    let a = draw.color.a;
+    return Fragment(vec4<f32>(rgb * a, a), in.clip.z);
+}
+"#;
+
+/// How a pipeline treats faces and depth.
+#[derive(Clone, Copy)]
+enum Kind {
+    Opaque,
+    TranslucentBack,
+    TranslucentFront,
+}
+
+/// The mesh pipelines and their bind-group layout.
+pub struct MeshPipelines {
+    pub layout: wgpu::BindGroupLayout,
+    pub opaque: wgpu::RenderPipeline,
+    pub translucent_back: wgpu::RenderPipeline,
+    pub translucent_front: wgpu::RenderPipeline,
+}
+
+impl MeshPipelines {
+    pub fn new(gpu: &Gpu) -> Result<MeshPipelines, RuntimeError> {
+        let made = gpu.capture("making the mesh pipelines", || {
+            let module = gpu.device.create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: Some("mesh layer"),
+                source: wgpu::ShaderSource::Wgsl(SHADER.into()),
+            });
+            let layout = gpu.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some("mesh draw"),
+                entries: &[wgpu::BindGroupLayoutEntry {
+                    binding: 0,
+                    visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
+                    ty: wgpu::BindingType::Buffer {
+                        ty: wgpu::BufferBindingType::Uniform,
+                        has_dynamic_offset: true,
+                        min_binding_size: wgpu::BufferSize::new(std::mem::size_of::<DrawUniforms>() as u64),
+                    },
+                    count: None,
+                }],
+            });
+            let pipeline_layout = gpu.device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some("mesh layer"),
+                bind_group_layouts: &[Some(&layout)],
+                immediate_size: 0,
+            });
+            let make = |kind| pipeline(gpu, &module, &pipeline_layout, kind);
+            MeshPipelines {
+                opaque: make(Kind::Opaque),
+                translucent_back: make(Kind::TranslucentBack),
+                translucent_front: make(Kind::TranslucentFront),
+                layout,
+            }
+        })?;
+        Ok(made)
+    }
+}
+
+/// Position and normal, 24 bytes a vertex.
+const VERTEX_ATTRIBUTES: [wgpu::VertexAttribute; 2] = wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3];
+
+fn pipeline(gpu: &Gpu, module: &wgpu::ShaderModule, layout: &wgpu::PipelineLayout, kind: Kind) -> wgpu::RenderPipeline {
+    let (cull_mode, depth_write_enabled) = match kind {
+        Kind::Opaque => (None, true),
+        Kind::TranslucentBack => (Some(wgpu::Face::Front), false),
+        Kind::TranslucentFront => (Some(wgpu::Face::Back), false),
+    };
+    // Premultiplied "over": what is drawn later lies in front.
+    let over = wgpu::BlendComponent {
+        src_factor: wgpu::BlendFactor::One,
+        dst_factor: wgpu::BlendFactor::OneMinusSrcAlpha,
+        operation: wgpu::BlendOperation::Add,
+    };
+    gpu.device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+        label: Some("mesh layer"),
+        layout: Some(layout),
+        vertex: wgpu::VertexState {
+            module,
+            entry_point: Some("vs"),
+            compilation_options: Default::default(),
+            buffers: &[Some(wgpu::VertexBufferLayout {
+                array_stride: 24,
+                step_mode: wgpu::VertexStepMode::Vertex,
+                attributes: &VERTEX_ATTRIBUTES,
+            })],
+        },
+        primitive: wgpu::PrimitiveState { cull_mode, front_face: wgpu::FrontFace::Ccw, ..Default::default() },
+        depth_stencil: Some(wgpu::DepthStencilState {
+            format: DEPTH_FORMAT,
+            depth_write_enabled: Some(depth_write_enabled),
+            depth_compare: Some(wgpu::CompareFunction::Less),
+            stencil: Default::default(),
+            bias: Default::default(),
+        }),
+        multisample: Default::default(),
+        fragment: Some(wgpu::FragmentState {
+            module,
+            entry_point: Some("fs"),
+            compilation_options: Default::default(),
+            targets: &[
+                Some(wgpu::ColorTargetState {
+                    format: COLOR_FORMAT,
+                    blend: Some(wgpu::BlendState { color: over, alpha: over }),
+                    write_mask: wgpu::ColorWrites::ALL,
+                }),
+                // Only opaque surfaces stop rays: translucent ones leave the depth image as is.
+                Some(wgpu::ColorTargetState {
+                    format: DEPTH_IMAGE_FORMAT,
+                    blend: None,
+                    write_mask: if depth_write_enabled { wgpu::ColorWrites::RED } else { wgpu::ColorWrites::empty() },
+                }),
+            ],
+        }),
+        multiview_mask: None,
+        cache: None,
+    })
+}

@@ -1,0 +1,194 @@
+//! The scene's meshes (`[[mesh]]`): files loaded and shapes made when the scene's mesh tables
+//! change, shapes made again when a uniform they follow changes (the ablation needle follows
+//! its zone's centre), and each view's mesh-layer camera with the matching
+//! `geometry_inv_proj`.
+
+use super::{SceneRenderer, SceneView, VolumeGrid};
+use crate::error::RuntimeError;
+use crate::geometry::{self, ShaderPlane};
+use crate::mesh::{self, Mesh, shapes};
+use crate::mesh_layer::outline::SliceFrame;
+use crate::mesh_layer::{GpuMesh, LayerCamera, MeshInstance, SLICE_PLANE_DEPTH, pipelines::MeshPipelines};
+use crate::uniforms::Value;
+use glam::{Mat4, Vec3, Vec4};
+use std::sync::Arc;
+use vrsc::scene::{self as vscene, MeshSource, Point, Scene};
+
+/// How far from a slice plane (mm) its mesh layer's depth range reaches on either side.
+const SLICE_DEPTH_REACH: f32 = 1000.0;
+
+/// The scene's mesh tables as they were last made, and the uniform values their shapes were
+/// made with.
+#[derive(Default)]
+pub(super) struct SceneMeshes {
+    tables: Vec<vscene::Mesh>,
+    /// Per mesh, the values of the points it follows.
+    followed: Vec<Vec<[f32; 3]>>,
+    /// The scene's directory, which file paths were resolved against (part of the key).
+    key: String,
+}
+
+impl SceneRenderer {
+    /// Loads every mesh of `scene` when its mesh tables changed (a file's errors are errors
+    /// here; `build` reports them first, at the table).
+    pub(super) fn load_meshes(&mut self, scene: &Scene) -> Result<(), RuntimeError> {
+        let key = format!("{:?}", scene.meshes);
+        if key == self.meshes.key && !self.resources.meshes.is_empty() == !scene.meshes.is_empty() {
+            return Ok(());
+        }
+        let mut instances = Vec::with_capacity(scene.meshes.len());
+        let mut followed = Vec::with_capacity(scene.meshes.len());
+        for table in &scene.meshes {
+            let points = self.followed_values(table);
+            let surface = make(table, &points)?;
+            instances.push(self.instance(table, surface)?);
+            followed.push(points);
+        }
+        if !instances.is_empty() && self.resources.mesh_pipelines.is_none() {
+            self.resources.mesh_pipelines = Some(MeshPipelines::new(&self.gpu)?);
+        }
+        self.resources.meshes = instances;
+        self.resources.mesh_generation += 1;
+        self.meshes = SceneMeshes { tables: scene.meshes.clone(), followed, key };
+        Ok(())
+    }
+
+    /// Makes again each shape whose followed uniforms changed since it was made.
+    pub(super) fn update_followed_meshes(&mut self) -> Result<(), RuntimeError> {
+        for i in 0..self.meshes.tables.len() {
+            let table = &self.meshes.tables[i];
+            if table.followed_uniforms().is_empty() {
+                continue;
+            }
+            let points = self.followed_values(table);
+            if points == self.meshes.followed[i] {
+                continue;
+            }
+            let surface = make(table, &points)?;
+            let instance = self.instance(table, surface)?;
+            self.resources.meshes[i] = instance;
+            self.meshes.followed[i] = points;
+            self.resources.mesh_generation += 1;
+        }
+        Ok(())
+    }
+
+    /// The current values of the uniforms `table` follows (from the first view that reads
+    /// each), in the order of [`vscene::Mesh::followed_uniforms`].
+    fn followed_values(&self, table: &vscene::Mesh) -> Vec<[f32; 3]> {
+        table.followed_uniforms().iter().map(|u| self.uniform_vec3(&u.value).unwrap_or([0.0; 3])).collect()
+    }
+
+    fn uniform_vec3(&self, name: &str) -> Option<[f32; 3]> {
+        let view = self.views.iter().find(|v| v.renderer.has_uniform(name))?;
+        match view.renderer.uniforms().get(name)? {
+            Value::Float(v) if v.len() == 3 => Some([v[0], v[1], v[2]]),
+            _ => None,
+        }
+    }
+
+    fn instance(&self, table: &vscene::Mesh, surface: Mesh) -> Result<MeshInstance, RuntimeError> {
+        let name = &table.name.name;
+        let gpu = GpuMesh::upload(&self.gpu, name, &surface)?;
+        let model = table.transform.as_ref().map_or(Mat4::IDENTITY, |t| Mat4::from_cols_array_2d(&t.value));
+        Ok(MeshInstance {
+            name: name.clone(),
+            mesh: Arc::new(surface),
+            gpu: Arc::new(gpu),
+            color: table.color,
+            opacity: table.opacity,
+            model,
+        })
+    }
+
+    /// Sets a mesh's colour, opacity or placement (the panel's controls); its surface stays.
+    pub fn set_mesh_style(
+        &mut self,
+        name: &str,
+        color: [f32; 3],
+        opacity: f32,
+        model: Mat4,
+    ) -> Result<(), RuntimeError> {
+        let mesh = self
+            .resources
+            .meshes
+            .iter_mut()
+            .find(|m| m.name == name)
+            .ok_or_else(|| RuntimeError::Invalid(format!("the scene has no mesh `{name}`")))?;
+        mesh.color = color;
+        mesh.opacity = opacity.clamp(0.0, 1.0);
+        mesh.model = model;
+        Ok(())
+    }
+
+    /// The scene's meshes as they are drawn now.
+    pub fn meshes(&self) -> &[MeshInstance] {
+        &self.resources.meshes
+    }
+}
+
+/// The surface of a mesh table, with `points` the values of the uniforms it follows.
+fn make(table: &vscene::Mesh, points: &[[f32; 3]]) -> Result<Mesh, RuntimeError> {
+    let mut followed = points.iter();
+    let mut point = |p: &Point| -> Vec3 {
+        match p {
+            Point::Value(v) => Vec3::from(*v),
+            Point::Uniform(_) => Vec3::from(followed.next().copied().unwrap_or([0.0; 3])),
+        }
+    };
+    let name = &table.name.name;
+    let made = match &table.source {
+        MeshSource::File { file, coordinates } => {
+            let coordinates = match coordinates {
+                vscene::Coordinates::Ras => mesh::Coordinates::Ras,
+                vscene::Coordinates::Lps => mesh::Coordinates::Lps,
+            };
+            mesh::load_with(&file.resolved, coordinates, &mesh::Limits::default())
+        }
+        MeshSource::Needle { tip, direction, length, radius } => {
+            let (tip, direction) = (point(tip), point(direction));
+            shapes::needle(tip, direction, *length, *radius, NEEDLE_SEGMENTS)
+        }
+        MeshSource::Cylinder { base, tip, radius } => {
+            let (base, tip) = (point(base), point(tip));
+            shapes::cylinder(base, tip, *radius, NEEDLE_SEGMENTS)
+        }
+        MeshSource::Sphere { centre, radius } => shapes::sphere(point(centre), *radius, 32, 64),
+        MeshSource::Box { min, max } => {
+            let (min, max) = (point(min), point(max));
+            shapes::cuboid(min, max)
+        }
+    };
+    made.map_err(|e| RuntimeError::Invalid(format!("mesh `{name}`: {e}")))
+}
+
+/// Sides of a needle's or cylinder's shaft.
+const NEEDLE_SEGMENTS: u32 = 48;
+
+/// The mesh layer's camera of a view and the `geometry_inv_proj` that turns its depth back into
+/// normalized volume coordinates.
+pub(super) fn layer_camera(view: &SceneView, primary: &VolumeGrid) -> Option<(LayerCamera, Mat4)> {
+    let to_world = geometry::volume_to_world(primary.dims, primary.grid_to_world);
+    let [w, h] = view.renderer.size();
+    let aspect = w as f32 / h.max(1) as f32;
+    if let Some(camera) = view.camera {
+        let inv_view_proj = camera.inv_view_proj(to_world, aspect);
+        let world_to_clip = (to_world * inv_view_proj).inverse();
+        return Some((LayerCamera::Projection { world_to_clip }, inv_view_proj));
+    }
+    let (plane, _) = view.slice?;
+    let plane = ShaderPlane::new(plane.oriented(view.convention), to_world, aspect);
+    // (x, y, s mm along the normal) to normalized volume coordinates, then to patient space.
+    let image_to_volume =
+        Mat4::from_cols(plane.u.extend(0.0), plane.v.extend(0.0), plane.normal.extend(0.0), plane.origin.extend(1.0));
+    let image_to_world = to_world * image_to_volume;
+    let frame = SliceFrame { image_to_world, world_to_image: image_to_world.inverse() };
+    // Clip (ndc x, ndc y, depth) to image (x, y, s): depth SLICE_PLANE_DEPTH is the plane.
+    let clip_to_image = Mat4::from_cols(
+        Vec4::new(0.5, 0.0, 0.0, 0.0),
+        Vec4::new(0.0, -0.5, 0.0, 0.0),
+        Vec4::new(0.0, 0.0, 2.0 * SLICE_DEPTH_REACH, 0.0),
+        Vec4::new(0.5, 0.5, -2.0 * SLICE_DEPTH_REACH * SLICE_PLANE_DEPTH, 1.0),
+    );
+    Some((LayerCamera::Slice(frame), image_to_volume * clip_to_image))
+}
