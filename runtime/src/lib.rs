@@ -31,6 +31,8 @@ pub mod error;
 pub mod geometry;
 pub mod gpu;
 pub mod light_volume;
+pub mod mesh;
+pub mod mesh_layer;
 pub mod metering;
 pub mod occupancy;
 pub mod probe;

@@ -7,12 +7,14 @@
 //! (the runtime depends on the compiler). Presets and phantoms are looked up by name (a phantom
 //! is made at 1 voxel, which costs nothing); a transfer-function file is parsed in full (it is
 //! small); a volume file or DICOM folder must exist and have a valid header (dimensions within
-//! the limits, a sane voxel spacing); its voxels are read only by `render`.
+//! the limits, a sane voxel spacing); its voxels are read only by `render`. A mesh file is read
+//! in full, within the runtime's limits on size and triangles (its vertices and indices are
+//! checked), and a built-in shape whose points are all numbers is made.
 
 use std::path::Path;
 use vrs_runtime::{tf, volume};
 use vrsc::diag::{Code, Diagnostic};
-use vrsc::scene::{Scene, TfRef, VolumeSource};
+use vrsc::scene::{MeshSource, Scene, TfRef, VolumeSource};
 use vrsc::source::Span;
 
 /// Every input of `scene` that does not exist or does not parse, as E0702 diagnostics at the
@@ -57,7 +59,22 @@ pub fn check_scene_inputs(scene: &Scene) -> Vec<Diagnostic> {
             None => {}
         }
     }
+    out.extend(scene.meshes.iter().filter_map(check_mesh));
     out
+}
+
+/// A mesh that cannot be made: its file (at the path) or its shape (at the table). Shapes that
+/// follow uniforms are made by the runtime from the uniforms' values.
+fn check_mesh(mesh: &vrsc::scene::Mesh) -> Option<Diagnostic> {
+    if !mesh.followed_uniforms().is_empty() {
+        return None;
+    }
+    let error = vrs_runtime::scene::mesh_surface(mesh, &[]).err()?.to_string();
+    Some(match &mesh.source {
+        MeshSource::File { file, .. } => invalid(file.span, error, "this file")
+            .with_note(format!("resolved to `{}`", file.resolved.display())),
+        _ => invalid(mesh.span, error, "this shape"),
+    })
 }
 
 fn invalid(span: Span, message: String, label: &str) -> Diagnostic {

@@ -226,7 +226,7 @@ impl Cx<'_> {
         if let Some(c) = &m.coordinates {
             self.ignored(c, "coordinates", "on a built-in shape (its values are patient space, RAS)");
         }
-        let source = match shape.get_ref().as_str() {
+        match shape.get_ref().as_str() {
             "needle" => {
                 self.keys_unused(m, &["tip", "direction", "length", "radius"], "on a needle");
                 MeshSource::Needle {
@@ -269,8 +269,7 @@ impl Cx<'_> {
                 self.emit(d);
                 MeshSource::Box { min: Point::Value([0.0; 3]), max: Point::Value([1.0; 3]) }
             }
-        };
-        source
+        }
     }
 
     /// A required point of a shape.

@@ -72,7 +72,7 @@ pub enum LayerCamera {
 }
 
 /// Outline width in a slice view, in pixels.
-const OUTLINE_PIXELS: f32 = 1.5;
+const OUTLINE_PIXELS: f32 = 2.0;
 /// The clip-space depth of the slice plane in a slice view's mesh layer.
 pub const SLICE_PLANE_DEPTH: f32 = 0.5;
 

@@ -33,14 +33,14 @@ impl SceneRenderer {
     /// here; `build` reports them first, at the table).
     pub(super) fn load_meshes(&mut self, scene: &Scene) -> Result<(), RuntimeError> {
         let key = format!("{:?}", scene.meshes);
-        if key == self.meshes.key && !self.resources.meshes.is_empty() == !scene.meshes.is_empty() {
+        if key == self.meshes.key && self.resources.meshes.len() == scene.meshes.len() {
             return Ok(());
         }
         let mut instances = Vec::with_capacity(scene.meshes.len());
         let mut followed = Vec::with_capacity(scene.meshes.len());
         for table in &scene.meshes {
             let points = self.followed_values(table);
-            let surface = make(table, &points)?;
+            let surface = mesh_surface(table, &points)?;
             instances.push(self.instance(table, surface)?);
             followed.push(points);
         }
@@ -64,7 +64,7 @@ impl SceneRenderer {
             if points == self.meshes.followed[i] {
                 continue;
             }
-            let surface = make(table, &points)?;
+            let surface = mesh_surface(table, &points)?;
             let instance = self.instance(table, surface)?;
             self.resources.meshes[i] = instance;
             self.meshes.followed[i] = points;
@@ -127,8 +127,10 @@ impl SceneRenderer {
     }
 }
 
-/// The surface of a mesh table, with `points` the values of the uniforms it follows.
-fn make(table: &vscene::Mesh, points: &[[f32; 3]]) -> Result<Mesh, RuntimeError> {
+/// The surface of a mesh table: its file loaded (within [`mesh::Limits::default`]) or its shape
+/// made, with `points` the values of the uniforms it follows (in the order of
+/// [`vscene::Mesh::followed_uniforms`]; zero where missing).
+pub fn mesh_surface(table: &vscene::Mesh, points: &[[f32; 3]]) -> Result<Mesh, RuntimeError> {
     let mut followed = points.iter();
     let mut point = |p: &Point| -> Vec3 {
         match p {
