@@ -22,7 +22,7 @@ mod derived;
 mod meshes;
 mod probe;
 mod tf_edit;
-pub use meshes::mesh_surface;
+pub use meshes::{MeshHandle, mesh_surface};
 pub use probe::{ProbeAt, ProbeImage, ProbeSpec};
 pub use tf_edit::VolumeStatus;
 

@@ -194,3 +194,61 @@ pub(super) fn layer_camera(view: &SceneView, primary: &VolumeGrid) -> Option<(La
     );
     Some((LayerCamera::Slice(frame), image_to_volume * clip_to_image))
 }
+
+/// A slice view's image frame (image `x, y` in [0, 1]^2, y down, and mm along the normal, to
+/// patient space) and its matrix to normalized volume coordinates.
+fn slice_frame(view: &SceneView, primary: &VolumeGrid) -> Option<(SliceFrame, Mat4)> {
+    let (plane, _) = view.slice?;
+    let to_world = geometry::volume_to_world(primary.dims, primary.grid_to_world);
+    let [w, h] = view.renderer.size();
+    let plane = ShaderPlane::new(plane.oriented(view.convention), to_world, w as f32 / h.max(1) as f32);
+    let image_to_volume = Mat4::from_cols(
+        plane.u.extend(0.0),
+        plane.v.extend(0.0),
+        plane.normal.extend(0.0),
+        plane.origin.extend(1.0),
+    );
+    let image_to_world = to_world * image_to_volume;
+    Some((SliceFrame { image_to_world, world_to_image: image_to_world.inverse() }, image_to_volume))
+}
+
+/// A point of a mesh that follows a uniform: what a viewer lets the user drag.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MeshHandle {
+    pub mesh: String,
+    /// The `vec3f` uniform the point follows (patient space, mm).
+    pub uniform: String,
+    /// Its value now.
+    pub point: Vec3,
+}
+
+impl SceneRenderer {
+    /// Every point of a mesh that follows a uniform (a needle's tip and direction, a sphere's
+    /// centre), with the uniform's value now: the first of a mesh is its tip or centre.
+    pub fn mesh_handles(&self) -> Vec<MeshHandle> {
+        let mut out = Vec::new();
+        for table in &self.meshes.tables {
+            for u in table.followed_uniforms() {
+                if let Some(p) = self.uniform_vec3(&u.value) {
+                    out.push(MeshHandle { mesh: table.name.name.clone(), uniform: u.value.clone(), point: p.into() });
+                }
+            }
+        }
+        out
+    }
+
+    /// The patient-space point (RAS mm) under `pixel` (image coordinates in [0, 1]^2, y down) of
+    /// slice view `index`; `None` for a raycast view.
+    pub fn slice_pixel_to_world(&self, index: usize, pixel: [f32; 2]) -> Option<Vec3> {
+        let (frame, _) = slice_frame(self.views.get(index)?, self.grids.first()?)?;
+        Some(frame.image_to_world.transform_point3(Vec3::new(pixel[0], pixel[1], 0.0)))
+    }
+
+    /// Where `point` (patient space, mm) shows in slice view `index`: image coordinates in
+    /// [0, 1]^2 (y down) and its distance from the plane in mm; `None` for a raycast view.
+    pub fn world_to_slice_pixel(&self, index: usize, point: Vec3) -> Option<([f32; 2], f32)> {
+        let (frame, _) = slice_frame(self.views.get(index)?, self.grids.first()?)?;
+        let p = frame.world_to_image.transform_point3(point);
+        Some(([p.x, p.y], p.z))
+    }
+}
