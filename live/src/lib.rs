@@ -3,7 +3,8 @@
 //! - [`LiveScene`]: a scene that follows its files. An edit recomposes through the composition
 //!   cache (a uniform-only change never recompiles); a broken edit keeps the last good pipelines
 //!   and pictures and hands back the diagnostics; what the user set (uniform values, cameras,
-//!   slice positions, view sizes) survives a reload wherever it still applies.
+//!   slice positions, view sizes, mesh colours and placements) survives a reload wherever it
+//!   still applies.
 //! - [`save_uniforms`]: the parameter panel's values written back into the scene file, its
 //!   comments and layout kept.
 //! - [`FileWatcher`]: the scene file and every module file it reads, watched with a debouncer.
@@ -20,5 +21,5 @@ mod watch;
 pub use frames::{GpuWaiter, Shown, ViewFrames};
 pub use refine::{Quality, Refiner, Work};
 pub use save::{RENDER_UNIFORMS, SaveError, SavedUniform, save_uniforms, set_volume_tf, with_uniforms};
-pub use session::{Failure, LiveScene, Rebuild, UserState};
+pub use session::{Failure, LiveScene, MeshStyle, Rebuild, UserState};
 pub use watch::FileWatcher;

@@ -7,11 +7,12 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 use vrs_runtime::reflection::FunctionInfo;
+use vrs_runtime::scene::MeshHandle;
 use vrs_runtime::tf::TfCurve;
 use vrs_runtime::view::Region;
 use vrs_runtime::{Applied, OrbitCamera, ProbeImage, ProbeSpec, RuntimeError, SceneRenderer, SlicePlane, Value};
 use vrsc::compose::build::{self, BuiltScene, Keep};
-use vrsc::scene::UniformValue;
+use vrsc::scene::{MeshSource, UniformValue};
 
 /// Why a rebuild did not take effect (the last good state is still shown).
 #[derive(Debug)]
@@ -69,6 +70,43 @@ pub struct UserState {
     sizes: BTreeMap<String, [u32; 2]>,
     /// Transfer functions by volume, with the curve the scene gave it then.
     curves: BTreeMap<String, (TfCurve, Option<TfCurve>)>,
+    /// Mesh colours, opacities and placements by mesh, with the scene's style of it then.
+    meshes: BTreeMap<String, (MeshStyle, Option<MeshStyle>)>,
+}
+
+/// A mesh's look and placement as the panel sets them (what `[[mesh]]` gives as `color`,
+/// `opacity` and `transform`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MeshStyle {
+    /// sRGB display colour, 0 to 1.
+    pub color: [f32; 3],
+    /// 1 is opaque.
+    pub opacity: f32,
+    /// The mesh's vertices to patient space (RAS mm): four columns of a 4x4 matrix, as a
+    /// scene's `transform`.
+    pub model: [[f32; 4]; 4],
+}
+
+impl MeshStyle {
+    /// No placement: the mesh where its file or shape puts it.
+    pub const IDENTITY: [[f32; 4]; 4] =
+        [[1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 1.0]];
+
+    /// The style a `[[mesh]]` table gives.
+    fn of_table(table: &vrsc::scene::Mesh) -> MeshStyle {
+        let model = table.transform.as_ref().map_or(MeshStyle::IDENTITY, |t| t.value);
+        MeshStyle { color: table.color, opacity: table.opacity, model }
+    }
+
+    /// The style a mesh is drawn with now.
+    fn of_instance(mesh: &vrs_runtime::mesh_layer::MeshInstance) -> MeshStyle {
+        MeshStyle { color: mesh.color, opacity: mesh.opacity, model: mesh.model.to_cols_array_2d() }
+    }
+
+    /// Whether every number is finite (a NaN would never compare equal to itself).
+    fn is_finite(&self) -> bool {
+        self.color.iter().chain([&self.opacity]).chain(self.model.as_flattened()).all(|x| x.is_finite())
+    }
 }
 
 /// Per view name, the scene file's values of its uniforms ([`vrsc::scene::Scene::view_uniform_values`]).
@@ -102,6 +140,11 @@ pub struct LiveScene {
     built: Option<Arc<BuiltScene>>,
     /// Each volume's transfer function as the scene file gives it (the last good load).
     scene_curves: BTreeMap<String, TfCurve>,
+    /// Each mesh's style as the scene file gives it (the last good load).
+    scene_meshes: BTreeMap<String, MeshStyle>,
+    /// The (mesh, uniform) pairs of the points meshes follow that are positions (a needle's
+    /// tip, a cylinder's ends, a sphere's centre, a box's corners; not a needle's direction).
+    mesh_points: Vec<(String, String)>,
 }
 
 impl LiveScene {
@@ -118,6 +161,8 @@ impl LiveScene {
             last_error: None,
             built: None,
             scene_curves: BTreeMap::new(),
+            scene_meshes: BTreeMap::new(),
+            mesh_points: Vec::new(),
         };
         live.note_scene_state();
         live.note_scene_curves();
@@ -125,6 +170,9 @@ impl LiveScene {
         if let Ok(cached) = live.renderer.compose() {
             live.files = files_of(&cached.built, live.renderer.path());
             live.scene_values = cached.scene.as_ref().map(scene_values_of).unwrap_or_default();
+            if let Some(scene) = &cached.scene {
+                live.note_scene_meshes(scene);
+            }
             live.built = Some(cached.built);
         }
         live
@@ -181,6 +229,9 @@ impl LiveScene {
                 self.scene_values = scene_values;
                 self.built = Some(built.clone());
                 self.note_scene_state();
+                if let Some(scene) = &cached.scene {
+                    self.note_scene_meshes(scene);
+                }
                 if applied.volumes_reloaded {
                     self.note_scene_curves();
                 }
@@ -295,6 +346,84 @@ impl LiveScene {
         Ok(())
     }
 
+    /// Every mesh of the scene with the style it is drawn with now, in scene order.
+    pub fn meshes(&self) -> Vec<(String, MeshStyle)> {
+        self.renderer.meshes().iter().map(|m| (m.name.clone(), MeshStyle::of_instance(m))).collect()
+    }
+
+    /// Gives mesh `name` a colour, opacity (clamped to [0, 1]) and placement; it survives
+    /// reloads until the scene file changes that mesh's `color`, `opacity` or `transform`.
+    /// Every view's picture is out of date (each draws the scene's meshes).
+    pub fn set_mesh_style(&mut self, name: &str, style: MeshStyle) -> Result<(), RuntimeError> {
+        if !style.is_finite() {
+            return Err(RuntimeError::Invalid(format!("mesh `{name}`: a style with a non-finite number")));
+        }
+        let style = MeshStyle { opacity: style.opacity.clamp(0.0, 1.0), ..style };
+        self.apply_mesh_style(name, &style)?;
+        let then = self.scene_meshes.get(name).copied();
+        self.user.meshes.insert(name.to_string(), (style, then));
+        self.bump_all();
+        Ok(())
+    }
+
+    /// Puts mesh `name` back to the scene file's colour, opacity and placement.
+    pub fn reset_mesh_style(&mut self, name: &str) -> Result<(), RuntimeError> {
+        self.user.meshes.remove(name);
+        if let Some(style) = self.scene_meshes.get(name).copied() {
+            self.apply_mesh_style(name, &style)?;
+        }
+        self.bump_all();
+        Ok(())
+    }
+
+    /// Whether the user changed mesh `name`'s style.
+    pub fn is_user_mesh(&self, name: &str) -> bool {
+        self.user.meshes.contains_key(name)
+    }
+
+    /// The points of meshes that follow uniforms and are positions (what a viewer lets the user
+    /// drag: a needle's tip, not its direction), with their uniforms' values now.
+    pub fn mesh_handles(&self) -> Vec<MeshHandle> {
+        let is_point = |h: &MeshHandle| self.mesh_points.iter().any(|(m, u)| *m == h.mesh && *u == h.uniform);
+        self.renderer.mesh_handles().into_iter().filter(is_point).collect()
+    }
+
+    fn apply_mesh_style(&mut self, name: &str, style: &MeshStyle) -> Result<(), RuntimeError> {
+        // The renderer's placement type is built on the one it has (this crate names no
+        // matrix type of its own).
+        let mut model = self
+            .renderer
+            .meshes()
+            .iter()
+            .find(|m| m.name == name)
+            .ok_or_else(|| RuntimeError::Invalid(format!("the scene has no mesh `{name}`")))?
+            .model;
+        model.x_axis = style.model[0].into();
+        model.y_axis = style.model[1].into();
+        model.z_axis = style.model[2].into();
+        model.w_axis = style.model[3].into();
+        self.renderer.set_mesh_style(name, style.color, style.opacity, model)
+    }
+
+    /// Applies the user's mesh styles again where the renderer no longer draws them: a mesh
+    /// that follows a uniform is made again, in the scene's style, when the uniform changes (at
+    /// the next render). Returns whether any style had to be applied again.
+    fn keep_mesh_styles(&mut self) -> bool {
+        let stale: Vec<(String, MeshStyle)> = self
+            .user
+            .meshes
+            .iter()
+            .filter(|(name, (style, _))| {
+                self.renderer.meshes().iter().any(|m| m.name == **name && MeshStyle::of_instance(m) != *style)
+            })
+            .map(|(name, (style, _))| (name.clone(), *style))
+            .collect();
+        for (name, style) in &stale {
+            let _ = self.apply_mesh_style(name, style);
+        }
+        !stale.is_empty()
+    }
+
     /// The composition in use (the last good one).
     pub fn built(&self) -> Option<&BuiltScene> {
         self.built.as_deref()
@@ -323,7 +452,11 @@ impl LiveScene {
 
     /// Renders a probe of view `index` as it shows now (see [`SceneRenderer::render_probe`]).
     pub fn render_probe(&mut self, index: usize, spec: &ProbeSpec) -> Result<ProbeImage, RuntimeError> {
-        self.renderer.render_probe(index, spec)
+        let image = self.renderer.render_probe(index, spec)?;
+        if self.keep_mesh_styles() {
+            return self.renderer.render_probe(index, spec);
+        }
+        Ok(image)
     }
 
     /// The camera of raycast view `index`.
@@ -405,12 +538,22 @@ impl LiveScene {
         target: &wgpu::TextureView,
         region: Region,
     ) -> Result<(), RuntimeError> {
-        self.renderer.encode_view_into(index, encoder, target, region)
+        self.renderer.encode_view_into(index, encoder, target, region)?;
+        // A mesh made again for a uniform it follows came back in the scene's style: the same
+        // region once more in the user's (the second pass overwrites the first).
+        if self.keep_mesh_styles() {
+            self.renderer.encode_view_into(index, encoder, target, region)?;
+        }
+        Ok(())
     }
 
     /// Renders every view at full quality and reads the images back (for `vrsc watch`).
     pub fn render_all(&mut self) -> Result<Vec<(String, image::RgbaImage)>, RuntimeError> {
-        self.renderer.render_all()
+        let images = self.renderer.render_all()?;
+        if self.keep_mesh_styles() {
+            return self.renderer.render_all();
+        }
+        Ok(images)
     }
 
     /// The output texture of view `index`: where its full-resolution image is rendered.
@@ -436,6 +579,24 @@ impl LiveScene {
                 self.scene_slices.insert(view.name.clone(), plane);
             }
         }
+    }
+
+    /// Remembers each mesh's style as the scene file gives it and which of the points meshes
+    /// follow are positions.
+    fn note_scene_meshes(&mut self, scene: &vrsc::scene::Scene) {
+        self.scene_meshes = scene.meshes.iter().map(|m| (m.name.name.clone(), MeshStyle::of_table(m))).collect();
+        self.mesh_points = scene
+            .meshes
+            .iter()
+            .flat_map(|m| {
+                let direction = match &m.source {
+                    MeshSource::Needle { direction, .. } => direction.uniform().map(|u| u.value.as_str()),
+                    _ => None,
+                };
+                let points = m.followed_uniforms().into_iter().filter(move |u| Some(u.value.as_str()) != direction);
+                points.map(|u| (m.name.name.clone(), u.value.clone()))
+            })
+            .collect();
     }
 
     /// Remembers the transfer functions as the scene file gives them (right after the volumes
@@ -493,6 +654,12 @@ impl LiveScene {
                 && self.renderer.set_tf_curve(&volume, curve.clone()).is_ok()
             {
                 self.user.curves.insert(volume, (curve, then));
+            }
+        }
+        let meshes = std::mem::take(&mut self.user.meshes);
+        for (mesh, (style, then)) in meshes {
+            if self.scene_meshes.get(&mesh) == then.as_ref() && self.apply_mesh_style(&mesh, &style).is_ok() {
+                self.user.meshes.insert(mesh, (style, then));
             }
         }
         let names = self.view_names();

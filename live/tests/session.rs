@@ -2,7 +2,7 @@
 //! good state through a broken edit, and the user's settings across reloads.
 
 use std::path::Path;
-use vrs_live::{Failure, LiveScene};
+use vrs_live::{Failure, LiveScene, MeshStyle};
 use vrs_runtime::{AdapterChoice, Gpu, OrbitCamera, RenderOptions, SceneRenderer, Value};
 
 const MODULE: &str = "pipeline dim after classification.primary {\n    uniform k: f32 = 0.5 in 0.0 .. 1.0;\n    \
@@ -238,4 +238,104 @@ fn a_size_the_gpu_refuses_keeps_the_last_good_picture() {
     assert!(live.output(0) == output.as_ref(), "the output texture is the one with the last picture");
     assert_eq!(live.render_all().expect("still renders")[0].1, before);
     assert_eq!(live.renderer().gpu().take_fault(), None, "the error was captured, not left behind");
+}
+
+const MARK: &str = "pipeline mark after classification.primary {\n    \
+                    uniform centre: vec3f = vec3f(0.0) in -150.0 .. 150.0;\n    \
+                    uniform axis: vec3f = vec3f(0.0, 0.0, 1.0) in -1.0 .. 1.0;\n    \
+                    state color: vec4f;\n    \
+                    state.color = state.color * (1.0 + 0.0 * (centre.x + axis.x));\n}\n";
+
+/// A scene with a needle and a ball following `centre` (the needle's direction follows `axis`)
+/// and a fixed block of colour `block`.
+fn mesh_scene(block: [f32; 3], ball_opacity: f32) -> String {
+    format!(
+        "[render]\ncompositing = \"dvr\"\n\n[[volume]]\nname = \"v\"\nrole = \"primary\"\nphantom = \"head\"\n\
+         tf = \"ct_bone\"\n\n[[module]]\npath = \"mark.vrs\"\n\n[uniforms]\ncentre = [1.0, 2.0, 3.0]\n\n\
+         [[mesh]]\nname = \"needle\"\nshape = \"needle\"\ntip = \"centre\"\ndirection = \"axis\"\nlength = 50.0\n\n\
+         [[mesh]]\nname = \"ball\"\nshape = \"sphere\"\ncentre = \"centre\"\nradius = 5.0\nopacity = {ball_opacity:.2}\n\n\
+         [[mesh]]\nname = \"block\"\nshape = \"box\"\nmin = [-5.0, -5.0, -5.0]\nmax = [5.0, 5.0, 5.0]\n\
+         color = [{:.2}, {:.2}, {:.2}]\n\n[[view]]\nname = \"3d\"\nkind = \"raycast\"\nsize = [32, 32]\n",
+        block[0], block[1], block[2]
+    )
+}
+
+fn open_meshes(dir: &Path) -> LiveScene {
+    std::fs::write(dir.join("mark.vrs"), MARK).unwrap();
+    std::fs::write(dir.join("scene.toml"), mesh_scene([0.5, 0.5, 0.5], 1.0)).unwrap();
+    let gpu = Gpu::headless(AdapterChoice::Software).expect("the software adapter (lavapipe) is required");
+    let options = RenderOptions { phantom_size: [32, 32, 32], ..RenderOptions::default() };
+    let renderer = SceneRenderer::open(gpu, &dir.join("scene.toml"), options, &mut |_, _, _| {}).unwrap();
+    LiveScene::new(renderer)
+}
+
+fn style_of(live: &LiveScene, mesh: &str) -> MeshStyle {
+    live.meshes().into_iter().find(|(name, _)| name == mesh).map(|(_, style)| style).expect("the mesh")
+}
+
+/// A red, half transparent style 10 mm to the right.
+fn red_moved() -> MeshStyle {
+    let mut model = MeshStyle::IDENTITY;
+    model[3] = [10.0, 0.0, 0.0, 1.0];
+    MeshStyle { color: [1.0, 0.0, 0.0], opacity: 0.5, model }
+}
+
+#[test]
+fn a_mesh_style_survives_reloads_until_the_scene_changes_that_mesh() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut live = open_meshes(dir.path());
+    let names: Vec<String> = live.meshes().into_iter().map(|(n, _)| n).collect();
+    assert_eq!(names, ["needle", "ball", "block"]);
+    let scene_ball = style_of(&live, "ball");
+    assert_eq!(scene_ball.model, MeshStyle::IDENTITY);
+    let generation = live.generation(0);
+    live.set_mesh_style("ball", red_moved()).unwrap();
+    assert_eq!(style_of(&live, "ball"), red_moved());
+    assert!(live.is_user_mesh("ball") && !live.is_user_mesh("block"));
+    assert!(live.generation(0) > generation, "the picture is out of date");
+    assert!(live.set_mesh_style("nothing", red_moved()).is_err());
+    let nan = MeshStyle { opacity: f32::NAN, ..red_moved() };
+    assert!(live.set_mesh_style("ball", nan).is_err(), "a NaN is refused");
+    let clamped = MeshStyle { opacity: 7.0, ..red_moved() };
+    live.set_mesh_style("block", clamped).unwrap();
+    assert_eq!(style_of(&live, "block").opacity, 1.0);
+    live.reset_mesh_style("block").unwrap();
+    assert_eq!(style_of(&live, "block").color, [0.5, 0.5, 0.5]);
+    assert!(!live.is_user_mesh("block"));
+
+    // Another mesh's table changes (all meshes are made again): the user's style comes back.
+    let path = dir.path().join("scene.toml");
+    std::fs::write(&path, mesh_scene([0.0, 0.0, 1.0], 1.0)).unwrap();
+    assert!(live.rebuild().succeeded());
+    assert_eq!(style_of(&live, "block").color, [0.0, 0.0, 1.0]);
+    assert_eq!(style_of(&live, "ball"), red_moved());
+
+    // The scene file changes the ball itself: the file is the newer intent.
+    std::fs::write(&path, mesh_scene([0.0, 0.0, 1.0], 0.75)).unwrap();
+    assert!(live.rebuild().succeeded());
+    assert_eq!(style_of(&live, "ball"), MeshStyle { opacity: 0.75, ..scene_ball });
+    assert!(!live.is_user_mesh("ball"));
+}
+
+#[test]
+fn dragging_a_followed_point_moves_its_meshes_and_keeps_the_users_style() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut live = open_meshes(dir.path());
+    // The needle's direction is not a point to drag.
+    let handles: Vec<(String, String)> = live.mesh_handles().into_iter().map(|h| (h.mesh, h.uniform)).collect();
+    let pairs = [("needle", "centre"), ("ball", "centre")].map(|(m, u)| (m.to_string(), u.to_string()));
+    assert_eq!(handles, pairs);
+    assert_eq!(live.mesh_handles()[0].point.to_array(), [1.0, 2.0, 3.0]);
+
+    live.set_mesh_style("ball", red_moved()).unwrap();
+    let generation = live.generation(0);
+    live.set_uniform("centre", Value::Float(vec![20.0, 2.0, 3.0])).unwrap();
+    assert!(live.generation(0) > generation);
+    live.render_all().expect("renders");
+    // The ball was made again around its new centre, and is still drawn in the user's style.
+    let ball = live.renderer().meshes().iter().find(|m| m.name == "ball").unwrap();
+    let (low, high) = ball.mesh.bounds().unwrap();
+    assert!(((low[0] + high[0]) / 2.0 - 20.0).abs() < 0.01, "{low:?} {high:?}");
+    assert_eq!(style_of(&live, "ball"), red_moved());
+    assert_eq!(live.mesh_handles()[1].point.to_array(), [20.0, 2.0, 3.0]);
 }

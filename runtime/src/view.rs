@@ -50,12 +50,16 @@ pub struct ViewRenderer {
     size: [u32; 2],
     /// Automatic exposure's luminance image and reduction, for a view that meters.
     metering: Option<Metering>,
-    /// The mesh layer under the volume, for a view whose shader reads it: its images, the
-    /// camera it is drawn with and the meshes it draws (indices into `Resources::meshes`).
-    mesh_layer: Option<MeshLayer>,
+    /// The mesh layer under the volume, for a view whose shader reads it: its images (one per
+    /// target size in use, the last used first: a preview and the full image), the camera it is
+    /// drawn with and the meshes it draws (indices into `Resources::meshes`).
+    mesh_layers: Vec<MeshLayer>,
     layer_camera: Option<LayerCamera>,
     layer_meshes: Vec<usize>,
 }
+
+/// Mesh layers kept per view: one for previews and one for the full image.
+const MESH_LAYER_SIZES: usize = 2;
 
 /// Rows of a texture-to-buffer copy are padded to this many bytes.
 const ROW_ALIGNMENT: u32 = wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
@@ -89,7 +93,7 @@ impl ViewRenderer {
             output,
             size,
             metering,
-            mesh_layer: None,
+            mesh_layers: Vec::new(),
             layer_camera: None,
             layer_meshes: Vec::new(),
         })
@@ -134,10 +138,9 @@ impl ViewRenderer {
         self.layer_meshes = meshes;
     }
 
-    /// The mesh layer's images as last drawn, at the size of the last target (for probes and
-    /// tests).
+    /// The mesh layer as last drawn, at the size of the last target (for probes and tests).
     pub fn mesh_layer(&self) -> Option<&MeshLayer> {
-        self.mesh_layer.as_ref()
+        self.mesh_layers.first()
     }
 
     /// Records the mesh layer for a target of `size` pixels (drawn again only when what it shows
@@ -149,10 +152,14 @@ impl ViewRenderer {
         encoder: &mut wgpu::CommandEncoder,
         size: [u32; 2],
     ) -> Result<(), RuntimeError> {
-        if self.mesh_layer.as_ref().is_none_or(|l| l.size() != size) {
-            self.mesh_layer = Some(MeshLayer::new(gpu, size)?);
+        match self.mesh_layers.iter().position(|l| l.size() == size) {
+            Some(i) => self.mesh_layers[..=i].rotate_right(1),
+            None => {
+                self.mesh_layers.insert(0, MeshLayer::new(gpu, size)?);
+                self.mesh_layers.truncate(MESH_LAYER_SIZES);
+            }
         }
-        let layer = self.mesh_layer.as_mut().expect("made above");
+        let layer = &mut self.mesh_layers[0];
         let meshes: Vec<&MeshInstance> = match (&self.layer_camera, &resources.mesh_pipelines) {
             (Some(_), Some(_)) => self.layer_meshes.iter().filter_map(|&i| resources.meshes.get(i)).collect(),
             _ => Vec::new(),
@@ -236,7 +243,7 @@ impl ViewRenderer {
             }
             None => None,
         };
-        let mesh_layer = self.mesh_layer.as_ref().filter(|_| reads_layer).map(MeshLayer::views);
+        let mesh_layer = self.mesh_layers.first().filter(|_| reads_layer).map(MeshLayer::views);
         let own = DispatchResources {
             uniforms: &self.uniform_buffer,
             region: &region_buffer,

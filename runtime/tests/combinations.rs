@@ -7,7 +7,7 @@
 
 mod common;
 
-use common::cells::{Cell, LightCell, Placement};
+use common::cells::{Cell, LightCell, MeshCell, Placement};
 use std::collections::HashMap;
 use vrs_runtime::{ProbeSpec, RenderOptions, SceneRenderer};
 
@@ -98,6 +98,49 @@ fn every_light_option_renders_or_is_refused_at_build() {
     }
     eprintln!("{} light cells: {rendered} rendered, {refused} refused", cells.len());
     assert_eq!(rendered + refused, cells.len());
+}
+
+/// Every mesh set (none, opaque, opaque and translucent, one that follows a module's uniform)
+/// with every compositing mode, view kind, shading, tone mapping and an additional volume
+/// renders, with finite colours and a mesh layer that the view reads (`geometry_depth` probed:
+/// 1 where no mesh is, within [0, 1] everywhere).
+#[test]
+fn every_mesh_option_renders() {
+    let gpu = common::software_gpu();
+    let cells = MeshCell::all();
+    let mut rendered = 0;
+    for group in cells.chunk_by(|a, b| a.additional == b.additional) {
+        let dir = tempfile::tempdir().expect("a temporary folder");
+        let path = dir.path().join("scene.toml");
+        std::fs::write(dir.path().join("target.vrs"), MeshCell::TARGET_MODULE).expect("module written");
+        std::fs::write(&path, group[0].scene()).expect("scene written");
+        let options = RenderOptions { size: Some([16, 16]), phantom_size: [24, 24, 24] };
+        let mut renderer = SceneRenderer::open(gpu.clone(), &path, options, &mut |_, _, _| {})
+            .unwrap_or_else(|e| panic!("{}: {e}", group[0].describe()));
+        for cell in group {
+            let what = cell.describe();
+            std::fs::write(&path, cell.scene()).expect("scene written");
+            let cached = renderer.compose().unwrap_or_else(|e| panic!("{what}: {e}"));
+            assert!(!cached.built.diags.has_errors(), "{what}: refused: {:?}", cached.built.diags.sorted());
+            renderer.apply(&cached).unwrap_or_else(|e| panic!("{what}: composed but did not load: {e}"));
+            let probe = renderer.render_probe(0, &ProbeSpec::of("out_color")).unwrap_or_else(|e| panic!("{what}: {e}"));
+            let values = (0..16 * 16).filter_map(|i| probe.values.at(i % 16, i / 16));
+            assert!(values.flatten().all(|c| c.is_finite()), "{what}: a colour is not finite");
+            let reads_layer = renderer.views[0].renderer.reads_mesh_layer();
+            assert_eq!(reads_layer, cell.meshes != "none", "{what}: a mesh layer exactly when there are meshes");
+            if reads_layer {
+                let depth = renderer.render_probe(0, &ProbeSpec::of("geometry_depth")).expect("depth probes");
+                let depths: Vec<f64> = (0..16 * 16).filter_map(|i| depth.values.at(i % 16, i / 16)).map(|v| v[0]).collect();
+                assert!(depths.iter().all(|d| (0.0..=1.0).contains(d)), "{what}: depth outside [0, 1]: {depths:?}");
+            }
+            if let Some(fault) = renderer.gpu().take_fault() {
+                panic!("{what}: a wgpu error escaped: {fault}");
+            }
+            rendered += 1;
+        }
+    }
+    eprintln!("{} mesh cells rendered", cells.len());
+    assert_eq!(rendered, cells.len());
 }
 
 /// Builds and renders one cell; the structural hash of its view's shader when it rendered.

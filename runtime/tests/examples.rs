@@ -20,12 +20,17 @@ fn copy_example(name: &str, dir: &Path) {
     }
 }
 
-fn small() -> RenderOptions {
-    RenderOptions { size: Some([96, 96]), phantom_size: [64, 64, 64] }
+/// Small images; phantoms of 1 mm voxels at the size the example's patient-space positions
+/// are written for (the ablation zones and needles are placed in millimetres in the 128^3
+/// abdomen), 64^3 for the others.
+fn small(example: &Path) -> RenderOptions {
+    let ablation = example.parent().is_some_and(|d| d.join("applicator.vrs").exists());
+    let side = if ablation { 128 } else { 64 };
+    RenderOptions { size: Some([96, 96]), phantom_size: [side; 3] }
 }
 
 fn open(scene: &Path) -> SceneRenderer {
-    SceneRenderer::open(common::software_gpu(), scene, small(), &mut |_, _, _| {})
+    SceneRenderer::open(common::software_gpu(), scene, small(scene), &mut |_, _, _| {})
         .unwrap_or_else(|e| panic!("{}: {e}", scene.display()))
 }
 
@@ -103,12 +108,15 @@ fn the_clip_plane_cuts_the_clipped_volume_and_spares_the_excluded_one() {
     assert!(without.views[0].renderer.has_uniform("clip_plane_wm"));
 }
 
-/// The axial view's pixel of a point in normalized volume coordinates of an axis-aligned RAS
-/// grid with a square axial extent, in the radiological convention (image x along -x, the
-/// patient's right on the left; image y down along -y).
-fn axial_pixel(p: [f32; 3], size: u32) -> (f32, f32) {
-    ((1.0 - p[0]) * size as f32, (1.0 - p[1]) * size as f32)
+/// The pixel of view `index` (a slice view of `size` pixels) where patient-space point `p` (mm)
+/// shows.
+fn slice_pixel(scene: &SceneRenderer, index: usize, p: [f32; 3], size: u32) -> (f32, f32) {
+    let ([x, y], _) = scene.world_to_slice_pixel(index, p.into()).expect("a slice view");
+    (x * size as f32, y * size as f32)
 }
+
+/// Pixels per millimetre of the axial view (96 pixels over the 128 mm phantom).
+const AXIAL_PX_PER_MM: f32 = 96.0 / 128.0;
 
 #[test]
 fn toggling_an_applicator_changes_only_pixels_near_its_zone() {
@@ -120,8 +128,8 @@ fn toggling_an_applicator_changes_only_pixels_near_its_zone() {
     let without_a = render(&mut scene, "axial");
     let changed = differing(&both, &without_a);
     assert!(changed.len() > 30, "zone a is drawn ({} pixels)", changed.len());
-    let (cx, cy) = axial_pixel([0.76, 0.56, 0.65], 96);
-    let reach = 0.11 * 96.0 + 2.0;
+    let (cx, cy) = slice_pixel(&scene, 1, [33.3, 7.7, 19.2], 96);
+    let reach = 14.0 * AXIAL_PX_PER_MM + 2.0;
     for &(x, y) in &changed {
         let d = ((x as f32 + 0.5 - cx).powi(2) + (y as f32 + 0.5 - cy).powi(2)).sqrt();
         assert!(d <= reach, "pixel ({x}, {y}) changed, {d:.1} px from zone a's centre");
@@ -140,15 +148,38 @@ fn moving_an_applicator_is_a_uniform_change_without_recompiling() {
     let mut scene = open(&dir.path().join("scene.toml"));
     let before = render(&mut scene, "axial");
     let compiled = scene.pipeline_stats().misses;
-    scene.set_uniform("zone_centre_b", [0.6f32, 0.45, 0.66]).unwrap();
+    scene.set_uniform("zone_centre_b", [12.0f32, -6.0, 23.0]).unwrap();
     let after = render(&mut scene, "axial");
     assert!(!differing(&before, &after).is_empty(), "the zone moved");
     assert_eq!(scene.pipeline_stats().misses, compiled, "no new pipeline");
 
     // The same through the scene file: a reload with a moved centre composes nothing new.
     let path = dir.path().join("scene.toml");
-    let text = std::fs::read_to_string(&path).unwrap().replace("[0.64, 0.42, 0.68]", "[0.6, 0.45, 0.66]");
+    let text = std::fs::read_to_string(&path).unwrap().replace("[17.9, -10.2, 23.0]", "[12.0, -6.0, 23.0]");
     std::fs::write(&path, text).unwrap();
     assert!(!scene.reload().unwrap(), "a moved applicator needs no new shader");
     assert_eq!(scene.pipeline_stats().misses, compiled);
+}
+
+/// The needle follows its zone: moving `zone_centre_b` moves needle b's tip in the 3D view and
+/// its crossing in the slice, and the zone with it; the mesh's colour shows where the needle
+/// now is and no longer where it was.
+#[test]
+fn a_needle_follows_its_zone_in_both_views() {
+    let dir = tempfile::tempdir().unwrap();
+    copy_example("ablation", dir.path());
+    let mut scene = open(&dir.path().join("scene.toml"));
+    let handles = scene.mesh_handles();
+    let tip = handles.iter().find(|h| h.uniform == "zone_centre_b").expect("needle b follows zone b");
+    assert_eq!(tip.mesh, "needle_b");
+    let before_3d = render(&mut scene, "3d");
+    let generation = scene.meshes().iter().find(|m| m.name == "needle_b").map(|m| m.mesh.positions.clone());
+    scene.set_uniform("zone_centre_b", [12.0f32, -6.0, 23.0]).unwrap();
+    let after_3d = render(&mut scene, "3d");
+    let moved = scene.meshes().iter().find(|m| m.name == "needle_b").map(|m| m.mesh.positions.clone());
+    assert_ne!(generation, moved, "the needle was made again at its new tip");
+    assert!(differing(&before_3d, &after_3d).len() > 20, "the needle and the zone moved in 3D");
+    let h = scene.mesh_handles();
+    let tip = h.iter().find(|h| h.uniform == "zone_centre_b").unwrap();
+    assert_eq!(tip.point, glam::Vec3::new(12.0, -6.0, 23.0));
 }

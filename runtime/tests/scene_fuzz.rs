@@ -665,6 +665,7 @@ const MUTATIONS: &[(&str, usize)] = &[
     ("remove view", 1),
     ("add module", 4),
     ("uniform", 2),
+    ("add mesh", 2),
     ("unknown key", 1),
     ("corrupt text", 1),
 ];
@@ -825,6 +826,7 @@ impl Model {
                 }
             }
             "add module" => self.add_module(rng, library),
+            "add mesh" => self.add_mesh(rng),
             "uniform" => {
                 let (name, good) = *rng.pick(UNIFORMS);
                 let value = if rng.chance(60) { good.to_string() } else { rng.pick(UNIFORM_VALUES).to_string() };
@@ -869,6 +871,91 @@ impl Model {
             }
         };
         (what, None)
+    }
+
+    /// A `[[mesh]]`: a built-in shape with good and bad parameters, or a file of good or bad
+    /// bytes (a binary STL, one that claims more than it holds, a NaN vertex, junk); sometimes
+    /// named in a view's `meshes`, or one view given `meshes = []`.
+    fn add_mesh(&mut self, rng: &mut Rng) -> String {
+        let mut m = Section::new(true, "mesh");
+        let name = self.fresh("m");
+        m.keys.push(("name".into(), format!("\"{name}\"")));
+        let point = |rng: &mut Rng| {
+            rng.value(&["[0.0, 0.0, 0.0]", "[3.0, -2.0, 5.0]", "[50.0, 0.0, 0.0]", "\"clip_plane_gm\""], &[
+                "[0.0, 0.0]",
+                "[nan, 0.0, 0.0]",
+                "\"no_such_uniform\"",
+                "\"step_size\"",
+                "1.0",
+            ])
+        };
+        let what = match rng.below(6) {
+            0 => {
+                m.keys.push(("shape".into(), "\"needle\"".into()));
+                m.keys.push(("tip".into(), point(rng)));
+                m.keys.push(("direction".into(), rng.value(&["[0.0, 0.0, 1.0]", "[1.0, 1.0, 0.0]"], &["[0.0, 0.0, 0.0]"])));
+                m.keys.push(("radius".into(), rng.value(&["1.0", "0.2", "10.0"], &["0.0", "-1.0", "nan", "1e30"])));
+                "needle"
+            }
+            1 => {
+                m.keys.push(("shape".into(), rng.value(&["\"sphere\""], &["\"cube\"", "\"\"", "3"])));
+                m.keys.push(("centre".into(), point(rng)));
+                m.keys.push(("radius".into(), rng.value(&["5.0", "100.0"], &["0.0", "inf"])));
+                m.keys.push(("opacity".into(), rng.value(&["1.0", "0.3", "0.0"], &["-0.5", "2.0", "nan"])));
+                "sphere"
+            }
+            2 => {
+                m.keys.push(("shape".into(), "\"box\"".into()));
+                m.keys.push(("min".into(), point(rng)));
+                m.keys.push(("max".into(), rng.value(&["[10.0, 10.0, 10.0]"], &["[0.0, 0.0, 0.0]", "[1e30, 0.0, 1.0]"])));
+                m.keys.push(("color".into(), rng.value(&["[1.0, 0.0, 0.0]"], &["[2.0, 0.0, 0.0]", "[1.0]"])));
+                "box"
+            }
+            3 => {
+                m.keys.push(("shape".into(), "\"cylinder\"".into()));
+                m.keys.push(("base".into(), point(rng)));
+                m.keys.push(("tip".into(), point(rng)));
+                m.keys.push(("transform".into(), rng.value(&[
+                    "[[1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [5.0, 0.0, 0.0, 1.0]]",
+                    "[[0.0, 0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0]]",
+                ], &["[[1.0]]", "[[nan, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 1.0]]"])));
+                "cylinder"
+            }
+            _ => {
+                let file = format!("{name}.stl");
+                let triangle = |z: f32| -> Vec<u8> {
+                    let mut t = vec![0u8; 12];
+                    for v in [[0.0f32, 0.0, z], [10.0, 0.0, z], [0.0, 10.0, z]] {
+                        t.extend(v.iter().flat_map(|c| c.to_le_bytes()));
+                    }
+                    t.extend([0u8; 2]);
+                    t
+                };
+                let (count, body): (u32, Vec<u8>) = match rng.below(5) {
+                    0 | 1 => (2, [triangle(0.0), triangle(5.0)].concat()),
+                    2 => (1_000_000, triangle(0.0)),
+                    3 => (1, triangle(f32::NAN)),
+                    _ => (0, Vec::new()),
+                };
+                let mut bytes = vec![0u8; 80];
+                bytes.extend(count.to_le_bytes());
+                bytes.extend(body);
+                if rng.chance(15) {
+                    bytes = b"solid junk\nnot an stl".to_vec();
+                }
+                m.keys.push(("path".into(), format!("\"{file}\"")));
+                self.files.push((file, FileContent::Bytes(bytes)));
+                "file"
+            }
+        };
+        self.sections.push(m);
+        if rng.chance(20)
+            && let Some(i) = self.pick(rng, "view")
+        {
+            let list = if rng.chance(50) { format!("[\"{name}\"]") } else { "[]".to_string() };
+            self.sections[i].set("meshes", list);
+        }
+        format!("mesh {name} ({what})")
     }
 
     fn add_volume(&mut self, rng: &mut Rng) -> String {

@@ -2,7 +2,7 @@
 //! report, so they can be tested without a GPU.
 
 use std::path::PathBuf;
-use vrs_live::LiveScene;
+use vrs_live::{LiveScene, MeshStyle};
 use vrs_runtime::Value;
 use vrs_runtime::tf::TfCurve;
 
@@ -22,6 +22,10 @@ pub enum Action {
     /// The volume's transfer function as a ParaView colormap at this path, and the scene's
     /// `tf` of the volume pointed at it.
     SaveCurve(String, PathBuf),
+    /// A mesh's colour, opacity and placement.
+    SetMeshStyle(String, MeshStyle),
+    /// Back to the scene's colour, opacity and placement of the mesh.
+    ResetMeshStyle(String),
 }
 
 /// Applies `action`; the message says what happened (or why not), for the status line.
@@ -43,6 +47,8 @@ pub fn apply(live: &mut LiveScene, action: Action) -> Result<String, String> {
                 .map(|()| format!("saved `{volume}`'s transfer function as {}", path.display()))
                 .map_err(|e| e.to_string());
         }
+        Action::SetMeshStyle(mesh, style) => live.set_mesh_style(&mesh, style).map(|_| String::new()),
+        Action::ResetMeshStyle(mesh) => live.reset_mesh_style(&mesh).map(|_| format!("`{mesh}`: the scene's style")),
     }
     .map_err(|e| e.to_string())
 }

@@ -6,8 +6,10 @@
 //!
 //! The side panel is generated from the views' reflection: a control for every uniform
 //! ([`controls`], [`params`]), a transfer-function editor per volume ([`tf_editor`]), and an
-//! inspector of each view's pipeline and composed WGSL ([`inspector`]); each view can show any
-//! state field as a probe instead of its picture. The panels only draw and return
+//! inspector of each view's pipeline and composed WGSL ([`inspector`]), and the colour, opacity
+//! and placement of each mesh ([`mesh_panel`]); each view can show any state field as a probe
+//! instead of its picture. In slice views the points meshes follow (an ablation needle's tip)
+//! are marked and can be dragged in the plane ([`handles`]). The panels only draw and return
 //! [`actions::Action`]s, applied to the live scene in one place, so they are tested headless.
 //!
 //! The compiler and the runtime stay free of GUI dependencies: winit and egui live here only.
@@ -15,7 +17,9 @@
 pub mod actions;
 mod app;
 pub mod controls;
+pub mod handles;
 pub mod inspector;
+pub mod mesh_panel;
 pub mod navigate;
 mod panel;
 pub mod params;

@@ -1,6 +1,7 @@
 //! What the window shows: every view (tiled or in tabs) with its frame time and quality, the
 //! status line, and the diagnostics of a broken edit over the last good picture.
 
+use crate::handles::{self, HandleDrag, Marker};
 use crate::navigate;
 use crate::side::SidePanel;
 use crate::window::Surface;
@@ -25,6 +26,8 @@ pub struct ViewSlot {
     texture: Option<(egui::TextureId, wgpu::Texture)>,
     /// The state field shown instead of the picture, if any.
     pub probe: Option<ProbeView>,
+    /// The mesh point being dragged in this (slice) view, and where the cursor last set it.
+    drag: Option<(HandleDrag, egui::Pos2)>,
 }
 
 /// A probe shown in a view's place: the field, and its image once rendered.
@@ -38,7 +41,7 @@ pub struct ProbeView {
 
 impl ViewSlot {
     pub fn new(name: String, frames: ViewFrames) -> ViewSlot {
-        ViewSlot { name, frames, texture: None, probe: None }
+        ViewSlot { name, frames, texture: None, probe: None, drag: None }
     }
 
     /// The same view after a reload: the schedule starts again, the texture id and the probe
@@ -46,7 +49,8 @@ impl ViewSlot {
     pub fn clone_for(&self, name: &str) -> ViewSlot {
         let budget = self.frames.refiner().budget;
         let probe = self.probe.as_ref().map(|p| ProbeView { field: p.field.clone(), shown: None, error: None });
-        ViewSlot { name: name.to_string(), frames: ViewFrames::new(budget), texture: self.texture.clone(), probe }
+        let (frames, texture) = (ViewFrames::new(budget), self.texture.clone());
+        ViewSlot { name: name.to_string(), frames, texture, probe, drag: None }
     }
 
     /// Renders the probe again when the view changed and the user is not interacting (a probe
@@ -120,8 +124,13 @@ pub fn show(
         };
         let cells = tiles(area, shown.len());
         let pixels_per_point = ui.ctx().pixels_per_point();
+        let mut moved = false;
         for (&index, cell) in shown.iter().zip(cells) {
-            view_cell(ui, live, &mut slots[index], index, cell, pixels_per_point, now);
+            moved |= view_cell(ui, live, &mut slots[index], index, cell, pixels_per_point, now);
+        }
+        // A dragged mesh point is a uniform: every view shows it.
+        if moved {
+            slots.iter_mut().for_each(|s| s.frames.input(now));
         }
     });
 }
@@ -152,6 +161,8 @@ fn tiles(area: Rect, n: usize) -> Vec<Rect> {
         .collect()
 }
 
+/// Draws view `index` in `cell` and applies the user's input to it. Returns whether a dragged
+/// mesh point moved (a uniform every view may read).
 fn view_cell(
     ui: &mut egui::Ui,
     live: &mut LiveScene,
@@ -160,7 +171,7 @@ fn view_cell(
     cell: Rect,
     pixels_per_point: f32,
     now: Instant,
-) {
+) -> bool {
     let caption_height = 18.0;
     let mut image = Rect::from_min_max(cell.min + Vec2::new(0.0, caption_height), cell.max);
     let is_slice = live.slice(index).is_some();
@@ -173,7 +184,8 @@ fn view_cell(
     // A size the device cannot hold keeps the last size and picture (drawn scaled), and says so.
     let refused = (size[0] >= 8 && size[1] >= 8).then(|| live.set_size(index, size).err()).flatten();
     let response = ui.interact(image, ui.scope_id().with(("view", index)), Sense::click_and_drag());
-    if handle_input(ui, live, index, &response) {
+    let moved = is_slice && drag_handle(ui, live, slot, index, image, &response);
+    if handle_input(ui, live, index, &response) || moved {
         slot.frames.input(now);
     }
     ui.painter().rect_filled(image, 0.0, Color32::from_gray(12));
@@ -204,6 +216,10 @@ fn view_cell(
         painter.text(image.center_top() + Vec2::new(0.0, 6.0), egui::Align2::CENTER_TOP, top, font.clone(), colour);
         painter.text(image.center_bottom() - Vec2::new(0.0, 6.0), egui::Align2::CENTER_BOTTOM, bottom, font, colour);
     }
+    if is_slice {
+        let grabbed = slot.drag.as_ref().map(|(drag, _)| drag.uniform.as_str());
+        paint_markers(ui, &handles::slice_markers(live, index), image, grabbed, &response);
+    }
     if let Some(p) = &slot.probe {
         let legend = match (&p.error, &p.shown) {
             (Some(e), _) => e.clone(),
@@ -224,6 +240,69 @@ fn view_cell(
         egui::pos2(cell.max.x, cell.min.y + caption_height),
     );
     ui.scope_builder(egui::UiBuilder::new().max_rect(menu), |ui| probe_menu(ui, live, slot, index));
+    moved
+}
+
+/// The colour of the markers of mesh points in slice views.
+const MARKER: Color32 = Color32::from_rgb(60, 255, 120);
+
+/// A ring at each mesh point a slice view can drag, filled when the point lies in the slice;
+/// larger under the pointer and while dragged, with a grab cursor.
+fn paint_markers(ui: &egui::Ui, markers: &[Marker], image: Rect, grabbed: Option<&str>, response: &egui::Response) {
+    let size = glam::Vec2::new(image.width(), image.height());
+    let hovered =
+        response.hover_pos().and_then(|p| handles::hit(markers, image_coords(p, image), size, handles::GRAB_RADIUS));
+    let painter = ui.painter_at(image);
+    for (i, marker) in markers.iter().enumerate() {
+        let centre = image.min + Vec2::new(marker.image.x * image.width(), marker.image.y * image.height());
+        let active = hovered == Some(i) || grabbed == Some(marker.uniform.as_str());
+        let radius = if active { 9.0 } else { 7.0 };
+        painter.circle_stroke(centre, radius, egui::Stroke::new(2.0, MARKER));
+        if marker.in_plane() {
+            painter.circle_filled(centre, 2.5, MARKER);
+        }
+    }
+    if grabbed.is_some() {
+        ui.ctx().set_cursor_icon(egui::CursorIcon::Grabbing);
+    } else if hovered.is_some() {
+        ui.ctx().set_cursor_icon(egui::CursorIcon::Grab);
+    }
+}
+
+/// A screen position's image coordinates in the view's `image` rectangle ([0, 1]^2, y down).
+fn image_coords(position: egui::Pos2, image: Rect) -> glam::Vec2 {
+    let v = |p: egui::Pos2| glam::Vec2::new(p.x, p.y);
+    handles::to_image(v(position), v(image.min), glam::Vec2::new(image.width(), image.height()))
+}
+
+/// A left-button drag that starts on a mesh point's marker of a slice view moves the point in
+/// the plane (its uniform follows the cursor); other presses keep their meaning. Returns
+/// whether the point moved.
+fn drag_handle(
+    ui: &egui::Ui,
+    live: &mut LiveScene,
+    slot: &mut ViewSlot,
+    index: usize,
+    image: Rect,
+    response: &egui::Response,
+) -> bool {
+    let size = glam::Vec2::new(image.width(), image.height());
+    if response.drag_started_by(egui::PointerButton::Primary) {
+        // Where the button went down, not where the drag was recognised.
+        let origin = ui.input(|i| i.pointer.press_origin()).or(response.interact_pointer_pos());
+        slot.drag = origin.and_then(|o| Some((handles::grab(live, index, image_coords(o, image), size)?, o)));
+    }
+    let Some((drag, last)) = &mut slot.drag else { return false };
+    let active = response.dragged_by(egui::PointerButton::Primary) || response.drag_stopped();
+    let mut moved = false;
+    if let Some(at) = response.interact_pointer_pos().filter(|at| active && at != last) {
+        moved = handles::drag_to(live, index, drag, image_coords(at, image)).is_ok();
+        *last = at;
+    }
+    if !response.dragged() {
+        slot.drag = None;
+    }
+    moved
 }
 
 /// The field menu of a view: the picture, or any state field as a probe.

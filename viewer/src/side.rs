@@ -3,8 +3,8 @@
 
 use crate::actions::{self, Action};
 use crate::inspector::{self, InspectorState, Sources};
-use crate::params;
 use crate::tf_editor::{self, EditedVolume, TfEditorState};
+use crate::{mesh_panel, params};
 use vrs_live::LiveScene;
 use vrs_runtime::reflection::{FunctionInfo, Reflection};
 
@@ -13,6 +13,8 @@ use vrs_runtime::reflection::{FunctionInfo, Reflection};
 pub enum Tab {
     Parameters,
     TransferFunctions,
+    /// Only while the scene has meshes.
+    Meshes,
     Inspector,
 }
 
@@ -55,10 +57,17 @@ impl SidePanel {
             return false;
         }
         let mut todo = Vec::new();
+        let meshes = mesh_panel::rows(live);
+        if meshes.is_empty() && self.tab == Tab::Meshes {
+            self.tab = Tab::Parameters;
+        }
         egui::Panel::right("side panel").resizable(true).default_size(360.0).show(ui, |ui| {
             ui.horizontal(|ui| {
                 ui.selectable_value(&mut self.tab, Tab::Parameters, "Parameters");
                 ui.selectable_value(&mut self.tab, Tab::TransferFunctions, "Transfer functions");
+                if !meshes.is_empty() {
+                    ui.selectable_value(&mut self.tab, Tab::Meshes, "Meshes");
+                }
                 ui.selectable_value(&mut self.tab, Tab::Inspector, "Inspector");
             });
             ui.separator();
@@ -71,6 +80,7 @@ impl SidePanel {
                     ui.weak(&self.message);
                     actions
                 }
+                Tab::Meshes => mesh_panel::show(ui, &meshes, &self.message),
                 Tab::Inspector => {
                     self.show_inspector(ui, live);
                     Vec::new()

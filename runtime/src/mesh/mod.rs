@@ -12,6 +12,7 @@
 //! computed area-weighted from the faces.
 
 mod error;
+pub mod isosurface;
 mod normals;
 mod obj;
 mod ply;

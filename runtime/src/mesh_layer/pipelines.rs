@@ -76,11 +76,10 @@ struct Fragment {
 fn fs(in: Varyings) -> Fragment {
     var rgb = draw.color.rgb;
     if draw.flat_colour.x < 0.5 {
-        // A headlight: two-sided Lambert with a small highlight, so shapes read as surfaces.
+        // A headlight, two-sided Lambert with an ambient floor, so shapes read as surfaces.
         let n = normalize(in.normal);
         let v = normalize(in.to_eye);
-        let facing = abs(dot(n, v));
-        rgb = min(rgb * (0.3 + 0.7 * facing) + vec3<f32>(0.2 * pow(facing, 40.0)), vec3<f32>(1.0));
+        rgb = rgb * (0.3 + 0.7 * abs(dot(n, v)));
     }
     let a = draw.color.a;
     return Fragment(vec4<f32>(rgb * a, a), in.clip.z);

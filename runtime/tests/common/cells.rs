@@ -233,3 +233,76 @@ impl LightCell {
         format!("{self:?}")
     }
 }
+
+/// The mesh sets of the mesh matrix: none, an opaque needle through the head, the needle with a
+/// translucent sphere, and a needle that follows a uniform of a user module (the ablation
+/// example's pattern).
+pub const MESH_SETS: [&str; 4] = ["none", "needle", "needle+translucent", "following"];
+
+/// Meshes with the options they meet: mesh set, mode, view kind, shading, tone mapping and an
+/// additional volume.
+#[derive(Clone, Copy, Debug)]
+pub struct MeshCell {
+    pub meshes: &'static str,
+    pub mode: &'static str,
+    pub slice: bool,
+    pub shading: bool,
+    pub tone_mapping: bool,
+    pub additional: bool,
+}
+
+impl MeshCell {
+    pub fn all() -> Vec<MeshCell> {
+        let mut cells = Vec::new();
+        for additional in [false, true] {
+            for meshes in MESH_SETS {
+                for mode in MODES {
+                    for slice in [false, true] {
+                        for shading in [false, true] {
+                            for tone_mapping in [false, true] {
+                                cells.push(MeshCell { meshes, mode, slice, shading, tone_mapping, additional });
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        cells
+    }
+
+    pub fn scene(&self) -> String {
+        let mut render = vec![format!("compositing = \"{}\"", self.mode), format!("shading = {}", self.shading)];
+        if self.mode == "iso" {
+            render.push("iso_value = 0.45".into());
+        }
+        if self.tone_mapping {
+            render.push("tone_mapping = \"reinhard\"".into());
+        }
+        let roles: &[Role] = if self.additional { &[Role::Additional] } else { &[] };
+        let kind = if self.slice { "kind = \"slice\"\naxis = \"axial\"\nslab = 6.0" } else { "kind = \"raycast\"" };
+        let needle = |tip: &str| {
+            format!("\n[[mesh]]\nname = \"needle\"\nshape = \"needle\"\ntip = {tip}\ndirection = [0.3, 0.2, 1.0]\nradius = 1.5\n")
+        };
+        let meshes = match self.meshes {
+            "none" => String::new(),
+            "needle" => needle("[2.0, 1.0, 0.0]"),
+            "needle+translucent" => needle("[2.0, 1.0, 0.0]")
+                + "\n[[mesh]]\nname = \"ball\"\nshape = \"sphere\"\ncentre = [-4.0, 0.0, 2.0]\nradius = 5.0\nopacity = 0.4\n",
+            _ => needle("\"target\"") + "\n[[module]]\npath = \"target.vrs\"\n",
+        };
+        format!(
+            "[render]\n{}\n{}{meshes}\n[[view]]\nname = \"v\"\n{kind}\nsize = [16, 16]\n",
+            render.join("\n"),
+            volumes(roles)
+        )
+    }
+
+    /// The user module of the `following` set: a uniform the needle's tip follows.
+    pub const TARGET_MODULE: &'static str = "/// Where the needle points (patient space, mm).\npipeline mark_target after compositing.alpha {\n    \
+        uniform target: vec3f = vec3f(2.0, 1.0, 0.0) in -50.0 .. 50.0;\n    state src: vec4f;\n\n    \
+        state.src = state.src * select(1.0, 0.9, target.x > 100.0);\n}\n";
+
+    pub fn describe(&self) -> String {
+        format!("{self:?}")
+    }
+}

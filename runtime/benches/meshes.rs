@@ -1,0 +1,116 @@
+//! The cost of a view's mesh layer on the software adapter (lavapipe): a 100 k-triangle mesh
+//! drawn under shaded DVR, in one run with the variants taking turns round after round. The
+//! camera turns a little every frame, so the layer is drawn every frame (as while the user
+//! orbits); a variant with the camera still (the layer drawn once and kept) separates the
+//! layer's own cost from the rays the mesh ends early. Target: the mesh over plain DVR at most
+//! 1.2x at 512^2.
+//!
+//! The volume is the MNI152 T1 of `../shared/data` when it is there, else the built-in head
+//! phantom (said in the output). Run: `cargo bench -p vrs-runtime --bench meshes`; settings:
+//! `VRS_BENCH_SIZE` (512), `VRS_BENCH_ROUNDS` (4), `VRS_BENCH_FRAMES` (2).
+
+use std::path::Path;
+use std::time::Instant;
+use vrs_runtime::mesh::shapes;
+use vrs_runtime::{AdapterChoice, Gpu, RenderOptions, SceneRenderer};
+
+const MNI_T1: &str = "../shared/data/mni152/mni_icbm152_t1_tal_nlin_sym_09a_converted.nii.gz";
+
+fn number(name: &str, default: usize) -> usize {
+    std::env::var(name).ok().and_then(|v| v.parse().ok()).filter(|&n| n > 0).unwrap_or(default)
+}
+
+/// A binary STL of a sphere of about `triangles` triangles.
+fn write_sphere_stl(path: &Path, centre: glam::Vec3, radius: f32, triangles: u32) -> usize {
+    let side = ((triangles / 2) as f32).sqrt().ceil() as u32;
+    let mesh = shapes::sphere(centre, radius, side, side).expect("a sphere");
+    let count = mesh.indices.len() / 3;
+    let mut bytes = vec![0u8; 80];
+    bytes.extend((count as u32).to_le_bytes());
+    for tri in mesh.indices.chunks_exact(3) {
+        bytes.extend([0u8; 12]);
+        for &i in tri {
+            bytes.extend(mesh.positions[i as usize].iter().flat_map(|c| c.to_le_bytes()));
+        }
+        bytes.extend([0u8; 2]);
+    }
+    std::fs::write(path, bytes).expect("mesh written");
+    count
+}
+
+fn scene(volume: &str, size: u32, mesh: bool) -> String {
+    let mesh = if mesh { "[[mesh]]\nname = \"ball\"\npath = \"ball.stl\"\ncolor = [0.9, 0.7, 0.2]\n\n" } else { "" };
+    format!(
+        "[render]\ncompositing = \"dvr\"\nshading = true\nlights = [\"key\"]\njitter = 1.0\n\n\
+         [[volume]]\nname = \"t1\"\nrole = \"primary\"\n{volume}\ntf = \"skin.json\"\n\n{mesh}\
+         [[view]]\nname = \"3d\"\nkind = \"raycast\"\nsize = [{size}, {size}]\n\
+         camera = {{ azimuth = 35.0, elevation = 15.0, distance = 2.4 }}\n"
+    )
+}
+
+/// Times `frames` frames of view 0 (after one untimed frame), turning the camera by `turn`
+/// degrees before each.
+fn frame_times(scene: &mut SceneRenderer, frames: usize, turn: f32) -> Vec<f64> {
+    let mut times = Vec::with_capacity(frames);
+    for i in 0..=frames {
+        if let Some(camera) = scene.views[0].camera.as_mut() {
+            camera.azimuth += turn;
+        }
+        let mut encoder = scene.gpu().device.create_command_encoder(&Default::default());
+        let start = Instant::now();
+        scene.encode_view(0, &mut encoder).expect("encode");
+        scene.gpu().queue.submit([encoder.finish()]);
+        scene.gpu().wait();
+        if i > 0 {
+            times.push(start.elapsed().as_secs_f64() * 1e3);
+        }
+    }
+    times
+}
+
+fn median(mut times: Vec<f64>) -> f64 {
+    times.sort_by(f64::total_cmp);
+    times[times.len() / 2]
+}
+
+fn main() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let mni = root.join(MNI_T1);
+    let (volume, centre) = if mni.exists() {
+        println!("volume: the MNI152 T1 (197 x 233 x 189)");
+        (format!("path = {:?}", mni.display().to_string()), glam::Vec3::new(0.0, -18.0, 18.0))
+    } else {
+        println!("volume: the head phantom (128^3; {} is absent)", mni.display());
+        ("phantom = \"head\"".to_string(), glam::Vec3::ZERO)
+    };
+    let (size, rounds, frames) =
+        (number("VRS_BENCH_SIZE", 512) as u32, number("VRS_BENCH_ROUNDS", 4), number("VRS_BENCH_FRAMES", 2));
+    let gpu = Gpu::headless(AdapterChoice::Software).expect("the software adapter");
+    let dir = tempfile::tempdir().expect("a folder");
+    std::fs::copy(root.join("examples/light/skin.json"), dir.path().join("skin.json")).expect("the example's tf");
+    let triangles = write_sphere_stl(&dir.path().join("ball.stl"), centre, 25.0, 100_000);
+    println!("adapter: {}, {size}x{size}, {rounds} rounds of {frames} frames, a mesh of {triangles} triangles", gpu.adapter);
+    // (name, mesh, degrees the camera turns per frame)
+    let variants = [("DVR", false, 0.05), ("DVR + mesh, camera turning", true, 0.05), ("DVR + mesh, camera still", true, 0.0)];
+    let mut renderers: Vec<SceneRenderer> = variants
+        .iter()
+        .enumerate()
+        .map(|(i, &(_, mesh, _))| {
+            let path = dir.path().join(format!("scene{i}.toml"));
+            std::fs::write(&path, scene(&volume, size, mesh)).expect("scene written");
+            SceneRenderer::open(gpu.clone(), &path, RenderOptions::default(), &mut |_, _, _| {}).expect("opens")
+        })
+        .collect();
+    let mut times = vec![Vec::new(); variants.len()];
+    for _ in 0..rounds {
+        for ((renderer, times), &(_, _, turn)) in renderers.iter_mut().zip(&mut times).zip(&variants) {
+            times.extend(frame_times(renderer, frames, turn));
+        }
+    }
+    let medians: Vec<f64> = times.into_iter().map(median).collect();
+    for ((name, _, _), ms) in variants.iter().zip(&medians) {
+        println!("{name:<30} {ms:8.1} ms");
+    }
+    println!("mesh (drawn every frame) over DVR: {:.3}x (target <= 1.2)", medians[1] / medians[0]);
+    println!("the mesh layer's own share:        {:.3}x (turning over still)", medians[1] / medians[2]);
+}

@@ -1,0 +1,197 @@
+//! Meshes with volumes on lavapipe, against geometry: rays end at the first opaque surface (the
+//! opacity along each ray is that of the path up to the surface), slice views outline where a
+//! mesh crosses their plane, and a view reads the mesh layer at any image size.
+
+mod common;
+
+use glam::{Mat4, Vec3};
+use std::path::Path;
+use vrs_runtime::{RenderOptions, SceneRenderer};
+
+/// 32^3 voxels of 1 mm, value 1000 everywhere: a homogeneous volume whose box is
+/// [-0.5, 31.5]^3 mm (voxel centres at whole millimetres from 0).
+fn homogeneous_volume(dir: &Path) {
+    let values = vec![1000.0f32; 32 * 32 * 32];
+    let identity = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+    common::write_nrrd(&dir.join("cube.nrrd"), "RAS", [32; 3], identity, [0.0; 3], &values);
+    let tf = format!(
+        r#"[{{"Name": "cube", "RGBPoints": [0, 1, 1, 1, 1000, 1, 1, 1], "Points": [0, {A}, 0.5, 0, 1000, {A}, 0.5, 0]}}]"#
+    );
+    std::fs::write(dir.join("cube.json"), tf).expect("tf written");
+}
+
+/// Opacity per millimetre: 13/255, which the 8-bit transfer-function table holds exactly.
+const A: f64 = 13.0 / 255.0;
+
+/// The box mesh: half inside the volume (x from 16 to 40 mm; the volume ends at 31.5).
+const BOX_MIN: Vec3 = Vec3::new(16.0, 6.0, 6.0);
+const BOX_MAX: Vec3 = Vec3::new(40.0, 25.0, 25.0);
+
+const SCENE: &str = r#"
+[render]
+compositing = "dvr"
+step_size = 0.25
+jitter = 0.0
+background = [0.0, 0.0, 0.0, 1.0]
+empty_space_skipping = false
+
+[[volume]]
+name = "cube"
+role = "primary"
+path = "cube.nrrd"
+window = [0.0, 1000.0]
+tf = "cube.json"
+
+[uniforms]
+ref_step = 1.0
+
+[[mesh]]
+name = "block"
+shape = "box"
+min = [16.0, 6.0, 6.0]
+max = [40.0, 25.0, 25.0]
+color = [0.0, 0.0, 0.0]
+
+[[view]]
+name = "3d"
+kind = "raycast"
+size = [64, 64]
+camera = { azimuth = 60.0, elevation = 25.0, distance = 2.2 }
+"#;
+
+fn open(dir: &Path, scene: &str) -> SceneRenderer {
+    let path = dir.join("scene.toml");
+    std::fs::write(&path, scene).expect("scene written");
+    SceneRenderer::open(common::software_gpu(), &path, RenderOptions::default(), &mut |_, _, _| {})
+        .unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// The ray parameters where `origin + t dir` enters and leaves the box `[lo, hi]`, if it meets it.
+fn slab_hit(origin: Vec3, dir: Vec3, lo: Vec3, hi: Vec3) -> Option<(f32, f32)> {
+    let inv = dir.recip();
+    let (a, b) = ((lo - origin) * inv, (hi - origin) * inv);
+    let (near, far) = (a.min(b).max_element(), a.max(b).min_element());
+    (near <= far && far > 0.0).then_some((near.max(0.0), far))
+}
+
+/// The pixel's ray in patient space (origin on the near plane, unit direction).
+fn pixel_ray(clip_to_world: Mat4, [x, y]: [f32; 2]) -> (Vec3, Vec3) {
+    let ndc = |z| Vec3::new(x * 2.0 - 1.0, 1.0 - y * 2.0, z);
+    let near = clip_to_world.project_point3(ndc(0.0));
+    let far = clip_to_world.project_point3(ndc(1.0));
+    (near, (far - near).normalize())
+}
+
+/// Where the ray meets no mesh, or meets it at the pixel's centre and its four neighbours alike
+/// (pixels on the box's silhouette are left out: the rasterizer decides them by coverage).
+fn path_in_volume(clip_to_world: Mat4, size: u32, px: u32, py: u32) -> Option<f32> {
+    let at = |dx: f32, dy: f32| {
+        let pixel = [(px as f32 + 0.5 + dx) / size as f32, (py as f32 + 0.5 + dy) / size as f32];
+        let (o, d) = pixel_ray(clip_to_world, pixel);
+        (o, d, slab_hit(o, d, BOX_MIN, BOX_MAX).map(|h| h.0))
+    };
+    let (o, d, hit) = at(0.0, 0.0);
+    let neighbours = [(1.0, 0.0), (-1.0, 0.0), (0.0, 1.0), (0.0, -1.0)];
+    if neighbours.iter().any(|&(dx, dy)| at(dx, dy).2.is_some() != hit.is_some()) {
+        return None;
+    }
+    let (enter, leave) = slab_hit(o, d, Vec3::splat(-0.5), Vec3::splat(31.5)).unwrap_or((0.0, 0.0));
+    let end = hit.map_or(leave, |h| h.min(leave));
+    Some((end - enter).max(0.0))
+}
+
+/// A box half inside a homogeneous volume: each pixel's brightness (white volume, black box,
+/// black background) is the opacity of the volume along its ray up to the box's surface,
+/// 1 - (1 - A)^L for a path of L mm. Samples 0.25 mm apart place the end of the path to within
+/// a step, and the colour is 8-bit: the tolerance is (1 - A)^-0.25 - 1 of the transmittance plus
+/// 1.5/255.
+#[test]
+fn rays_end_at_an_opaque_box_with_the_opacity_of_their_path() {
+    let dir = tempfile::tempdir().expect("a folder");
+    homogeneous_volume(dir.path());
+    let mut scene = open(dir.path(), SCENE);
+    let image = scene.render_all().expect("render").remove(0).1;
+    let (dims, grid_to_world) = scene.primary_grid().expect("a primary volume");
+    let to_world = vrs_runtime::geometry::volume_to_world(dims, grid_to_world);
+    let camera = scene.views[0].camera.expect("a raycast view");
+    let clip_to_world = to_world * camera.inv_view_proj(to_world, 1.0);
+    let (mut checked, mut behind_box, mut worst) = (0, 0, 0.0f64);
+    for (px, py, pixel) in image.enumerate_pixels() {
+        let Some(path) = path_in_volume(clip_to_world, 64, px, py) else { continue };
+        let want = 1.0 - (1.0 - A).powf(f64::from(path));
+        let got = f64::from(pixel[0]) / 255.0;
+        let tolerance = (1.0 - want) * ((1.0 - A).powf(-0.25) - 1.0) + 1.5 / 255.0;
+        worst = worst.max((got - want).abs());
+        assert!(
+            (got - want).abs() <= tolerance,
+            "pixel ({px}, {py}): brightness {got:.4}, the opacity of {path:.2} mm is {want:.4}"
+        );
+        checked += 1;
+        let (o, d) = pixel_ray(clip_to_world, [(px as f32 + 0.5) / 64.0, (py as f32 + 0.5) / 64.0]);
+        behind_box += usize::from(slab_hit(o, d, BOX_MIN, BOX_MAX).is_some());
+    }
+    assert!(checked > 2000, "most pixels are checked ({checked})");
+    assert!(behind_box > 300, "many rays end at the box ({behind_box})");
+    eprintln!("{checked} pixels, {behind_box} ending at the box; largest difference {worst:.4}");
+}
+
+/// The same scene without the mesh: the whole chord shows (the box made the difference).
+#[test]
+fn without_the_mesh_the_whole_chord_shows() {
+    let dir = tempfile::tempdir().expect("a folder");
+    homogeneous_volume(dir.path());
+    let with = open(dir.path(), SCENE).render_all().expect("render").remove(0).1;
+    let without_scene = SCENE.replace("size = [64, 64]", "size = [64, 64]\nmeshes = []");
+    let without = open(dir.path(), &without_scene).render_all().expect("render").remove(0).1;
+    let darker = with.pixels().zip(without.pixels()).filter(|(a, b)| a[0] + 8 < b[0]).count();
+    assert!(darker > 300, "the box hides the volume behind its surface ({darker} pixels darker)");
+}
+
+/// An axial slice through a needle perpendicular to it: the needle's colour rings the point
+/// where it crosses (its radius away), and the slice shows elsewhere.
+#[test]
+fn a_slice_outlines_where_a_needle_crosses_it() {
+    let dir = tempfile::tempdir().expect("a folder");
+    homogeneous_volume(dir.path());
+    let scene_text = SCENE.replace(
+        "shape = \"box\"\nmin = [16.0, 6.0, 6.0]\nmax = [40.0, 25.0, 25.0]\ncolor = [0.0, 0.0, 0.0]",
+        "shape = \"needle\"\ntip = [10.0, 20.0, 4.0]\ndirection = [0.0, 0.0, 1.0]\nlength = 60.0\nradius = 3.0\ncolor = [1.0, 0.0, 0.0]",
+    ) + "\n[[view]]\nname = \"axial\"\nkind = \"slice\"\naxis = \"axial\"\nposition = 0.5\nsize = [128, 128]\n";
+    let mut scene = open(dir.path(), &scene_text);
+    let image = scene.render_all().expect("render").remove(1).1;
+    let ([cx, cy], off) = scene.world_to_slice_pixel(1, Vec3::new(10.0, 20.0, 15.5)).expect("a slice view");
+    assert!(off.abs() < 1e-3, "the point lies on the plane ({off} mm off)");
+    let px_per_mm = 128.0 / 32.0;
+    let (cx, cy) = (cx * 128.0, cy * 128.0);
+    let red = |p: &image::Rgba<u8>| p[0] > 200 && p[1] < 60 && p[2] < 60;
+    let mut ring = 0;
+    for (x, y, p) in image.enumerate_pixels() {
+        let r = ((x as f32 + 0.5 - cx).powi(2) + (y as f32 + 0.5 - cy).powi(2)).sqrt() / px_per_mm;
+        if red(p) {
+            assert!((r - 3.0).abs() < 0.75, "red pixel ({x}, {y}) {r:.2} mm from the needle's axis");
+            ring += 1;
+        } else if r < 2.0 || r > 4.0 {
+            assert!(p[0] > 30 && p[0] == p[1], "the slice shows at ({x}, {y}): {p:?}");
+        }
+    }
+    assert!(ring > 40, "the ring is drawn ({ring} pixels)");
+}
+
+/// Tiles and previews render into targets of other sizes: the mesh layer follows the target.
+#[test]
+fn a_smaller_target_reads_a_mesh_layer_of_its_own_size() {
+    let dir = tempfile::tempdir().expect("a folder");
+    homogeneous_volume(dir.path());
+    let mut scene = open(dir.path(), SCENE);
+    let full = scene.render_all().expect("render").remove(0).1;
+    let gpu = scene.gpu().clone();
+    let target = vrs_runtime::view::create_output(&gpu, [32, 32]).expect("a target");
+    let view = target.create_view(&Default::default());
+    let mut encoder = gpu.device.create_command_encoder(&Default::default());
+    scene.encode_view_into(0, &mut encoder, &view, vrs_runtime::Region::whole([32, 32])).expect("encoded");
+    gpu.queue.submit([encoder.finish()]);
+    gpu.wait();
+    let layer = scene.views[0].renderer.mesh_layer().expect("the view reads a mesh layer");
+    assert_eq!(layer.size(), [32, 32]);
+    assert_eq!(full.dimensions(), (64, 64));
+}

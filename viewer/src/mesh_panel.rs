@@ -1,0 +1,97 @@
+//! The mesh panel: each `[[mesh]]` of the scene with its colour, opacity and placement (a
+//! translation in millimetres, patient space), and a reset to the scene's. The tab shows only
+//! when the scene has meshes.
+
+use crate::actions::Action;
+use egui::{DragValue, RichText, Slider};
+use vrs_live::{LiveScene, MeshStyle};
+
+/// One mesh as the panel shows it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MeshRow {
+    pub name: String,
+    /// What it is drawn with now.
+    pub style: MeshStyle,
+    /// Whether the user changed it (it can be reset).
+    pub changed: bool,
+}
+
+/// Every mesh of `live`'s scene, in scene order.
+pub fn rows(live: &LiveScene) -> Vec<MeshRow> {
+    live.meshes().into_iter().map(|(name, style)| MeshRow { changed: live.is_user_mesh(&name), name, style }).collect()
+}
+
+/// Shows the panel; returns what the user asked for.
+pub fn show(ui: &mut egui::Ui, rows: &[MeshRow], message: &str) -> Vec<Action> {
+    let mut actions = Vec::new();
+    ui.weak("Colour, opacity and placement (mm, patient space) of the scene's meshes");
+    ui.weak("In a slice view, drag a green marker to move the point a mesh follows");
+    if !message.is_empty() {
+        ui.weak(message);
+    }
+    ui.separator();
+    egui::ScrollArea::vertical().id_salt("meshes").show(ui, |ui| {
+        for row in rows {
+            ui.push_id(&row.name, |ui| mesh_row(ui, row, &mut actions));
+            ui.separator();
+        }
+    });
+    actions
+}
+
+fn mesh_row(ui: &mut egui::Ui, row: &MeshRow, actions: &mut Vec<Action>) {
+    ui.horizontal(|ui| {
+        ui.label(RichText::new(&row.name).monospace().strong());
+        if row.changed && ui.small_button("reset").on_hover_text("Back to the scene's colour and placement").clicked() {
+            actions.push(Action::ResetMeshStyle(row.name.clone()));
+        }
+    });
+    let mut style = row.style;
+    let mut changed = colour(ui, &row.name, &mut style.color);
+    changed |= opacity(ui, &row.name, &mut style.opacity);
+    changed |= translation(ui, &row.name, &mut style.model[3]);
+    if changed && style != row.style {
+        actions.push(Action::SetMeshStyle(row.name.clone(), style));
+    }
+}
+
+/// An sRGB colour picker over the mesh's colour (0 to 1 per component).
+fn colour(ui: &mut egui::Ui, mesh: &str, color: &mut [f32; 3]) -> bool {
+    let to_byte = |x: f32| (x.clamp(0.0, 1.0) * 255.0).round() as u8;
+    ui.horizontal(|ui| {
+        let label = ui.label("colour").id;
+        let mut rgb = color.map(to_byte);
+        let picked = ui.color_edit_button_srgb(&mut rgb).labelled_by(label).on_hover_text(format!("{mesh}'s colour"));
+        if picked.changed() && rgb != color.map(to_byte) {
+            *color = rgb.map(|b| f32::from(b) / 255.0);
+            return true;
+        }
+        false
+    })
+    .inner
+}
+
+fn opacity(ui: &mut egui::Ui, mesh: &str, opacity: &mut f32) -> bool {
+    ui.horizontal(|ui| {
+        let label = ui.label("opacity").id;
+        let slider = ui.add(Slider::new(opacity, 0.0..=1.0)).labelled_by(label);
+        slider.on_hover_text(format!("{mesh}: 1 is opaque (rays end at it), below 1 it is blended")).changed()
+    })
+    .inner
+}
+
+/// The placement's translation column, one drag value per patient axis.
+fn translation(ui: &mut egui::Ui, mesh: &str, column: &mut [f32; 4]) -> bool {
+    ui.horizontal(|ui| {
+        ui.label("move")
+            .on_hover_text(format!("{mesh}'s translation in mm (patient space: right, anterior, superior)"));
+        let mut changed = false;
+        for (i, axis) in ["x", "y", "z"].into_iter().enumerate() {
+            let label = ui.label(axis).id;
+            let value = DragValue::new(&mut column[i]).speed(0.5).suffix(" mm").range(-1000.0..=1000.0);
+            changed |= ui.add(value).labelled_by(label).changed();
+        }
+        changed
+    })
+    .inner
+}
