@@ -89,9 +89,13 @@ fn main() {
     let dir = tempfile::tempdir().expect("a folder");
     std::fs::copy(root.join("examples/light/skin.json"), dir.path().join("skin.json")).expect("the example's tf");
     let triangles = write_sphere_stl(&dir.path().join("ball.stl"), centre, 25.0, 100_000);
-    println!("adapter: {}, {size}x{size}, {rounds} rounds of {frames} frames, a mesh of {triangles} triangles", gpu.adapter);
+    println!(
+        "adapter: {}, {size}x{size}, {rounds} rounds of {frames} frames, a mesh of {triangles} triangles",
+        gpu.adapter
+    );
     // (name, mesh, degrees the camera turns per frame)
-    let variants = [("DVR", false, 0.05), ("DVR + mesh, camera turning", true, 0.05), ("DVR + mesh, camera still", true, 0.0)];
+    let variants =
+        [("DVR", false, 0.05), ("DVR + mesh, camera turning", true, 0.05), ("DVR + mesh, camera still", true, 0.0)];
     let mut renderers: Vec<SceneRenderer> = variants
         .iter()
         .enumerate()

@@ -130,7 +130,8 @@ fn every_mesh_option_renders() {
             assert_eq!(reads_layer, cell.meshes != "none", "{what}: a mesh layer exactly when there are meshes");
             if reads_layer {
                 let depth = renderer.render_probe(0, &ProbeSpec::of("geometry_depth")).expect("depth probes");
-                let depths: Vec<f64> = (0..16 * 16).filter_map(|i| depth.values.at(i % 16, i / 16)).map(|v| v[0]).collect();
+                let depths: Vec<f64> =
+                    (0..16 * 16).filter_map(|i| depth.values.at(i % 16, i / 16)).map(|v| v[0]).collect();
                 assert!(depths.iter().all(|d| (0.0..=1.0).contains(d)), "{what}: depth outside [0, 1]: {depths:?}");
             }
             if let Some(fault) = renderer.gpu().take_fault() {

@@ -881,19 +881,19 @@ impl Model {
         let name = self.fresh("m");
         m.keys.push(("name".into(), format!("\"{name}\"")));
         let point = |rng: &mut Rng| {
-            rng.value(&["[0.0, 0.0, 0.0]", "[3.0, -2.0, 5.0]", "[50.0, 0.0, 0.0]", "\"clip_plane_gm\""], &[
-                "[0.0, 0.0]",
-                "[nan, 0.0, 0.0]",
-                "\"no_such_uniform\"",
-                "\"step_size\"",
-                "1.0",
-            ])
+            rng.value(
+                &["[0.0, 0.0, 0.0]", "[3.0, -2.0, 5.0]", "[50.0, 0.0, 0.0]", "\"clip_plane_gm\""],
+                &["[0.0, 0.0]", "[nan, 0.0, 0.0]", "\"no_such_uniform\"", "\"step_size\"", "1.0"],
+            )
         };
         let what = match rng.below(6) {
             0 => {
                 m.keys.push(("shape".into(), "\"needle\"".into()));
                 m.keys.push(("tip".into(), point(rng)));
-                m.keys.push(("direction".into(), rng.value(&["[0.0, 0.0, 1.0]", "[1.0, 1.0, 0.0]"], &["[0.0, 0.0, 0.0]"])));
+                m.keys.push((
+                    "direction".into(),
+                    rng.value(&["[0.0, 0.0, 1.0]", "[1.0, 1.0, 0.0]"], &["[0.0, 0.0, 0.0]"]),
+                ));
                 m.keys.push(("radius".into(), rng.value(&["1.0", "0.2", "10.0"], &["0.0", "-1.0", "nan", "1e30"])));
                 "needle"
             }
@@ -907,7 +907,8 @@ impl Model {
             2 => {
                 m.keys.push(("shape".into(), "\"box\"".into()));
                 m.keys.push(("min".into(), point(rng)));
-                m.keys.push(("max".into(), rng.value(&["[10.0, 10.0, 10.0]"], &["[0.0, 0.0, 0.0]", "[1e30, 0.0, 1.0]"])));
+                m.keys
+                    .push(("max".into(), rng.value(&["[10.0, 10.0, 10.0]"], &["[0.0, 0.0, 0.0]", "[1e30, 0.0, 1.0]"])));
                 m.keys.push(("color".into(), rng.value(&["[1.0, 0.0, 0.0]"], &["[2.0, 0.0, 0.0]", "[1.0]"])));
                 "box"
             }
@@ -915,10 +916,19 @@ impl Model {
                 m.keys.push(("shape".into(), "\"cylinder\"".into()));
                 m.keys.push(("base".into(), point(rng)));
                 m.keys.push(("tip".into(), point(rng)));
-                m.keys.push(("transform".into(), rng.value(&[
-                    "[[1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [5.0, 0.0, 0.0, 1.0]]",
-                    "[[0.0, 0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0]]",
-                ], &["[[1.0]]", "[[nan, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 1.0]]"])));
+                m.keys.push((
+                    "transform".into(),
+                    rng.value(
+                        &[
+                            "[[1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [5.0, 0.0, 0.0, 1.0]]",
+                            "[[0.0, 0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0]]",
+                        ],
+                        &[
+                            "[[1.0]]",
+                            "[[nan, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 1.0]]",
+                        ],
+                    ),
+                ));
                 "cylinder"
             }
             _ => {

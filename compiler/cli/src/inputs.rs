@@ -64,15 +64,18 @@ pub fn check_scene_inputs(scene: &Scene) -> Vec<Diagnostic> {
 }
 
 /// A mesh that cannot be made: its file (at the path) or its shape (at the table). Shapes that
-/// follow uniforms are made by the runtime from the uniforms' values.
+/// follow uniforms are made by the runtime from the uniforms' values, and surfaces from the
+/// volume's samples, which `render` reads.
 fn check_mesh(mesh: &vrsc::scene::Mesh) -> Option<Diagnostic> {
-    if !mesh.followed_uniforms().is_empty() {
+    if !mesh.followed_uniforms().is_empty() || matches!(mesh.source, MeshSource::Surface { .. }) {
         return None;
     }
-    let error = vrs_runtime::scene::mesh_surface(mesh, &[]).err()?.to_string();
+    let no_volume = |_: &str| Err(vrs_runtime::RuntimeError::Invalid("no volume".into()));
+    let error = vrs_runtime::scene::mesh_surface(mesh, &[], &no_volume).err()?.to_string();
     Some(match &mesh.source {
-        MeshSource::File { file, .. } => invalid(file.span, error, "this file")
-            .with_note(format!("resolved to `{}`", file.resolved.display())),
+        MeshSource::File { file, .. } => {
+            invalid(file.span, error, "this file").with_note(format!("resolved to `{}`", file.resolved.display()))
+        }
         _ => invalid(mesh.span, error, "this shape"),
     })
 }

@@ -185,3 +185,41 @@ fn a_compressed_volume_claiming_a_huge_size_is_a_clean_build_and_render_error() 
     assert_eq!((code, id.as_str(), line), (1, "E0702", 7), "{message}");
     assert!(message.contains(claim), "{message}");
 }
+
+/// Bad mesh files are build errors at their `path` (line 8 of the scene below), exit 1, with a
+/// message that says what is wrong; memory stays bounded (a header claiming a million triangles
+/// in 1 KB is refused before anything is allocated); nothing panics. Render refuses them the same.
+#[test]
+fn bad_mesh_files_are_build_errors_at_their_path() {
+    let triangle = |z: f32| -> Vec<u8> {
+        let mut t = vec![0u8; 12];
+        for v in [[0.0f32, 0.0, z], [1.0, 0.0, z], [0.0, 1.0, z]] {
+            t.extend(v.iter().flat_map(|c| c.to_le_bytes()));
+        }
+        t.extend([0u8; 2]);
+        t
+    };
+    let stl = |count: u32, body: Vec<u8>| [vec![0u8; 80], count.to_le_bytes().to_vec(), body].concat();
+    let cases: Vec<(&str, Vec<u8>, &str)> = vec![
+        ("claims.stl", stl(1_000_000, vec![0u8; 940]), "claims 1000000 triangles"),
+        ("truncated.stl", stl(10, triangle(0.0)), "truncated"),
+        ("nan.stl", stl(1, triangle(f32::NAN)), "not all finite"),
+        ("empty.stl", stl(0, Vec::new()), "no triangles"),
+        ("range.obj", b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n".to_vec(), "out of"),
+        ("faceless.ply", b"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 0\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n".to_vec(), "no triangles"),
+        ("junk.ply", b"not a ply file at all".to_vec(), "PLY"),
+    ];
+    for (file, bytes, expected) in cases {
+        let dir = tempfile::tempdir().expect("a folder");
+        std::fs::write(dir.path().join(file), bytes).expect("mesh written");
+        let scene = dir.path().join("scene.toml");
+        let text = format!(
+            "[[volume]]\nname = \"head\"\nrole = \"primary\"\nphantom = \"head\"\n\n[[mesh]]\nname = \"bad\"\npath = \"{file}\"\n\n[[view]]\nname = \"3d\"\n"
+        );
+        std::fs::write(&scene, text).expect("scene written");
+        let (code, diags) = build(&scene);
+        let (id, line, message) = only(&diags);
+        assert_eq!((code, id.as_str(), line), (1, "E0702", 8), "{file}: {message}");
+        assert!(message.contains(expected), "{file}: {message}");
+    }
+}

@@ -1,6 +1,7 @@
-//! `vrsc view` in a real window under Xvfb on the software adapter: the picture appears, and an
-//! orbit dragged with the mouse changes it (screenshots with ImageMagick's `import`, the drag
-//! with `xdotool`; `.ci/run` installs all three).
+//! `vrsc view` in a real window under Xvfb on the software adapter: the picture appears, an
+//! orbit dragged with the mouse changes it, and dragging the ablation needle's marker in a slice
+//! view moves its zone (screenshots with ImageMagick's `import`, the drags with `xdotool`;
+//! `.ci/run` installs all three).
 
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
@@ -55,14 +56,19 @@ fn mean_difference(a: &image::RgbaImage, b: &image::RgbaImage) -> f64 {
     total as f64 / (a.width() * a.height() * 3).max(1) as f64
 }
 
-/// Screenshots until two in a row agree (the picture has refined), up to `limit`.
-fn settled(display: &str, path: &Path, limit: Duration) -> image::RgbaImage {
+/// Screenshots until two in a row agree in `region` (the picture has refined), up to `limit`.
+fn settled(
+    display: &str,
+    path: &Path,
+    limit: Duration,
+    region: fn(&image::RgbaImage) -> image::RgbaImage,
+) -> image::RgbaImage {
     let deadline = Instant::now() + limit;
     let mut last: Option<image::RgbaImage> = None;
     loop {
         std::thread::sleep(Duration::from_millis(1500));
         let shot = screenshot(display, path).expect("a screenshot of the Xvfb display");
-        let view = first_view(&shot);
+        let view = region(&shot);
         let stable = last.as_ref().is_some_and(|l| mean_difference(l, &view) < 0.05);
         if (stable && distinct_colours(&view) > 20) || Instant::now() > deadline {
             return view;
@@ -96,8 +102,9 @@ fn still_running(viewer: &mut Killed, log: &Path) {
     }
 }
 
-#[test]
-fn the_window_shows_the_scene_and_an_orbit_changes_the_picture() {
+/// Whether the window tools are here; without them the test fails unless `VRS_NO_WINDOW_TEST`
+/// asks to skip it.
+fn window_tools() -> bool {
     let missing: Vec<&str> = ["Xvfb", "xdotool", "import"].into_iter().filter(|t| !have(t)).collect();
     if !missing.is_empty() {
         assert!(
@@ -106,25 +113,44 @@ fn the_window_shows_the_scene_and_an_orbit_changes_the_picture() {
              set VRS_NO_WINDOW_TEST=1 to run the other tests without them"
         );
         eprintln!("window test skipped on request: {missing:?} missing");
+        return false;
+    }
+    true
+}
+
+/// `vrsc view SCENE --software` on `display`, printing into `log`.
+fn start_viewer(scene: &Path, display: &str, runtime_dir: &Path, log: &Path) -> Killed {
+    Killed(
+        Command::new(env!("CARGO_BIN_EXE_vrsc"))
+            .args(["view", &scene.display().to_string(), "--software"])
+            .env("DISPLAY", display)
+            .env("XDG_RUNTIME_DIR", runtime_dir)
+            .env_remove("WAYLAND_DISPLAY")
+            .stderr(std::fs::File::create(log).unwrap())
+            .spawn()
+            .expect("vrsc view starts"),
+    )
+}
+
+/// Runs `xdotool` with `script` (words separated by single spaces) on `display`.
+fn xdotool(display: &str, script: &str) {
+    let status = Command::new("xdotool").args(script.split(' ')).env("DISPLAY", display).status().unwrap();
+    assert!(status.success(), "xdotool drives the mouse");
+}
+
+#[test]
+fn the_window_shows_the_scene_and_an_orbit_changes_the_picture() {
+    if !window_tools() {
         return;
     }
     let (_xvfb, display) = start_xvfb();
     let scene: PathBuf = [env!("CARGO_MANIFEST_DIR"), "..", "..", "examples", "basic", "scene.toml"].iter().collect();
     let runtime_dir = tempfile::tempdir().unwrap();
     let log_path = runtime_dir.path().join("viewer.log");
-    let mut viewer = Killed(
-        Command::new(env!("CARGO_BIN_EXE_vrsc"))
-            .args(["view", &scene.display().to_string(), "--software"])
-            .env("DISPLAY", &display)
-            .env("XDG_RUNTIME_DIR", runtime_dir.path())
-            .env_remove("WAYLAND_DISPLAY")
-            .stderr(std::fs::File::create(&log_path).unwrap())
-            .spawn()
-            .expect("vrsc view starts"),
-    );
+    let mut viewer = start_viewer(&scene, &display, runtime_dir.path(), &log_path);
     let dir = tempfile::tempdir().unwrap();
     let shot = dir.path().join("shot.png");
-    let before = settled(&display, &shot, Duration::from_secs(90));
+    let before = settled(&display, &shot, Duration::from_secs(90), first_view);
     still_running(&mut viewer, &log_path);
     assert!(
         distinct_colours(&before) > 20,
@@ -145,11 +171,131 @@ fn the_window_shows_the_scene_and_an_orbit_changes_the_picture() {
         x + 90,
         x + 140
     );
-    let status = Command::new("xdotool").args(drag.split(' ')).env("DISPLAY", &display).status().unwrap();
-    assert!(status.success(), "xdotool drives the mouse");
-    let after = settled(&display, &shot, Duration::from_secs(90));
+    xdotool(&display, &drag);
+    let after = settled(&display, &shot, Duration::from_secs(90), first_view);
     still_running(&mut viewer, &log_path);
     let difference = mean_difference(&before, &after);
     assert!(difference > 1.0, "the orbit must change the picture (mean difference {difference:.3} of 255)");
     assert!(distinct_colours(&after) > 20, "the orbited view is blank");
+}
+
+/// The ablation example with only its axial view, needle A and zone A: one marker, one zone
+/// fill, and no 3D view to render (a quicker test). Written into `dir` with the modules.
+fn axial_ablation(dir: &Path) -> PathBuf {
+    let example: PathBuf = [env!("CARGO_MANIFEST_DIR"), "..", "..", "examples", "ablation"].iter().collect();
+    for entry in std::fs::read_dir(&example).unwrap().flatten() {
+        if entry.path().extension().is_some_and(|e| e == "vrs") {
+            std::fs::copy(entry.path(), dir.join(entry.file_name())).unwrap();
+        }
+    }
+    let text = std::fs::read_to_string(example.join("scene.toml")).unwrap();
+    // The tables of the scene, each from its header to the next.
+    let mut tables: Vec<String> = Vec::new();
+    for line in text.lines() {
+        if line.starts_with('[') || tables.is_empty() {
+            tables.push(String::new());
+        }
+        let table = tables.last_mut().unwrap();
+        table.push_str(line);
+        table.push('\n');
+    }
+    let dropped = ["[[view]]\nname = \"3d\"\n", "[[mesh]]\nname = \"needle_b\"\n"];
+    for table in dropped {
+        assert!(tables.iter().any(|t| t.starts_with(table)), "examples/ablation/scene.toml has no {table:?}");
+    }
+    tables.retain(|t| !dropped.iter().any(|d| t.starts_with(d)));
+    let uniforms = tables.iter_mut().find(|t| t.starts_with("[uniforms]\n")).expect("a [uniforms] table");
+    uniforms.insert_str("[uniforms]\n".len(), "zone_enabled_b = false\n");
+    let path = dir.join("scene.toml");
+    std::fs::write(&path, tables.concat()).unwrap();
+    path
+}
+
+/// Whether a pixel is a mesh point's marker (the viewer's `MARKER`, (60, 255, 120)).
+fn is_marker(p: &image::Rgba<u8>) -> bool {
+    p[0].abs_diff(60) < 50 && p[1] > 200 && p[2].abs_diff(120) < 50
+}
+
+/// Whether a pixel is the ablation zone's fill: its colour (1.0, 0.75, 0.1) at 45% over the
+/// slice, so orange to olive: red well above blue, green between.
+fn is_fill(p: &image::Rgba<u8>) -> bool {
+    let [r, g, b] = [p[0], p[1], p[2]].map(f32::from);
+    r > 110.0 && b < 0.42 * r && g > 0.5 * r && g < 0.88 * r
+}
+
+/// The centroid and count of the pixels of `shot` that pass `test`, within `area` (x0, y0, x1,
+/// y1), if any do.
+fn centroid(shot: &image::RgbaImage, area: [u32; 4], test: fn(&image::Rgba<u8>) -> bool) -> Option<([f32; 2], usize)> {
+    let [x0, y0, x1, y1] = area;
+    let (mut sum, mut n) = ([0.0f64; 2], 0usize);
+    for y in y0..y1.min(shot.height()) {
+        for x in x0..x1.min(shot.width()) {
+            if test(shot.get_pixel(x, y)) {
+                sum = [sum[0] + x as f64, sum[1] + y as f64];
+                n += 1;
+            }
+        }
+    }
+    (n > 0).then(|| ([(sum[0] / n as f64) as f32, (sum[1] / n as f64) as f32], n))
+}
+
+fn whole(shot: &image::RgbaImage) -> image::RgbaImage {
+    shot.clone()
+}
+
+#[test]
+fn dragging_the_needle_marker_in_the_axial_view_moves_the_ablation_zone() {
+    if !window_tools() {
+        return;
+    }
+    let scenes = tempfile::tempdir().unwrap();
+    let scene = axial_ablation(scenes.path());
+    let (_xvfb, display) = start_xvfb();
+    let runtime_dir = tempfile::tempdir().unwrap();
+    let log_path = runtime_dir.path().join("viewer.log");
+    let mut viewer = start_viewer(&scene, &display, runtime_dir.path(), &log_path);
+    let dir = tempfile::tempdir().unwrap();
+    let shot = dir.path().join("shot.png");
+    let before = settled(&display, &shot, Duration::from_secs(90), whole);
+    still_running(&mut viewer, &log_path);
+    let everywhere = [0, 0, before.width(), before.height()];
+    let printed = || std::fs::read_to_string(&log_path).unwrap_or_default();
+    let (marker, ring) = centroid(&before, everywhere, is_marker)
+        .unwrap_or_else(|| panic!("no marker of needle A's tip on the screen; the viewer printed:\n{}", printed()));
+    assert!(ring > 20, "a marker is a ring: {ring} pixels");
+    // Around the marker: the zone (a few centimetres at most) before and after the drag, and
+    // nothing of the side panel.
+    let [mx, my] = marker.map(|c| c.round() as u32);
+    let area = [mx.saturating_sub(160), my.saturating_sub(160), mx + 160, my + 160];
+    let (zone_before, filled) = centroid(&before, area, is_fill).expect("zone A's fill around the needle's marker");
+    assert!(filled > 200, "zone A's fill is {filled} pixels");
+
+    // Press on the marker, drag 40 pixels right and down in steps (paced, so that a loaded
+    // machine's slow frames still see a drag), release.
+    let drag = [32.0f32, 24.0];
+    let mut script = format!("mousemove {mx} {my} mousedown 1 sleep 0.4");
+    for step in 1..=4 {
+        let at = [marker[0] + drag[0] * step as f32 / 4.0, marker[1] + drag[1] * step as f32 / 4.0];
+        script += &format!(" mousemove {} {} sleep 0.4", at[0].round(), at[1].round());
+    }
+    script += " mouseup 1";
+    xdotool(&display, &script);
+    let after = settled(&display, &shot, Duration::from_secs(90), whole);
+    still_running(&mut viewer, &log_path);
+    let (moved_marker, _) = centroid(&after, everywhere, is_marker).expect("the marker after the drag");
+    let (zone_after, filled_after) = centroid(&after, area, is_fill).expect("zone A's fill after the drag");
+    let shift = |a: [f32; 2], b: [f32; 2]| [b[0] - a[0], b[1] - a[1]];
+    let (marker_shift, zone_shift) = (shift(marker, moved_marker), shift(zone_before, zone_after));
+    let report = format!(
+        "marker {marker:?} -> {moved_marker:?}, zone fill {zone_before:?} ({filled} px) -> {zone_after:?} \
+         ({filled_after} px), drag {drag:?}"
+    );
+    eprintln!("{report}");
+    let off = |s: [f32; 2]| ((s[0] - drag[0]).powi(2) + (s[1] - drag[1]).powi(2)).sqrt();
+    // The marker is under the cursor again (it follows the tip within a pixel or two)...
+    assert!(off(marker_shift) < 4.0, "the marker follows the drag: {report}");
+    // ...and the zone moved the same way (its cut by the slice changes a little as its centre
+    // moves, so its outline is not just translated).
+    let along = (zone_shift[0] * drag[0] + zone_shift[1] * drag[1]) / 40.0;
+    assert!(along > 28.0 && off(zone_shift) < 12.0, "the zone's fill moves with the needle: {report}");
 }

@@ -21,6 +21,9 @@ pub enum MeshSource {
     Sphere { centre: Point, radius: f32 },
     /// `shape = "box"`: the axis-aligned box from `min` to `max`.
     Box { min: Point, max: Point },
+    /// `volume = "NAME"`: the surface where volume NAME's data values cross `level` (data units;
+    /// 0.5 by default, a label or mask's border), by marching cubes.
+    Surface { volume: Located<String>, level: f32 },
 }
 
 /// The axes a mesh file's coordinates use.
@@ -73,7 +76,7 @@ impl Mesh {
     /// The uniforms the mesh's shape follows, each with the span of its use.
     pub fn followed_uniforms(&self) -> Vec<&Located<String>> {
         let points: Vec<&Point> = match &self.source {
-            MeshSource::File { .. } => vec![],
+            MeshSource::File { .. } | MeshSource::Surface { .. } => vec![],
             MeshSource::Needle { tip, direction, .. } => vec![tip, direction],
             MeshSource::Cylinder { base, tip, .. } => vec![base, tip],
             MeshSource::Sphere { centre, .. } => vec![centre],
@@ -99,6 +102,8 @@ pub(super) struct RawMesh {
     pub(super) name: Spanned<String>,
     pub(super) path: Option<Spanned<String>>,
     pub(super) shape: Option<Spanned<String>>,
+    pub(super) volume: Option<Spanned<String>>,
+    pub(super) level: Option<Spanned<f32>>,
     pub(super) coordinates: Option<Spanned<Coordinates>>,
     pub(super) tip: Option<Spanned<RawPoint>>,
     pub(super) direction: Option<Spanned<RawPoint>>,
@@ -117,6 +122,8 @@ pub(super) const MESH_KEYS: &[&str] = &[
     "name",
     "path",
     "shape",
+    "volume",
+    "level",
     "coordinates",
     "tip",
     "direction",
@@ -145,7 +152,7 @@ pub(super) enum RawPoint {
 // Validation.
 
 impl Cx<'_> {
-    pub(super) fn meshes(&mut self, raw: Vec<Spanned<RawMesh>>) -> Vec<Mesh> {
+    pub(super) fn meshes(&mut self, raw: Vec<Spanned<RawMesh>>, volumes: &[Volume]) -> Vec<Mesh> {
         let mut out: Vec<Mesh> = Vec::new();
         for m in raw {
             let span = self.span(&m);
@@ -162,6 +169,19 @@ impl Cx<'_> {
                 );
             }
             let source = self.mesh_source(&m, &name);
+            if let MeshSource::Surface { volume, .. } = &source
+                && !volumes.iter().any(|v| v.name.name == volume.value)
+            {
+                let mut d = self
+                    .invalid(volume.span, format!("the scene has no volume `{}`", volume.value))
+                    .with_label("not a [[volume]] name");
+                if let Some(s) =
+                    crate::suggest::did_you_mean(&volume.value, volumes.iter().map(|v| v.name.name.as_str()))
+                {
+                    d = d.with_help(format!("did you mean `{s}`?"));
+                }
+                self.emit(d);
+            }
             let color = match &m.color {
                 Some(c) => self.unit_components(c, "color"),
                 None => DEFAULT_MESH_COLOR,
@@ -192,6 +212,12 @@ impl Cx<'_> {
     }
 
     fn mesh_source(&mut self, m: &RawMesh, name: &Ident) -> MeshSource {
+        if let Some(volume) = &m.volume {
+            return self.surface(m, volume);
+        }
+        if let Some(level) = &m.level {
+            self.ignored(level, "level", "without `volume` (it is the surface's value)");
+        }
         match (&m.path, &m.shape) {
             (Some(path), None) => {
                 self.keys_unused(m, &[], "on a mesh read from a file");
@@ -218,6 +244,28 @@ impl Cx<'_> {
                 MeshSource::Box { min: Point::Value([0.0; 3]), max: Point::Value([1.0; 3]) }
             }
         }
+    }
+
+    /// The surface of a volume at a level.
+    fn surface(&mut self, m: &RawMesh, volume: &Spanned<String>) -> MeshSource {
+        for (other, key) in [(&m.path, "path"), (&m.shape, "shape")] {
+            if let Some(o) = other {
+                self.emit(
+                    self.invalid(self.span(o), format!("a mesh has one source: `volume` or `{key}`, not both"))
+                        .with_secondary(self.span(volume), "the surface's volume"),
+                );
+            }
+        }
+        self.keys_unused(m, &[], "on a surface extracted from a volume");
+        let level = match &m.level {
+            Some(l) if !l.get_ref().is_finite() => {
+                self.emit(self.invalid(self.span(l), "a surface's `level` must be a number (data units)"));
+                0.5
+            }
+            Some(l) => *l.get_ref(),
+            None => 0.5,
+        };
+        MeshSource::Surface { volume: Located { value: volume.get_ref().clone(), span: self.span(volume) }, level }
     }
 
     /// A built-in shape and its parameters; parameters of other shapes are warned about.

@@ -101,7 +101,7 @@ impl Cx<'_> {
         let volumes = self.volumes(raw.volumes);
         let modules = raw.modules.into_iter().map(|m| self.module(m)).collect();
         let uniforms = self.uniforms(raw.uniforms, &render);
-        let meshes = self.meshes(raw.meshes);
+        let meshes = self.meshes(raw.meshes, &volumes);
         let views = self.views(raw.views, shared.as_ref(), &render, &meshes);
         Scene { render, volumes, modules, uniforms, views, meshes, dir: self.dir.to_path_buf() }
     }

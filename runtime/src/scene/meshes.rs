@@ -6,13 +6,14 @@
 use super::{SceneRenderer, SceneView, VolumeGrid};
 use crate::error::RuntimeError;
 use crate::geometry::{self, ShaderPlane};
-use crate::mesh::{self, Mesh, shapes};
+use crate::mesh::{self, Mesh, isosurface, shapes};
 use crate::mesh_layer::outline::SliceFrame;
 use crate::mesh_layer::{GpuMesh, LayerCamera, MeshInstance, SLICE_PLANE_DEPTH, pipelines::MeshPipelines};
 use crate::uniforms::Value;
+use crate::volume::Volume;
 use glam::{Mat4, Vec3, Vec4};
 use std::sync::Arc;
-use vrsc::scene::{self as vscene, MeshSource, Point, Scene};
+use vrsc::scene::{self as vscene, MeshSource, Point, Scene, VolumeSource};
 
 /// How far from a slice plane (mm) its mesh layer's depth range reaches on either side.
 const SLICE_DEPTH_REACH: f32 = 1000.0;
@@ -40,7 +41,7 @@ impl SceneRenderer {
         let mut followed = Vec::with_capacity(scene.meshes.len());
         for table in &scene.meshes {
             let points = self.followed_values(table);
-            let surface = mesh_surface(table, &points)?;
+            let surface = mesh_surface(table, &points, &|name| self.volume_on_cpu(scene, name))?;
             instances.push(self.instance(table, surface)?);
             followed.push(points);
         }
@@ -64,7 +65,7 @@ impl SceneRenderer {
             if points == self.meshes.followed[i] {
                 continue;
             }
-            let surface = mesh_surface(table, &points)?;
+            let surface = mesh_surface(table, &points, &|_| Err(no_surface_volume()))?;
             let instance = self.instance(table, surface)?;
             self.resources.meshes[i] = instance;
             self.meshes.followed[i] = points;
@@ -77,6 +78,22 @@ impl SceneRenderer {
     /// each), in the order of [`vscene::Mesh::followed_uniforms`].
     fn followed_values(&self, table: &vscene::Mesh) -> Vec<[f32; 3]> {
         table.followed_uniforms().iter().map(|u| self.uniform_vec3(&u.value).unwrap_or([0.0; 3])).collect()
+    }
+
+    /// The samples of scene volume `name`, read again on the CPU (the textures hold no copy), for
+    /// a surface extracted from it.
+    fn volume_on_cpu(&self, scene: &Scene, name: &str) -> Result<Volume, RuntimeError> {
+        let v = scene.volumes.iter().find(|v| v.name.name == name).ok_or_else(no_surface_volume)?;
+        let invalid = |e: String| RuntimeError::Invalid(format!("volume `{name}`: {e}"));
+        let phantom =
+            |p: &str| crate::volume::phantom(p, self.options.phantom_size).map_err(|e| invalid(e.to_string()));
+        match (&v.source, &v.fallback) {
+            (VolumeSource::File(file), Some(fallback)) if !file.resolved.exists() => phantom(&fallback.value),
+            (VolumeSource::File(file), _) => {
+                crate::volume::load(&file.resolved, &mut |_, _| {}).map_err(|e| invalid(e.to_string()))
+            }
+            (VolumeSource::Phantom(p), _) => phantom(&p.value),
+        }
     }
 
     fn uniform_vec3(&self, name: &str) -> Option<[f32; 3]> {
@@ -127,10 +144,19 @@ impl SceneRenderer {
     }
 }
 
-/// The surface of a mesh table: its file loaded (within [`mesh::Limits::default`]) or its shape
-/// made, with `points` the values of the uniforms it follows (in the order of
-/// [`vscene::Mesh::followed_uniforms`]; zero where missing).
-pub fn mesh_surface(table: &vscene::Mesh, points: &[[f32; 3]]) -> Result<Mesh, RuntimeError> {
+fn no_surface_volume() -> RuntimeError {
+    RuntimeError::Invalid("a surface's volume is not in the scene".into())
+}
+
+/// The surface of a mesh table: its file loaded (within [`mesh::Limits::default`]), its shape
+/// made with `points` the values of the uniforms it follows (in the order of
+/// [`vscene::Mesh::followed_uniforms`]; zero where missing), or the surface of the volume
+/// `volume(NAME)` gives at its level.
+pub fn mesh_surface(
+    table: &vscene::Mesh,
+    points: &[[f32; 3]],
+    volume: &dyn Fn(&str) -> Result<Volume, RuntimeError>,
+) -> Result<Mesh, RuntimeError> {
     let mut followed = points.iter();
     let mut point = |p: &Point| -> Vec3 {
         match p {
@@ -156,6 +182,9 @@ pub fn mesh_surface(table: &vscene::Mesh, points: &[[f32; 3]]) -> Result<Mesh, R
             shapes::cylinder(base, tip, *radius, NEEDLE_SEGMENTS)
         }
         MeshSource::Sphere { centre, radius } => shapes::sphere(point(centre), *radius, 32, 64),
+        MeshSource::Surface { volume: name, level } => {
+            isosurface::extract(&volume(&name.value)?, *level, &mesh::Limits::default())
+        }
         MeshSource::Box { min, max } => {
             let (min, max) = (point(min), point(max));
             shapes::cuboid(min, max)
@@ -202,12 +231,8 @@ fn slice_frame(view: &SceneView, primary: &VolumeGrid) -> Option<(SliceFrame, Ma
     let to_world = geometry::volume_to_world(primary.dims, primary.grid_to_world);
     let [w, h] = view.renderer.size();
     let plane = ShaderPlane::new(plane.oriented(view.convention), to_world, w as f32 / h.max(1) as f32);
-    let image_to_volume = Mat4::from_cols(
-        plane.u.extend(0.0),
-        plane.v.extend(0.0),
-        plane.normal.extend(0.0),
-        plane.origin.extend(1.0),
-    );
+    let image_to_volume =
+        Mat4::from_cols(plane.u.extend(0.0), plane.v.extend(0.0), plane.normal.extend(0.0), plane.origin.extend(1.0));
     let image_to_world = to_world * image_to_volume;
     Some((SliceFrame { image_to_world, world_to_image: image_to_world.inverse() }, image_to_volume))
 }

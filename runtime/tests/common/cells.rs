@@ -281,13 +281,17 @@ impl MeshCell {
         let roles: &[Role] = if self.additional { &[Role::Additional] } else { &[] };
         let kind = if self.slice { "kind = \"slice\"\naxis = \"axial\"\nslab = 6.0" } else { "kind = \"raycast\"" };
         let needle = |tip: &str| {
-            format!("\n[[mesh]]\nname = \"needle\"\nshape = \"needle\"\ntip = {tip}\ndirection = [0.3, 0.2, 1.0]\nradius = 1.5\n")
+            format!(
+                "\n[[mesh]]\nname = \"needle\"\nshape = \"needle\"\ntip = {tip}\ndirection = [0.3, 0.2, 1.0]\nradius = 1.5\n"
+            )
         };
         let meshes = match self.meshes {
             "none" => String::new(),
             "needle" => needle("[2.0, 1.0, 0.0]"),
-            "needle+translucent" => needle("[2.0, 1.0, 0.0]")
-                + "\n[[mesh]]\nname = \"ball\"\nshape = \"sphere\"\ncentre = [-4.0, 0.0, 2.0]\nradius = 5.0\nopacity = 0.4\n",
+            "needle+translucent" => {
+                needle("[2.0, 1.0, 0.0]")
+                    + "\n[[mesh]]\nname = \"ball\"\nshape = \"sphere\"\ncentre = [-4.0, 0.0, 2.0]\nradius = 5.0\nopacity = 0.4\n"
+            }
             _ => needle("\"target\"") + "\n[[module]]\npath = \"target.vrs\"\n",
         };
         format!(
