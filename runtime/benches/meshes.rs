@@ -9,8 +9,12 @@
 //! phantom (said in the output). Run: `cargo bench -p vrs-runtime --bench meshes`; settings:
 //! `VRS_BENCH_SIZE` (512), `VRS_BENCH_ROUNDS` (4), `VRS_BENCH_FRAMES` (2).
 
+#[path = "timing.rs"]
+mod timing;
+
 use std::path::Path;
 use std::time::Instant;
+use timing::median;
 use vrs_runtime::mesh::shapes;
 use vrs_runtime::{AdapterChoice, Gpu, RenderOptions, SceneRenderer};
 
@@ -66,11 +70,6 @@ fn frame_times(scene: &mut SceneRenderer, frames: usize, turn: f32) -> Vec<f64> 
         }
     }
     times
-}
-
-fn median(mut times: Vec<f64>) -> f64 {
-    times.sort_by(f64::total_cmp);
-    times[times.len() / 2]
 }
 
 fn main() {

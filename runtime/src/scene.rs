@@ -53,8 +53,10 @@ pub struct SceneView {
     pub slice: Option<(SlicePlane, f32)>,
     /// Slice views: how the image puts the patient's sides (the scene's `convention`).
     pub convention: Convention,
-    /// The meshes its mesh layer draws (indices into the scene's meshes).
+    /// The meshes its mesh layer draws and those its overlay draws (indices into the scene's
+    /// meshes).
     pub meshes: Vec<usize>,
+    pub overlay: Vec<usize>,
 }
 
 /// A loaded scene, ready to render every frame.
@@ -399,8 +401,8 @@ impl SceneRenderer {
                 vscene::Convention::Radiological => Convention::Radiological,
                 vscene::Convention::Neurological => Convention::Neurological,
             };
-            let meshes = view.meshes.clone();
-            views.push(SceneView { name: output.name.clone(), renderer, camera, slice, convention, meshes });
+            let (meshes, overlay) = (view.meshes.clone(), view.overlay.clone());
+            views.push(SceneView { name: output.name.clone(), renderer, camera, slice, convention, meshes, overlay });
         }
         self.views = views;
         Ok(())
@@ -529,13 +531,13 @@ fn apply_view_uniforms(view: &mut SceneView, grids: &[VolumeGrid]) -> Result<(),
             r.set_uniform(&uniform, m)?;
         }
     }
-    if view.renderer.reads_mesh_layer()
+    if (view.renderer.reads_mesh_layer() || !view.overlay.is_empty())
         && let Some((camera, inv_proj)) = meshes::layer_camera(view, primary)
     {
         if view.renderer.has_uniform(GEOMETRY_INV_PROJ) {
             view.renderer.set_uniform(GEOMETRY_INV_PROJ, inv_proj)?;
         }
-        view.renderer.set_mesh_layer(camera, view.meshes.clone());
+        view.renderer.set_mesh_layer(camera, view.meshes.clone(), view.overlay.clone());
     }
     Ok(())
 }

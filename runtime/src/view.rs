@@ -4,7 +4,7 @@
 use crate::bindings::{self, DispatchResources};
 use crate::error::RuntimeError;
 use crate::gpu::Gpu;
-use crate::mesh_layer::{LayerCamera, MeshInstance, MeshLayer, pipelines::MeshPipelines};
+use crate::mesh_layer::{LayerCamera, MeshInstance, MeshLayer, Overlay, pipelines::MeshPipelines};
 use crate::metering::Metering;
 use crate::reflection::BindingKind;
 use crate::shader::{PipelineCache, ViewPipeline, ViewShader};
@@ -56,6 +56,10 @@ pub struct ViewRenderer {
     mesh_layers: Vec<MeshLayer>,
     layer_camera: Option<LayerCamera>,
     layer_meshes: Vec<usize>,
+    /// The meshes drawn over the picture (indices into `Resources::meshes`), and the overlay's
+    /// depth buffers (one per target size in use, the last used first).
+    overlay_meshes: Vec<usize>,
+    overlays: Vec<Overlay>,
 }
 
 /// Mesh layers kept per view: one for previews and one for the full image.
@@ -96,6 +100,8 @@ impl ViewRenderer {
             mesh_layers: Vec::new(),
             layer_camera: None,
             layer_meshes: Vec::new(),
+            overlay_meshes: Vec::new(),
+            overlays: Vec::new(),
         })
     }
 
@@ -131,11 +137,13 @@ impl ViewRenderer {
             .any(|b| matches!(b.kind, BindingKind::GeometryDepth | BindingKind::GeometryColor))
     }
 
-    /// How the mesh layer looks at the meshes and which it draws (indices into
-    /// `Resources::meshes`); without it the layer is empty (depth 1, no colour).
-    pub fn set_mesh_layer(&mut self, camera: LayerCamera, meshes: Vec<usize>) {
+    /// How the mesh layer and the overlay look at the meshes, and which each draws (indices
+    /// into `Resources::meshes`); without it the layer is empty (depth 1, no colour) and
+    /// nothing is drawn over the picture.
+    pub fn set_mesh_layer(&mut self, camera: LayerCamera, meshes: Vec<usize>, overlay: Vec<usize>) {
         self.layer_camera = Some(camera);
         self.layer_meshes = meshes;
+        self.overlay_meshes = overlay;
     }
 
     /// The mesh layer as last drawn, at the size of the last target (for probes and tests).
@@ -166,6 +174,31 @@ impl ViewRenderer {
         };
         let camera = self.layer_camera.unwrap_or(LayerCamera::Projection { world_to_clip: glam::Mat4::IDENTITY });
         layer.encode(gpu, resources.mesh_pipelines.as_ref(), encoder, &camera, &meshes, resources.mesh_generation)
+    }
+
+    /// Records the overlay's meshes over `target` (after the volume layer's pass).
+    fn encode_overlay(
+        &mut self,
+        gpu: &Gpu,
+        resources: &Resources,
+        encoder: &mut wgpu::CommandEncoder,
+        target: &wgpu::TextureView,
+    ) -> Result<(), RuntimeError> {
+        let (Some(camera), Some(pipelines)) = (&self.layer_camera, &resources.mesh_pipelines) else { return Ok(()) };
+        let meshes: Vec<&MeshInstance> = self.overlay_meshes.iter().filter_map(|&i| resources.meshes.get(i)).collect();
+        if meshes.is_empty() {
+            return Ok(());
+        }
+        let size = target.texture().size();
+        let size = [size.width, size.height];
+        match self.overlays.iter().position(|o| o.size() == size) {
+            Some(i) => self.overlays[..=i].rotate_right(1),
+            None => {
+                self.overlays.insert(0, Overlay::new(gpu, size)?);
+                self.overlays.truncate(MESH_LAYER_SIZES);
+            }
+        }
+        self.overlays[0].encode(gpu, pipelines, encoder, target, camera, &meshes)
     }
 
     /// Swaps in another shader of the same view (a structural change), keeping the size. Uniform
@@ -278,7 +311,7 @@ impl ViewRenderer {
         if let Some(metering) = &self.metering {
             metering.after_pass(gpu, encoder)?;
         }
-        Ok(())
+        self.encode_overlay(gpu, resources, encoder, target)
     }
 
     /// Renders and reads the image back (straight alpha RGBA8).
@@ -356,11 +389,13 @@ impl Region {
 }
 
 /// A texture a view can render into (see [`ViewRenderer::encode_into`]): `Rgba8Unorm`, written
-/// as storage, sampled by an application, copied out for read-back. A size beyond the device's
+/// as storage (and as a render attachment by the overlay), sampled by an application, copied
+/// out for read-back. A size beyond the device's
 /// limits (or its memory) is an error.
 pub fn create_output(gpu: &Gpu, [w, h]: [u32; 2]) -> Result<wgpu::Texture, RuntimeError> {
     let usage = wgpu::TextureUsages::STORAGE_BINDING
         | wgpu::TextureUsages::TEXTURE_BINDING
+        | wgpu::TextureUsages::RENDER_ATTACHMENT
         | wgpu::TextureUsages::COPY_SRC
         | wgpu::TextureUsages::COPY_DST;
     let image = Image2d { label: "view output", size: [w, h], format: wgpu::TextureFormat::Rgba8Unorm, usage };

@@ -170,7 +170,7 @@ fn a_slice_outlines_where_a_needle_crosses_it() {
         if red(p) {
             assert!((r - 3.0).abs() < 0.75, "red pixel ({x}, {y}) {r:.2} mm from the needle's axis");
             ring += 1;
-        } else if r < 2.0 || r > 4.0 {
+        } else if !(2.0..=4.0).contains(&r) {
             assert!(p[0] > 30 && p[0] == p[1], "the slice shows at ({x}, {y}): {p:?}");
         }
     }
@@ -194,4 +194,31 @@ fn a_smaller_target_reads_a_mesh_layer_of_its_own_size() {
     let layer = scene.views[0].renderer.mesh_layer().expect("the view reads a mesh layer");
     assert_eq!(layer.size(), [32, 32]);
     assert_eq!(full.dimensions(), (64, 64));
+}
+
+/// An overlay draws its meshes over the finished picture: a red pin inside the volume shows at
+/// full colour over it, and dimmed by the volume in front of it when it is in the mesh layer
+/// instead.
+#[test]
+fn an_overlay_shows_a_mesh_over_the_volume_in_front_of_it() {
+    let dir = tempfile::tempdir().expect("a folder");
+    homogeneous_volume(dir.path());
+    let pin = "\n[[mesh]]\nname = \"pin\"\nshape = \"needle\"\ntip = [12.0, 14.0, 16.0]\ndirection = [0.0, 0.0, 1.0]\nlength = 10.0\nradius = 2.0\ncolor = [1.0, 0.0, 0.0]\n";
+    let with = |lists: &str| {
+        let text = SCENE
+            .replace("[[view]]", &format!("{pin}\n[[view]]"))
+            .replace("size = [64, 64]", &format!("size = [64, 64]\n{lists}"));
+        open(dir.path(), &text).render_all().expect("render").remove(0).1
+    };
+    let reddest =
+        |image: &image::RgbaImage| image.pixels().map(|p| i32::from(p[0]) - i32::from(p[1])).max().unwrap_or(0);
+    let over = with("meshes = [\"block\"]\noverlay = [\"pin\"]");
+    let under = with("meshes = [\"block\", \"pin\"]");
+    assert!(reddest(&over) > 200, "the overlay shows the pin at full colour ({})", reddest(&over));
+    assert!(
+        reddest(&under) < reddest(&over) - 40,
+        "under the volume the pin is dimmed ({} vs {})",
+        reddest(&under),
+        reddest(&over)
+    );
 }

@@ -7,9 +7,12 @@ mod common;
 
 use vrs_runtime::{ProbeAt, ProbeSpec, RenderOptions, SceneRenderer};
 
+/// Phantoms of 64^3 voxels of 1 mm, but for the ablation example, whose zones are placed in
+/// millimetres in the 128^3 abdomen.
 fn open(scene: &str) -> SceneRenderer {
     let gpu = common::software_gpu();
-    let options = RenderOptions { phantom_size: [64, 64, 64], size: Some([96, 96]) };
+    let side = if scene.contains("ablation") { 128 } else { 64 };
+    let options = RenderOptions { phantom_size: [side; 3], size: Some([96, 96]) };
     let path = common::root().join(scene);
     SceneRenderer::open(gpu, &path, options, &mut |_, _, _| {}).unwrap_or_else(|e| panic!("{scene}: {e}"))
 }

@@ -264,6 +264,9 @@ pub struct View {
     /// list, else every mesh of the scene. With any, the view has a mesh layer under its volume
     /// layer (`std::meshes`).
     pub meshes: Vec<usize>,
+    /// The meshes drawn over the finished picture (its `overlay` list; none without it): the
+    /// view's overlay layer, which no layer reads.
+    pub overlay: Vec<usize>,
     /// The whole `[[view]]` table.
     pub span: Span,
 }

@@ -102,9 +102,22 @@ pub(super) struct RawView {
     #[serde(default)]
     pub(super) modules: Vec<Spanned<RawModule>>,
     pub(super) meshes: Option<Spanned<Vec<Spanned<String>>>>,
+    pub(super) overlay: Option<Spanned<Vec<Spanned<String>>>>,
 }
-pub(super) const VIEW_KEYS: &[&str] =
-    &["name", "kind", "size", "camera", "axis", "position", "slab", "convention", "render", "modules", "meshes"];
+pub(super) const VIEW_KEYS: &[&str] = &[
+    "name",
+    "kind",
+    "size",
+    "camera",
+    "axis",
+    "position",
+    "slab",
+    "convention",
+    "render",
+    "modules",
+    "meshes",
+    "overlay",
+];
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(super) struct RawCamera {

@@ -633,6 +633,10 @@ impl Cx<'_> {
                 Some(own) => self.view_render(shared, own),
                 None => render.clone(),
             };
+            let overlay = match &v.overlay {
+                Some(list) => self.view_meshes(Some(list), meshes),
+                None => Vec::new(),
+            };
             let meshes = self.view_meshes(v.meshes.as_ref(), meshes);
             out.push(View {
                 name,
@@ -646,6 +650,7 @@ impl Cx<'_> {
                 render,
                 modules,
                 meshes,
+                overlay,
                 span,
             });
         }

@@ -9,16 +9,20 @@
 //! faces, in scene order) without writing it. A slice view draws where each mesh crosses its
 //! plane, as opaque outlines on the plane ([`outline`]).
 
+mod draws;
 pub mod outline;
+mod overlay;
 pub mod pipelines;
 
 use crate::error::RuntimeError;
 use crate::gpu::Gpu;
 use crate::mesh::Mesh;
 use crate::textures::Image2d;
+use draws::{DrawBuffer, Target};
 use glam::Mat4;
 use outline::SliceFrame;
-use pipelines::{COLOR_FORMAT, DEPTH_FORMAT, DEPTH_IMAGE_FORMAT, DRAW_SLOT, DrawUniforms, MeshPipelines};
+pub use overlay::Overlay;
+use pipelines::{COLOR_FORMAT, DEPTH_FORMAT, DEPTH_IMAGE_FORMAT, MeshPipelines};
 use std::sync::Arc;
 
 /// A mesh on the GPU: interleaved positions and normals, and triangle indices.
@@ -71,8 +75,6 @@ pub enum LayerCamera {
     Slice(SliceFrame),
 }
 
-/// Outline width in a slice view, in pixels.
-const OUTLINE_PIXELS: f32 = 2.0;
 /// The clip-space depth of the slice plane in a slice view's mesh layer.
 pub const SLICE_PLANE_DEPTH: f32 = 0.5;
 
@@ -86,7 +88,7 @@ pub struct MeshLayer {
     color_view: wgpu::TextureView,
     /// What the images hold, so tiles and unchanged frames draw nothing again.
     drawn: Option<u64>,
-    uniforms: Option<wgpu::Buffer>,
+    buffer: DrawBuffer,
 }
 
 impl MeshLayer {
@@ -104,7 +106,7 @@ impl MeshLayer {
             color_view: color.create_view(&Default::default()),
             color,
             drawn: None,
-            uniforms: None,
+            buffer: DrawBuffer::default(),
         })
     }
 
@@ -133,199 +135,48 @@ impl MeshLayer {
             return Ok(());
         }
         let draws = match pipelines {
-            Some(_) => self.draws(gpu, camera, meshes)?,
+            Some(_) => draws::frame_draws(gpu, camera, meshes, self.size(), Target::Layer)?,
             None => Vec::new(),
         };
+        let bind_group = self.buffer.bind(gpu, pipelines, &draws)?;
         let doing = "drawing a mesh layer";
-        let uniforms = self.uniform_buffer(gpu, draws.len())?;
-        let bytes: Vec<u8> = draws
-            .iter()
-            .flat_map(|d| {
-                let mut slot = bytemuck::bytes_of(&d.uniforms).to_vec();
-                slot.resize(DRAW_SLOT as usize, 0);
-                slot
-            })
-            .collect();
-        if !bytes.is_empty() {
-            gpu.queue.write_buffer(uniforms, 0, &bytes);
-        }
-        let bind_group = pipelines
-            .map(|pipelines| {
-                gpu.capture(doing, || {
-                    gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                        label: Some("mesh draws"),
-                        layout: &pipelines.layout,
-                        entries: &[wgpu::BindGroupEntry {
-                            binding: 0,
-                            resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                                buffer: uniforms,
-                                offset: 0,
-                                size: wgpu::BufferSize::new(std::mem::size_of::<DrawUniforms>() as u64),
-                            }),
-                        }],
-                    })
-                })
-            })
-            .transpose()?;
         gpu.capture(doing, || {
             let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                 label: Some("mesh layer"),
                 color_attachments: &[
-                    Some(attachment(&self.color_view, wgpu::Color::TRANSPARENT)),
-                    Some(attachment(&self.depth_view, wgpu::Color::WHITE)),
+                    Some(attachment(&self.color_view, wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT))),
+                    Some(attachment(&self.depth_view, wgpu::LoadOp::Clear(wgpu::Color::WHITE))),
                 ],
-                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                    view: &self.depth_buffer,
-                    depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(1.0), store: wgpu::StoreOp::Store }),
-                    stencil_ops: None,
-                }),
+                depth_stencil_attachment: Some(depth_attachment(&self.depth_buffer)),
                 timestamp_writes: None,
                 occlusion_query_set: None,
                 multiview_mask: None,
             });
-            let (Some(pipelines), Some(bind_group)) = (pipelines, &bind_group) else { return };
-            for (slot, draw) in draws.iter().enumerate() {
-                let pipeline = match draw.pass {
-                    Pass::Opaque => &pipelines.opaque,
-                    Pass::Back => &pipelines.translucent_back,
-                    Pass::Front => &pipelines.translucent_front,
-                };
-                pass.set_pipeline(pipeline);
-                pass.set_bind_group(0, bind_group, &[(slot as u64 * DRAW_SLOT) as u32]);
-                pass.set_vertex_buffer(0, draw.vertices.slice(..));
-                match &draw.indices {
-                    Some((indices, count)) => {
-                        pass.set_index_buffer(indices.slice(..), wgpu::IndexFormat::Uint32);
-                        pass.draw_indexed(0..*count, 0, 0..1);
-                    }
-                    None => pass.draw(0..draw.vertex_count, 0..1),
-                }
+            if let (Some(pipelines), Some(bind_group)) = (pipelines, &bind_group) {
+                draws::record(&mut pass, &pipelines.layer, bind_group, &draws);
             }
         })?;
         self.drawn = Some(key);
         Ok(())
     }
-
-    /// A uniform buffer with room for `draws` slots (kept while it is large enough).
-    fn uniform_buffer(&mut self, gpu: &Gpu, draws: usize) -> Result<&wgpu::Buffer, RuntimeError> {
-        let needed = DRAW_SLOT * draws.max(1) as u64;
-        if self.uniforms.as_ref().is_none_or(|b| b.size() < needed) {
-            let made = gpu.capture("creating a mesh layer's uniforms", || {
-                gpu.device.create_buffer(&wgpu::BufferDescriptor {
-                    label: Some("mesh draws"),
-                    size: needed,
-                    usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-                    mapped_at_creation: false,
-                })
-            })?;
-            self.uniforms = Some(made);
-        }
-        Ok(self.uniforms.as_ref().expect("made above"))
-    }
-
-    /// The draws of a frame, in order: opaque meshes, then each translucent mesh's back and
-    /// front faces (raycast views); every mesh's outline (slice views).
-    fn draws(&self, gpu: &Gpu, camera: &LayerCamera, meshes: &[&MeshInstance]) -> Result<Vec<Draw>, RuntimeError> {
-        let mut out = Vec::new();
-        match camera {
-            LayerCamera::Projection { world_to_clip } => {
-                let clip_to_world = world_to_clip.inverse();
-                let (opaque, translucent): (Vec<&MeshInstance>, Vec<&MeshInstance>) =
-                    meshes.iter().copied().partition(|m| m.opacity >= 1.0);
-                let surface = |m: &MeshInstance, pass| Draw {
-                    pass,
-                    uniforms: DrawUniforms::surface(*world_to_clip, clip_to_world, m),
-                    vertices: m.gpu.vertices.clone(),
-                    indices: Some((m.gpu.indices.clone(), m.gpu.index_count)),
-                    vertex_count: 0,
-                };
-                out.extend(opaque.iter().map(|m| surface(m, Pass::Opaque)));
-                for m in translucent.iter().filter(|m| m.opacity > 0.0) {
-                    out.push(surface(m, Pass::Back));
-                    out.push(surface(m, Pass::Front));
-                }
-            }
-            LayerCamera::Slice(frame) => {
-                for m in meshes.iter().filter(|m| m.opacity > 0.0) {
-                    let quads =
-                        outline::outline_quads(&m.mesh, m.model, frame, self.size(), OUTLINE_PIXELS, SLICE_PLANE_DEPTH);
-                    if quads.is_empty() {
-                        continue;
-                    }
-                    let vertices = gpu.capture("uploading a slice outline", || {
-                        wgpu::util::DeviceExt::create_buffer_init(
-                            &gpu.device,
-                            &wgpu::util::BufferInitDescriptor {
-                                label: Some("outline"),
-                                contents: bytemuck::cast_slice(&quads),
-                                usage: wgpu::BufferUsages::VERTEX,
-                            },
-                        )
-                    })?;
-                    out.push(Draw {
-                        pass: Pass::Opaque,
-                        uniforms: DrawUniforms::outline(m),
-                        vertices,
-                        indices: None,
-                        vertex_count: (quads.len() / 6) as u32,
-                    });
-                }
-            }
-        }
-        Ok(out)
-    }
 }
 
-/// A colour attachment cleared to `clear` and kept.
-fn attachment(view: &wgpu::TextureView, clear: wgpu::Color) -> wgpu::RenderPassColorAttachment<'_> {
+/// A colour attachment loaded as `load` says and kept.
+fn attachment(view: &wgpu::TextureView, load: wgpu::LoadOp<wgpu::Color>) -> wgpu::RenderPassColorAttachment<'_> {
     wgpu::RenderPassColorAttachment {
         view,
         depth_slice: None,
         resolve_target: None,
-        ops: wgpu::Operations { load: wgpu::LoadOp::Clear(clear), store: wgpu::StoreOp::Store },
+        ops: wgpu::Operations { load, store: wgpu::StoreOp::Store },
     }
 }
 
-/// Which pipeline a draw uses.
-#[derive(Clone, Copy)]
-enum Pass {
-    Opaque,
-    Back,
-    Front,
-}
-
-/// One draw call of a frame.
-struct Draw {
-    pass: Pass,
-    uniforms: DrawUniforms,
-    vertices: wgpu::Buffer,
-    indices: Option<(wgpu::Buffer, u32)>,
-    vertex_count: u32,
-}
-
-impl DrawUniforms {
-    fn surface(world_to_clip: Mat4, clip_to_world: Mat4, m: &MeshInstance) -> DrawUniforms {
-        DrawUniforms {
-            world_to_clip: world_to_clip.to_cols_array_2d(),
-            clip_to_world: clip_to_world.to_cols_array_2d(),
-            model: m.model.to_cols_array_2d(),
-            normal_model: m.model.inverse().transpose().to_cols_array_2d(),
-            color: [m.color[0], m.color[1], m.color[2], m.opacity.clamp(0.0, 1.0)],
-            flat: [0.0; 4],
-        }
-    }
-
-    /// Outline quads are in clip space already.
-    fn outline(m: &MeshInstance) -> DrawUniforms {
-        let identity = Mat4::IDENTITY.to_cols_array_2d();
-        DrawUniforms {
-            world_to_clip: identity,
-            clip_to_world: identity,
-            model: identity,
-            normal_model: identity,
-            color: [m.color[0], m.color[1], m.color[2], 1.0],
-            flat: [1.0, 0.0, 0.0, 0.0],
-        }
+/// A depth buffer cleared to 1 (the far plane).
+fn depth_attachment(view: &wgpu::TextureView) -> wgpu::RenderPassDepthStencilAttachment<'_> {
+    wgpu::RenderPassDepthStencilAttachment {
+        view,
+        depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(1.0), store: wgpu::StoreOp::Store }),
+        stencil_ops: None,
     }
 }
 

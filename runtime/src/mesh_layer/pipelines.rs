@@ -1,6 +1,7 @@
-//! The render pipelines of mesh layers, made once per renderer: opaque surfaces (depth written),
-//! translucent ones (back faces, then front faces, blended over what is drawn, depth tested but
-//! not written) and slice outlines (flat colour, depth written).
+//! The render pipelines of mesh layers and overlays, made once per renderer: opaque surfaces
+//! (depth written), translucent ones (back faces, then front faces, blended over what is drawn,
+//! depth tested but not written); slice outlines draw as opaque surfaces of flat colour. A
+//! layer draws into its colour and depth images, an overlay into the view's picture.
 
 use crate::error::RuntimeError;
 use crate::gpu::Gpu;
@@ -72,8 +73,7 @@ struct Fragment {
     @location(1) depth: f32,
 }
 
-@fragment
-fn fs(in: Varyings) -> Fragment {
+fn shade(in: Varyings) -> vec4<f32> {
     var rgb = draw.color.rgb;
     if draw.flat_colour.x < 0.5 {
         // A headlight, two-sided Lambert with an ambient floor, so shapes read as surfaces.
@@ -82,7 +82,17 @@ fn fs(in: Varyings) -> Fragment {
         rgb = rgb * (0.3 + 0.7 * abs(dot(n, v)));
     }
     let a = draw.color.a;
-    return Fragment(vec4<f32>(rgb * a, a), in.clip.z);
+    return vec4<f32>(rgb * a, a);
+}
+
+@fragment
+fn fs(in: Varyings) -> Fragment {
+    return Fragment(shade(in), in.clip.z);
+}
+
+@fragment
+fn fs_overlay(in: Varyings) -> @location(0) vec4<f32> {
+    return shade(in);
 }
 "#;
 
@@ -94,12 +104,20 @@ enum Kind {
     TranslucentFront,
 }
 
-/// The mesh pipelines and their bind-group layout.
-pub struct MeshPipelines {
-    pub layout: wgpu::BindGroupLayout,
+/// The pipelines of one kind of target, a draw's pass picking one.
+pub struct PipelineSet {
     pub opaque: wgpu::RenderPipeline,
     pub translucent_back: wgpu::RenderPipeline,
     pub translucent_front: wgpu::RenderPipeline,
+}
+
+/// The mesh pipelines and their bind-group layout.
+pub struct MeshPipelines {
+    pub layout: wgpu::BindGroupLayout,
+    /// Into a mesh layer's colour and depth images.
+    pub layer: PipelineSet,
+    /// Over a view's picture (`rgba8unorm`).
+    pub overlay: PipelineSet,
 }
 
 impl MeshPipelines {
@@ -127,13 +145,15 @@ impl MeshPipelines {
                 bind_group_layouts: &[Some(&layout)],
                 immediate_size: 0,
             });
-            let make = |kind| pipeline(gpu, &module, &pipeline_layout, kind);
-            MeshPipelines {
-                opaque: make(Kind::Opaque),
-                translucent_back: make(Kind::TranslucentBack),
-                translucent_front: make(Kind::TranslucentFront),
-                layout,
-            }
+            let set = |overlay| {
+                let make = |kind| pipeline(gpu, &module, &pipeline_layout, kind, overlay);
+                PipelineSet {
+                    opaque: make(Kind::Opaque),
+                    translucent_back: make(Kind::TranslucentBack),
+                    translucent_front: make(Kind::TranslucentFront),
+                }
+            };
+            MeshPipelines { layer: set(false), overlay: set(true), layout }
         })?;
         Ok(made)
     }
@@ -142,7 +162,14 @@ impl MeshPipelines {
 /// Position and normal, 24 bytes a vertex.
 const VERTEX_ATTRIBUTES: [wgpu::VertexAttribute; 2] = wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3];
 
-fn pipeline(gpu: &Gpu, module: &wgpu::ShaderModule, layout: &wgpu::PipelineLayout, kind: Kind) -> wgpu::RenderPipeline {
+/// A pipeline of `kind`, into a mesh layer's two images or (`overlay`) over a picture.
+fn pipeline(
+    gpu: &Gpu,
+    module: &wgpu::ShaderModule,
+    layout: &wgpu::PipelineLayout,
+    kind: Kind,
+    overlay: bool,
+) -> wgpu::RenderPipeline {
     let (cull_mode, depth_write_enabled) = match kind {
         Kind::Opaque => (None, true),
         Kind::TranslucentBack => (Some(wgpu::Face::Front), false),
@@ -154,6 +181,18 @@ fn pipeline(gpu: &Gpu, module: &wgpu::ShaderModule, layout: &wgpu::PipelineLayou
         dst_factor: wgpu::BlendFactor::OneMinusSrcAlpha,
         operation: wgpu::BlendOperation::Add,
     };
+    let color = Some(wgpu::ColorTargetState {
+        format: COLOR_FORMAT,
+        blend: Some(wgpu::BlendState { color: over, alpha: over }),
+        write_mask: wgpu::ColorWrites::ALL,
+    });
+    // Only opaque surfaces stop rays: translucent ones leave the depth image as it is.
+    let depth_image = Some(wgpu::ColorTargetState {
+        format: DEPTH_IMAGE_FORMAT,
+        blend: None,
+        write_mask: if depth_write_enabled { wgpu::ColorWrites::RED } else { wgpu::ColorWrites::empty() },
+    });
+    let (entry_point, targets) = if overlay { ("fs_overlay", vec![color]) } else { ("fs", vec![color, depth_image]) };
     gpu.device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
         label: Some("mesh layer"),
         layout: Some(layout),
@@ -178,21 +217,9 @@ fn pipeline(gpu: &Gpu, module: &wgpu::ShaderModule, layout: &wgpu::PipelineLayou
         multisample: Default::default(),
         fragment: Some(wgpu::FragmentState {
             module,
-            entry_point: Some("fs"),
+            entry_point: Some(entry_point),
             compilation_options: Default::default(),
-            targets: &[
-                Some(wgpu::ColorTargetState {
-                    format: COLOR_FORMAT,
-                    blend: Some(wgpu::BlendState { color: over, alpha: over }),
-                    write_mask: wgpu::ColorWrites::ALL,
-                }),
-                // Only opaque surfaces stop rays: translucent ones leave the depth image as is.
-                Some(wgpu::ColorTargetState {
-                    format: DEPTH_IMAGE_FORMAT,
-                    blend: None,
-                    write_mask: if depth_write_enabled { wgpu::ColorWrites::RED } else { wgpu::ColorWrites::empty() },
-                }),
-            ],
+            targets: &targets,
         }),
         multiview_mask: None,
         cache: None,

@@ -147,6 +147,7 @@ impl SceneRenderer {
             slice: view.slice,
             convention: view.convention,
             meshes: view.meshes.clone(),
+            overlay: view.overlay.clone(),
         };
         Ok(Probe { layout: variant.layout, view })
     }

@@ -1,0 +1,226 @@
+//! The draw calls of a mesh layer or an overlay: which meshes, with which uniforms, in which
+//! order, and their recording into a render pass.
+
+use super::outline::{self, SliceFrame};
+use super::pipelines::{DRAW_SLOT, DrawUniforms, MeshPipelines, PipelineSet};
+use super::{LayerCamera, MeshInstance, SLICE_PLANE_DEPTH};
+use crate::error::RuntimeError;
+use crate::gpu::Gpu;
+use glam::{Mat4, Vec4};
+
+/// Outline width in a slice view, in pixels.
+const OUTLINE_PIXELS: f32 = 2.0;
+/// How far from a slice plane (mm) an overlay's depth range reaches on either side.
+const SLICE_OVERLAY_REACH: f32 = 1000.0;
+
+/// What the draws are for.
+#[derive(Clone, Copy, PartialEq, Eq)]
+pub enum Target {
+    /// A mesh layer under the volume: a slice view draws its plane's crossings.
+    Layer,
+    /// An overlay over the picture: a slice view draws the meshes seen along its normal.
+    Overlay,
+}
+
+/// Which pipeline a draw uses.
+#[derive(Clone, Copy)]
+pub(super) enum Pass {
+    Opaque,
+    Back,
+    Front,
+}
+
+/// One draw call of a frame.
+pub(super) struct Draw {
+    pass: Pass,
+    uniforms: DrawUniforms,
+    vertices: wgpu::Buffer,
+    indices: Option<(wgpu::Buffer, u32)>,
+    vertex_count: u32,
+}
+
+impl DrawUniforms {
+    fn surface(world_to_clip: Mat4, clip_to_world: Mat4, m: &MeshInstance) -> DrawUniforms {
+        DrawUniforms {
+            world_to_clip: world_to_clip.to_cols_array_2d(),
+            clip_to_world: clip_to_world.to_cols_array_2d(),
+            model: m.model.to_cols_array_2d(),
+            normal_model: m.model.inverse().transpose().to_cols_array_2d(),
+            color: [m.color[0], m.color[1], m.color[2], m.opacity.clamp(0.0, 1.0)],
+            flat: [0.0; 4],
+        }
+    }
+
+    /// Outline quads are in clip space already.
+    fn outline(m: &MeshInstance) -> DrawUniforms {
+        let identity = Mat4::IDENTITY.to_cols_array_2d();
+        DrawUniforms {
+            world_to_clip: identity,
+            clip_to_world: identity,
+            model: identity,
+            normal_model: identity,
+            color: [m.color[0], m.color[1], m.color[2], 1.0],
+            flat: [1.0, 0.0, 0.0, 0.0],
+        }
+    }
+}
+
+/// The draws of a frame, in order: opaque meshes, then each translucent mesh's back and front
+/// faces; in a slice view's layer, every mesh's outline on the plane.
+pub fn frame_draws(
+    gpu: &Gpu,
+    camera: &LayerCamera,
+    meshes: &[&MeshInstance],
+    size: [u32; 2],
+    target: Target,
+) -> Result<Vec<Draw>, RuntimeError> {
+    match (camera, target) {
+        (LayerCamera::Projection { world_to_clip }, _) => Ok(surfaces(*world_to_clip, meshes)),
+        (LayerCamera::Slice(frame), Target::Overlay) => Ok(surfaces(seen_along_normal(frame), meshes)),
+        (LayerCamera::Slice(frame), Target::Layer) => outlines(gpu, frame, meshes, size),
+    }
+}
+
+/// Lit surfaces: opaque ones first, then each translucent one's back and front faces.
+fn surfaces(world_to_clip: Mat4, meshes: &[&MeshInstance]) -> Vec<Draw> {
+    let clip_to_world = world_to_clip.inverse();
+    let (opaque, translucent): (Vec<&MeshInstance>, Vec<&MeshInstance>) =
+        meshes.iter().copied().partition(|m| m.opacity >= 1.0);
+    let surface = |m: &MeshInstance, pass| Draw {
+        pass,
+        uniforms: DrawUniforms::surface(world_to_clip, clip_to_world, m),
+        vertices: m.gpu.vertices.clone(),
+        indices: Some((m.gpu.indices.clone(), m.gpu.index_count)),
+        vertex_count: 0,
+    };
+    let mut out: Vec<Draw> = opaque.iter().map(|m| surface(m, Pass::Opaque)).collect();
+    for m in translucent.iter().filter(|m| m.opacity > 0.0) {
+        out.push(surface(m, Pass::Back));
+        out.push(surface(m, Pass::Front));
+    }
+    out
+}
+
+/// A slice image's projection along its normal: patient space to clip space, depth 0.5 on the
+/// plane and [`SLICE_OVERLAY_REACH`] mm to either side at 0 and 1.
+fn seen_along_normal(frame: &SliceFrame) -> Mat4 {
+    let image_to_clip = Mat4::from_cols(
+        Vec4::new(2.0, 0.0, 0.0, 0.0),
+        Vec4::new(0.0, -2.0, 0.0, 0.0),
+        Vec4::new(0.0, 0.0, 0.5 / SLICE_OVERLAY_REACH, 0.0),
+        Vec4::new(-1.0, 1.0, 0.5, 1.0),
+    );
+    image_to_clip * frame.world_to_image
+}
+
+/// Each mesh's crossing of the slice plane, as opaque lines.
+fn outlines(
+    gpu: &Gpu,
+    frame: &SliceFrame,
+    meshes: &[&MeshInstance],
+    size: [u32; 2],
+) -> Result<Vec<Draw>, RuntimeError> {
+    let mut out = Vec::new();
+    for m in meshes.iter().filter(|m| m.opacity > 0.0) {
+        let quads = outline::outline_quads(&m.mesh, m.model, frame, size, OUTLINE_PIXELS, SLICE_PLANE_DEPTH);
+        if quads.is_empty() {
+            continue;
+        }
+        let vertices = gpu.capture("uploading a slice outline", || {
+            wgpu::util::DeviceExt::create_buffer_init(
+                &gpu.device,
+                &wgpu::util::BufferInitDescriptor {
+                    label: Some("outline"),
+                    contents: bytemuck::cast_slice(&quads),
+                    usage: wgpu::BufferUsages::VERTEX,
+                },
+            )
+        })?;
+        out.push(Draw {
+            pass: Pass::Opaque,
+            uniforms: DrawUniforms::outline(m),
+            vertices,
+            indices: None,
+            vertex_count: (quads.len() / 6) as u32,
+        });
+    }
+    Ok(out)
+}
+
+/// The uniform buffer of a layer's draws, kept while it is large enough.
+#[derive(Default)]
+pub struct DrawBuffer {
+    uniforms: Option<wgpu::Buffer>,
+}
+
+impl DrawBuffer {
+    /// Writes the draws' uniforms and binds them (`None` without pipelines: nothing to draw).
+    pub fn bind(
+        &mut self,
+        gpu: &Gpu,
+        pipelines: Option<&MeshPipelines>,
+        draws: &[Draw],
+    ) -> Result<Option<wgpu::BindGroup>, RuntimeError> {
+        let Some(pipelines) = pipelines else { return Ok(None) };
+        let needed = DRAW_SLOT * draws.len().max(1) as u64;
+        if self.uniforms.as_ref().is_none_or(|b| b.size() < needed) {
+            let made = gpu.capture("creating a mesh layer's uniforms", || {
+                gpu.device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("mesh draws"),
+                    size: needed,
+                    usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                    mapped_at_creation: false,
+                })
+            })?;
+            self.uniforms = Some(made);
+        }
+        let uniforms = self.uniforms.as_ref().expect("made above");
+        let bytes: Vec<u8> = draws
+            .iter()
+            .flat_map(|d| {
+                let mut slot = bytemuck::bytes_of(&d.uniforms).to_vec();
+                slot.resize(DRAW_SLOT as usize, 0);
+                slot
+            })
+            .collect();
+        if !bytes.is_empty() {
+            gpu.queue.write_buffer(uniforms, 0, &bytes);
+        }
+        let group = gpu.capture("binding a mesh layer", || {
+            gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("mesh draws"),
+                layout: &pipelines.layout,
+                entries: &[wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                        buffer: uniforms,
+                        offset: 0,
+                        size: wgpu::BufferSize::new(std::mem::size_of::<DrawUniforms>() as u64),
+                    }),
+                }],
+            })
+        })?;
+        Ok(Some(group))
+    }
+}
+
+/// Records `draws` into `pass` with the pipelines of `set`.
+pub fn record(pass: &mut wgpu::RenderPass<'_>, set: &PipelineSet, bind_group: &wgpu::BindGroup, draws: &[Draw]) {
+    for (slot, draw) in draws.iter().enumerate() {
+        let pipeline = match draw.pass {
+            Pass::Opaque => &set.opaque,
+            Pass::Back => &set.translucent_back,
+            Pass::Front => &set.translucent_front,
+        };
+        pass.set_pipeline(pipeline);
+        pass.set_bind_group(0, bind_group, &[(slot as u64 * DRAW_SLOT) as u32]);
+        pass.set_vertex_buffer(0, draw.vertices.slice(..));
+        match &draw.indices {
+            Some((indices, count)) => {
+                pass.set_index_buffer(indices.slice(..), wgpu::IndexFormat::Uint32);
+                pass.draw_indexed(0..*count, 0, 0..1);
+            }
+            None => pass.draw(0..draw.vertex_count, 0..1),
+        }
+    }
+}
