@@ -405,25 +405,6 @@ impl LiveScene {
         self.renderer.set_mesh_style(name, style.color, style.opacity, model)
     }
 
-    /// Applies the user's mesh styles again where the renderer no longer draws them: a mesh
-    /// that follows a uniform is made again, in the scene's style, when the uniform changes (at
-    /// the next render). Returns whether any style had to be applied again.
-    fn keep_mesh_styles(&mut self) -> bool {
-        let stale: Vec<(String, MeshStyle)> = self
-            .user
-            .meshes
-            .iter()
-            .filter(|(name, (style, _))| {
-                self.renderer.meshes().iter().any(|m| m.name == **name && MeshStyle::of_instance(m) != *style)
-            })
-            .map(|(name, (style, _))| (name.clone(), *style))
-            .collect();
-        for (name, style) in &stale {
-            let _ = self.apply_mesh_style(name, style);
-        }
-        !stale.is_empty()
-    }
-
     /// The composition in use (the last good one).
     pub fn built(&self) -> Option<&BuiltScene> {
         self.built.as_deref()
@@ -452,11 +433,7 @@ impl LiveScene {
 
     /// Renders a probe of view `index` as it shows now (see [`SceneRenderer::render_probe`]).
     pub fn render_probe(&mut self, index: usize, spec: &ProbeSpec) -> Result<ProbeImage, RuntimeError> {
-        let image = self.renderer.render_probe(index, spec)?;
-        if self.keep_mesh_styles() {
-            return self.renderer.render_probe(index, spec);
-        }
-        Ok(image)
+        self.renderer.render_probe(index, spec)
     }
 
     /// The camera of raycast view `index`.
@@ -538,22 +515,12 @@ impl LiveScene {
         target: &wgpu::TextureView,
         region: Region,
     ) -> Result<(), RuntimeError> {
-        self.renderer.encode_view_into(index, encoder, target, region)?;
-        // A mesh made again for a uniform it follows came back in the scene's style: the same
-        // region once more in the user's (the second pass overwrites the first).
-        if self.keep_mesh_styles() {
-            self.renderer.encode_view_into(index, encoder, target, region)?;
-        }
-        Ok(())
+        self.renderer.encode_view_into(index, encoder, target, region)
     }
 
     /// Renders every view at full quality and reads the images back (for `vrsc watch`).
     pub fn render_all(&mut self) -> Result<Vec<(String, image::RgbaImage)>, RuntimeError> {
-        let images = self.renderer.render_all()?;
-        if self.keep_mesh_styles() {
-            return self.renderer.render_all();
-        }
-        Ok(images)
+        self.renderer.render_all()
     }
 
     /// The output texture of view `index`: where its full-resolution image is rendered.

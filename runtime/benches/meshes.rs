@@ -3,11 +3,13 @@
 //! camera turns a little every frame, so the layer is drawn every frame (as while the user
 //! orbits); a variant with the camera still (the layer drawn once and kept) separates the
 //! layer's own cost from the rays the mesh ends early. Target: the mesh over plain DVR at most
-//! 1.2x at 512^2.
+//! 1.2x at 512^2. A closed mesh's back faces are culled; the same sphere with one triangle
+//! missing (open: every face drawn) shows what that saves.
 //!
 //! The volume is the MNI152 T1 of `../shared/data` when it is there, else the built-in head
 //! phantom (said in the output). Run: `cargo bench -p vrs-runtime --bench meshes`; settings:
-//! `VRS_BENCH_SIZE` (512), `VRS_BENCH_ROUNDS` (4), `VRS_BENCH_FRAMES` (2).
+//! `VRS_BENCH_SIZE` (512), `VRS_BENCH_ROUNDS` (4), `VRS_BENCH_FRAMES` (2), `VRS_BENCH_TRIANGLES`
+//! (100000), `VRS_BENCH_SHADING` (1; 0 for unshaded DVR).
 
 #[path = "timing.rs"]
 mod timing;
@@ -24,10 +26,14 @@ fn number(name: &str, default: usize) -> usize {
     std::env::var(name).ok().and_then(|v| v.parse().ok()).filter(|&n| n > 0).unwrap_or(default)
 }
 
-/// A binary STL of a sphere of about `triangles` triangles.
-fn write_sphere_stl(path: &Path, centre: glam::Vec3, radius: f32, triangles: u32) -> usize {
+/// A binary STL of a sphere of about `triangles` triangles; `open`, without one of them (an
+/// open surface: its back faces are drawn, not culled).
+fn write_sphere_stl(path: &Path, centre: glam::Vec3, radius: f32, triangles: u32, open: bool) -> usize {
     let side = ((triangles / 2) as f32).sqrt().ceil() as u32;
-    let mesh = shapes::sphere(centre, radius, side, side).expect("a sphere");
+    let mut mesh = shapes::sphere(centre, radius, side, side).expect("a sphere");
+    if open {
+        mesh.indices.truncate(mesh.indices.len() - 3);
+    }
     let count = mesh.indices.len() / 3;
     let mut bytes = vec![0u8; 80];
     bytes.extend((count as u32).to_le_bytes());
@@ -42,10 +48,15 @@ fn write_sphere_stl(path: &Path, centre: glam::Vec3, radius: f32, triangles: u32
     count
 }
 
-fn scene(volume: &str, size: u32, mesh: bool) -> String {
-    let mesh = if mesh { "[[mesh]]\nname = \"ball\"\npath = \"ball.stl\"\ncolor = [0.9, 0.7, 0.2]\n\n" } else { "" };
+/// The scene with the mesh file `mesh` (none: `""`), shaded with one light or not.
+fn scene(volume: &str, size: u32, mesh: &str, shading: bool) -> String {
+    let mesh = if mesh.is_empty() {
+        String::new()
+    } else {
+        format!("[[mesh]]\nname = \"ball\"\npath = \"{mesh}\"\ncolor = [0.9, 0.7, 0.2]\n\n")
+    };
     format!(
-        "[render]\ncompositing = \"dvr\"\nshading = true\nlights = [\"key\"]\njitter = 1.0\n\n\
+        "[render]\ncompositing = \"dvr\"\nshading = {shading}\njitter = 1.0\n\n\
          [[volume]]\nname = \"t1\"\nrole = \"primary\"\n{volume}\ntf = \"skin.json\"\n\n{mesh}\
          [[view]]\nname = \"3d\"\nkind = \"raycast\"\nsize = [{size}, {size}]\n\
          camera = {{ azimuth = 35.0, elevation = 15.0, distance = 2.4 }}\n"
@@ -84,23 +95,30 @@ fn main() {
     };
     let (size, rounds, frames) =
         (number("VRS_BENCH_SIZE", 512) as u32, number("VRS_BENCH_ROUNDS", 4), number("VRS_BENCH_FRAMES", 2));
+    let shading = std::env::var("VRS_BENCH_SHADING").map_or(true, |v| v != "0" && v != "false");
     let gpu = Gpu::headless(AdapterChoice::Software).expect("the software adapter");
     let dir = tempfile::tempdir().expect("a folder");
     std::fs::copy(root.join("examples/light/skin.json"), dir.path().join("skin.json")).expect("the example's tf");
-    let triangles = write_sphere_stl(&dir.path().join("ball.stl"), centre, 25.0, 100_000);
+    let wanted = number("VRS_BENCH_TRIANGLES", 100_000) as u32;
+    let triangles = write_sphere_stl(&dir.path().join("ball.stl"), centre, 25.0, wanted, false);
+    write_sphere_stl(&dir.path().join("open.stl"), centre, 25.0, wanted, true);
     println!(
         "adapter: {}, {size}x{size}, {rounds} rounds of {frames} frames, a mesh of {triangles} triangles",
         gpu.adapter
     );
-    // (name, mesh, degrees the camera turns per frame)
-    let variants =
-        [("DVR", false, 0.05), ("DVR + mesh, camera turning", true, 0.05), ("DVR + mesh, camera still", true, 0.0)];
+    // (name, mesh file, degrees the camera turns per frame)
+    let variants = [
+        ("DVR", "", 0.05),
+        ("DVR + mesh, camera turning", "ball.stl", 0.05),
+        ("DVR + mesh, camera still", "ball.stl", 0.0),
+        ("DVR + open mesh, camera turning", "open.stl", 0.05),
+    ];
     let mut renderers: Vec<SceneRenderer> = variants
         .iter()
         .enumerate()
         .map(|(i, &(_, mesh, _))| {
             let path = dir.path().join(format!("scene{i}.toml"));
-            std::fs::write(&path, scene(&volume, size, mesh)).expect("scene written");
+            std::fs::write(&path, scene(&volume, size, mesh, shading)).expect("scene written");
             SceneRenderer::open(gpu.clone(), &path, RenderOptions::default(), &mut |_, _, _| {}).expect("opens")
         })
         .collect();
@@ -116,4 +134,5 @@ fn main() {
     }
     println!("mesh (drawn every frame) over DVR: {:.3}x (target <= 1.2)", medians[1] / medians[0]);
     println!("the mesh layer's own share:        {:.3}x (turning over still)", medians[1] / medians[2]);
+    println!("an open mesh (no culling) over DVR: {:.3}x", medians[3] / medians[0]);
 }

@@ -162,11 +162,14 @@ mod tests {
 
     /// An axial plane at z = `z` mm: image x to patient -x (radiological), image y to patient
     /// -y, over 200 mm centred on the origin.
-    fn plane(z: f32) -> (impl Fn(Vec2) -> Option<Vec3>, impl Fn(Vec3) -> Option<([f32; 2], f32)>) {
+    fn plane(z: f32) -> (impl Fn(Vec2) -> Option<Vec3>, impl Fn(Vec3) -> Option<Projected>) {
         let to_world = move |p: Vec2| Some(Vec3::new(100.0 - 200.0 * p.x, 100.0 - 200.0 * p.y, z));
         let to_pixel = move |w: Vec3| Some(([(100.0 - w.x) / 200.0, (100.0 - w.y) / 200.0], w.z - z));
         (to_world, to_pixel)
     }
+
+    /// Image coordinates and the distance from the plane.
+    type Projected = ([f32; 2], f32);
 
     fn handle(mesh: &str, uniform: &str, point: Vec3) -> MeshHandle {
         MeshHandle { mesh: mesh.into(), uniform: uniform.into(), point }

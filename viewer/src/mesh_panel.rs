@@ -25,7 +25,7 @@ pub fn rows(live: &LiveScene) -> Vec<MeshRow> {
 pub fn show(ui: &mut egui::Ui, rows: &[MeshRow], message: &str) -> Vec<Action> {
     let mut actions = Vec::new();
     ui.weak("Colour, opacity and placement (mm, patient space) of the scene's meshes");
-    ui.weak("In a slice view, drag a green marker to move the point a mesh follows");
+    ui.weak("In a slice view, drag a green ring to move the point a mesh follows (a needle's tip)");
     if !message.is_empty() {
         ui.weak(message);
     }

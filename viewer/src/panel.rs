@@ -144,7 +144,10 @@ fn toolbar(ui: &mut egui::Ui, slots: &[ViewSlot], layout: &mut Layout, side: &mu
             ui.selectable_value(layout, Layout::Tab(i), &slot.name);
         }
         ui.separator();
-        ui.weak("3D: drag to orbit, right-drag to pan, wheel to zoom, R to reset · slices: wheel or Up/Down to step, X/Y/Z to turn");
+        ui.weak(
+            "3D: drag to orbit, right-drag to pan, wheel to zoom, R to reset · slices: wheel or Up/Down to step, \
+             X/Y/Z to turn, drag a green ring to move a mesh point",
+        );
     });
 }
 

@@ -58,6 +58,34 @@ impl Mesh {
         Some((min.into(), max.into()))
     }
 
+    /// Whether the surface is closed and wound counter-clockwise seen from outside: every edge
+    /// (between vertices welded by position) is run once in each direction by two triangles,
+    /// and the enclosed volume is positive. A renderer may cull such a surface's back faces.
+    pub fn is_closed_outward(&self) -> bool {
+        let mut welded: std::collections::HashMap<[u32; 3], u32> = std::collections::HashMap::new();
+        let ids: Vec<u32> = self
+            .positions
+            .iter()
+            .map(|p| {
+                let next = welded.len() as u32;
+                *welded.entry(p.map(f32::to_bits)).or_insert(next)
+            })
+            .collect();
+        let mut edges: std::collections::HashMap<(u32, u32), u32> = std::collections::HashMap::new();
+        let mut volume = 0.0f64;
+        for t in self.indices.chunks_exact(3) {
+            let Some(c) = t.iter().map(|&i| ids.get(i as usize).copied()).collect::<Option<Vec<u32>>>() else {
+                return false;
+            };
+            for (a, b) in [(c[0], c[1]), (c[1], c[2]), (c[2], c[0])] {
+                *edges.entry((a, b)).or_default() += 1;
+            }
+            let [p, q, r] = [t[0], t[1], t[2]].map(|i| glam::DVec3::from(self.positions[i as usize].map(f64::from)));
+            volume += p.dot(q.cross(r)) / 6.0;
+        }
+        !edges.is_empty() && volume > 0.0 && edges.iter().all(|(&(a, b), &n)| n == 1 && edges.get(&(b, a)) == Some(&1))
+    }
+
     /// The mesh moved by the affine transform `m`: positions by `m`, normals by the inverse
     /// transpose of its linear part, renormalised. A mirroring `m` (negative determinant) flips
     /// the winding, so triangles stay counter-clockwise seen from outside. A singular `m` leaves

@@ -536,3 +536,24 @@ fn shapes_refuse_bad_sizes() {
         assert!(error.path().is_none());
     }
 }
+
+#[test]
+fn shapes_are_closed_and_wound_outward_and_open_or_inverted_surfaces_are_not() {
+    let shapes = [
+        sphere(Vec3::ZERO, 5.0, 16, 32).unwrap(),
+        cuboid(Vec3::ZERO, Vec3::ONE).unwrap(),
+        needle(Vec3::ZERO, Vec3::Z, 50.0, 1.0, 24).unwrap(),
+        cylinder(Vec3::ZERO, Vec3::X * 3.0, 1.0, 12).unwrap(),
+    ];
+    for mesh in &shapes {
+        assert!(mesh.is_closed_outward(), "{} triangles", mesh.triangle_count());
+    }
+    let mut open = shapes[1].clone();
+    open.indices.truncate(open.indices.len() - 3);
+    assert!(!open.is_closed_outward(), "a box without one triangle is open");
+    let inverted = shapes[0].clone().transformed(Mat4::from_scale(Vec3::new(-1.0, 1.0, 1.0)));
+    assert!(inverted.is_closed_outward(), "a mirror flips the winding back outward");
+    let mut inside_out = shapes[0].clone();
+    inside_out.indices.chunks_exact_mut(3).for_each(|t| t.swap(1, 2));
+    assert!(!inside_out.is_closed_outward(), "a surface wound inward is not");
+}

@@ -26,6 +26,7 @@ pub enum Target {
 #[derive(Clone, Copy)]
 pub(super) enum Pass {
     Opaque,
+    OpaqueClosed,
     Back,
     Front,
 }
@@ -93,7 +94,8 @@ fn surfaces(world_to_clip: Mat4, meshes: &[&MeshInstance]) -> Vec<Draw> {
         indices: Some((m.gpu.indices.clone(), m.gpu.index_count)),
         vertex_count: 0,
     };
-    let mut out: Vec<Draw> = opaque.iter().map(|m| surface(m, Pass::Opaque)).collect();
+    let mut out: Vec<Draw> =
+        opaque.iter().map(|m| surface(m, if m.closed { Pass::OpaqueClosed } else { Pass::Opaque })).collect();
     for m in translucent.iter().filter(|m| m.opacity > 0.0) {
         out.push(surface(m, Pass::Back));
         out.push(surface(m, Pass::Front));
@@ -209,6 +211,7 @@ pub fn record(pass: &mut wgpu::RenderPass<'_>, set: &PipelineSet, bind_group: &w
     for (slot, draw) in draws.iter().enumerate() {
         let pipeline = match draw.pass {
             Pass::Opaque => &set.opaque,
+            Pass::OpaqueClosed => &set.opaque_closed,
             Pass::Back => &set.translucent_back,
             Pass::Front => &set.translucent_front,
         };

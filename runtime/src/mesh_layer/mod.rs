@@ -64,6 +64,9 @@ pub struct MeshInstance {
     pub opacity: f32,
     /// The mesh's vertices to patient space (RAS mm).
     pub model: Mat4,
+    /// The surface is closed and wound outward ([`Mesh::is_closed_outward`]): opaque, its back
+    /// faces are culled.
+    pub closed: bool,
 }
 
 /// How a view's mesh layer looks at the meshes.

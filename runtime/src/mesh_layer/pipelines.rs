@@ -100,6 +100,9 @@ fn fs_overlay(in: Varyings) -> @location(0) vec4<f32> {
 #[derive(Clone, Copy)]
 enum Kind {
     Opaque,
+    /// An opaque closed surface wound outward: its back faces are hidden, so they are culled
+    /// (half the triangles a software rasterizer sets up).
+    OpaqueClosed,
     TranslucentBack,
     TranslucentFront,
 }
@@ -107,6 +110,7 @@ enum Kind {
 /// The pipelines of one kind of target, a draw's pass picking one.
 pub struct PipelineSet {
     pub opaque: wgpu::RenderPipeline,
+    pub opaque_closed: wgpu::RenderPipeline,
     pub translucent_back: wgpu::RenderPipeline,
     pub translucent_front: wgpu::RenderPipeline,
 }
@@ -149,6 +153,7 @@ impl MeshPipelines {
                 let make = |kind| pipeline(gpu, &module, &pipeline_layout, kind, overlay);
                 PipelineSet {
                     opaque: make(Kind::Opaque),
+                    opaque_closed: make(Kind::OpaqueClosed),
                     translucent_back: make(Kind::TranslucentBack),
                     translucent_front: make(Kind::TranslucentFront),
                 }
@@ -172,6 +177,7 @@ fn pipeline(
 ) -> wgpu::RenderPipeline {
     let (cull_mode, depth_write_enabled) = match kind {
         Kind::Opaque => (None, true),
+        Kind::OpaqueClosed => (Some(wgpu::Face::Back), true),
         Kind::TranslucentBack => (Some(wgpu::Face::Front), false),
         Kind::TranslucentFront => (Some(wgpu::Face::Back), false),
     };

@@ -54,7 +54,8 @@ impl SceneRenderer {
         Ok(())
     }
 
-    /// Makes again each shape whose followed uniforms changed since it was made.
+    /// Makes again each shape whose followed uniforms changed since it was made, keeping its
+    /// colour, opacity and placement as they are now.
     pub(super) fn update_followed_meshes(&mut self) -> Result<(), RuntimeError> {
         for i in 0..self.meshes.tables.len() {
             let table = &self.meshes.tables[i];
@@ -66,7 +67,10 @@ impl SceneRenderer {
                 continue;
             }
             let surface = mesh_surface(table, &points, &|_| Err(no_surface_volume()))?;
-            let instance = self.instance(table, surface)?;
+            // A new surface in the style it is drawn with now (the user may have changed it).
+            let mut instance = self.instance(table, surface)?;
+            let now = &self.resources.meshes[i];
+            (instance.color, instance.opacity, instance.model) = (now.color, now.opacity, now.model);
             self.resources.meshes[i] = instance;
             self.meshes.followed[i] = points;
             self.resources.mesh_generation += 1;
@@ -108,7 +112,9 @@ impl SceneRenderer {
         let name = &table.name.name;
         let gpu = GpuMesh::upload(&self.gpu, name, &surface)?;
         let model = table.transform.as_ref().map_or(Mat4::IDENTITY, |t| Mat4::from_cols_array_2d(&t.value));
+        let closed = surface.is_closed_outward();
         Ok(MeshInstance {
+            closed,
             name: name.clone(),
             mesh: Arc::new(surface),
             gpu: Arc::new(gpu),
