@@ -57,6 +57,8 @@ pub struct SceneView {
     /// meshes).
     pub meshes: Vec<usize>,
     pub overlay: Vec<usize>,
+    /// The slice views it shows on their planes (indices into the scene's views).
+    pub planes: Vec<usize>,
 }
 
 /// A loaded scene, ready to render every frame.
@@ -266,7 +268,14 @@ impl SceneRenderer {
         self.update_light_volumes()?;
         self.update_followed_meshes()?;
         let mut images = Vec::new();
-        for view in &mut self.views {
+        for index in 0..self.views.len() {
+            if !self.views[index].planes.is_empty() {
+                let mut encoder = self.gpu.device.create_command_encoder(&Default::default());
+                self.encode_planes(index, &mut encoder)?;
+                let doing = "rendering the slice views shown on planes";
+                self.gpu.capture(doing, || self.gpu.queue.submit([encoder.finish()]))?;
+            }
+            let view = &mut self.views[index];
             apply_view_uniforms(view, &self.grids)?;
             images.push((view.name.clone(), view.renderer.render(&self.gpu, &self.resources)?));
         }
@@ -335,6 +344,7 @@ impl SceneRenderer {
     pub fn encode_view(&mut self, index: usize, encoder: &mut wgpu::CommandEncoder) -> Result<(), RuntimeError> {
         self.update_light_volumes()?;
         self.update_followed_meshes()?;
+        self.encode_planes(index, encoder)?;
         let view = &mut self.views[index];
         apply_view_uniforms(view, &self.grids)?;
         view.renderer.encode(&self.gpu, &self.resources, encoder)
@@ -351,6 +361,7 @@ impl SceneRenderer {
     ) -> Result<(), RuntimeError> {
         self.update_light_volumes()?;
         self.update_followed_meshes()?;
+        self.encode_planes(index, encoder)?;
         let view = self.views.get_mut(index).ok_or_else(|| RuntimeError::Invalid(format!("no view {index}")))?;
         apply_view_uniforms(view, &self.grids)?;
         view.renderer.encode_into(&self.gpu, &self.resources, encoder, target, region)
@@ -401,8 +412,17 @@ impl SceneRenderer {
                 vscene::Convention::Radiological => Convention::Radiological,
                 vscene::Convention::Neurological => Convention::Neurological,
             };
-            let (meshes, overlay) = (view.meshes.clone(), view.overlay.clone());
-            views.push(SceneView { name: output.name.clone(), renderer, camera, slice, convention, meshes, overlay });
+            let (meshes, overlay, planes) = (view.meshes.clone(), view.overlay.clone(), view.planes.clone());
+            views.push(SceneView {
+                name: output.name.clone(),
+                renderer,
+                camera,
+                slice,
+                convention,
+                meshes,
+                overlay,
+                planes,
+            });
         }
         self.views = views;
         Ok(())

@@ -4,7 +4,9 @@
 use crate::bindings::{self, DispatchResources};
 use crate::error::RuntimeError;
 use crate::gpu::Gpu;
-use crate::mesh_layer::{LayerCamera, MeshInstance, MeshLayer, Overlay, pipelines::MeshPipelines};
+use crate::mesh_layer::{
+    LayerCamera, LayerContent, MeshInstance, MeshLayer, Overlay, PlanePicture, pipelines::MeshPipelines,
+};
 use crate::metering::Metering;
 use crate::reflection::BindingKind;
 use crate::shader::{PipelineCache, ViewPipeline, ViewShader};
@@ -60,6 +62,8 @@ pub struct ViewRenderer {
     /// depth buffers (one per target size in use, the last used first).
     overlay_meshes: Vec<usize>,
     overlays: Vec<Overlay>,
+    /// Slice views' pictures the mesh layer shows on their planes.
+    layer_planes: Vec<PlanePicture>,
 }
 
 /// Mesh layers kept per view: one for previews and one for the full image.
@@ -102,6 +106,7 @@ impl ViewRenderer {
             layer_meshes: Vec::new(),
             overlay_meshes: Vec::new(),
             overlays: Vec::new(),
+            layer_planes: Vec::new(),
         })
     }
 
@@ -146,6 +151,16 @@ impl ViewRenderer {
         self.overlay_meshes = overlay;
     }
 
+    /// The slice pictures the mesh layer shows on their planes (their views render first).
+    pub fn set_planes(&mut self, planes: Vec<PlanePicture>) {
+        self.layer_planes = planes;
+    }
+
+    /// The slice pictures the mesh layer shows on their planes.
+    pub fn planes(&self) -> &[PlanePicture] {
+        &self.layer_planes
+    }
+
     /// The mesh layer as last drawn, at the size of the last target (for probes and tests).
     pub fn mesh_layer(&self) -> Option<&MeshLayer> {
         self.mesh_layers.first()
@@ -173,7 +188,9 @@ impl ViewRenderer {
             _ => Vec::new(),
         };
         let camera = self.layer_camera.unwrap_or(LayerCamera::Projection { world_to_clip: glam::Mat4::IDENTITY });
-        layer.encode(gpu, resources.mesh_pipelines.as_ref(), encoder, &camera, &meshes, resources.mesh_generation)
+        let planes = if self.layer_camera.is_some() { &self.layer_planes[..] } else { &[] };
+        let content = LayerContent { camera: &camera, meshes: &meshes, planes, generation: resources.mesh_generation };
+        layer.encode(gpu, (resources.mesh_pipelines.as_ref(), &resources.sampler), encoder, &content)
     }
 
     /// Records the overlay's meshes over `target` (after the volume layer's pass).

@@ -100,8 +100,8 @@ fn every_light_option_renders_or_is_refused_at_build() {
     assert_eq!(rendered + refused, cells.len());
 }
 
-/// Every mesh set (none, opaque, opaque and translucent, one that follows a module's uniform)
-/// with every compositing mode, view kind, shading, tone mapping and an additional volume
+/// Every mesh set (none, opaque, opaque and translucent, one that follows a module's uniform,
+/// a slice view shown on its plane) with every compositing mode, view kind, shading, tone mapping and an additional volume
 /// renders, with finite colours and a mesh layer that the view reads (`geometry_depth` probed:
 /// 1 where no mesh is, within [0, 1] everywhere).
 #[test]

@@ -222,3 +222,23 @@ fn an_overlay_shows_a_mesh_over_the_volume_in_front_of_it() {
         reddest(&over)
     );
 }
+
+/// A slice view on its plane in the 3D view: the rays that meet the plane end there and show the
+/// slice's picture (nearly white: the slice stands for a thick slab of the white volume), so
+/// the plane's pixels are brighter than the volume's chord behind them; the other pixels stay.
+#[test]
+fn a_slice_view_shows_on_its_plane_in_the_3d_view() {
+    let dir = tempfile::tempdir().expect("a folder");
+    homogeneous_volume(dir.path());
+    let axial = "\n[[view]]\nname = \"axial\"\nkind = \"slice\"\naxis = \"axial\"\nposition = 0.5\nsize = [64, 64]\nmeshes = []\nrender = { background = [0.0, 0.0, 0.0, 0.0] }\n";
+    let without = format!("{}{axial}", SCENE.replace("size = [64, 64]", "size = [64, 64]\nmeshes = []"));
+    let with = without.replace("meshes = []", "meshes = []\nplanes = [\"axial\"]");
+    let plain = open(dir.path(), &without).render_all().expect("render").remove(0).1;
+    let mut scene = open(dir.path(), &with);
+    let shown = scene.render_all().expect("render").remove(0).1;
+    assert!(scene.views[0].renderer.reads_mesh_layer(), "the plane makes a mesh layer");
+    let brighter = shown.pixels().zip(plain.pixels()).filter(|(a, b)| a[0] > b[0].saturating_add(20)).count();
+    let darker = shown.pixels().zip(plain.pixels()).filter(|(a, b)| a[0].saturating_add(2) < b[0]).count();
+    assert!(brighter > 500, "the plane shows ({brighter} pixels brighter)");
+    assert_eq!(darker, 0, "nothing gets darker: the slice is the volume's brightest");
+}

@@ -15,7 +15,7 @@ use crate::types::{Scalar, Type};
 /// Checks the layers of each composed view (named) of `scene`.
 pub fn check_layers(scene: &Scene, views: &[(&str, &Composition)], diags: &mut Diagnostics) {
     for &(name, composition) in views {
-        let draws_meshes = scene.view(name).is_some_and(|v| !v.meshes.is_empty());
+        let draws_meshes = scene.view(name).is_some_and(Scene::has_mesh_layer);
         if draws_meshes {
             continue;
         }

@@ -110,7 +110,7 @@ impl Scene {
         }
         // Last: `stop_at_meshes` follows the ray setup (and skipping's first walk), and
         // `blend_meshes` runs after `encode_srgb` (mesh colours are display colours).
-        if !view.meshes.is_empty() {
+        if Scene::has_mesh_layer(view) {
             add("meshes", vec![]);
         }
         out

@@ -411,3 +411,48 @@ impl Cx<'_> {
         out
     }
 }
+
+impl Cx<'_> {
+    /// A raycast view's `planes`: slice views of the scene, by name, as indices into `views`.
+    pub(super) fn view_planes(
+        &mut self,
+        views: &[View],
+        index: usize,
+        list: &Spanned<Vec<Spanned<String>>>,
+    ) -> Vec<usize> {
+        if views[index].kind.value != ViewKind::Raycast {
+            self.ignored(list, "planes", "on a slice view (a raycast view shows slice views on their planes)");
+            return Vec::new();
+        }
+        let mut out = Vec::new();
+        for name in list.get_ref() {
+            let span = self.span(name);
+            match views.iter().position(|v| &v.name.name == name.get_ref()) {
+                Some(i) if views[i].kind.value != ViewKind::Slice => {
+                    self.emit(
+                        self.invalid(
+                            span,
+                            format!("`{}` is a raycast view; `planes` lists slice views", name.get_ref()),
+                        )
+                        .with_secondary(views[i].kind.span, "its kind"),
+                    );
+                }
+                Some(i) if out.contains(&i) => {
+                    self.emit(self.invalid(span, format!("the view `{}` is listed twice", name.get_ref())));
+                }
+                Some(i) => out.push(i),
+                None => {
+                    let slices = views.iter().filter(|v| v.kind.value == ViewKind::Slice).map(|v| v.name.name.as_str());
+                    let mut d = self
+                        .invalid(span, format!("the scene has no view `{}`", name.get_ref()))
+                        .with_label("not a [[view]] name");
+                    if let Some(s) = crate::suggest::did_you_mean(name.get_ref(), slices) {
+                        d = d.with_help(format!("did you mean `{s}`?"));
+                    }
+                    self.emit(d);
+                }
+            }
+        }
+        out
+    }
+}

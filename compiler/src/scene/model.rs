@@ -267,6 +267,9 @@ pub struct View {
     /// The meshes drawn over the finished picture (its `overlay` list; none without it): the
     /// view's overlay layer, which no layer reads.
     pub overlay: Vec<usize>,
+    /// Raycast views only: the slice views whose pictures this view shows in its mesh layer,
+    /// each on its plane in patient space (indices into `Scene::views`; its `planes` list).
+    pub planes: Vec<usize>,
     /// The whole `[[view]]` table.
     pub span: Span,
 }
@@ -408,6 +411,11 @@ impl Scene {
     /// The view named `name`.
     pub fn view(&self, name: &str) -> Option<&View> {
         self.views.iter().find(|v| v.name.name == name)
+    }
+
+    /// Whether `view` has a mesh layer: meshes, or slice views' pictures on their planes.
+    pub fn has_mesh_layer(view: &View) -> bool {
+        !view.meshes.is_empty() || !view.planes.is_empty()
     }
 
     /// Initial uniform values of views without their own `render` table: `[uniforms]`, plus

@@ -103,6 +103,7 @@ pub(super) struct RawView {
     pub(super) modules: Vec<Spanned<RawModule>>,
     pub(super) meshes: Option<Spanned<Vec<Spanned<String>>>>,
     pub(super) overlay: Option<Spanned<Vec<Spanned<String>>>>,
+    pub(super) planes: Option<Spanned<Vec<Spanned<String>>>>,
 }
 pub(super) const VIEW_KEYS: &[&str] = &[
     "name",
@@ -117,6 +118,7 @@ pub(super) const VIEW_KEYS: &[&str] = &[
     "modules",
     "meshes",
     "overlay",
+    "planes",
 ];
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]

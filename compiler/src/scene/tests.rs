@@ -388,3 +388,30 @@ fn garbage_never_panics() {
         let _ = parse(text);
     }
 }
+
+#[test]
+fn meshes_overlays_and_planes_name_what_the_scene_has() {
+    let scene = format!(
+        "{MINIMAL}kind = \"raycast\"\nmeshes = [\"pin\"]\noverlay = [\"pin\"]\nplanes = [\"axial\"]\n\n\
+         [[view]]\nname = \"axial\"\nkind = \"slice\"\naxis = \"axial\"\nmeshes = []\n\n\
+         [[mesh]]\nname = \"pin\"\nshape = \"needle\"\ntip = [0.0, 0.0, 0.0]\ndirection = [0.0, 0.0, 1.0]\n\n\
+         [[mesh]]\nname = \"skin\"\nvolume = \"v\"\nlevel = 0.3\n"
+    );
+    let (_, parsed) = parse(&scene);
+    let parsed = parsed.unwrap_or_else(|e| panic!("{:?}", e.diagnostics));
+    assert_eq!((parsed.views[0].meshes.clone(), parsed.views[0].overlay.clone()), (vec![0], vec![0]));
+    assert_eq!(parsed.views[0].planes, vec![1]);
+    assert!(parsed.views[1].meshes.is_empty() && Scene::has_mesh_layer(&parsed.views[0]));
+    assert!(
+        matches!(&parsed.meshes[1].source, MeshSource::Surface { volume, level } if volume.value == "v" && *level == 0.3)
+    );
+    let bad = format!(
+        "{MINIMAL}planes = [\"3d\", \"sagital\"]\nmeshes = [\"pn\"]\n\n[[view]]\nname = \"sagittal\"\nkind = \"slice\"\naxis = \"x\"\n\n\
+         [[mesh]]\nname = \"pin\"\nshape = \"needle\"\ntip = [0.0, 0.0, 0.0]\ndirection = [0.0, 0.0, 1.0]\n\n\
+         [[mesh]]\nname = \"skin\"\nvolume = \"body\"\n"
+    );
+    let messages: Vec<String> = errors(&bad).into_iter().map(|e| e.3).collect();
+    for want in ["`3d` is a raycast view", "no view `sagital`", "no mesh `pn`", "no volume `body`"] {
+        assert!(messages.iter().any(|m| m.contains(want)), "{want}: {messages:?}");
+    }
+}

@@ -527,6 +527,7 @@ impl Cx<'_> {
             );
         }
         let mut out: Vec<View> = Vec::new();
+        let mut planes = Vec::new();
         for v in raw {
             let span = self.span(&v);
             let v = v.into_inner();
@@ -651,8 +652,16 @@ impl Cx<'_> {
                 modules,
                 meshes,
                 overlay,
+                planes: Vec::new(),
                 span,
             });
+            planes.push(v.planes);
+        }
+        for (i, list) in planes.into_iter().enumerate() {
+            if let Some(list) = list {
+                let resolved = self.view_planes(&out, i, &list);
+                out[i].planes = resolved;
+            }
         }
         out
     }

@@ -25,6 +25,8 @@ pub enum Target {
 /// Which pipeline a draw uses.
 #[derive(Clone, Copy)]
 pub(super) enum Pass {
+    /// A slice view's picture on its plane (its bind group in `Draw::picture`).
+    Plane,
     Opaque,
     OpaqueClosed,
     Back,
@@ -38,6 +40,8 @@ pub(super) struct Draw {
     vertices: wgpu::Buffer,
     indices: Option<(wgpu::Buffer, u32)>,
     vertex_count: u32,
+    /// A plane's picture and sampler.
+    picture: Option<wgpu::BindGroup>,
 }
 
 impl DrawUniforms {
@@ -93,6 +97,7 @@ fn surfaces(world_to_clip: Mat4, meshes: &[&MeshInstance]) -> Vec<Draw> {
         vertices: m.gpu.vertices.clone(),
         indices: Some((m.gpu.indices.clone(), m.gpu.index_count)),
         vertex_count: 0,
+        picture: None,
     };
     let mut out: Vec<Draw> =
         opaque.iter().map(|m| surface(m, if m.closed { Pass::OpaqueClosed } else { Pass::Opaque })).collect();
@@ -144,6 +149,7 @@ fn outlines(
             vertices,
             indices: None,
             vertex_count: (quads.len() / 6) as u32,
+            picture: None,
         });
     }
     Ok(out)
@@ -206,10 +212,19 @@ impl DrawBuffer {
     }
 }
 
-/// Records `draws` into `pass` with the pipelines of `set`.
-pub fn record(pass: &mut wgpu::RenderPass<'_>, set: &PipelineSet, bind_group: &wgpu::BindGroup, draws: &[Draw]) {
+/// Records `draws` into `pass` with the pipelines of `set` (and `plane` for planes).
+pub fn record(
+    pass: &mut wgpu::RenderPass<'_>,
+    (set, plane): (&PipelineSet, &wgpu::RenderPipeline),
+    bind_group: &wgpu::BindGroup,
+    draws: &[Draw],
+) {
     for (slot, draw) in draws.iter().enumerate() {
+        if let Some(picture) = &draw.picture {
+            pass.set_bind_group(1, picture, &[]);
+        }
         let pipeline = match draw.pass {
+            Pass::Plane => plane,
             Pass::Opaque => &set.opaque,
             Pass::OpaqueClosed => &set.opaque_closed,
             Pass::Back => &set.translucent_back,
@@ -226,4 +241,71 @@ pub fn record(pass: &mut wgpu::RenderPass<'_>, set: &PipelineSet, bind_group: &w
             None => pass.draw(0..draw.vertex_count, 0..1),
         }
     }
+}
+
+/// A slice view's picture and where it lies: the plane's corners in patient space (mm) and each
+/// corner's coordinates in the picture.
+#[derive(Clone, Debug)]
+pub struct PlanePicture {
+    pub picture: wgpu::TextureView,
+    pub corners: [glam::Vec3; 4],
+    pub uv: [glam::Vec2; 4],
+}
+
+/// The draws of slice pictures on their planes, seen through `world_to_clip`.
+pub fn plane_draws(
+    gpu: &Gpu,
+    pipelines: &MeshPipelines,
+    sampler: &wgpu::Sampler,
+    world_to_clip: Mat4,
+    planes: &[PlanePicture],
+) -> Result<Vec<Draw>, RuntimeError> {
+    let mut out = Vec::with_capacity(planes.len());
+    for plane in planes {
+        let vertices: Vec<f32> = [0, 1, 2, 0, 2, 3]
+            .iter()
+            .flat_map(|&i| {
+                let (p, uv) = (plane.corners[i], plane.uv[i]);
+                [p.x, p.y, p.z, uv.x, uv.y]
+            })
+            .collect();
+        let doing = "drawing a slice view on its plane";
+        let buffer = gpu.capture(doing, || {
+            wgpu::util::DeviceExt::create_buffer_init(
+                &gpu.device,
+                &wgpu::util::BufferInitDescriptor {
+                    label: Some("plane"),
+                    contents: bytemuck::cast_slice(&vertices),
+                    usage: wgpu::BufferUsages::VERTEX,
+                },
+            )
+        })?;
+        let picture = gpu.capture(doing, || {
+            gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("plane picture"),
+                layout: &pipelines.plane_layout,
+                entries: &[
+                    wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(&plane.picture) },
+                    wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::Sampler(sampler) },
+                ],
+            })
+        })?;
+        let identity = Mat4::IDENTITY.to_cols_array_2d();
+        out.push(Draw {
+            pass: Pass::Plane,
+            uniforms: DrawUniforms {
+                world_to_clip: world_to_clip.to_cols_array_2d(),
+                clip_to_world: identity,
+                model: identity,
+                normal_model: identity,
+                color: [1.0; 4],
+                flat: [1.0, 0.0, 0.0, 0.0],
+            },
+            vertices: buffer,
+            indices: None,
+            vertex_count: 6,
+            picture: Some(picture),
+        });
+    }
+    Ok(out)
 }

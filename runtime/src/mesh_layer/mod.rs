@@ -18,6 +18,7 @@ use crate::error::RuntimeError;
 use crate::gpu::Gpu;
 use crate::mesh::Mesh;
 use crate::textures::Image2d;
+pub use draws::PlanePicture;
 use draws::{DrawBuffer, Target};
 use glam::Mat4;
 use outline::SliceFrame;
@@ -67,6 +68,15 @@ pub struct MeshInstance {
     /// The surface is closed and wound outward ([`Mesh::is_closed_outward`]): opaque, its back
     /// faces are culled.
     pub closed: bool,
+}
+
+/// What a mesh layer draws: meshes and slice views' pictures on their planes, seen by a camera.
+pub struct LayerContent<'a> {
+    pub camera: &'a LayerCamera,
+    pub meshes: &'a [&'a MeshInstance],
+    pub planes: &'a [PlanePicture],
+    /// Counts changes of the meshes' surfaces.
+    pub generation: u64,
 }
 
 /// How a view's mesh layer looks at the meshes.
@@ -122,25 +132,27 @@ impl MeshLayer {
         (&self.depth_view, &self.color_view)
     }
 
-    /// Records the drawing of `meshes` seen by `camera` into the layer's images, unless they
-    /// already hold exactly that picture (`generation` counts changes of the meshes' buffers).
+    /// Records the drawing of `content` into the layer's images, unless they already hold
+    /// exactly that picture (a layer with slice pictures is drawn every time: they change with
+    /// their own views). `sampler` reads the pictures.
     pub fn encode(
         &mut self,
         gpu: &Gpu,
-        pipelines: Option<&MeshPipelines>,
+        (pipelines, sampler): (Option<&MeshPipelines>, &wgpu::Sampler),
         encoder: &mut wgpu::CommandEncoder,
-        camera: &LayerCamera,
-        meshes: &[&MeshInstance],
-        generation: u64,
+        content: &LayerContent,
     ) -> Result<(), RuntimeError> {
-        let key = layer_key(camera, meshes, self.size(), generation);
-        if self.drawn == Some(key) {
+        let key = layer_key(content.camera, content.meshes, self.size(), content.generation);
+        if content.planes.is_empty() && self.drawn == Some(key) {
             return Ok(());
         }
-        let draws = match pipelines {
-            Some(_) => draws::frame_draws(gpu, camera, meshes, self.size(), Target::Layer)?,
-            None => Vec::new(),
-        };
+        let mut draws = Vec::new();
+        if let Some(pipelines) = pipelines {
+            if let LayerCamera::Projection { world_to_clip } = content.camera {
+                draws = draws::plane_draws(gpu, pipelines, sampler, *world_to_clip, content.planes)?;
+            }
+            draws.extend(draws::frame_draws(gpu, content.camera, content.meshes, self.size(), Target::Layer)?);
+        }
         let bind_group = self.buffer.bind(gpu, pipelines, &draws)?;
         let doing = "drawing a mesh layer";
         gpu.capture(doing, || {
@@ -156,7 +168,7 @@ impl MeshLayer {
                 multiview_mask: None,
             });
             if let (Some(pipelines), Some(bind_group)) = (pipelines, &bind_group) {
-                draws::record(&mut pass, &pipelines.layer, bind_group, &draws);
+                draws::record(&mut pass, (&pipelines.layer, &pipelines.plane), bind_group, &draws);
             }
         })?;
         self.drawn = Some(key);

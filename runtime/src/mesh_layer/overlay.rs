@@ -50,7 +50,7 @@ impl Overlay {
                 occlusion_query_set: None,
                 multiview_mask: None,
             });
-            draws::record(&mut pass, &pipelines.overlay, &bind_group, &draws);
+            draws::record(&mut pass, (&pipelines.overlay, &pipelines.plane), &bind_group, &draws);
         })?;
         Ok(())
     }

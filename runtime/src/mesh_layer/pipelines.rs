@@ -94,6 +94,35 @@ fn fs(in: Varyings) -> Fragment {
 fn fs_overlay(in: Varyings) -> @location(0) vec4<f32> {
     return shade(in);
 }
+
+// A slice view's picture on its plane, opaque where it is at least half covered (its colour
+// unpremultiplied), left out elsewhere: a slice with a transparent background leaves the rest of
+// its plane empty, and a ray that ends at the plane never loses what lies behind a half-covered
+// texel at its edge.
+@group(1) @binding(0) var plane_image: texture_2d<f32>;
+@group(1) @binding(1) var plane_sampler: sampler;
+
+struct PlaneVaryings {
+    @builtin(position) clip: vec4<f32>,
+    @location(0) uv: vec2<f32>,
+}
+
+@vertex
+fn vs_plane(@location(0) position: vec3<f32>, @location(1) uv: vec2<f32>) -> PlaneVaryings {
+    var out: PlaneVaryings;
+    out.clip = draw.world_to_clip * vec4<f32>(position, 1.0);
+    out.uv = uv;
+    return out;
+}
+
+@fragment
+fn fs_plane(in: PlaneVaryings) -> Fragment {
+    let color = textureSampleLevel(plane_image, plane_sampler, in.uv, 0.0);
+    if color.a < 0.5 {
+        discard;
+    }
+    return Fragment(vec4<f32>(color.rgb / color.a, 1.0), in.clip.z);
+}
 "#;
 
 /// How a pipeline treats faces and depth.
@@ -115,9 +144,13 @@ pub struct PipelineSet {
     pub translucent_front: wgpu::RenderPipeline,
 }
 
-/// The mesh pipelines and their bind-group layout.
+/// The mesh pipelines and their bind-group layouts.
 pub struct MeshPipelines {
     pub layout: wgpu::BindGroupLayout,
+    /// A plane's picture and its sampler (group 1 of `plane`).
+    pub plane_layout: wgpu::BindGroupLayout,
+    /// Slice views' pictures on their planes, into a mesh layer.
+    pub plane: wgpu::RenderPipeline,
     /// Into a mesh layer's colour and depth images.
     pub layer: PipelineSet,
     /// Over a view's picture (`rgba8unorm`).
@@ -158,7 +191,29 @@ impl MeshPipelines {
                     translucent_front: make(Kind::TranslucentFront),
                 }
             };
-            MeshPipelines { layer: set(false), overlay: set(true), layout }
+            let plane_layout = gpu.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some("plane picture"),
+                entries: &[
+                    wgpu::BindGroupLayoutEntry {
+                        binding: 0,
+                        visibility: wgpu::ShaderStages::FRAGMENT,
+                        ty: wgpu::BindingType::Texture {
+                            sample_type: wgpu::TextureSampleType::Float { filterable: true },
+                            view_dimension: wgpu::TextureViewDimension::D2,
+                            multisampled: false,
+                        },
+                        count: None,
+                    },
+                    wgpu::BindGroupLayoutEntry {
+                        binding: 1,
+                        visibility: wgpu::ShaderStages::FRAGMENT,
+                        ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+                        count: None,
+                    },
+                ],
+            });
+            let plane = plane_pipeline(gpu, &module, &layout, &plane_layout);
+            MeshPipelines { layer: set(false), overlay: set(true), plane, plane_layout, layout }
         })?;
         Ok(made)
     }
@@ -226,6 +281,55 @@ fn pipeline(
             entry_point: Some(entry_point),
             compilation_options: Default::default(),
             targets: &targets,
+        }),
+        multiview_mask: None,
+        cache: None,
+    })
+}
+
+/// Position and picture coordinates, 20 bytes a vertex.
+const PLANE_ATTRIBUTES: [wgpu::VertexAttribute; 2] = wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x2];
+
+/// The pipeline of slice pictures on their planes: opaque, depth written, both sides.
+fn plane_pipeline(
+    gpu: &Gpu,
+    module: &wgpu::ShaderModule,
+    draw: &wgpu::BindGroupLayout,
+    picture: &wgpu::BindGroupLayout,
+) -> wgpu::RenderPipeline {
+    let layout = gpu.device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some("plane picture"),
+        bind_group_layouts: &[Some(draw), Some(picture)],
+        immediate_size: 0,
+    });
+    let target = |format| Some(wgpu::ColorTargetState { format, blend: None, write_mask: wgpu::ColorWrites::ALL });
+    gpu.device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+        label: Some("plane picture"),
+        layout: Some(&layout),
+        vertex: wgpu::VertexState {
+            module,
+            entry_point: Some("vs_plane"),
+            compilation_options: Default::default(),
+            buffers: &[Some(wgpu::VertexBufferLayout {
+                array_stride: 20,
+                step_mode: wgpu::VertexStepMode::Vertex,
+                attributes: &PLANE_ATTRIBUTES,
+            })],
+        },
+        primitive: wgpu::PrimitiveState::default(),
+        depth_stencil: Some(wgpu::DepthStencilState {
+            format: DEPTH_FORMAT,
+            depth_write_enabled: Some(true),
+            depth_compare: Some(wgpu::CompareFunction::Less),
+            stencil: Default::default(),
+            bias: Default::default(),
+        }),
+        multisample: Default::default(),
+        fragment: Some(wgpu::FragmentState {
+            module,
+            entry_point: Some("fs_plane"),
+            compilation_options: Default::default(),
+            targets: &[target(COLOR_FORMAT), target(DEPTH_IMAGE_FORMAT)],
         }),
         multiview_mask: None,
         cache: None,

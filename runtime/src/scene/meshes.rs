@@ -8,7 +8,9 @@ use crate::error::RuntimeError;
 use crate::geometry::{self, ShaderPlane};
 use crate::mesh::{self, Mesh, isosurface, shapes};
 use crate::mesh_layer::outline::SliceFrame;
-use crate::mesh_layer::{GpuMesh, LayerCamera, MeshInstance, SLICE_PLANE_DEPTH, pipelines::MeshPipelines};
+use crate::mesh_layer::{
+    GpuMesh, LayerCamera, MeshInstance, PlanePicture, SLICE_PLANE_DEPTH, pipelines::MeshPipelines,
+};
 use crate::uniforms::Value;
 use crate::volume::Volume;
 use glam::{Mat4, Vec3, Vec4};
@@ -34,7 +36,11 @@ impl SceneRenderer {
     /// here; `build` reports them first, at the table).
     pub(super) fn load_meshes(&mut self, scene: &Scene) -> Result<(), RuntimeError> {
         let key = format!("{:?}", scene.meshes);
-        if key == self.meshes.key && self.resources.meshes.len() == scene.meshes.len() {
+        let planes = scene.views.iter().any(|v| !v.planes.is_empty());
+        if key == self.meshes.key
+            && self.resources.meshes.len() == scene.meshes.len()
+            && (!planes || self.resources.mesh_pipelines.is_some())
+        {
             return Ok(());
         }
         let mut instances = Vec::with_capacity(scene.meshes.len());
@@ -45,7 +51,8 @@ impl SceneRenderer {
             instances.push(self.instance(table, surface)?);
             followed.push(points);
         }
-        if !instances.is_empty() && self.resources.mesh_pipelines.is_none() {
+        let planes = scene.views.iter().any(|v| !v.planes.is_empty());
+        if (!instances.is_empty() || planes) && self.resources.mesh_pipelines.is_none() {
             self.resources.mesh_pipelines = Some(MeshPipelines::new(&self.gpu)?);
         }
         self.resources.meshes = instances;
@@ -282,4 +289,45 @@ impl SceneRenderer {
         let p = frame.world_to_image.transform_point3(point);
         Some(([p.x, p.y], p.z))
     }
+}
+
+impl SceneRenderer {
+    /// Renders the slice views that view `index` shows on their planes (each into its own
+    /// output, recorded into `encoder` before the view) and hands their pictures to its mesh
+    /// layer.
+    pub(super) fn encode_planes(
+        &mut self,
+        index: usize,
+        encoder: &mut wgpu::CommandEncoder,
+    ) -> Result<(), RuntimeError> {
+        let Some(planes) = self.views.get(index).map(|v| v.planes.clone()).filter(|p| !p.is_empty()) else {
+            return Ok(());
+        };
+        let Some(primary) = self.grids.first() else { return Ok(()) };
+        let mut pictures = Vec::with_capacity(planes.len());
+        for p in planes {
+            let Some(view) = self.views.get_mut(p) else { continue };
+            super::apply_view_uniforms(view, &self.grids)?;
+            view.renderer.encode(&self.gpu, &self.resources, encoder)?;
+            if let Some(picture) = plane_picture(view, primary) {
+                pictures.push(picture);
+            }
+        }
+        self.views[index].renderer.set_planes(pictures);
+        Ok(())
+    }
+}
+
+/// A slice view's picture and the part of its plane inside the primary volume's box, in patient
+/// space, with each corner's place in the picture.
+fn plane_picture(view: &SceneView, primary: &VolumeGrid) -> Option<PlanePicture> {
+    let (plane, _) = view.slice?;
+    let (frame, _) = slice_frame(view, primary)?;
+    let to_world = geometry::volume_to_world(primary.dims, primary.grid_to_world);
+    let box_to_world = geometry::PatientBox::of(to_world).to_world();
+    let plane = plane.oriented(view.convention);
+    let corners = [plane.origin, plane.origin + plane.u, plane.origin + plane.u + plane.v, plane.origin + plane.v]
+        .map(|c| box_to_world.transform_point3(c));
+    let uv = corners.map(|c| frame.world_to_image.transform_point3(c).truncate());
+    Some(PlanePicture { picture: view.renderer.output().create_view(&Default::default()), corners, uv })
 }

@@ -90,6 +90,13 @@ impl SceneRenderer {
             let probe = self.compose_probe(index, &spec.field)?;
             self.probes.variants.insert(key.clone(), probe);
         }
+        // The slice views the view shows on planes, as they are now.
+        if !self.views[index].planes.is_empty() {
+            let mut encoder = self.gpu.device.create_command_encoder(&Default::default());
+            self.encode_planes(index, &mut encoder)?;
+            self.gpu
+                .capture("rendering the slice views shown on planes", || self.gpu.queue.submit([encoder.finish()]))?;
+        }
         let (view, probe) = match (self.views.get(index), self.probes.variants.get_mut(&key)) {
             (Some(view), Some(probe)) => (view, probe),
             _ => return Err(no_view(index)),
@@ -115,6 +122,7 @@ impl SceneRenderer {
         probe.view.slice = view.slice;
         probe.view.convention = view.convention;
         apply_view_uniforms(&mut probe.view, &self.grids)?;
+        probe.view.renderer.set_planes(view.renderer.planes().to_vec());
         let mut passes = Vec::with_capacity(probe.layout.passes as usize);
         for pass in 0..probe.layout.passes {
             probe.view.renderer.set_uniform(cprobe::PASS_UNIFORM, pass)?;
@@ -148,6 +156,7 @@ impl SceneRenderer {
             convention: view.convention,
             meshes: view.meshes.clone(),
             overlay: view.overlay.clone(),
+            planes: Vec::new(),
         };
         Ok(Probe { layout: variant.layout, view })
     }

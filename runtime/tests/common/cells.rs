@@ -235,9 +235,9 @@ impl LightCell {
 }
 
 /// The mesh sets of the mesh matrix: none, an opaque needle through the head, the needle with a
-/// translucent sphere, and a needle that follows a uniform of a user module (the ablation
-/// example's pattern).
-pub const MESH_SETS: [&str; 4] = ["none", "needle", "needle+translucent", "following"];
+/// translucent sphere, a needle that follows a uniform of a user module (the ablation example's
+/// pattern), and a second (slice) view shown on its plane with the needle in both.
+pub const MESH_SETS: [&str; 5] = ["none", "needle", "needle+translucent", "following", "planes"];
 
 /// Meshes with the options they meet: mesh set, mode, view kind, shading, tone mapping and an
 /// additional volume.
@@ -292,10 +292,19 @@ impl MeshCell {
                 needle("[2.0, 1.0, 0.0]")
                     + "\n[[mesh]]\nname = \"ball\"\nshape = \"sphere\"\ncentre = [-4.0, 0.0, 2.0]\nradius = 5.0\nopacity = 0.4\n"
             }
-            _ => needle("\"target\"") + "\n[[module]]\npath = \"target.vrs\"\n",
+            "following" => needle("\"target\"") + "\n[[module]]\npath = \"target.vrs\"\n",
+            _ => needle("[2.0, 1.0, 0.0]"),
+        };
+        // The second view comes after `v`, which stays view 0.
+        let (planes, second) = match self.meshes {
+            "planes" if !self.slice => (
+                "planes = [\"s\"]\n",
+                "\n[[view]]\nname = \"s\"\nkind = \"slice\"\naxis = \"coronal\"\nsize = [16, 16]\n",
+            ),
+            _ => ("", ""),
         };
         format!(
-            "[render]\n{}\n{}{meshes}\n[[view]]\nname = \"v\"\n{kind}\nsize = [16, 16]\n",
+            "[render]\n{}\n{}{meshes}\n[[view]]\nname = \"v\"\n{kind}\nsize = [16, 16]\n{planes}{second}",
             render.join("\n"),
             volumes(roles)
         )
