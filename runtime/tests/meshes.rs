@@ -242,3 +242,26 @@ fn a_slice_view_shows_on_its_plane_in_the_3d_view() {
     assert!(brighter > 500, "the plane shows ({brighter} pixels brighter)");
     assert_eq!(darker, 0, "nothing gets darker: the slice is the volume's brightest");
 }
+
+/// A user's pipeline function reads the mesh layer: it fades the volume within 4 mm in front of
+/// the box (`t_geometry - t`, in mm through `dt_mm / dt`), so the pixels whose rays end at the
+/// box get darker and no other pixel changes.
+#[test]
+fn a_user_function_fades_the_volume_near_the_surface() {
+    let dir = tempfile::tempdir().expect("a folder");
+    homogeneous_volume(dir.path());
+    let fade = "/// Hides the volume within `fade_mm` in front of the first opaque mesh.\n\
+        pipeline fade_near_mesh after compositing.primary_color {\n    \
+        uniform fade_mm: f32 = 4.0 in 0.0 .. 50.0;\n    @ray state t_geometry: f32 = 1e30;\n    \
+        @ray state dt: f32;\n    @ray state dt_mm: f32;\n    state t: f32;\n    state src: vec4f;\n\n    \
+        let mm = (state.t_geometry - state.t) * state.dt_mm / max(state.dt, 1e-9);\n    \
+        if mm < fade_mm {\n        state.src.a = 0.0;\n    }\n}\n";
+    std::fs::write(dir.path().join("fade.vrs"), fade).expect("module written");
+    let plain = open(dir.path(), SCENE).render_all().expect("render").remove(0).1;
+    let faded_scene = format!("{SCENE}\n[[module]]\npath = \"fade.vrs\"\n");
+    let faded = open(dir.path(), &faded_scene).render_all().expect("render").remove(0).1;
+    let darker = faded.pixels().zip(plain.pixels()).filter(|(a, b)| a[0] + 4 < b[0]).count();
+    let brighter = faded.pixels().zip(plain.pixels()).filter(|(a, b)| a[0] > b[0] + 1).count();
+    assert!(darker > 300, "the volume in front of the box fades ({darker} pixels darker)");
+    assert_eq!(brighter, 0, "nothing gets brighter");
+}
