@@ -133,16 +133,7 @@ fn outlines(
         if quads.is_empty() {
             continue;
         }
-        let vertices = gpu.capture("uploading a slice outline", || {
-            wgpu::util::DeviceExt::create_buffer_init(
-                &gpu.device,
-                &wgpu::util::BufferInitDescriptor {
-                    label: Some("outline"),
-                    contents: bytemuck::cast_slice(&quads),
-                    usage: wgpu::BufferUsages::VERTEX,
-                },
-            )
-        })?;
+        let vertices = vertex_buffer(gpu, "uploading a slice outline", bytemuck::cast_slice(&quads))?;
         out.push(Draw {
             pass: Pass::Opaque,
             uniforms: DrawUniforms::outline(m),
@@ -270,16 +261,7 @@ pub fn plane_draws(
             })
             .collect();
         let doing = "drawing a slice view on its plane";
-        let buffer = gpu.capture(doing, || {
-            wgpu::util::DeviceExt::create_buffer_init(
-                &gpu.device,
-                &wgpu::util::BufferInitDescriptor {
-                    label: Some("plane"),
-                    contents: bytemuck::cast_slice(&vertices),
-                    usage: wgpu::BufferUsages::VERTEX,
-                },
-            )
-        })?;
+        let buffer = vertex_buffer(gpu, doing, bytemuck::cast_slice(&vertices))?;
         let picture = gpu.capture(doing, || {
             gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some("plane picture"),
@@ -308,4 +290,24 @@ pub fn plane_draws(
         });
     }
     Ok(out)
+}
+
+/// A buffer of `contents` for `usage`, its errors those of `doing`.
+pub(super) fn buffer(
+    gpu: &Gpu,
+    doing: &str,
+    contents: &[u8],
+    usage: wgpu::BufferUsages,
+) -> Result<wgpu::Buffer, RuntimeError> {
+    let made = gpu.capture(doing, || {
+        wgpu::util::DeviceExt::create_buffer_init(
+            &gpu.device,
+            &wgpu::util::BufferInitDescriptor { label: Some(doing), contents, usage },
+        )
+    })?;
+    Ok(made)
+}
+
+fn vertex_buffer(gpu: &Gpu, doing: &str, contents: &[u8]) -> Result<wgpu::Buffer, RuntimeError> {
+    buffer(gpu, doing, contents, wgpu::BufferUsages::VERTEX)
 }

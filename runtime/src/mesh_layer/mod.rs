@@ -1,10 +1,12 @@
-//! The mesh layer of a view: the view's meshes rasterized at its camera into a depth image and
-//! a premultiplied colour image, which the volume layer (the composed compute pipeline) reads
-//! into `geometry_depth` and `geometry_color` (`BindingKind::GeometryDepth`, `GeometryColor`).
+//! The layers of a view around its volume layer (the composed compute pipeline): the mesh
+//! layer under it, the view's meshes and slice views' pictures on their planes rasterized at
+//! its camera into a depth image and a premultiplied colour image, which the volume layer reads
+//! into `geometry_depth` and `geometry_color` (`BindingKind::GeometryDepth`, `GeometryColor`);
+//! and the [`Overlay`] over the finished picture.
 //!
-//! Rules the layer keeps (checked by the reference's "Layers"): colour is premultiplied; depth
-//! is the WebGPU window depth of the view's own projection (0 near, 1 far, cleared to 1), so
-//! `std::meshes` turns it into a ray parameter with the same matrix (`geometry_inv_proj`);
+//! Rules the mesh layer keeps (the reference's "Meshes and layers"): colour is premultiplied;
+//! depth is the WebGPU window depth of the view's own projection (0 near, 1 far, cleared to 1),
+//! so `std::meshes` turns it into a ray parameter with the same matrix (`geometry_inv_proj`);
 //! opaque meshes write depth, translucent ones are blended over them (back faces, then front
 //! faces, in scene order) without writing it. A slice view draws where each mesh crosses its
 //! plane, as opaque outlines on the plane ([`outline`]).
@@ -38,14 +40,7 @@ impl GpuMesh {
         let interleaved: Vec<f32> =
             mesh.positions.iter().zip(&mesh.normals).flat_map(|(p, n)| [p[0], p[1], p[2], n[0], n[1], n[2]]).collect();
         let doing = format!("uploading mesh `{name}`");
-        let buffer = |contents: &[u8], usage| {
-            gpu.capture(&doing, || {
-                wgpu::util::DeviceExt::create_buffer_init(
-                    &gpu.device,
-                    &wgpu::util::BufferInitDescriptor { label: Some(name), contents, usage },
-                )
-            })
-        };
+        let buffer = |contents: &[u8], usage| draws::buffer(gpu, &doing, contents, usage);
         Ok(GpuMesh {
             vertices: buffer(bytemuck::cast_slice(&interleaved), wgpu::BufferUsages::VERTEX)?,
             indices: buffer(bytemuck::cast_slice(&mesh.indices), wgpu::BufferUsages::INDEX)?,
@@ -127,7 +122,7 @@ impl MeshLayer {
         [self.color.width(), self.color.height()]
     }
 
-    /// The depth image (`texture_depth_2d`) and the colour image the volume layer binds.
+    /// The depth image (`r32float`) and the colour image the volume layer binds.
     pub fn views(&self) -> (&wgpu::TextureView, &wgpu::TextureView) {
         (&self.depth_view, &self.color_view)
     }

@@ -268,13 +268,7 @@ fn pipeline(
             })],
         },
         primitive: wgpu::PrimitiveState { cull_mode, front_face: wgpu::FrontFace::Ccw, ..Default::default() },
-        depth_stencil: Some(wgpu::DepthStencilState {
-            format: DEPTH_FORMAT,
-            depth_write_enabled: Some(depth_write_enabled),
-            depth_compare: Some(wgpu::CompareFunction::Less),
-            stencil: Default::default(),
-            bias: Default::default(),
-        }),
+        depth_stencil: Some(depth_test(depth_write_enabled)),
         multisample: Default::default(),
         fragment: Some(wgpu::FragmentState {
             module,
@@ -317,13 +311,7 @@ fn plane_pipeline(
             })],
         },
         primitive: wgpu::PrimitiveState::default(),
-        depth_stencil: Some(wgpu::DepthStencilState {
-            format: DEPTH_FORMAT,
-            depth_write_enabled: Some(true),
-            depth_compare: Some(wgpu::CompareFunction::Less),
-            stencil: Default::default(),
-            bias: Default::default(),
-        }),
+        depth_stencil: Some(depth_test(true)),
         multisample: Default::default(),
         fragment: Some(wgpu::FragmentState {
             module,
@@ -334,4 +322,15 @@ fn plane_pipeline(
         multiview_mask: None,
         cache: None,
     })
+}
+
+/// The nearest surface wins; `write`: the surface hides what is drawn after it.
+fn depth_test(write: bool) -> wgpu::DepthStencilState {
+    wgpu::DepthStencilState {
+        format: DEPTH_FORMAT,
+        depth_write_enabled: Some(write),
+        depth_compare: Some(wgpu::CompareFunction::Less),
+        stencil: Default::default(),
+        bias: Default::default(),
+    }
 }
