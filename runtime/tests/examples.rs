@@ -21,11 +21,11 @@ fn copy_example(name: &str, dir: &Path) {
 }
 
 /// Small images; phantoms of 1 mm voxels at the size the example's patient-space positions
-/// are written for (the ablation zones and needles are placed in millimetres in the 128^3
-/// abdomen), 64^3 for the others.
-fn small(example: &Path) -> RenderOptions {
-    let ablation = example.parent().is_some_and(|d| d.join("applicator.vrs").exists());
-    let side = if ablation { 128 } else { 64 };
+/// are written for: the examples with meshes (the ablation zones and needles, the meshes
+/// example's needle) place them in millimetres in the 128^3 abdomen; 64^3 for the others.
+fn small(scene: &Path) -> RenderOptions {
+    let in_mm = std::fs::read_to_string(scene).is_ok_and(|text| text.contains("[[mesh]]"));
+    let side = if in_mm { 128 } else { 64 };
     RenderOptions { size: Some([96, 96]), phantom_size: [side; 3] }
 }
 
@@ -47,7 +47,7 @@ fn differing(a: &RgbaImage, b: &RgbaImage) -> Vec<(u32, u32)> {
 #[test]
 fn every_example_scene_renders_its_golden_images() {
     let mut failures = Vec::new();
-    for example in ["clip_plane", "ablation", "light"] {
+    for example in ["clip_plane", "ablation", "light", "meshes"] {
         let dir = tempfile::tempdir().unwrap();
         copy_example(example, dir.path());
         let mut scenes: Vec<PathBuf> = std::fs::read_dir(dir.path())
