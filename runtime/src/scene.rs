@@ -361,7 +361,11 @@ impl SceneRenderer {
     ) -> Result<(), RuntimeError> {
         self.update_light_volumes()?;
         self.update_followed_meshes()?;
-        self.encode_planes(index, encoder)?;
+        // The slice pictures on the view's planes, once per frame: by its first region (a
+        // preview, the whole image, or the first of its tiles), not again for every tile.
+        if region.x0 == 0 && region.y0 == 0 {
+            self.encode_planes(index, encoder)?;
+        }
         let view = self.views.get_mut(index).ok_or_else(|| RuntimeError::Invalid(format!("no view {index}")))?;
         apply_view_uniforms(view, &self.grids)?;
         view.renderer.encode_into(&self.gpu, &self.resources, encoder, target, region)

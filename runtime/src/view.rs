@@ -62,8 +62,10 @@ pub struct ViewRenderer {
     /// depth buffers (one per target size in use, the last used first).
     overlay_meshes: Vec<usize>,
     overlays: Vec<Overlay>,
-    /// Slice views' pictures the mesh layer shows on their planes.
+    /// Slice views' pictures the mesh layer shows on their planes, and how often they were
+    /// rendered anew.
     layer_planes: Vec<PlanePicture>,
+    planes_generation: u64,
 }
 
 /// Mesh layers kept per view: one for previews and one for the full image.
@@ -107,6 +109,7 @@ impl ViewRenderer {
             overlay_meshes: Vec::new(),
             overlays: Vec::new(),
             layer_planes: Vec::new(),
+            planes_generation: 0,
         })
     }
 
@@ -151,9 +154,11 @@ impl ViewRenderer {
         self.overlay_meshes = overlay;
     }
 
-    /// The slice pictures the mesh layer shows on their planes (their views render first).
+    /// The slice pictures the mesh layer shows on their planes, just rendered (their views
+    /// render first): the layer is drawn again with them.
     pub fn set_planes(&mut self, planes: Vec<PlanePicture>) {
         self.layer_planes = planes;
+        self.planes_generation += 1;
     }
 
     /// The slice pictures the mesh layer shows on their planes.
@@ -189,7 +194,13 @@ impl ViewRenderer {
         };
         let camera = self.layer_camera.unwrap_or(LayerCamera::Projection { world_to_clip: glam::Mat4::IDENTITY });
         let planes = if self.layer_camera.is_some() { &self.layer_planes[..] } else { &[] };
-        let content = LayerContent { camera: &camera, meshes: &meshes, planes, generation: resources.mesh_generation };
+        let content = LayerContent {
+            camera: &camera,
+            meshes: &meshes,
+            planes,
+            generation: resources.mesh_generation,
+            planes_generation: self.planes_generation,
+        };
         layer.encode(gpu, (resources.mesh_pipelines.as_ref(), &resources.sampler), encoder, &content)
     }
 

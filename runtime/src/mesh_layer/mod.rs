@@ -70,8 +70,9 @@ pub struct LayerContent<'a> {
     pub camera: &'a LayerCamera,
     pub meshes: &'a [&'a MeshInstance],
     pub planes: &'a [PlanePicture],
-    /// Counts changes of the meshes' surfaces.
+    /// Counts changes of the meshes' surfaces and, apart, renders of the planes' pictures.
     pub generation: u64,
+    pub planes_generation: u64,
 }
 
 /// How a view's mesh layer looks at the meshes.
@@ -128,8 +129,7 @@ impl MeshLayer {
     }
 
     /// Records the drawing of `content` into the layer's images, unless they already hold
-    /// exactly that picture (a layer with slice pictures is drawn every time: they change with
-    /// their own views). `sampler` reads the pictures.
+    /// exactly that picture (the tiles of one frame draw it once). `sampler` reads the pictures.
     pub fn encode(
         &mut self,
         gpu: &Gpu,
@@ -137,8 +137,9 @@ impl MeshLayer {
         encoder: &mut wgpu::CommandEncoder,
         content: &LayerContent,
     ) -> Result<(), RuntimeError> {
-        let key = layer_key(content.camera, content.meshes, self.size(), content.generation);
-        if content.planes.is_empty() && self.drawn == Some(key) {
+        let generations = [content.generation, content.planes_generation];
+        let key = layer_key(content.camera, content.meshes, self.size(), generations);
+        if self.drawn == Some(key) {
             return Ok(());
         }
         let mut draws = Vec::new();
@@ -191,8 +192,9 @@ fn depth_attachment(view: &wgpu::TextureView) -> wgpu::RenderPassDepthStencilAtt
 }
 
 /// What a frame is drawn from: the camera, each mesh's placement and look, the image's size,
-/// and `generation` (changes of the meshes' surfaces). Equal keys, equal pictures.
-fn layer_key(camera: &LayerCamera, meshes: &[&MeshInstance], size: [u32; 2], generation: u64) -> u64 {
+/// and `generations` (changes of the meshes' surfaces, renders of the planes' pictures). Equal
+/// keys, equal pictures.
+fn layer_key(camera: &LayerCamera, meshes: &[&MeshInstance], size: [u32; 2], generations: [u64; 2]) -> u64 {
     let mut floats: Vec<f32> = match camera {
         LayerCamera::Projection { world_to_clip } => world_to_clip.to_cols_array().to_vec(),
         LayerCamera::Slice(frame) => frame.image_to_world.to_cols_array().to_vec(),
@@ -203,7 +205,7 @@ fn layer_key(camera: &LayerCamera, meshes: &[&MeshInstance], size: [u32; 2], gen
         floats.push(m.opacity);
     }
     let mut bytes: Vec<u8> = bytemuck::cast_slice(&floats).to_vec();
-    bytes.extend(generation.to_le_bytes());
+    bytes.extend(generations.iter().flat_map(|g| g.to_le_bytes()));
     bytes.extend(bytemuck::cast_slice(&size));
     bytes.push(matches!(camera, LayerCamera::Slice(_)) as u8);
     bytes.extend(meshes.iter().flat_map(|m| Arc::as_ptr(&m.gpu).addr().to_le_bytes()));
