@@ -269,12 +269,7 @@ impl SceneRenderer {
         self.update_followed_meshes()?;
         let mut images = Vec::new();
         for index in 0..self.views.len() {
-            if !self.views[index].planes.is_empty() {
-                let mut encoder = self.gpu.device.create_command_encoder(&Default::default());
-                self.encode_planes(index, &mut encoder)?;
-                let doing = "rendering the slice views shown on planes";
-                self.gpu.capture(doing, || self.gpu.queue.submit([encoder.finish()]))?;
-            }
+            self.render_planes(index)?;
             let view = &mut self.views[index];
             apply_view_uniforms(view, &self.grids)?;
             images.push((view.name.clone(), view.renderer.render(&self.gpu, &self.resources)?));

@@ -68,8 +68,26 @@ pub struct ViewRenderer {
     planes_generation: u64,
 }
 
-/// Mesh layers kept per view: one for previews and one for the full image.
+/// Mesh layers and overlays kept per view: one for previews and one for the full image.
 const MESH_LAYER_SIZES: usize = 2;
+
+/// The item of `list` (the last used first) made for `size`, moved to the front; made by `make`
+/// when there is none, the least recently used dropped past [`MESH_LAYER_SIZES`].
+fn for_size<T>(
+    list: &mut Vec<T>,
+    size: [u32; 2],
+    size_of: fn(&T) -> [u32; 2],
+    make: impl FnOnce() -> Result<T, RuntimeError>,
+) -> Result<&mut T, RuntimeError> {
+    match list.iter().position(|item| size_of(item) == size) {
+        Some(i) => list[..=i].rotate_right(1),
+        None => {
+            list.insert(0, make()?);
+            list.truncate(MESH_LAYER_SIZES);
+        }
+    }
+    Ok(&mut list[0])
+}
 
 /// Rows of a texture-to-buffer copy are padded to this many bytes.
 const ROW_ALIGNMENT: u32 = wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
@@ -180,14 +198,7 @@ impl ViewRenderer {
         encoder: &mut wgpu::CommandEncoder,
         size: [u32; 2],
     ) -> Result<(), RuntimeError> {
-        match self.mesh_layers.iter().position(|l| l.size() == size) {
-            Some(i) => self.mesh_layers[..=i].rotate_right(1),
-            None => {
-                self.mesh_layers.insert(0, MeshLayer::new(gpu, size)?);
-                self.mesh_layers.truncate(MESH_LAYER_SIZES);
-            }
-        }
-        let layer = &mut self.mesh_layers[0];
+        let layer = for_size(&mut self.mesh_layers, size, MeshLayer::size, || MeshLayer::new(gpu, size))?;
         let meshes: Vec<&MeshInstance> = match (&self.layer_camera, &resources.mesh_pipelines) {
             (Some(_), Some(_)) => self.layer_meshes.iter().filter_map(|&i| resources.meshes.get(i)).collect(),
             _ => Vec::new(),
@@ -219,14 +230,8 @@ impl ViewRenderer {
         }
         let size = target.texture().size();
         let size = [size.width, size.height];
-        match self.overlays.iter().position(|o| o.size() == size) {
-            Some(i) => self.overlays[..=i].rotate_right(1),
-            None => {
-                self.overlays.insert(0, Overlay::new(gpu, size)?);
-                self.overlays.truncate(MESH_LAYER_SIZES);
-            }
-        }
-        self.overlays[0].encode(gpu, pipelines, encoder, target, camera, &meshes)
+        let overlay = for_size(&mut self.overlays, size, Overlay::size, || Overlay::new(gpu, size))?;
+        overlay.encode(gpu, pipelines, encoder, target, camera, &meshes)
     }
 
     /// Swaps in another shader of the same view (a structural change), keeping the size. Uniform

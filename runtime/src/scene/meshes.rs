@@ -292,6 +292,18 @@ impl SceneRenderer {
 }
 
 impl SceneRenderer {
+    /// [`SceneRenderer::encode_planes`] in a submission of its own (before a view that renders
+    /// with its own encoder); nothing for a view without planes.
+    pub(super) fn render_planes(&mut self, index: usize) -> Result<(), RuntimeError> {
+        if self.views.get(index).is_none_or(|v| v.planes.is_empty()) {
+            return Ok(());
+        }
+        let mut encoder = self.gpu.device.create_command_encoder(&Default::default());
+        self.encode_planes(index, &mut encoder)?;
+        self.gpu.capture("rendering the slice views shown on planes", || self.gpu.queue.submit([encoder.finish()]))?;
+        Ok(())
+    }
+
     /// Renders the slice views that view `index` shows on their planes (each into its own
     /// output, recorded into `encoder` before the view) and hands their pictures to its mesh
     /// layer.

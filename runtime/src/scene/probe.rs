@@ -91,12 +91,7 @@ impl SceneRenderer {
             self.probes.variants.insert(key.clone(), probe);
         }
         // The slice views the view shows on planes, as they are now.
-        if !self.views[index].planes.is_empty() {
-            let mut encoder = self.gpu.device.create_command_encoder(&Default::default());
-            self.encode_planes(index, &mut encoder)?;
-            self.gpu
-                .capture("rendering the slice views shown on planes", || self.gpu.queue.submit([encoder.finish()]))?;
-        }
+        self.render_planes(index)?;
         let (view, probe) = match (self.views.get(index), self.probes.variants.get_mut(&key)) {
             (Some(view), Some(probe)) => (view, probe),
             _ => return Err(no_view(index)),
