@@ -27,6 +27,7 @@
 //! ```
 
 pub mod bindings;
+pub mod bricks;
 pub mod error;
 pub mod geometry;
 pub mod gpu;

@@ -1,0 +1,20 @@
+//! Bricked volumes: volumes larger than a texture or than memory, split into bricks of
+//! [`BRICK`]^3 voxels (each stored with an [`APRON`] of one voxel on every side, so trilinear
+//! filtering is seamless across bricks) in a mip pyramid, read on demand from a [`BrickSource`]
+//! and kept on the GPU in a brick pool that a page table indexes (`residency`).
+//!
+//! Sources: Zarr v2/v3 and OME-Zarr stores (`zarr`, through the `zarrs` crate; multiscales read
+//! from the file), and every other format through a pyramid built at load (`pyramid`).
+
+pub mod source;
+
+pub use source::{BrickData, BrickError, BrickSource, Level, levels_for};
+
+/// Voxels along each edge of a brick, without its apron.
+pub const BRICK: u32 = 64;
+
+/// Voxels of neighbouring data (or repeated edge voxels) stored on each side of a brick.
+pub const APRON: u32 = 1;
+
+/// Voxels along each edge of a brick as stored: the brick and its apron on both sides.
+pub const STORED: u32 = BRICK + 2 * APRON;
