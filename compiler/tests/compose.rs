@@ -137,3 +137,59 @@ fn the_deepest_allowed_expression_composes_in_every_view() {
     assert!(!built.diags.has_errors(), "{}", vrsc::diag::render_plain(&built.diags.sorted(), &built.sources));
     assert!(built.views.iter().all(|v| v.shader.is_some()));
 }
+
+/// A bricked volume (`bricks = true`) is sampled through its lookup everywhere: the standard
+/// sampling, the gradient's library function (a variant of it per bricked volume) and an
+/// additional volume's template, in raycast and slice views; the shader declares the brick
+/// bindings and no texture of its own.
+#[test]
+fn bricked_volumes_sample_through_their_lookup() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let scene = "[render]\ncompositing = \"dvr\"\nshading = true\nmemory = \"512 MiB\"\n\n\
+                 [[volume]]\nname = \"head\"\nrole = \"primary\"\nphantom = \"head\"\nbricks = true\n\n\
+                 [[volume]]\nname = \"ct\"\nrole = \"additional\"\nphantom = \"head\"\n\n\
+                 [[view]]\nname = \"3d\"\nkind = \"raycast\"\n\n\
+                 [[view]]\nname = \"axial\"\nkind = \"slice\"\naxis = \"z\"\n";
+    std::fs::write(dir.path().join("scene.toml"), scene).expect("write scene");
+    let built = vrsc::compose::build::build_scene(&dir.path().join("scene.toml"), None).expect("scene readable");
+    assert!(!built.diags.has_errors(), "{}", vrsc::diag::render_plain(&built.diags.sorted(), &built.sources));
+    for view in &built.views {
+        let shader = view.shader.as_ref().expect("a shader");
+        let wgsl = &shader.wgsl;
+        assert!(wgsl.contains("fn volume_sample(p: vec3<f32>) -> f32"), "{}: {wgsl}", view.name);
+        assert!(wgsl.contains("volume_sample("), "{}", view.name);
+        // The pool is sampled in the lookup only.
+        assert_eq!(wgsl.matches("textureSampleLevel(volume, volume_sampler").count(), 1, "{}", view.name);
+        // The additional volume keeps its texture.
+        assert!(wgsl.contains("textureSampleLevel(volume_ct, volume_ct_sampler"), "{}", view.name);
+        let kinds: Vec<_> =
+            shader.reflection.bindings.iter().filter(|b| b.name == "volume").map(|b| format!("{:?}", b.kind)).collect();
+        assert_eq!(kinds, ["BrickPool", "VolumeSampler", "PageTable", "BrickLayout", "BrickRequests"], "{}", view.name);
+        naga::front::wgsl::parse_str(wgsl).unwrap_or_else(|e| panic!("{}: {}", view.name, e.emit_to_string(wgsl)));
+    }
+    // Shading's gradient takes the volume as a parameter: its variant calls the lookup.
+    let wgsl = &built.views[0].shader.as_ref().expect("3d").wgsl;
+    assert!(wgsl.matches("volume_sample(").count() >= 7, "{wgsl}");
+}
+
+/// `[render] memory` takes sizes with units; nonsense is an error at the key.
+#[test]
+fn memory_budgets_are_sizes() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let write = |memory: &str| {
+        let scene = format!(
+            "[render]\nmemory = \"{memory}\"\nhost_memory = \"2 GiB\"\n\n[[volume]]\nname = \"head\"\nrole = \"primary\"\n\
+             phantom = \"head\"\n\n[[view]]\nname = \"3d\"\nkind = \"raycast\"\n"
+        );
+        std::fs::write(dir.path().join("scene.toml"), scene).expect("write scene");
+        vrsc::compose::build::read_scene(&dir.path().join("scene.toml")).expect("readable")
+    };
+    let scene = write("512 MiB").scene.expect("valid");
+    assert_eq!((scene.memory.gpu, scene.memory.host), (512 << 20, 2 << 30));
+    assert_eq!(write("1.5GB").scene.expect("valid").memory.gpu, 3 << 29);
+    for bad in ["lots", "1 MiB", "-3 GiB"] {
+        let parsed = write(bad);
+        let text = vrsc::diag::render_plain(&parsed.diags.sorted(), &parsed.sources);
+        assert!(text.contains("`memory` must be a size of at least 64 MiB"), "{bad}: {text}");
+    }
+}

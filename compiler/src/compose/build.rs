@@ -440,7 +440,7 @@ fn emit_shader(
     composition: &Composition,
     sources: &SourceMap,
 ) -> Result<(ViewShader, ValidModule), Diagnostic> {
-    let vm = view::emit(program, composition, sources)?;
+    let vm = view::emit(program, composition, sources, &scene.bricked_bindings())?;
     let wgsl = crate::lower::write_wgsl(&vm.module, &vm.info)?;
     let reflection = reflect::reflect(scene, view, program, composition, &vm, &wgsl, sources);
     Ok((ViewShader { wgsl, reflection }, ValidModule { module: vm.module, info: vm.info }))

@@ -96,6 +96,7 @@ pub fn structural_key(scene: &Scene) -> String {
         }
         key.push('\n');
     }
+    let _ = write!(key, "bricked {:?}", scene.bricked_bindings());
     key
 }
 

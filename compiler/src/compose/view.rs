@@ -41,7 +41,12 @@ pub struct ViewModule {
 /// user can get wrong was reported by the checker or the composer. The module is built in the
 /// order its WGSL reads (state, uniforms, bindings, functions step by step, entry point), in one
 /// function so that the order is visible.
-pub fn emit(program: &hir::Program, comp: &Composition, sources: &SourceMap) -> Result<ViewModule, Diagnostic> {
+pub fn emit(
+    program: &hir::Program,
+    comp: &Composition,
+    sources: &SourceMap,
+    bricked: &[String],
+) -> Result<ViewModule, Diagnostic> {
     let mut b = ModuleBuilder::new();
     let fields: Vec<(String, Type)> = comp.fields.iter().map(|f| (f.name.clone(), f.ty)).collect();
     let state_type = b.add_struct("State", &fields, Span::DUMMY)?;
@@ -74,10 +79,19 @@ pub fn emit(program: &hir::Program, comp: &Composition, sources: &SourceMap) -> 
     let output =
         add_storage_image(&mut b, "output", naga::StorageFormat::Rgba8Unorm, bind("output", BindingKind::OutputImage));
     let region = add_region(&mut b, bind("region", BindingKind::Region));
-    let access: Vec<UniformAccess> = comp
-        .uniforms
-        .iter()
-        .map(|u| match u.ty {
+    let mut access: Vec<UniformAccess> = Vec::with_capacity(comp.uniforms.len());
+    for u in &comp.uniforms {
+        access.push(match u.ty {
+            Type::Volume if bricked.contains(&u.name) => {
+                let kinds = [
+                    BindingKind::BrickPool,
+                    BindingKind::VolumeSampler,
+                    BindingKind::PageTable,
+                    BindingKind::BrickLayout,
+                    BindingKind::BrickRequests,
+                ];
+                UniformAccess::Bricked(b.add_bricked_volume(&u.name, kinds.map(|k| bind(&u.name, k)), u.span)?)
+            }
             Type::Volume => b.add_volume_binding(
                 &u.name,
                 bind(&u.name, BindingKind::VolumeTexture),
@@ -94,8 +108,8 @@ pub fn emit(program: &hir::Program, comp: &Composition, sources: &SourceMap) -> 
                 let index = uniforms.iter().position(|p| p.name == u.name).unwrap_or_default() as u32;
                 UniformAccess::Member { block, index }
             }
-        })
-        .collect();
+        });
+    }
 
     // Last of the bindings, so a view that does not meter keeps its numbering.
     let metering = comp.field(entry::METERED_LUMINANCE).map(|member| {

@@ -5,7 +5,10 @@ use rustc_hash::FxHashMap;
 use naga::{Expression as E, Handle, MathFunction as Mf, Statement as S};
 
 use super::emitter::{Emitter, is_pre_emitted};
-use super::{ModuleBuilder, PipelineEnv, UniformAccess, emitted_name, internal, naga_scalar, vector_size};
+use super::{
+    BrickedFns, ModuleBuilder, PipelineEnv, ResourceVariant, UniformAccess, emitted_name, internal, naga_scalar,
+    vector_size,
+};
 use crate::ast::{AssignOp, BinaryOp, UnaryOp};
 use crate::diag::Diagnostic;
 use crate::hir::{self, Access, Builtin, ExprKind, PlaceRoot, ScalarValue, StmtKind};
@@ -15,9 +18,15 @@ use crate::types::{Scalar, Type};
 type R<T> = Result<T, Diagnostic>;
 type Ex = Handle<naga::Expression>;
 
-pub(super) fn lower_lib_fn(b: &mut ModuleBuilder, program: &hir::Program, lf: &hir::LibFn) -> R<naga::Function> {
+pub(super) fn lower_lib_fn(
+    b: &mut ModuleBuilder,
+    program: &hir::Program,
+    lf: &hir::LibFn,
+    variant: &ResourceVariant,
+) -> R<naga::Function> {
     let mut func = naga::Function { name: Some(b.claim_function_name(&lf.name, lf.module)), ..Default::default() };
     let mut params = Vec::with_capacity(lf.params.len());
+    let mut resources = variant.iter();
     for p in &lf.params {
         let name = emitted_name(&p.name);
         let arg = |func: &mut naga::Function, name: String, ty| {
@@ -25,7 +34,9 @@ pub(super) fn lower_lib_fn(b: &mut ModuleBuilder, program: &hir::Program, lf: &h
             func.arguments.push(naga::FunctionArgument { name: Some(name), ty, binding: None });
             func.expressions.append(E::FunctionArgument(index), p.span.into())
         };
+        let bricked = if p.ty.is_resource() { resources.next().copied().flatten() } else { None };
         params.push(match p.ty {
+            Type::Volume if bricked.is_some() => ParamSlot::Bricked(bricked.expect("tested")),
             Type::Volume | Type::Tf => {
                 let dim = if p.ty == Type::Volume { naga::ImageDimension::D3 } else { naga::ImageDimension::D2 };
                 let (tex_ty, samp_ty) = (b.texture_type(dim), b.sampler_type());
@@ -109,7 +120,19 @@ enum LocalSlot {
 #[derive(Clone, Copy)]
 enum ParamSlot {
     Plain(Ex),
-    Resource { texture: Ex, sampler: Ex },
+    Resource {
+        texture: Ex,
+        sampler: Ex,
+    },
+    /// A bricked volume: no parameter, its lookup is called directly.
+    Bricked(BrickedFns),
+}
+
+/// A `volume` or `tf` argument as lowering reaches it.
+#[derive(Clone, Copy)]
+enum Resource {
+    Texture { texture: Ex, sampler: Ex },
+    Bricked(BrickedFns),
 }
 
 struct FnCtx<'a> {
@@ -432,7 +455,7 @@ impl<'a> FnCtx<'a> {
             },
             ExprKind::Param(i) => match self.params.get(*i) {
                 Some(ParamSlot::Plain(h)) => *h,
-                Some(ParamSlot::Resource { .. }) => {
+                Some(ParamSlot::Resource { .. } | ParamSlot::Bricked(_)) => {
                     return Err(internal(span, "a `volume` or `tf` parameter used as a value"));
                 }
                 None => return Err(internal(span, format!("parameter #{i} does not exist"))),
@@ -709,44 +732,76 @@ impl<'a> FnCtx<'a> {
         let Some(&id) = self.calls.get(site) else {
             return Err(internal(span, format!("call site #{site} is not in the function's table")));
         };
-        let function = self.b.lower_lib_fn(self.program, id)?;
         let Some(callee) = self.program.lib_fns.get(id) else {
             return Err(internal(span, format!("library function #{id} does not exist")));
         };
         if callee.params.len() != args.len() {
             return Err(internal(span, format!("a call of `{}` with {} arguments", callee.name, args.len())));
         }
+        let mut variant = ResourceVariant::new();
         let mut arguments = Vec::with_capacity(args.len());
         for (p, a) in callee.params.iter().zip(args) {
-            if p.ty.is_resource() {
-                let (texture, sampler) = self.resource(a)?;
-                arguments.extend([texture, sampler]);
-            } else {
+            if !p.ty.is_resource() {
                 arguments.push(self.expr(a, block)?);
+                continue;
+            }
+            match self.resource(a)? {
+                Resource::Texture { texture, sampler } => {
+                    arguments.extend([texture, sampler]);
+                    variant.push(None);
+                }
+                Resource::Bricked(fns) => variant.push(Some(fns)),
             }
         }
+        let function = self.b.lower_lib_fn(self.program, id, &variant)?;
         let result = (callee.ret != Type::Void).then(|| self.append(E::CallResult(function), span));
         self.push(block, S::Call { function, arguments, result }, span);
         Ok(result)
     }
 
-    /// The texture and sampler of a `volume` or `tf` argument.
-    fn resource(&mut self, e: &hir::Expr) -> R<(Ex, Ex)> {
+    /// A `volume` or `tf` argument: a parameter or a uniform.
+    fn resource(&mut self, e: &hir::Expr) -> R<Resource> {
         match e.kind {
-            ExprKind::Param(i) => {
-                if let Some(ParamSlot::Resource { texture, sampler }) = self.params.get(i) {
-                    return Ok((*texture, *sampler));
+            ExprKind::Param(i) => match self.params.get(i) {
+                Some(ParamSlot::Resource { texture, sampler }) => {
+                    return Ok(Resource::Texture { texture: *texture, sampler: *sampler });
                 }
-            }
+                Some(ParamSlot::Bricked(fns)) => return Ok(Resource::Bricked(*fns)),
+                _ => {}
+            },
             ExprKind::Uniform(i) => match self.uniform(i, e.span)?.0 {
                 UniformAccess::Volume { texture, sampler } | UniformAccess::Tf { texture, sampler } => {
-                    return Ok((self.global(texture, e.span), self.global(sampler, e.span)));
+                    let texture = self.global(texture, e.span);
+                    let sampler = self.global(sampler, e.span);
+                    return Ok(Resource::Texture { texture, sampler });
                 }
+                UniformAccess::Bricked(fns) => return Ok(Resource::Bricked(fns)),
                 UniformAccess::Member { .. } => {}
             },
             _ => {}
         }
         Err(internal(e.span, "expected a `volume` or `tf` parameter or uniform"))
+    }
+
+    /// The texture and sampler of a `tf` (never bricked).
+    fn texture(&mut self, e: &hir::Expr) -> R<(Ex, Ex)> {
+        match self.resource(e)? {
+            Resource::Texture { texture, sampler } => Ok((texture, sampler)),
+            Resource::Bricked(_) => Err(internal(e.span, "a bricked volume where a texture was expected")),
+        }
+    }
+
+    /// `f(args)` for a function of the module that returns a value.
+    fn call_value(
+        &mut self,
+        function: Handle<naga::Function>,
+        arguments: Vec<Ex>,
+        span: Span,
+        block: &mut naga::Block,
+    ) -> Ex {
+        let result = self.append(E::CallResult(function), span);
+        self.push(block, S::Call { function, arguments, result: Some(result) }, span);
+        result
     }
 
     /// One arm per built-in function: the table reads best whole, so it stays one function.
@@ -853,14 +908,19 @@ impl<'a> FnCtx<'a> {
             }
             B::Sample => {
                 arity(2)?;
-                let (image, sampler) = self.resource(&args[0])?;
+                let volume = self.resource(&args[0])?;
                 let coordinate = self.expr(&args[1], block)?;
-                let texel = self.sample(image, sampler, coordinate, span);
-                self.append(E::AccessIndex { base: texel, index: 0 }, span)
+                match volume {
+                    Resource::Texture { texture, sampler } => {
+                        let texel = self.sample(texture, sampler, coordinate, span);
+                        self.append(E::AccessIndex { base: texel, index: 0 }, span)
+                    }
+                    Resource::Bricked(fns) => self.call_value(fns.sample, vec![coordinate], span, block),
+                }
             }
             B::Lookup => {
                 arity(2)?;
-                let (image, sampler) = self.resource(&args[0])?;
+                let (image, sampler) = self.texture(&args[0])?;
                 let x = self.expr(&args[1], block)?;
                 let two_d = Type::vec(2, Scalar::F32);
                 let coordinate = if args[1].ty == two_d {
@@ -874,8 +934,12 @@ impl<'a> FnCtx<'a> {
             }
             B::Dims => {
                 arity(1)?;
-                let (image, _) = self.resource(&args[0])?;
-                self.append(E::ImageQuery { image, query: naga::ImageQuery::Size { level: None } }, span)
+                match self.resource(&args[0])? {
+                    Resource::Texture { texture: image, .. } => {
+                        self.append(E::ImageQuery { image, query: naga::ImageQuery::Size { level: None } }, span)
+                    }
+                    Resource::Bricked(fns) => self.call_value(fns.dims, Vec::new(), span, block),
+                }
             }
             _ => return Err(internal(span, format!("built-in `{builtin:?}` is not lowered"))),
         })

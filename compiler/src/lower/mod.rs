@@ -32,6 +32,7 @@
 //! validation error maps back to VRS source ([`validate`]); such an error is a compiler bug and
 //! comes back as an `E0901` diagnostic, as does any malformed HIR that lowering itself notices.
 
+mod bricked;
 pub(crate) mod emitter;
 mod func;
 #[cfg(test)]
@@ -47,6 +48,8 @@ use crate::diag::{Code, Diagnostic};
 use crate::hir;
 use crate::source::{SourceMap, Span};
 use crate::types::{Scalar, Type};
+
+pub use bricked::BrickedFns;
 
 /// An `E0901` diagnostic: something that the checker or composer should have ruled out.
 pub(crate) fn internal(span: Span, message: impl Into<String>) -> Diagnostic {
@@ -146,7 +149,14 @@ pub enum UniformAccess {
     Volume { texture: Handle<naga::GlobalVariable>, sampler: Handle<naga::GlobalVariable> },
     /// A `tf`: see [`ModuleBuilder::add_tf_binding`].
     Tf { texture: Handle<naga::GlobalVariable>, sampler: Handle<naga::GlobalVariable> },
+    /// A bricked `volume`: `sample` and `dims` call its lookup ([`ModuleBuilder::add_bricked_volume`]).
+    Bricked(BrickedFns),
 }
+
+/// How a library function receives each of its `volume` and `tf` parameters, in parameter
+/// order: as a texture and a sampler (`None`), or as the bricked volume whose lookup it calls
+/// (a variant of the function per bricked volume passed, with no parameter for it).
+pub type ResourceVariant = Vec<Option<BrickedFns>>;
 
 /// The layout of a struct, for reflection.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -174,7 +184,7 @@ pub struct ModuleBuilder {
     laid_out: usize,
     /// How many times `layouter` walked the arena (each walk costs the arena's length).
     layout_passes: usize,
-    lib_fns: FxHashMap<hir::LibFnId, Handle<naga::Function>>,
+    lib_fns: FxHashMap<(hir::LibFnId, ResourceVariant), Handle<naga::Function>>,
     /// Library functions being lowered (to report recursion instead of overflowing the stack).
     in_progress: FxHashSet<hir::LibFnId>,
     function_names: FxHashSet<String>,
@@ -379,8 +389,10 @@ impl ModuleBuilder {
         &mut self,
         program: &hir::Program,
         id: hir::LibFnId,
+        variant: &ResourceVariant,
     ) -> Result<Handle<naga::Function>, Diagnostic> {
-        if let Some(&h) = self.lib_fns.get(&id) {
+        let key = (id, variant.clone());
+        if let Some(&h) = self.lib_fns.get(&key) {
             return Ok(h);
         }
         let Some(lf) = program.lib_fns.get(id) else {
@@ -389,11 +401,11 @@ impl ModuleBuilder {
         if !self.in_progress.insert(id) {
             return Err(internal(lf.span, format!("library function `{}` calls itself", lf.name)));
         }
-        let result = func::lower_lib_fn(self, program, lf);
+        let result = func::lower_lib_fn(self, program, lf, variant);
         self.in_progress.remove(&id);
         let function = result?;
         let h = self.module.functions.append(function, lf.span.into());
-        self.lib_fns.insert(id, h);
+        self.lib_fns.insert(key, h);
         Ok(h)
     }
 
@@ -430,8 +442,9 @@ pub fn lower_standalone(
     sources: &SourceMap,
 ) -> Result<(naga::Module, naga::valid::ModuleInfo), Diagnostic> {
     let mut builder = ModuleBuilder::new();
-    for id in 0..program.lib_fns.len() {
-        builder.lower_lib_fn(program, id)?;
+    for (id, lf) in program.lib_fns.iter().enumerate() {
+        let textures = lf.params.iter().filter(|p| p.ty.is_resource()).map(|_| None).collect();
+        builder.lower_lib_fn(program, id, &textures)?;
     }
     let mut next_binding = 0u32;
     let mut binding = || {

@@ -27,8 +27,33 @@ pub struct Scene {
     pub views: Vec<View>,
     /// `[[mesh]]` tables, in file order.
     pub meshes: Vec<Mesh>,
+    /// `[render] memory` and `host_memory`: what bricked volumes may hold.
+    pub memory: Memory,
     /// The directory that relative paths were resolved against.
     pub dir: PathBuf,
+}
+
+/// The memory budgets of bricked volumes (bytes): bricks beyond them are evicted, least
+/// recently used first.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Memory {
+    /// `[render] memory`: the GPU's brick pools, every bricked volume together.
+    pub gpu: u64,
+    /// `[render] host_memory`: bricks kept in the host's memory once read.
+    pub host: u64,
+}
+
+impl Memory {
+    /// Without `memory`: 1 GiB of bricks on the GPU.
+    pub const DEFAULT_GPU: u64 = 1 << 30;
+    /// Without `host_memory`: 1 GiB of bricks in host memory.
+    pub const DEFAULT_HOST: u64 = 1 << 30;
+}
+
+impl Default for Memory {
+    fn default() -> Memory {
+        Memory { gpu: Memory::DEFAULT_GPU, host: Memory::DEFAULT_HOST }
+    }
 }
 
 /// `[render]`: how every view composites and shades.
@@ -145,8 +170,30 @@ pub struct Volume {
     /// transfer function. `None`: the runtime picks one (a data-unit transfer function's domain,
     /// else percentiles of the data).
     pub window: Option<Located<[f32; 2]>>,
+    /// `bricks = true | false`: the user's choice of bricked storage, if made.
+    pub bricks: Option<Located<bool>>,
+    /// Whether the runtime keeps the volume in bricks (a page table over a brick pool, streamed
+    /// and multi-resolution) rather than one texture: `bricks` when given, else for Zarr stores
+    /// ([`is_zarr`]); the runtime also bricks a volume whose file is too large for one texture
+    /// before it composes. What `vrsc explain` shows.
+    pub bricked: bool,
     /// The whole `[[volume]]` table.
     pub span: Span,
+}
+
+impl Volume {
+    /// The name of the volume's resource in a view's shader: `volume` for the primary volume,
+    /// `volume_NAME` for the others.
+    pub fn binding(&self) -> String {
+        if self.role.value == Role::Primary { "volume".to_string() } else { format!("volume_{}", self.name.name) }
+    }
+}
+
+/// Whether `path` is a Zarr store (an array or an OME-Zarr group): a `.zarr` directory, or one
+/// with Zarr metadata (`zarr.json`, `.zarray`, `.zgroup`).
+pub fn is_zarr(path: &std::path::Path) -> bool {
+    path.extension().is_some_and(|e| e.eq_ignore_ascii_case("zarr"))
+        || ["zarr.json", ".zarray", ".zgroup"].iter().any(|m| path.join(m).is_file())
 }
 
 /// Where a volume's samples come from.
@@ -398,6 +445,11 @@ impl UniformValue {
 // Queries.
 
 impl Scene {
+    /// The resource names (`volume`, `volume_NAME`) of the volumes kept in bricks.
+    pub fn bricked_bindings(&self) -> Vec<String> {
+        self.volumes.iter().filter(|v| v.bricked).map(Volume::binding).collect()
+    }
+
     /// The primary volume (validation guarantees exactly one).
     pub fn primary(&self) -> &Volume {
         self.volumes.iter().find(|v| v.role.value == Role::Primary).expect("a validated scene has a primary volume")

@@ -42,6 +42,8 @@ pub(super) struct RawRender {
     pub(super) white_point: Option<Spanned<f32>>,
     pub(super) preintegration: Option<Spanned<bool>>,
     pub(super) shadows: Option<Spanned<Shadows>>,
+    pub(super) memory: Option<Spanned<String>>,
+    pub(super) host_memory: Option<Spanned<String>>,
 }
 pub(super) const RENDER_KEYS: &[&str] = &[
     "compositing",
@@ -61,6 +63,8 @@ pub(super) const RENDER_KEYS: &[&str] = &[
     "white_point",
     "preintegration",
     "shadows",
+    "memory",
+    "host_memory",
 ];
 
 #[derive(Deserialize)]
@@ -75,9 +79,10 @@ pub(super) struct RawVolume {
     pub(super) window: Option<Spanned<[f32; 2]>>,
     pub(super) level: Option<Spanned<f32>>,
     pub(super) width: Option<Spanned<f32>>,
+    pub(super) bricks: Option<Spanned<bool>>,
 }
 pub(super) const VOLUME_KEYS: &[&str] =
-    &["name", "role", "path", "phantom", "fallback", "tf", "window", "level", "width"];
+    &["name", "role", "path", "phantom", "fallback", "tf", "window", "level", "width", "bricks"];
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]

@@ -95,15 +95,37 @@ impl Cx<'_> {
         );
     }
 
+    /// `[render] memory` and `host_memory`: sizes like `"512 MiB"` or `"2 GiB"`.
+    fn memory(&mut self, raw: Option<&Spanned<RawRender>>) -> Memory {
+        let mut memory = Memory::default();
+        let Some(r) = raw.map(Spanned::get_ref) else { return memory };
+        for (key, value, out) in
+            [("memory", &r.memory, &mut memory.gpu), ("host_memory", &r.host_memory, &mut memory.host)]
+        {
+            let Some(value) = value else { continue };
+            match parse_bytes(value.get_ref()) {
+                Some(bytes) if bytes >= MIN_MEMORY => *out = bytes,
+                _ => {
+                    let d = self
+                        .invalid(self.span(value), format!("`{key}` must be a size of at least 64 MiB"))
+                        .with_label("like \"512 MiB\" or \"2 GiB\"");
+                    self.emit(d);
+                }
+            }
+        }
+        memory
+    }
+
     pub(super) fn scene(&mut self, raw: RawScene) -> Scene {
         let shared = raw.render.clone();
+        let memory = self.memory(raw.render.as_ref());
         let render = self.render(raw.render);
-        let volumes = self.volumes(raw.volumes);
+        let volumes = self.volumes(raw.volumes, &memory);
         let modules = raw.modules.into_iter().map(|m| self.module(m)).collect();
         let uniforms = self.uniforms(raw.uniforms, &render);
         let meshes = self.meshes(raw.meshes, &volumes);
         let views = self.views(raw.views, shared.as_ref(), &render, &meshes);
-        Scene { render, volumes, modules, uniforms, views, meshes, dir: self.dir.to_path_buf() }
+        Scene { render, volumes, modules, uniforms, views, meshes, memory, dir: self.dir.to_path_buf() }
     }
 
     /// `[render]`. One check per key, in the table's order; the checks share only the table,
@@ -318,7 +340,7 @@ impl Cx<'_> {
     }
 
     /// `[[volume]]` tables. One check per key, in the table's order, as for [`Self::render`].
-    pub(super) fn volumes(&mut self, raw: Vec<Spanned<RawVolume>>) -> Vec<Volume> {
+    pub(super) fn volumes(&mut self, raw: Vec<Spanned<RawVolume>>, memory: &Memory) -> Vec<Volume> {
         let mut out: Vec<Volume> = Vec::new();
         for v in raw {
             let span = self.span(&v);
@@ -401,7 +423,9 @@ impl Cx<'_> {
                 (None, _) => Some(TfRef::Preset(Located { value: DEFAULT_TF.into(), span: Span::DUMMY })),
             };
             let window = self.window(&v.window, &v.level, &v.width);
-            out.push(Volume { name, role, source, fallback, tf, window, span });
+            let bricks = v.bricks.as_ref().map(|b| Located { value: *b.get_ref(), span: self.span(b) });
+            let bricked = bricks.as_ref().map_or_else(|| outgrows_a_texture(&source, memory), |b| b.value);
+            out.push(Volume { name, role, source, fallback, tf, window, bricks, bricked, span });
         }
         if !out.iter().any(|v| v.role.value == Role::Primary) {
             let span = out.first().map_or(Span::new(self.base, self.base), |v| v.role.span);
@@ -704,4 +728,34 @@ struct Light {
     white_point: Option<Located<f32>>,
     preintegration: bool,
     shadows: Shadows,
+}
+
+/// The smallest memory budget: a few bricks of each level.
+const MIN_MEMORY: u64 = 64 << 20;
+
+/// A size in bytes from text like `"512 MiB"`, `"2 GiB"`, `"1.5GB"` or `"65536"` (units of 1024:
+/// KiB, MiB, GiB, TiB; KB, MB, GB and TB are read as the same, as memory is counted).
+pub(crate) fn parse_bytes(text: &str) -> Option<u64> {
+    let text = text.trim();
+    let split = text.find(|c: char| !(c.is_ascii_digit() || c == '.')).unwrap_or(text.len());
+    let (number, unit) = text.split_at(split);
+    let number: f64 = number.parse().ok()?;
+    let scale: u64 = match unit.trim().to_ascii_lowercase().as_str() {
+        "" | "b" => 1,
+        "k" | "kb" | "kib" => 1 << 10,
+        "m" | "mb" | "mib" => 1 << 20,
+        "g" | "gb" | "gib" => 1 << 30,
+        "t" | "tb" | "tib" => 1 << 40,
+        _ => return None,
+    };
+    let bytes = number * scale as f64;
+    (bytes.is_finite() && bytes >= 0.0 && bytes < u64::MAX as f64).then_some(bytes as u64)
+}
+
+/// Whether a volume without `bricks` is bricked: a Zarr store, or a file larger than a quarter
+/// of the GPU budget (its samples as half floats would take at least half of it, more for 8-bit
+/// data). Decided from the file system alone, so `vrsc explain` and the renderer agree.
+fn outgrows_a_texture(source: &VolumeSource, memory: &Memory) -> bool {
+    let VolumeSource::File(file) = source else { return false };
+    is_zarr(&file.resolved) || std::fs::metadata(&file.resolved).is_ok_and(|m| m.is_file() && m.len() > memory.gpu / 4)
 }

@@ -65,6 +65,12 @@ impl Scene {
 impl Cx<'_> {
     /// A view's render settings: its own `render` table over the shared one, validated.
     pub(super) fn view_render(&mut self, shared: Option<&Spanned<RawRender>>, own: &Spanned<RawRender>) -> Render {
+        let r = own.get_ref();
+        for (key, value) in [("memory", &r.memory), ("host_memory", &r.host_memory)] {
+            if let Some(value) = value {
+                self.ignored(value, key, "in a view: memory budgets are the scene's (`[render]`)");
+            }
+        }
         let merged = merge(shared.map(|s| s.get_ref()), own.get_ref());
         self.render(Some(Spanned::new(own.span(), merged)))
     }
@@ -101,6 +107,10 @@ fn merge(shared: Option<&RawRender>, own: &RawRender) -> RawRender {
         white_point: own.white_point.or(base.white_point),
         preintegration: own.preintegration.or(base.preintegration.filter(|_| mode == Compositing::Dvr)),
         shadows: own.shadows.or(base.shadows.filter(|_| shaded)),
+        // Budgets are the scene's: a view's own is reported as ignored, the shared one not
+        // inherited.
+        memory: own.memory,
+        host_memory: own.host_memory,
     }
 }
 
