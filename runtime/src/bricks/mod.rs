@@ -6,7 +6,9 @@
 //! Sources: Zarr v2/v3 and OME-Zarr stores (`zarr`, through the `zarrs` crate; multiscales read
 //! from the file), and every other format through a pyramid built at load (`pyramid`).
 
+pub mod pyramid;
 pub mod source;
+pub mod zarr;
 
 pub use source::{BrickData, BrickError, BrickSource, Level, levels_for};
 
