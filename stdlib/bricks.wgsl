@@ -48,7 +48,11 @@ fn NAME_sample(p: vec3f) -> f32 {
         let texel = brick + NAME_layout.offsets[level].xyz;
         let entry = textureLoad(NAME_pages, texel, 0).x;
         let kind = entry >> 30u;
+        let size = textureDimensions(NAME_pages);
+        let request = texel.x + size.x * (texel.y + size.y * texel.z);
         if kind == 1u {
+            // Used: what keeps it from eviction (least recently used bricks go first).
+            NAME_requests[request] = 2u;
             let s = entry & 0x3fffffffu;
             let slots = NAME_layout.slots.xyz;
             let slot = vec3u(s % slots.x, (s / slots.x) % slots.y, s / (slots.x * slots.y));
@@ -64,8 +68,7 @@ fn NAME_sample(p: vec3f) -> f32 {
         }
         // Missing: asked for, and the next coarser level answers (the coarsest is always
         // resident; past it, 0).
-        let size = textureDimensions(NAME_pages);
-        NAME_requests[texel.x + size.x * (texel.y + size.y * texel.z)] = 1u;
+        NAME_requests[request] = 1u;
         level += 1u;
         if level >= levels {
             break;

@@ -37,7 +37,22 @@ fn binding_type(kind: BindingKind) -> wgpu::BindingType {
             view_dimension: wgpu::TextureViewDimension::D2,
             multisampled: false,
         },
-        BindingKind::VolumeTexture => texture(wgpu::TextureViewDimension::D3),
+        BindingKind::VolumeTexture | BindingKind::BrickPool => texture(wgpu::TextureViewDimension::D3),
+        BindingKind::PageTable => wgpu::BindingType::Texture {
+            sample_type: wgpu::TextureSampleType::Uint,
+            view_dimension: wgpu::TextureViewDimension::D3,
+            multisampled: false,
+        },
+        BindingKind::BrickLayout => wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Uniform,
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        BindingKind::BrickRequests => wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Storage { read_only: false },
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
         BindingKind::TfTexture => texture(wgpu::TextureViewDimension::D2),
         BindingKind::VolumeSampler | BindingKind::TfSampler => {
             wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering)
@@ -77,6 +92,8 @@ pub struct DispatchResources<'a> {
     pub luminance: Option<&'a wgpu::TextureView>,
     /// The depth and colour images of the view's mesh layer (`crate::mesh_layer`).
     pub mesh_layer: Option<(&'a wgpu::TextureView, &'a wgpu::TextureView)>,
+    /// The view's `BrickLayout` buffer of each bricked volume it reads, by binding name.
+    pub brick_layouts: &'a std::collections::HashMap<String, wgpu::Buffer>,
 }
 
 /// The entries of group `group` for one dispatch: the same bindings, in the same order, as
@@ -113,6 +130,21 @@ pub fn group_entries<'a>(
                     &shared.tfs.get(&b.name).ok_or_else(|| missing("transfer function", &b.name))?.view,
                 ),
                 BindingKind::VolumeSampler | BindingKind::TfSampler => wgpu::BindingResource::Sampler(&shared.sampler),
+                BindingKind::BrickPool => wgpu::BindingResource::TextureView(
+                    &shared.bricked.get(&b.name).ok_or_else(|| missing("bricked volume", &b.name))?.pool_view,
+                ),
+                BindingKind::PageTable => wgpu::BindingResource::TextureView(
+                    &shared.bricked.get(&b.name).ok_or_else(|| missing("bricked volume", &b.name))?.pages_view,
+                ),
+                BindingKind::BrickRequests => shared
+                    .bricked
+                    .get(&b.name)
+                    .ok_or_else(|| missing("bricked volume", &b.name))?
+                    .requests
+                    .as_entire_binding(),
+                BindingKind::BrickLayout => {
+                    own.brick_layouts.get(&b.name).ok_or_else(|| missing("brick layout", &b.name))?.as_entire_binding()
+                }
             };
             Ok(wgpu::BindGroupEntry { binding: b.binding, resource })
         })

@@ -18,10 +18,12 @@ use vrsc::compose::build::BuiltScene;
 use vrsc::compose::cache::{CachedBuild, CompositionCache};
 use vrsc::scene::{self as vscene, Role, Scene, TfRef, UniformValue, ViewKind, VolumeSource};
 
+mod bricked;
 mod derived;
 mod meshes;
 mod probe;
 mod tf_edit;
+pub use bricked::BrickProgress;
 pub use meshes::{MeshHandle, mesh_surface};
 pub use probe::{ProbeAt, ProbeImage, ProbeSpec};
 pub use tf_edit::VolumeStatus;
@@ -264,7 +266,14 @@ impl SceneRenderer {
     }
 
     /// Renders every view; images in view order.
+    /// Bricked volumes are streamed until every brick the rays asked for is resident (or the
+    /// memory budget holds no more), so the images show the detail their pixels need.
     pub fn render_all(&mut self) -> Result<Vec<(String, image::RgbaImage)>, RuntimeError> {
+        self.render_resident(SceneRenderer::render_all_once)
+    }
+
+    /// Renders every view once with the bricks resident now.
+    fn render_all_once(&mut self) -> Result<Vec<(String, image::RgbaImage)>, RuntimeError> {
         self.update_light_volumes()?;
         self.update_followed_meshes()?;
         let mut images = Vec::new();
@@ -521,13 +530,16 @@ fn apply_view_uniforms(view: &mut SceneView, grids: &[VolumeGrid]) -> Result<(),
     if r.has_uniform("gradient_to_world") {
         r.set_uniform("gradient_to_world", geometry::gradient_to_world(to_world))?;
     }
-    if let Some(camera) = view.camera
+    let inv_view_proj = view.camera.map(|camera| camera.inv_view_proj(to_world, aspect));
+    if let Some(m) = inv_view_proj
         && r.has_uniform("inv_view_proj")
     {
-        r.set_uniform("inv_view_proj", camera.inv_view_proj(to_world, aspect))?;
+        r.set_uniform("inv_view_proj", m)?;
     }
+    let mut plane_edges = None;
     if let Some((plane, slab)) = view.slice {
         let plane = ShaderPlane::new(plane.oriented(view.convention), to_world, aspect);
+        plane_edges = Some((plane.u, plane.v));
         let uniforms = [
             ("slice_origin", plane.origin),
             ("slice_u", plane.u),
@@ -543,6 +555,10 @@ fn apply_view_uniforms(view: &mut SceneView, grids: &[VolumeGrid]) -> Result<(),
             r.set_uniform("slab", slab)?;
         }
     }
+    if let Some(brick_view) = bricked::brick_view(view, inv_view_proj, plane_edges) {
+        view.renderer.set_brick_view(brick_view);
+    }
+    let r = &mut view.renderer;
     for other in &grids[1..] {
         let uniform = format!("primary_to_{}", other.name);
         if r.has_uniform(&uniform) {
@@ -634,6 +650,36 @@ fn load_volumes(
             let bricks = ranges.then(|| crate::occupancy::BrickRanges::new(&data, Some(window)));
             Ok((VolumeTexture::upload(gpu, name, &data, Some(window))?, window, bricks))
         };
+        if v.bricked {
+            let report = &mut |done, total| progress(name, done, total);
+            let source = match (&v.source, &v.fallback) {
+                (VolumeSource::File(file), Some(fallback)) if !file.resolved.exists() => {
+                    notices.push(format!(
+                        "volume `{name}`: `{}` is absent; using the built-in `{}` phantom instead",
+                        file.resolved.display(),
+                        fallback.value
+                    ));
+                    bricked::open_source(&VolumeSource::Phantom(fallback.clone()), phantom, report)?
+                }
+                (source, _) => bricked::open_source(source, phantom, report)?,
+            };
+            let budget = (&scene.memory, bricked::sharing(scene));
+            let (volume, window, histogram) = bricked::load(gpu, name, source, fixed, budget, grids.first())?;
+            grids.push(VolumeGrid {
+                name: name.clone(),
+                dims: volume.levels()[0].dims,
+                grid_to_world: volume.grid_to_world,
+                window,
+                histogram,
+                curve,
+            });
+            resources.bricked.insert(v.binding(), Arc::new(volume));
+            if let Some(table) = table.map(|t| t.over_window(window)) {
+                let binding = if is_primary { "tf".to_string() } else { format!("tf_{name}") };
+                resources.tfs.insert(binding, Arc::new(TfTexture::upload(gpu, &table)?));
+            }
+            continue;
+        }
         let (texture, window, bricks) = match (&v.source, &v.fallback) {
             (VolumeSource::File(file), Some(fallback)) if !file.resolved.exists() => {
                 notices.push(format!(
@@ -657,7 +703,7 @@ fn load_volumes(
                 window[0], window[1]
             ));
         }
-        let binding = if is_primary { "volume".to_string() } else { format!("volume_{name}") };
+        let binding = v.binding();
         grids.push(VolumeGrid {
             name: name.clone(),
             dims: texture.dims,

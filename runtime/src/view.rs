@@ -2,6 +2,7 @@
 //! shared volumes and transfer functions it binds by name.
 
 use crate::bindings::{self, DispatchResources};
+use crate::bricks::{BrickView, BrickedVolumes};
 use crate::error::RuntimeError;
 use crate::gpu::Gpu;
 use crate::mesh_layer::{
@@ -19,6 +20,8 @@ use std::sync::Arc;
 /// (`volume`, `volume_gm`, `tf`, `tf_gm`).
 pub struct Resources {
     pub volumes: HashMap<String, Arc<VolumeTexture>>,
+    /// Volumes kept in bricks (`crate::bricks`), by the same names.
+    pub bricked: BrickedVolumes,
     pub tfs: HashMap<String, Arc<TfTexture>>,
     pub sampler: wgpu::Sampler,
     /// The scene's meshes, which views' mesh layers draw (by index).
@@ -33,6 +36,7 @@ impl Resources {
     pub fn new(gpu: &Gpu) -> Resources {
         Resources {
             volumes: HashMap::new(),
+            bricked: HashMap::new(),
             tfs: HashMap::new(),
             sampler: linear_sampler(gpu),
             meshes: Vec::new(),
@@ -66,6 +70,11 @@ pub struct ViewRenderer {
     /// rendered anew.
     layer_planes: Vec<PlanePicture>,
     planes_generation: u64,
+    /// How the view looks at bricked volumes (what picks their levels), the finest level it
+    /// shows (above 0 holds detail back), and its `BrickLayout` buffer of each.
+    brick_view: Option<BrickView>,
+    brick_finest: u32,
+    brick_layouts: HashMap<String, wgpu::Buffer>,
 }
 
 /// Mesh layers and overlays kept per view: one for previews and one for the full image.
@@ -128,6 +137,9 @@ impl ViewRenderer {
             overlays: Vec::new(),
             layer_planes: Vec::new(),
             planes_generation: 0,
+            brick_view: None,
+            brick_finest: 0,
+            brick_layouts: HashMap::new(),
         })
     }
 
@@ -177,6 +189,51 @@ impl ViewRenderer {
     pub fn set_planes(&mut self, planes: Vec<PlanePicture>) {
         self.layer_planes = planes;
         self.planes_generation += 1;
+    }
+
+    /// How the view looks at its bricked volumes (set with its camera or plane every frame).
+    pub fn set_brick_view(&mut self, view: BrickView) {
+        self.brick_view = Some(view);
+    }
+
+    /// The finest level of bricked volumes the view samples: 0 (all detail) unless the caller
+    /// holds detail back, as a viewer may while the user drags.
+    pub fn set_brick_finest(&mut self, level: u32) {
+        self.brick_finest = level;
+    }
+
+    /// Writes the `BrickLayout` of every bricked volume the view reads, for a target `height`
+    /// pixels high.
+    fn write_brick_layouts(&mut self, gpu: &Gpu, resources: &Resources, height: u32) -> Result<(), RuntimeError> {
+        let view = self.brick_view.unwrap_or(BrickView::Plane { u: glam::Vec3::X, v: glam::Vec3::Y });
+        let names: Vec<String> = self
+            .shader
+            .reflection
+            .bindings
+            .iter()
+            .filter(|b| b.kind == BindingKind::BrickLayout)
+            .map(|b| b.name.clone())
+            .collect();
+        for name in names {
+            let Some(volume) = resources.bricked.get(&name) else { continue };
+            let bytes = volume.layout_bytes(view, height, self.brick_finest);
+            if !self.brick_layouts.contains_key(&name) {
+                let doing = format!("creating the brick layout of `{name}` for view `{}`", self.shader.reflection.view);
+                let buffer = gpu.capture(&doing, || {
+                    gpu.device.create_buffer(&wgpu::BufferDescriptor {
+                        label: Some("brick layout"),
+                        size: bytes.len() as u64,
+                        usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                        mapped_at_creation: false,
+                    })
+                })?;
+                self.brick_layouts.insert(name.clone(), buffer);
+            }
+            if let Some(buffer) = self.brick_layouts.get(&name) {
+                gpu.queue.write_buffer(buffer, 0, &bytes);
+            }
+        }
+        Ok(())
     }
 
     /// The slice pictures the mesh layer shows on their planes.
@@ -284,6 +341,7 @@ impl ViewRenderer {
         if let Some(bytes) = self.uniforms.take_changes() {
             gpu.queue.write_buffer(&self.uniform_buffer, 0, bytes);
         }
+        self.write_brick_layouts(gpu, resources, target.texture().size().height)?;
         let reads_layer = self.reads_mesh_layer();
         if reads_layer {
             let size = target.texture().size();
@@ -316,6 +374,7 @@ impl ViewRenderer {
             output: target,
             luminance,
             mesh_layer,
+            brick_layouts: &self.brick_layouts,
         };
         let mut groups = Vec::with_capacity(self.pipeline.groups.len());
         for (group, layout) in (0u32..).zip(&self.pipeline.groups) {

@@ -1,0 +1,506 @@
+//! A bricked volume on the GPU: a brick pool (one `r16float` 3D texture of slots), a page table
+//! (`r32uint`, one texel per brick of every level, levels stacked along z) and the requests
+//! buffer rays write (`stdlib/bricks.wgsl`). After a frame the runtime reads the requests back
+//! ([`BrickedVolume::collect`]), loads what rays asked for on loader threads (from the host
+//! cache when it is there), and places arrived bricks in free or least recently used slots
+//! ([`BrickedVolume::receive`]). The coarsest level is loaded first and never evicted, so every
+//! ray finds an answer.
+
+use std::collections::{HashMap, HashSet};
+use std::sync::{Arc, Mutex};
+
+use glam::{Mat4, Vec3};
+
+use super::loader::{Loader, Normalized};
+use super::{BRICK, BrickSource, Level, STORED};
+use crate::error::RuntimeError;
+use crate::gpu::Gpu;
+
+/// Page-table entry kinds (the top two bits), as the lookup reads them.
+const MISSING: u32 = 0;
+const RESIDENT: u32 = 1 << 30;
+const CONSTANT: u32 = 2 << 30;
+/// The low 30 bits: a slot index, or a constant value in fixed point.
+const PAYLOAD: u32 = (1 << 30) - 1;
+
+/// Request-buffer words: what rays said about a brick in the last frame.
+const NEEDED: u32 = 1;
+const USED: u32 = 2;
+
+/// Levels the layout has room for (`BrickLayout`'s arrays).
+pub const MAX_LEVELS: usize = 16;
+
+/// Bytes of one slot of the pool (half floats).
+pub const SLOT_BYTES: u64 = (STORED as u64).pow(3) * 2;
+
+/// The most page-table entries a volume may have (16M, 64 MiB of table).
+pub const MAX_ENTRIES: u64 = 1 << 24;
+
+/// How a view looks at its bricked volumes this frame: what picks the level of a sample.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum BrickView {
+    /// A perspective camera at `eye` (the primary volume's normalized coordinates) whose image
+    /// spans `fov` radians vertically.
+    Perspective { eye: Vec3, fov: f32 },
+    /// A plane whose image spans `u` and `v` (the primary volume's normalized coordinates).
+    Plane { u: Vec3, v: Vec3 },
+}
+
+/// Counts of a bricked volume's residency, for progress and reports.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Residency {
+    /// Bricks in the pool now.
+    pub resident: u32,
+    /// Bricks found to hold one value (kept in the page table, never uploaded).
+    pub constant: u32,
+    /// Bricks asked for and not yet arrived.
+    pub pending: u32,
+    /// Bricks uploaded since the volume was made (again after an eviction).
+    pub loaded: u64,
+    /// Bricks evicted to make room.
+    pub evicted: u64,
+    /// Slots in the pool.
+    pub slots: u32,
+    /// Requests the pool had no room for in the last frame (every slot in use by that frame).
+    pub refused: u32,
+}
+
+/// The CPU side of the residency.
+struct State {
+    /// The page table as uploaded (plus changes not yet uploaded when `dirty`).
+    table: Vec<u32>,
+    dirty: bool,
+    /// Per slot: the table entry it holds and the frame it was last used in.
+    owner: Vec<Option<u32>>,
+    used: Vec<u64>,
+    free: Vec<u32>,
+    /// Entries asked of the loader and not yet arrived.
+    pending: HashSet<u32>,
+    /// Entries of the coarsest level: never evicted.
+    pinned: HashSet<u32>,
+    frame: u64,
+    stats: Residency,
+    /// Loading errors, once each (a corrupt chunk is reported, its brick left missing).
+    errors: Vec<String>,
+    failed: HashSet<u32>,
+}
+
+/// A bricked volume's GPU objects and residency.
+pub struct BrickedVolume {
+    pub name: String,
+    levels: Vec<Level>,
+    /// Where each level's bricks start in the page table.
+    offsets: Vec<[u32; 3]>,
+    table_dims: [u32; 3],
+    slots: [u32; 3],
+    pool_dims: [u32; 3],
+    pub grid_to_world: Mat4,
+    /// The primary volume's normalized coordinates to this volume's.
+    pub primary_to: Mat4,
+    pool: wgpu::Texture,
+    pub pool_view: wgpu::TextureView,
+    pages: wgpu::Texture,
+    pub pages_view: wgpu::TextureView,
+    pub requests: wgpu::Buffer,
+    readback: wgpu::Buffer,
+    loader: Loader,
+    state: Mutex<State>,
+}
+
+impl BrickedVolume {
+    /// The GPU objects of `source` with a pool of at most `gpu_budget` bytes, values mapped to
+    /// [0, 1] by `window`; the coarsest level is loaded before it returns. `host_budget` bounds
+    /// the bricks kept in host memory.
+    pub fn new(
+        gpu: &Gpu,
+        name: &str,
+        source: Arc<dyn BrickSource>,
+        window: [f32; 2],
+        budgets: (u64, u64),
+        primary_to: Mat4,
+    ) -> Result<BrickedVolume, RuntimeError> {
+        let invalid = |m: String| RuntimeError::Invalid(format!("volume `{name}`: {m}"));
+        let levels = source.levels().to_vec();
+        if levels.is_empty() || levels.len() > MAX_LEVELS {
+            return Err(invalid(format!("{} levels; bricked volumes have 1 to {MAX_LEVELS}", levels.len())));
+        }
+        let entries: u64 = levels.iter().map(Level::brick_count).sum();
+        if entries > MAX_ENTRIES {
+            return Err(invalid(format!("{entries} bricks are more than the {MAX_ENTRIES} a page table holds")));
+        }
+        let (offsets, table_dims) = table_layout(&levels);
+        let max_3d = gpu.device.limits().max_texture_dimension_3d;
+        let slots = pool_slots(budgets.0, entries, max_3d)
+            .ok_or_else(|| invalid(format!("a memory budget of {} MiB holds no brick", budgets.0 >> 20)))?;
+        let pool_dims = slots.map(|n| n * STORED);
+        let count = slots.iter().product::<u32>();
+        let doing = format!("creating the brick pool of volume `{name}`");
+        let texture = |label: &str, size: [u32; 3], format| {
+            gpu.capture(&doing, || {
+                gpu.device.create_texture(&wgpu::TextureDescriptor {
+                    label: Some(label),
+                    size: wgpu::Extent3d { width: size[0], height: size[1], depth_or_array_layers: size[2] },
+                    mip_level_count: 1,
+                    sample_count: 1,
+                    dimension: wgpu::TextureDimension::D3,
+                    format,
+                    usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+                    view_formats: &[],
+                })
+            })
+        };
+        let pool = texture("brick pool", pool_dims, wgpu::TextureFormat::R16Float)?;
+        let pages = texture("page table", table_dims, wgpu::TextureFormat::R32Uint)?;
+        let words = table_dims.iter().map(|&n| n as u64).product::<u64>();
+        let buffer = |label: &str, usage| {
+            gpu.capture(&doing, || {
+                gpu.device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some(label),
+                    size: words * 4,
+                    usage,
+                    mapped_at_creation: false,
+                })
+            })
+        };
+        use wgpu::BufferUsages as B;
+        let requests = buffer("brick requests", B::STORAGE | B::COPY_SRC | B::COPY_DST)?;
+        let readback = buffer("brick requests read back", B::MAP_READ | B::COPY_DST)?;
+        let pinned = level_entries(&levels, &offsets, table_dims, levels.len() - 1).collect();
+        let state = State {
+            table: vec![MISSING; words as usize],
+            dirty: true,
+            owner: vec![None; count as usize],
+            used: vec![0; count as usize],
+            free: (0..count).rev().collect(),
+            pending: HashSet::new(),
+            pinned,
+            frame: 0,
+            stats: Residency { slots: count, ..Residency::default() },
+            errors: Vec::new(),
+            failed: HashSet::new(),
+        };
+        let volume = BrickedVolume {
+            name: name.to_string(),
+            grid_to_world: source.grid_to_world(),
+            loader: Loader::new(source, window, budgets.1),
+            levels,
+            offsets,
+            table_dims,
+            slots,
+            pool_dims,
+            primary_to,
+            pool_view: pool.create_view(&Default::default()),
+            pool,
+            pages_view: pages.create_view(&Default::default()),
+            pages,
+            requests,
+            readback,
+            state: Mutex::new(state),
+        };
+        volume.load_coarsest(gpu)?;
+        Ok(volume)
+    }
+
+    /// The levels, finest first.
+    pub fn levels(&self) -> &[Level] {
+        &self.levels
+    }
+
+    /// Counts of the residency now.
+    pub fn residency(&self) -> Residency {
+        let state = self.lock();
+        Residency { pending: state.pending.len() as u32, ..state.stats }
+    }
+
+    /// Errors of bricks that could not be read (each brick once), and the source's warnings.
+    pub fn messages(&self) -> Vec<String> {
+        let mut out = self.loader.warnings();
+        out.extend(self.lock().errors.iter().cloned());
+        out
+    }
+
+    fn lock(&self) -> std::sync::MutexGuard<'_, State> {
+        self.state.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
+    }
+
+    /// Loads every brick of the coarsest level and waits for them.
+    fn load_coarsest(&self, gpu: &Gpu) -> Result<(), RuntimeError> {
+        let entries: Vec<u32> = self.lock().pinned.iter().copied().collect();
+        self.ask(&entries);
+        self.receive(gpu, true)?;
+        Ok(())
+    }
+
+    /// The `BrickLayout` uniform for a view looking as `view` into a target `height` pixels
+    /// high, finest level `finest` (0 unless detail is held back, as while the user drags).
+    pub fn layout_bytes(&self, view: BrickView, height: u32, finest: u32) -> Vec<u8> {
+        let dims = Vec3::from_array(self.levels[0].dims.map(|n| n as f32));
+        let to_voxels = Mat4::from_scale(dims) * self.primary_to;
+        let height = height.max(1) as f32;
+        let (eye, angle, footprint) = match view {
+            BrickView::Perspective { eye, fov } => (to_voxels.transform_point3(eye), fov / height, 0.0),
+            BrickView::Plane { u, v } => {
+                let across = to_voxels.transform_vector3(u).length().max(to_voxels.transform_vector3(v).length());
+                (Vec3::ZERO, 0.0, across / height)
+            }
+        };
+        let mut words: Vec<u32> = Vec::with_capacity(4 * (5 + 2 * MAX_LEVELS));
+        let f = |x: f32| x.to_bits();
+        words.extend([f(dims.x), f(dims.y), f(dims.z), f(self.levels.len() as f32)]);
+        words.extend([f(eye.x), f(eye.y), f(eye.z), f(angle)]);
+        let pool = self.pool_dims.map(|n| n as f32);
+        words.extend([f(pool[0]), f(pool[1]), f(pool[2]), f(BRICK as f32)]);
+        words.extend([f(footprint), f(0.0), f(finest.min(self.levels.len() as u32 - 1) as f32), 0]);
+        words.extend([self.slots[0], self.slots[1], self.slots[2], 0]);
+        for l in 0..MAX_LEVELS {
+            let [x, y, z] = self.offsets.get(l).copied().unwrap_or_default();
+            words.extend([x, y, z, 0]);
+        }
+        for l in 0..MAX_LEVELS {
+            let [x, y, z] = self.levels.get(l).map_or([1; 3], |l| l.bricks);
+            words.extend([x, y, z, 0]);
+        }
+        bytemuck::cast_slice(&words).to_vec()
+    }
+
+    /// Records the copy of the requests rays wrote into the read-back buffer, and clears them
+    /// for the next frame.
+    pub fn encode_collect(&self, encoder: &mut wgpu::CommandEncoder) {
+        encoder.copy_buffer_to_buffer(&self.requests, 0, &self.readback, 0, self.requests.size());
+        encoder.clear_buffer(&self.requests, 0, None);
+    }
+
+    /// Reads the requests recorded by [`Self::encode_collect`] (submitted and finished): marks
+    /// the bricks rays used, and asks the loader for those they needed, coarse levels first.
+    /// Returns how many were asked for.
+    pub fn collect(&self, gpu: &Gpu) -> Result<usize, RuntimeError> {
+        let slice = self.readback.slice(..);
+        slice.map_async(wgpu::MapMode::Read, |_| {});
+        gpu.wait();
+        let needed = {
+            let mapped = slice
+                .get_mapped_range()
+                .map_err(|e| RuntimeError::Invalid(format!("cannot read the brick requests back: {e}")))?;
+            let words: &[u32] = bytemuck::cast_slice(&mapped);
+            let mut state = self.lock();
+            state.frame += 1;
+            let frame = state.frame;
+            let mut needed = Vec::new();
+            for (entry, &word) in words.iter().enumerate() {
+                match word {
+                    USED => {
+                        let table = state.table[entry];
+                        if table & !PAYLOAD == RESIDENT {
+                            state.used[(table & PAYLOAD) as usize] = frame;
+                        }
+                    }
+                    NEEDED => needed.push(entry as u32),
+                    _ => {}
+                }
+            }
+            needed
+        };
+        self.readback.unmap();
+        let mut needed = needed;
+        needed.sort_by_key(|&e| std::cmp::Reverse(self.level_of(e)));
+        Ok(self.ask(&needed))
+    }
+
+    /// Asks the loader for `entries` not already resident, pending or failed; returns how many.
+    fn ask(&self, entries: &[u32]) -> usize {
+        let mut state = self.lock();
+        let mut asked = 0;
+        for &entry in entries {
+            if state.table[entry as usize] != MISSING || state.failed.contains(&entry) || !state.pending.insert(entry) {
+                continue;
+            }
+            let (level, brick) = self.brick_of(entry);
+            self.loader.ask(entry, level, brick);
+            asked += 1;
+        }
+        asked
+    }
+
+    /// Places the bricks that arrived (all pending ones when `wait`) in the pool and uploads
+    /// the page table if it changed. Returns how many arrived.
+    pub fn receive(&self, gpu: &Gpu, wait: bool) -> Result<usize, RuntimeError> {
+        let mut arrived = 0;
+        loop {
+            let pending = !self.lock().pending.is_empty();
+            let next = if wait && pending { self.loader.wait() } else { self.loader.try_next() };
+            let Some((entry, result)) = next else { break };
+            arrived += 1;
+            let mut state = self.lock();
+            state.pending.remove(&entry);
+            match result {
+                Ok(Normalized::Constant(value)) => {
+                    state.table[entry as usize] = CONSTANT | (value.clamp(0.0, 1.0) * PAYLOAD as f32).round() as u32;
+                    state.stats.constant += 1;
+                    state.dirty = true;
+                }
+                Ok(Normalized::Voxels(voxels)) => match self.slot_for(&mut state) {
+                    Some(slot) => {
+                        self.upload(gpu, slot, &voxels);
+                        state.owner[slot as usize] = Some(entry);
+                        state.used[slot as usize] = state.frame;
+                        state.table[entry as usize] = RESIDENT | slot;
+                        state.stats.loaded += 1;
+                        state.dirty = true;
+                    }
+                    None => state.stats.refused += 1,
+                },
+                Err(error) => {
+                    state.failed.insert(entry);
+                    state.errors.push(format!("volume `{}`: {error}; the brick is shown coarser", self.name));
+                }
+            }
+        }
+        let mut state = self.lock();
+        state.stats.resident = state.owner.iter().filter(|o| o.is_some()).count() as u32;
+        if state.dirty {
+            state.dirty = false;
+            let [w, h, d] = self.table_dims;
+            gpu.queue.write_texture(
+                self.pages.as_image_copy(),
+                bytemuck::cast_slice(&state.table),
+                wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(w * 4), rows_per_image: Some(h) },
+                wgpu::Extent3d { width: w, height: h, depth_or_array_layers: d },
+            );
+        }
+        Ok(arrived)
+    }
+
+    /// A free slot, else the least recently used one not used in the current frame nor pinned
+    /// (its brick evicted); `None` when every slot is in use.
+    fn slot_for(&self, state: &mut State) -> Option<u32> {
+        if let Some(slot) = state.free.pop() {
+            return Some(slot);
+        }
+        let frame = state.frame;
+        let victim = (0..state.owner.len())
+            .filter(|&s| state.used[s] < frame && state.owner[s].is_some_and(|e| !state.pinned.contains(&e)))
+            .min_by_key(|&s| state.used[s])?;
+        if let Some(entry) = state.owner[victim].take() {
+            state.table[entry as usize] = MISSING;
+            state.stats.evicted += 1;
+        }
+        Some(victim as u32)
+    }
+
+    /// Writes a brick's half floats into its slot.
+    fn upload(&self, gpu: &Gpu, slot: u32, voxels: &[half::f16]) {
+        let [sx, sy, _] = self.slots;
+        let origin = [slot % sx, (slot / sx) % sy, slot / (sx * sy)].map(|n| n * STORED);
+        gpu.queue.write_texture(
+            wgpu::TexelCopyTextureInfo {
+                texture: &self.pool,
+                mip_level: 0,
+                origin: wgpu::Origin3d { x: origin[0], y: origin[1], z: origin[2] },
+                aspect: wgpu::TextureAspect::All,
+            },
+            bytemuck::cast_slice(voxels),
+            wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(STORED * 2), rows_per_image: Some(STORED) },
+            wgpu::Extent3d { width: STORED, height: STORED, depth_or_array_layers: STORED },
+        );
+    }
+
+    fn level_of(&self, entry: u32) -> usize {
+        self.brick_of(entry).0
+    }
+
+    /// The level and brick of page-table entry `entry`.
+    fn brick_of(&self, entry: u32) -> (usize, [u32; 3]) {
+        let [w, h, _] = self.table_dims;
+        let (x, y, z) = (entry % w, (entry / w) % h, entry / (w * h));
+        let level = self.offsets.iter().rposition(|o| o[2] <= z).unwrap_or(0);
+        let o = self.offsets[level];
+        (level, [x - o[0], y - o[1], z - o[2]])
+    }
+}
+
+/// Where each level's bricks start in the page table, and the table's size: levels stacked
+/// along z, each at x = y = 0.
+fn table_layout(levels: &[Level]) -> (Vec<[u32; 3]>, [u32; 3]) {
+    let mut z = 0;
+    let offsets = levels
+        .iter()
+        .map(|l| {
+            let at = [0, 0, z];
+            z += l.bricks[2];
+            at
+        })
+        .collect();
+    let first = levels[0].bricks;
+    (offsets, [first[0], first[1], z])
+}
+
+/// The page-table entries of level `level`.
+fn level_entries<'a>(
+    levels: &'a [Level],
+    offsets: &'a [[u32; 3]],
+    table: [u32; 3],
+    level: usize,
+) -> impl Iterator<Item = u32> + 'a {
+    let [bx, by, bz] = levels[level].bricks;
+    let o = offsets[level];
+    (0..bz).flat_map(move |z| {
+        (0..by).flat_map(move |y| (0..bx).map(move |x| (x + o[0]) + table[0] * ((y + o[1]) + table[1] * (z + o[2]))))
+    })
+}
+
+/// Slots per axis of a pool of at most `budget` bytes, no more than `wanted` slots (every
+/// brick of the pyramid), each axis within `max_3d` texels; `None` when not one slot fits.
+fn pool_slots(budget: u64, wanted: u64, max_3d: u32) -> Option<[u32; 3]> {
+    let per_axis = (max_3d / STORED).max(1) as u64;
+    let count = (budget / SLOT_BYTES).min(wanted).min(per_axis.pow(3));
+    if count == 0 {
+        return None;
+    }
+    // The most slots x * y * z <= count with x >= y >= z as even as the count allows.
+    let side = |n: u64, k: u32| (n as f64).powf(1.0 / k as f64).floor().max(1.0) as u64;
+    let x = side(count, 3).min(per_axis);
+    let mut best = [x, 1, 1];
+    for z in 1..=x.min(per_axis) {
+        let y = (count / (x * z)).min(per_axis);
+        let x_fit = (count / (y.max(1) * z)).min(per_axis);
+        if x_fit * y * z > best.iter().product() {
+            best = [x_fit, y.max(1), z];
+        }
+    }
+    Some(best.map(|n| n as u32))
+}
+
+/// Which pages each bricked volume of a view's shader binds, by binding name.
+pub type BrickedVolumes = HashMap<String, Arc<BrickedVolume>>;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bricks::levels_for;
+
+    #[test]
+    fn pools_stay_within_the_budget_and_the_texture_limit() {
+        for (budget, wanted) in [(512u64 << 20, 18725u64), (64 << 20, 10), (8 << 30, 100000), (1 << 30, 73)] {
+            let slots = pool_slots(budget, wanted, 2048).expect("some slots");
+            let count: u64 = slots.iter().map(|&n| n as u64).product();
+            assert!(count * SLOT_BYTES <= budget && count <= wanted, "{budget} {wanted}: {slots:?}");
+            assert!(slots.iter().all(|&n| n * STORED <= 2048), "{slots:?}");
+            // Nearly all of what fits is used.
+            let fits = (budget / SLOT_BYTES).min(wanted).min(31u64.pow(3));
+            assert!(count * 10 >= fits * 8, "{budget} {wanted}: {count} of {fits}");
+        }
+        assert_eq!(pool_slots(SLOT_BYTES - 1, 5, 2048), None);
+    }
+
+    #[test]
+    fn the_page_table_stacks_levels_along_z() {
+        let levels = levels_for([300, 200, 100]);
+        let (offsets, dims) = table_layout(&levels);
+        assert_eq!(levels.iter().map(|l| l.bricks).collect::<Vec<_>>(), [[5, 4, 2], [3, 2, 1], [2, 1, 1], [1, 1, 1]]);
+        assert_eq!(offsets, [[0, 0, 0], [0, 0, 2], [0, 0, 3], [0, 0, 4]]);
+        assert_eq!(dims, [5, 4, 5]);
+        let last: Vec<u32> = level_entries(&levels, &offsets, dims, 3).collect();
+        assert_eq!(last, [5 * 4 * 4]);
+        assert_eq!(level_entries(&levels, &offsets, dims, 1).count(), 6);
+    }
+}

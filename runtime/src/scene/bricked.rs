@@ -1,0 +1,230 @@
+//! Bricked volumes in a scene: opening their sources, how each view looks at them, and the
+//! streaming between frames (requests read back, bricks loaded and placed).
+
+use std::sync::Arc;
+
+use glam::{Mat4, Vec4};
+
+use super::{SceneRenderer, SceneView, VolumeGrid};
+use crate::bricks::pyramid::PyramidSource;
+use crate::bricks::zarr::ZarrSource;
+use crate::bricks::{BrickData, BrickSource, BrickView, BrickedVolume, Residency, STORED};
+use crate::error::RuntimeError;
+use crate::gpu::Gpu;
+use crate::textures::HISTOGRAM_BINS;
+use crate::volume::{self, Scaling, Volume};
+use vrsc::scene::{Memory, Scene, VolumeSource, is_zarr};
+
+/// Rounds of render, read requests, load that [`SceneRenderer::render_all`] runs at most before
+/// it gives the picture as it is.
+const MAX_ROUNDS: usize = 64;
+
+/// The source of a bricked volume: a Zarr store as it is, any other file or phantom through a
+/// pyramid built from it in memory. With the automatic window of the whole volume when it was
+/// read whole (a Zarr store's comes from its coarsest level, [`load`]).
+pub(super) fn open_source(
+    source: &VolumeSource,
+    phantom: impl Fn(&str) -> Result<Volume, RuntimeError>,
+    progress: &mut dyn FnMut(u64, u64),
+) -> Result<(Arc<dyn BrickSource>, Option<[f32; 2]>), RuntimeError> {
+    let in_memory = |volume: Volume| -> (Arc<dyn BrickSource>, Option<[f32; 2]>) {
+        let window = volume::auto_window(&volume);
+        (Arc::new(PyramidSource::from_volume(&volume)), Some(window))
+    };
+    Ok(match source {
+        VolumeSource::File(file) if is_zarr(&file.resolved) => {
+            let store = ZarrSource::open(&file.resolved)
+                .map_err(|e| RuntimeError::Invalid(format!("`{}`: {e}", file.resolved.display())))?;
+            (Arc::new(store), None)
+        }
+        VolumeSource::File(file) => in_memory(volume::load(&file.resolved, progress).map_err(RuntimeError::Volume)?),
+        VolumeSource::Phantom(p) => in_memory(phantom(&p.value)?),
+    })
+}
+
+/// The coarsest level of `source` as a volume in memory (one brick or a few): what the
+/// automatic window and the histogram of a bricked volume are taken from.
+pub(super) fn coarsest(source: &dyn BrickSource) -> Result<Volume, RuntimeError> {
+    let levels = source.levels();
+    let level = levels.len() - 1;
+    let top = levels[level];
+    let [w, h, d] = top.dims;
+    let mut data = vec![0.0f32; w as usize * h as usize * d as usize];
+    for bz in 0..top.bricks[2] {
+        for by in 0..top.bricks[1] {
+            for bx in 0..top.bricks[0] {
+                let brick = source.read(level, [bx, by, bz]).map_err(|e| RuntimeError::Invalid(e.to_string()))?;
+                copy_interior(&brick, [bx, by, bz], top.dims, &mut data);
+            }
+        }
+    }
+    let scale = (1u32 << level) as f32;
+    let grid_to_world = source.grid_to_world() * Mat4::from_scale(glam::Vec3::splat(scale));
+    Ok(Volume::from_samples(top.dims, grid_to_world, volume::Samples::F32(data), Scaling::IDENTITY))
+}
+
+/// Copies a brick's voxels (without apron) into a level's voxels, x fastest.
+fn copy_interior(brick: &BrickData, [bx, by, bz]: [u32; 3], dims: [u32; 3], out: &mut [f32]) {
+    let edge = crate::bricks::BRICK;
+    for z in 0..edge {
+        for y in 0..edge {
+            for x in 0..edge {
+                let v = [bx * edge + x, by * edge + y, bz * edge + z];
+                if v.iter().zip(dims).any(|(&i, n)| i >= n) {
+                    continue;
+                }
+                let index = v[0] as usize + dims[0] as usize * (v[1] as usize + dims[1] as usize * v[2] as usize);
+                out[index] = brick.at([x + 1, y + 1, z + 1]);
+            }
+        }
+    }
+    debug_assert!(STORED == edge + 2);
+}
+
+/// Opens and places bricked volume `name`: its window (the scene's, else percentiles of its
+/// coarsest level), its GPU objects within its share of the scene's budgets, and its grid.
+pub(super) fn load(
+    gpu: &Gpu,
+    name: &str,
+    (source, automatic): (Arc<dyn BrickSource>, Option<[f32; 2]>),
+    fixed: Option<[f32; 2]>,
+    (memory, share): (&Memory, u64),
+    primary: Option<&VolumeGrid>,
+) -> Result<(BrickedVolume, [f32; 2], Vec<u64>), RuntimeError> {
+    let top = coarsest(source.as_ref())?;
+    let window = fixed.or(automatic).unwrap_or_else(|| volume::auto_window(&top));
+    let dims = source.levels()[0].dims;
+    let primary_to = match primary {
+        Some(p) => crate::geometry::primary_to((&p.dims, p.grid_to_world), (&dims, source.grid_to_world())),
+        None => Mat4::IDENTITY,
+    };
+    let budgets = (memory.gpu / share.max(1), memory.host / share.max(1));
+    let bricked = BrickedVolume::new(gpu, name, source, window, budgets, primary_to)?;
+    Ok((bricked, window, histogram(&top, window)))
+}
+
+/// Voxel counts of `volume` over [`HISTOGRAM_BINS`] parts of `window` (as a texture's).
+fn histogram(volume: &Volume, window: [f32; 2]) -> Vec<u64> {
+    let mut counts = vec![0u64; HISTOGRAM_BINS];
+    let span = (window[1] - window[0]).max(f32::MIN_POSITIVE);
+    for v in volume.values() {
+        let bin = ((v - window[0]) / span * HISTOGRAM_BINS as f32).floor();
+        if bin.is_finite() {
+            counts[(bin.max(0.0) as usize).min(HISTOGRAM_BINS - 1)] += 1;
+        }
+    }
+    counts
+}
+
+/// How `view` looks at bricked volumes: its camera's eye (the primary volume's normalized
+/// coordinates, from the inverse view-projection: clip `(0, 0, 1, 0)` is the eye) or its plane.
+pub(super) fn brick_view(
+    view: &SceneView,
+    inv_view_proj: Option<Mat4>,
+    plane: Option<(glam::Vec3, glam::Vec3)>,
+) -> Option<BrickView> {
+    if let (Some(camera), Some(m)) = (view.camera, inv_view_proj) {
+        let e = m * Vec4::new(0.0, 0.0, 1.0, 0.0);
+        if e.w.abs() > f32::EPSILON {
+            return Some(BrickView::Perspective {
+                eye: e.truncate() / e.w,
+                fov: camera.fov.clamp(1.0, 170.0).to_radians(),
+            });
+        }
+    }
+    plane.map(|(u, v)| BrickView::Plane { u, v })
+}
+
+/// The scene's bricked volumes' residency, summed.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct BrickProgress {
+    pub residency: Residency,
+    /// Bricks that arrived in this call.
+    pub arrived: usize,
+    /// Bricks asked for in this call.
+    pub asked: usize,
+}
+
+impl SceneRenderer {
+    /// Whether the scene has bricked volumes.
+    pub fn has_bricked(&self) -> bool {
+        !self.resources.bricked.is_empty()
+    }
+
+    /// After a frame: reads back what its rays asked of the bricked volumes, asks the loaders,
+    /// and places the bricks that arrived since (all that were asked for when `wait`). A viewer
+    /// calls it after every frame and draws again while bricks are pending or arrived.
+    pub fn stream_bricks(&mut self, wait: bool) -> Result<BrickProgress, RuntimeError> {
+        let mut progress = BrickProgress::default();
+        if !self.has_bricked() {
+            return Ok(progress);
+        }
+        let mut encoder = self.gpu.device.create_command_encoder(&Default::default());
+        for volume in self.resources.bricked.values() {
+            volume.encode_collect(&mut encoder);
+        }
+        self.gpu.queue.submit([encoder.finish()]);
+        for volume in self.resources.bricked.values() {
+            progress.asked += volume.collect(&self.gpu)?;
+            progress.arrived += volume.receive(&self.gpu, wait)?;
+            progress.residency = sum(progress.residency, volume.residency());
+        }
+        Ok(progress)
+    }
+
+    /// Renders until the rays of every view find the bricks they asked for (or no more can be
+    /// placed); returns the images of the last round and what was loaded, in the notices.
+    pub(super) fn render_resident(
+        &mut self,
+        render: impl Fn(&mut SceneRenderer) -> Result<Vec<(String, image::RgbaImage)>, RuntimeError>,
+    ) -> Result<Vec<(String, image::RgbaImage)>, RuntimeError> {
+        let mut images = render(self)?;
+        if !self.has_bricked() {
+            return Ok(images);
+        }
+        let before = self.brick_residency();
+        for _ in 0..MAX_ROUNDS {
+            let progress = self.stream_bricks(true)?;
+            if progress.asked == 0 || progress.arrived == 0 {
+                break;
+            }
+            images = render(self)?;
+        }
+        let after = self.brick_residency();
+        self.notices.push(format!(
+            "bricked volumes: {} bricks loaded for this picture ({} resident in {} slots, {} of one value, {} evicted{})",
+            after.loaded - before.loaded,
+            after.resident,
+            after.slots,
+            after.constant,
+            after.evicted,
+            if after.refused > 0 { "; the memory budget held no more: parts are shown coarser" } else { "" }
+        ));
+        for volume in self.resources.bricked.values() {
+            self.notices.extend(volume.messages());
+        }
+        Ok(images)
+    }
+
+    /// The residency of every bricked volume, summed.
+    pub fn brick_residency(&self) -> Residency {
+        self.resources.bricked.values().fold(Residency::default(), |acc, v| sum(acc, v.residency()))
+    }
+}
+
+fn sum(a: Residency, b: Residency) -> Residency {
+    Residency {
+        resident: a.resident + b.resident,
+        constant: a.constant + b.constant,
+        pending: a.pending + b.pending,
+        loaded: a.loaded + b.loaded,
+        evicted: a.evicted + b.evicted,
+        slots: a.slots + b.slots,
+        refused: a.refused + b.refused,
+    }
+}
+
+/// How many volumes share the scene's budgets.
+pub(super) fn sharing(scene: &Scene) -> u64 {
+    scene.volumes.iter().filter(|v| v.bricked).count() as u64
+}
