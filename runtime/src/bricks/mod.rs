@@ -6,10 +6,13 @@
 //! Sources: Zarr v2/v3 and OME-Zarr stores (`zarr`, through the `zarrs` crate; multiscales read
 //! from the file), and every other format through a pyramid built at load (`pyramid`).
 
+pub mod loader;
 pub mod pyramid;
+pub mod residency;
 pub mod source;
 pub mod zarr;
 
+pub use residency::{BrickView, BrickedVolume, BrickedVolumes, Residency};
 pub use source::{BrickData, BrickError, BrickSource, Level, levels_for};
 
 /// Voxels along each edge of a brick, without its apron.
