@@ -689,6 +689,9 @@ fn load_volumes(
                 ));
                 uploaded(phantom(&fallback.value)?)?
             }
+            (VolumeSource::File(file), _) if vscene::is_zarr(&file.resolved) => {
+                uploaded(bricked::zarr_volume(&file.resolved)?)?
+            }
             (VolumeSource::File(file), _) => {
                 let report = &mut |done, total| progress(name, done, total);
                 VolumeTexture::stream_file(gpu, name, &file.resolved, fixed, ranges, report)?

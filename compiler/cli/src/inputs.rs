@@ -7,7 +7,8 @@
 //! (the runtime depends on the compiler). Presets and phantoms are looked up by name (a phantom
 //! is made at 1 voxel, which costs nothing); a transfer-function file is parsed in full (it is
 //! small); a volume file or DICOM folder must exist and have a valid header (dimensions within
-//! the limits, a sane voxel spacing); its voxels are read only by `render`. A mesh file is read
+//! the limits, a sane voxel spacing), a Zarr store valid metadata; its voxels are read only by
+//! `render`. A mesh file is read
 //! in full, within the runtime's limits on size and triangles (its vertices and indices are
 //! checked), and a built-in shape whose points are all numbers is made.
 
@@ -30,7 +31,12 @@ pub fn check_scene_inputs(scene: &Scene) -> Vec<Diagnostic> {
             }
             VolumeSource::File(file) if !file.resolved.exists() && v.fallback.is_some() => {}
             VolumeSource::File(file) => {
-                if let Err(why) = volume::header(&file.resolved).map_err(|e| e.kind.to_string()) {
+                let header = if vrsc::scene::is_zarr(&file.resolved) {
+                    vrs_runtime::bricks::zarr::ZarrSource::open(&file.resolved).map(|_| ()).map_err(|e| e.to_string())
+                } else {
+                    volume::header(&file.resolved).map(|_| ()).map_err(|e| e.kind.to_string())
+                };
+                if let Err(why) = header {
                     let d = invalid(file.span, format!("cannot read volume `{}`: {why}", file.given), "this file")
                         .with_note(format!("resolved to `{}`", file.resolved.display()))
                         .with_help("fix the path (relative to the scene file), or add `fallback = \"head\"` to render a phantom meanwhile");

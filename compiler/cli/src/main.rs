@@ -400,12 +400,14 @@ fn render(printer: &Printer, scene_path: &Path, dir: &Path, args: RenderArgs) ->
     let renderer = SceneRenderer::from_built(gpu, scene_path, scene, &built, options, &mut |name, done, total| {
         bar.update(name, done, total)
     });
+    // Notices after rendering: loading's, and what streaming bricked volumes loaded.
     let result = renderer.and_then(|mut r| {
-        r.notices.iter().for_each(|n| eprintln!("note: {n}"));
-        match probed {
+        let images = match probed {
             Some((field, views)) => render_probes(&mut r, field, &views, args.probe.at()),
             None => r.render_all(),
-        }
+        };
+        r.notices.iter().for_each(|n| eprintln!("note: {n}"));
+        images
     });
     let images = match result {
         Ok(images) => images,

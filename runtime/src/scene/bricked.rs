@@ -45,11 +45,27 @@ pub(super) fn open_source(
 /// The coarsest level of `source` as a volume in memory (one brick or a few): what the
 /// automatic window and the histogram of a bricked volume are taken from.
 pub(super) fn coarsest(source: &dyn BrickSource) -> Result<Volume, RuntimeError> {
-    let levels = source.levels();
-    let level = levels.len() - 1;
-    let top = levels[level];
+    level_volume(source, source.levels().len() - 1)
+}
+
+/// A Zarr store read whole into memory, for a volume the scene keeps in one texture
+/// (`bricks = false`); refused beyond [`volume::MAX_VOXELS`].
+pub(super) fn zarr_volume(path: &std::path::Path) -> Result<Volume, RuntimeError> {
+    let store = ZarrSource::open(path).map_err(|e| RuntimeError::Invalid(format!("`{}`: {e}", path.display())))?;
+    level_volume(&store, 0)
+}
+
+/// Level `level` of `source` as a volume in memory, its voxels in data units.
+fn level_volume(source: &dyn BrickSource, level: usize) -> Result<Volume, RuntimeError> {
+    let top = source.levels()[level];
     let [w, h, d] = top.dims;
-    let mut data = vec![0.0f32; w as usize * h as usize * d as usize];
+    let voxels = w as u64 * h as u64 * d as u64;
+    if voxels > volume::MAX_VOXELS {
+        return Err(RuntimeError::Invalid(format!(
+            "a {w}x{h}x{d} grid is too large for one texture; remove `bricks = false` to stream it in bricks"
+        )));
+    }
+    let mut data = vec![0.0f32; voxels as usize];
     for bz in 0..top.bricks[2] {
         for by in 0..top.bricks[1] {
             for bx in 0..top.bricks[0] {
@@ -58,8 +74,11 @@ pub(super) fn coarsest(source: &dyn BrickSource) -> Result<Volume, RuntimeError>
             }
         }
     }
-    let scale = (1u32 << level) as f32;
-    let grid_to_world = source.grid_to_world() * Mat4::from_scale(glam::Vec3::splat(scale));
+    // Level voxel i covers level-0 voxels [i s, (i + 1) s): its centre is at i s + (s - 1) / 2.
+    let s = (1u32 << level) as f32;
+    let grid_to_world = source.grid_to_world()
+        * Mat4::from_translation(glam::Vec3::splat((s - 1.0) / 2.0))
+        * Mat4::from_scale(glam::Vec3::splat(s));
     Ok(Volume::from_samples(top.dims, grid_to_world, volume::Samples::F32(data), Scaling::IDENTITY))
 }
 
