@@ -7,6 +7,7 @@
 //! ray finds an answer.
 
 use std::collections::{HashMap, HashSet};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 
 use glam::{Mat4, Vec3};
@@ -105,6 +106,8 @@ pub struct BrickedVolume {
     readback: wgpu::Buffer,
     loader: Loader,
     state: Mutex<State>,
+    /// The read-back under way: set by the map's callback when the requests can be read.
+    mapping: Mutex<Option<Arc<AtomicBool>>>,
 }
 
 impl BrickedVolume {
@@ -196,6 +199,7 @@ impl BrickedVolume {
             requests,
             readback,
             state: Mutex::new(state),
+            mapping: Mutex::new(None),
         };
         volume.load_coarsest(gpu)?;
         Ok(volume)
@@ -220,7 +224,7 @@ impl BrickedVolume {
     }
 
     fn lock(&self) -> std::sync::MutexGuard<'_, State> {
-        self.state.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
+        lock(&self.state)
     }
 
     /// Loads every brick of the coarsest level and waits for them.
@@ -263,47 +267,72 @@ impl BrickedVolume {
         bytemuck::cast_slice(&words).to_vec()
     }
 
-    /// Records the copy of the requests rays wrote into the read-back buffer, and clears them
-    /// for the next frame.
-    pub fn encode_collect(&self, encoder: &mut wgpu::CommandEncoder) {
+    /// Starts reading back the requests rays wrote since the last read (a copy after the work
+    /// submitted so far, then a map), and clears them for the next frames. Does nothing while
+    /// the last read is still under way; returns whether it started one.
+    pub fn start_collect(&self, gpu: &Gpu) -> bool {
+        let mut mapping = lock(&self.mapping);
+        if mapping.is_some() {
+            return false;
+        }
+        let mut encoder = gpu.device.create_command_encoder(&Default::default());
         encoder.copy_buffer_to_buffer(&self.requests, 0, &self.readback, 0, self.requests.size());
         encoder.clear_buffer(&self.requests, 0, None);
+        gpu.queue.submit([encoder.finish()]);
+        let done = Arc::new(AtomicBool::new(false));
+        let flag = done.clone();
+        self.readback.slice(..).map_async(wgpu::MapMode::Read, move |_| flag.store(true, Ordering::Release));
+        *mapping = Some(done);
+        true
     }
 
-    /// Reads the requests recorded by [`Self::encode_collect`] (submitted and finished): marks
-    /// the bricks rays used, and asks the loader for those they needed, coarse levels first.
-    /// Returns how many were asked for.
-    pub fn collect(&self, gpu: &Gpu) -> Result<usize, RuntimeError> {
-        let slice = self.readback.slice(..);
-        slice.map_async(wgpu::MapMode::Read, |_| {});
-        gpu.wait();
+    /// Finishes the read [`Self::start_collect`] started, waiting for it when `wait` (else only
+    /// when it is done): marks the bricks rays used and asks the loader for those they needed,
+    /// coarse levels first. Returns how many were asked for, `None` while the read is under way.
+    pub fn finish_collect(&self, gpu: &Gpu, wait: bool) -> Result<Option<usize>, RuntimeError> {
+        let Some(done) = lock(&self.mapping).clone() else { return Ok(Some(0)) };
+        if wait {
+            gpu.wait();
+        } else {
+            let _ = gpu.device.poll(wgpu::PollType::Poll);
+        }
+        if !done.load(Ordering::Acquire) {
+            return Ok(None);
+        }
         let needed = {
+            let slice = self.readback.slice(..);
             let mapped = slice
                 .get_mapped_range()
                 .map_err(|e| RuntimeError::Invalid(format!("cannot read the brick requests back: {e}")))?;
-            let words: &[u32] = bytemuck::cast_slice(&mapped);
-            let mut state = self.lock();
-            state.frame += 1;
-            let frame = state.frame;
-            let mut needed = Vec::new();
-            for (entry, &word) in words.iter().enumerate() {
-                match word {
-                    USED => {
-                        let table = state.table[entry];
-                        if table & !PAYLOAD == RESIDENT {
-                            state.used[(table & PAYLOAD) as usize] = frame;
-                        }
-                    }
-                    NEEDED => needed.push(entry as u32),
-                    _ => {}
-                }
-            }
-            needed
+            self.mark(bytemuck::cast_slice(&mapped))
         };
         self.readback.unmap();
-        let mut needed = needed;
+        *lock(&self.mapping) = None;
+        Ok(Some(self.ask(&needed)))
+    }
+
+    /// Marks the slots of the bricks rays used (a new frame of the least-recently-used clock)
+    /// and returns the entries they needed, coarsest level first.
+    fn mark(&self, words: &[u32]) -> Vec<u32> {
+        let mut state = self.lock();
+        state.frame += 1;
+        let frame = state.frame;
+        let mut needed = Vec::new();
+        for (entry, &word) in words.iter().enumerate() {
+            match word {
+                USED => {
+                    let table = state.table[entry];
+                    if table & !PAYLOAD == RESIDENT {
+                        state.used[(table & PAYLOAD) as usize] = frame;
+                    }
+                }
+                NEEDED => needed.push(entry as u32),
+                _ => {}
+            }
+        }
+        drop(state);
         needed.sort_by_key(|&e| std::cmp::Reverse(self.level_of(e)));
-        Ok(self.ask(&needed))
+        needed
     }
 
     /// Asks the loader for `entries` not already resident, pending or failed; returns how many.
@@ -416,6 +445,10 @@ impl BrickedVolume {
         let o = self.offsets[level];
         (level, [x - o[0], y - o[1], z - o[2]])
     }
+}
+
+fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
+    m.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
 }
 
 /// Where each level's bricks start in the page table, and the table's size: levels stacked

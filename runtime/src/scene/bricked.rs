@@ -170,21 +170,16 @@ impl SceneRenderer {
         !self.resources.bricked.is_empty()
     }
 
-    /// After a frame: reads back what its rays asked of the bricked volumes, asks the loaders,
-    /// and places the bricks that arrived since (all that were asked for when `wait`). A viewer
-    /// calls it after every frame and draws again while bricks are pending or arrived.
+    /// After a frame: reads back what the rays of the frames so far asked of the bricked
+    /// volumes, asks the loaders, and places the bricks that arrived since. With `wait` it waits
+    /// for the read-back and for every brick asked for (what `render` does); without, nothing
+    /// blocks: a read still under way is finished by a later call (a viewer calls this after
+    /// every frame and draws again while bricks are pending or arrived).
     pub fn stream_bricks(&mut self, wait: bool) -> Result<BrickProgress, RuntimeError> {
         let mut progress = BrickProgress::default();
-        if !self.has_bricked() {
-            return Ok(progress);
-        }
-        let mut encoder = self.gpu.device.create_command_encoder(&Default::default());
         for volume in self.resources.bricked.values() {
-            volume.encode_collect(&mut encoder);
-        }
-        self.gpu.queue.submit([encoder.finish()]);
-        for volume in self.resources.bricked.values() {
-            progress.asked += volume.collect(&self.gpu)?;
+            volume.start_collect(&self.gpu);
+            progress.asked += volume.finish_collect(&self.gpu, wait)?.unwrap_or(0);
             progress.arrived += volume.receive(&self.gpu, wait)?;
             progress.residency = sum(progress.residency, volume.residency());
         }
