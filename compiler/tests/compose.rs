@@ -170,6 +170,12 @@ fn bricked_volumes_sample_through_their_lookup() {
     // Shading's gradient takes the volume as a parameter: its variant calls the lookup.
     let wgsl = &built.views[0].shader.as_ref().expect("3d").wgsl;
     assert!(wgsl.matches("volume_sample(").count() >= 7, "{wgsl}");
+    // `vrsc explain` says where the lookup comes from.
+    let keep = vrsc::compose::build::Keep::Ir;
+    let kept = vrsc::compose::build::build_scene_keeping(&dir.path().join("scene.toml"), None, keep).expect("readable");
+    let explained = vrsc::compose::explain::explain(&kept.views[0], &kept.sources).expect("explained");
+    let note = "// from stdlib/bricks.wgsl: the lookup of bricked volume `volume` (the runtime keeps it in bricks)\nfn volume_sample(";
+    assert!(explained.contains(note), "{explained}");
 }
 
 /// `[render] memory` takes sizes with units; nonsense is an error at the key.

@@ -82,7 +82,8 @@ impl ModuleBuilder {
             if let Some(n) = &copy.name {
                 self.function_names.insert(n.clone());
             }
-            functions.push(self.module.functions.append(copy, span.into()));
+            // No VRS span: `vrsc explain` names the lookup's source by the function's name.
+            functions.push(self.module.functions.append(copy, naga::Span::UNDEFINED));
         }
         match functions[..] {
             [sample, dims] => Ok(BrickedFns { sample, dims }),
