@@ -7,7 +7,7 @@
 
 mod common;
 
-use common::cells::{Cell, LightCell, MeshCell, Placement};
+use common::cells::{Cell, LightCell, Lighting, MeshCell, Placement};
 use std::collections::HashMap;
 use vrs_runtime::{ProbeSpec, RenderOptions, SceneRenderer};
 
@@ -54,6 +54,44 @@ fn every_combination_renders_or_is_refused_at_build() {
         tally.pipelines += renderer.pipeline_stats().misses;
     }
     eprintln!("{} cells: {tally:?}", cells.len());
+    assert_eq!(tally.rendered + tally.probed + tally.refused, cells.len());
+    assert!(tally.rendered > 0 && tally.probed > 0, "{tally:?}");
+}
+
+/// The same cells with every volume kept in bricks (`bricks = true`), in the shared render
+/// table, with shading off or one light (placement, skipping, which bricked volumes turn off,
+/// and more lights are covered above): each renders through the bricked lookup, probed or
+/// not, or is refused at build.
+#[test]
+fn every_combination_with_bricked_volumes_renders_or_is_refused_at_build() {
+    let gpu = common::software_gpu();
+    let cells: Vec<Cell> = Cell::all()
+        .into_iter()
+        .filter(|c| c.placement == Placement::Shared && !c.skipping)
+        .filter(|c| matches!(c.lighting, Lighting::Off | Lighting::Lights(1)))
+        .collect();
+    let bricked = |cell: &Cell| {
+        let mut text = cell.scene();
+        for role in ["primary", "mask", "tag", "additional"] {
+            text = text.replace(&format!("role = \"{role}\"\n"), &format!("role = \"{role}\"\nbricks = true\n"));
+        }
+        text
+    };
+    let mut tally = Tally::default();
+    for group in cells.chunk_by(|a, b| a.roles == b.roles) {
+        let dir = tempfile::tempdir().expect("a temporary folder");
+        let path = dir.path().join("scene.toml");
+        std::fs::write(&path, bricked(&group[0])).expect("scene written");
+        let options = RenderOptions { size: Some([16, 16]), phantom_size: [24, 24, 24] };
+        let mut renderer = SceneRenderer::open(gpu.clone(), &path, options, &mut |_, _, _| {})
+            .unwrap_or_else(|e| panic!("{} (bricked): {e}", group[0].describe()));
+        assert!(renderer.has_bricked(), "{}: no bricked volume", group[0].describe());
+        for cell in group {
+            std::fs::write(&path, bricked(cell)).expect("scene written");
+            run_cell(&mut renderer, cell, &mut tally);
+        }
+    }
+    eprintln!("{} bricked cells: {tally:?}", cells.len());
     assert_eq!(tally.rendered + tally.probed + tally.refused, cells.len());
     assert!(tally.rendered > 0 && tally.probed > 0, "{tally:?}");
 }
