@@ -16,8 +16,8 @@ struct BrickLayout {
     // x: a pixel's footprint in level-0 voxels that does not grow with distance (slice views);
     // y: added to the level a footprint asks for; z: the finest level used.
     detail: vec4f,
-    // Pool slots per axis (xyz).
-    slots: vec4u,
+    // Page-table texels per row (x) and per slice (y): a brick's word in the requests.
+    table: vec4u,
     // Per level: where its bricks start in the page table (xyz).
     offsets: array<vec4u, 16>,
     // Per level: bricks per axis (xyz).
@@ -29,6 +29,10 @@ struct BrickLayout {
 @group(0) @binding(2) var NAME_pages: texture_3d<u32>;
 @group(0) @binding(3) var<uniform> NAME_layout: BrickLayout;
 @group(0) @binding(4) var<storage, read_write> NAME_requests: array<u32>;
+// The ray's last page-table read (its request word + 1, 0 before the first; the entry):
+// consecutive samples mostly fall in one brick, so most samples read neither the table nor
+// write the requests.
+var<private> NAME_last: vec2u;
 
 // The value of bricked volume NAME at `p` (normalized volume coordinates).
 fn NAME_sample(p: vec3f) -> f32 {
@@ -41,22 +45,25 @@ fn NAME_sample(p: vec3f) -> f32 {
     let edge = NAME_layout.pool.w;
     var value = 0.0;
     loop {
-        let scale = f32(1u << level);
+        let scale = exp2(f32(level));
         // Level voxels, clamped to the centres of the edge voxels as the sampler clamps.
         let x = clamp(x0 / scale, vec3f(0.5), ceil(grid / scale) - 0.5);
         let brick = min(vec3u(x / edge), NAME_layout.bricks[level].xyz - 1u);
         let texel = brick + NAME_layout.offsets[level].xyz;
-        let entry = textureLoad(NAME_pages, texel, 0).x;
+        let request = texel.x + NAME_layout.table.x * (texel.y + NAME_layout.table.y * texel.z);
+        if request + 1u != NAME_last.x {
+            let read = textureLoad(NAME_pages, texel, 0).x;
+            NAME_last = vec2u(request + 1u, read);
+            // A resident brick is marked used (least recently used bricks are evicted first), a
+            // missing one needed.
+            NAME_requests[request] = select(1u, 2u, (read >> 30u) == 1u);
+        }
+        let entry = NAME_last.y;
         let kind = entry >> 30u;
-        let size = textureDimensions(NAME_pages);
-        let request = texel.x + size.x * (texel.y + size.y * texel.z);
         if kind == 1u {
-            // Used: what keeps it from eviction (least recently used bricks go first).
-            NAME_requests[request] = 2u;
-            let s = entry & 0x3fffffffu;
-            let slots = NAME_layout.slots.xyz;
-            let slot = vec3u(s % slots.x, (s / slots.x) % slots.y, s / (slots.x * slots.y));
-            // The slot's first texel is the apron before the brick's first voxel.
+            // The slot's position in the pool (10 bits an axis); its first texel is the apron
+            // before the brick's first voxel.
+            let slot = vec3u((entry >> 20u) & 1023u, (entry >> 10u) & 1023u, entry & 1023u);
             let q = vec3f(slot) * (edge + 2.0) + 1.0 + (x - vec3f(brick) * edge);
             value = textureSampleLevel(NAME, NAME_sampler, q / NAME_layout.pool.xyz, 0.0).x;
             break;
@@ -66,9 +73,7 @@ fn NAME_sample(p: vec3f) -> f32 {
             value = f32(entry & 0x3fffffffu) / 1073741823.0;
             break;
         }
-        // Missing: asked for, and the next coarser level answers (the coarsest is always
-        // resident; past it, 0).
-        NAME_requests[request] = 1u;
+        // Missing: the next coarser level answers (the coarsest is always resident; past it, 0).
         level += 1u;
         if level >= levels {
             break;

@@ -48,15 +48,21 @@ impl ModuleBuilder {
         let name = emitted_name(name);
         let rename = |n: &Option<String>| n.as_ref().map(|n| n.replacen(PLACEHOLDER, &name, 1));
         let types = self.copy_types(template);
-        if template.global_variables.len() != BRICK_GLOBALS {
-            return Err(internal(span, "stdlib/bricks.wgsl must declare exactly the five globals of a bricked volume"));
+        let bound = template.global_variables.iter().filter(|(_, g)| g.binding.is_some()).count();
+        if bound != BRICK_GLOBALS {
+            return Err(internal(span, "stdlib/bricks.wgsl must bind exactly the five globals of a bricked volume"));
         }
-        let mut globals = Vec::with_capacity(BRICK_GLOBALS);
-        for ((_, g), binding) in template.global_variables.iter().zip(bindings) {
+        let mut bindings = bindings.into_iter();
+        let mut globals = Vec::with_capacity(template.global_variables.len());
+        for (_, g) in template.global_variables.iter() {
+            if g.init.is_some() {
+                return Err(internal(span, "stdlib/bricks.wgsl's globals may not have initializers"));
+            }
             let var = naga::GlobalVariable {
                 name: rename(&g.name),
                 space: g.space,
-                binding: Some(binding),
+                // Resources take the caller's bindings in order; private variables have none.
+                binding: g.binding.as_ref().and_then(|_| bindings.next()),
                 ty: types[g.ty.index()],
                 init: None,
                 memory_decorations: g.memory_decorations,

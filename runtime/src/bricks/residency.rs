@@ -21,7 +21,8 @@ use crate::gpu::Gpu;
 const MISSING: u32 = 0;
 const RESIDENT: u32 = 1 << 30;
 const CONSTANT: u32 = 2 << 30;
-/// The low 30 bits: a slot index, or a constant value in fixed point.
+/// The low 30 bits: a slot's position in the pool (10 bits an axis, x highest), or a constant
+/// value in fixed point.
 const PAYLOAD: u32 = (1 << 30) - 1;
 
 /// Request-buffer words: what rays said about a brick in the last frame.
@@ -255,7 +256,7 @@ impl BrickedVolume {
         let pool = self.pool_dims.map(|n| n as f32);
         words.extend([f(pool[0]), f(pool[1]), f(pool[2]), f(BRICK as f32)]);
         words.extend([f(footprint), f(0.0), f(finest.min(self.levels.len() as u32 - 1) as f32), 0]);
-        words.extend([self.slots[0], self.slots[1], self.slots[2], 0]);
+        words.extend([self.table_dims[0], self.table_dims[1], 0, 0]);
         for l in 0..MAX_LEVELS {
             let [x, y, z] = self.offsets.get(l).copied().unwrap_or_default();
             words.extend([x, y, z, 0]);
@@ -372,7 +373,7 @@ impl BrickedVolume {
                         self.upload(gpu, slot, &voxels);
                         state.owner[slot as usize] = Some(entry);
                         state.used[slot as usize] = state.frame;
-                        state.table[entry as usize] = RESIDENT | slot;
+                        state.table[entry as usize] = RESIDENT | self.slot_bits(slot);
                         state.stats.loaded += 1;
                         state.dirty = true;
                     }
@@ -416,10 +417,29 @@ impl BrickedVolume {
         Some(victim as u32)
     }
 
+    /// Slot `slot`'s position in the pool, in slots.
+    fn slot_position(&self, slot: u32) -> [u32; 3] {
+        let [sx, sy, _] = self.slots;
+        [slot % sx, (slot / sx) % sy, slot / (sx * sy)]
+    }
+
+    /// The payload of a resident entry: the slot's position, 10 bits an axis (x highest), so
+    /// the lookup finds it without dividing.
+    fn slot_bits(&self, slot: u32) -> u32 {
+        let [x, y, z] = self.slot_position(slot);
+        (x << 20) | (y << 10) | z
+    }
+
+    /// The slot a resident entry names.
+    fn slot_index(&self, entry: u32) -> u32 {
+        let [sx, sy, _] = self.slots;
+        let [x, y, z] = [(entry >> 20) & 1023, (entry >> 10) & 1023, entry & 1023];
+        x + sx * (y + sy * z)
+    }
+
     /// Writes a brick's half floats into its slot.
     fn upload(&self, gpu: &Gpu, slot: u32, voxels: &[half::f16]) {
-        let [sx, sy, _] = self.slots;
-        let origin = [slot % sx, (slot / sx) % sy, slot / (sx * sy)].map(|n| n * STORED);
+        let origin = self.slot_position(slot).map(|n| n * STORED);
         gpu.queue.write_texture(
             wgpu::TexelCopyTextureInfo {
                 texture: &self.pool,
@@ -484,7 +504,8 @@ fn level_entries<'a>(
 /// Slots per axis of a pool of at most `budget` bytes, no more than `wanted` slots (every
 /// brick of the pyramid), each axis within `max_3d` texels; `None` when not one slot fits.
 fn pool_slots(budget: u64, wanted: u64, max_3d: u32) -> Option<[u32; 3]> {
-    let per_axis = (max_3d / STORED).max(1) as u64;
+    // Entries hold a slot's position in 10 bits an axis.
+    let per_axis = (max_3d / STORED).clamp(1, 1024) as u64;
     let count = (budget / SLOT_BYTES).min(wanted).min(per_axis.pow(3));
     if count == 0 {
         return None;
