@@ -324,7 +324,8 @@ impl BrickedVolume {
                 USED => {
                     let table = state.table[entry];
                     if table & !PAYLOAD == RESIDENT {
-                        state.used[(table & PAYLOAD) as usize] = frame;
+                        let slot = self.slot_index(table & PAYLOAD) as usize;
+                        state.used[slot] = frame;
                     }
                 }
                 NEEDED => needed.push(entry as u32),
