@@ -11,13 +11,15 @@ struct BrickLayout {
     // The view's eye in level-0 voxels (xyz) and the angle one pixel spans (w, radians; 0 in
     // views without perspective).
     eye: vec4f,
-    // Brick pool texels per axis (xyz) and voxels per brick edge, apron excluded (w).
+    // 1 / brick pool texels per axis (xyz) and voxels per brick edge, apron excluded (w).
     pool: vec4f,
     // x: a pixel's footprint in level-0 voxels that does not grow with distance (slice views);
-    // y: added to the level a footprint asks for; z: the finest level used.
+    // y: the finest level used.
     detail: vec4f,
     // Page-table texels per row (x) and per slice (y): a brick's word in the requests.
     table: vec4u,
+    // Per level: its voxels per axis (xyz) and 1 / 2^level (w).
+    dims: array<vec4f, 16>,
     // Per level: where its bricks start in the page table (xyz).
     offsets: array<vec4u, 16>,
     // Per level: bricks per axis (xyz).
@@ -29,55 +31,75 @@ struct BrickLayout {
 @group(0) @binding(2) var NAME_pages: texture_3d<u32>;
 @group(0) @binding(3) var<uniform> NAME_layout: BrickLayout;
 @group(0) @binding(4) var<storage, read_write> NAME_requests: array<u32>;
-// The ray's last page-table read (its request word + 1, 0 before the first; the entry):
-// consecutive samples mostly fall in one brick, so most samples read neither the table nor
-// write the requests.
-var<private> NAME_last: vec2u;
+// The brick the ray's last sample read: its level + 1 (0 before the first), its box in level
+// voxels (lo, hi), and either what turns a level position into a pool texel (shift; value < 0)
+// or its one value. Consecutive samples mostly fall in one brick: they read neither the page
+// table nor write the requests.
+var<private> NAME_level: u32;
+var<private> NAME_lo: vec3f;
+var<private> NAME_hi: vec3f;
+var<private> NAME_shift: vec3f;
+var<private> NAME_value: f32;
 
 // The value of bricked volume NAME at `p` (normalized volume coordinates).
 fn NAME_sample(p: vec3f) -> f32 {
-    let grid = NAME_layout.grid.xyz;
-    let levels = u32(NAME_layout.grid.w);
-    let x0 = p * grid;
+    let x0 = p * NAME_layout.grid.xyz;
     let footprint = max(NAME_layout.detail.x, distance(x0, NAME_layout.eye.xyz) * NAME_layout.eye.w);
-    let wanted = floor(log2(max(footprint, 1.0)) + NAME_layout.detail.y);
-    var level = u32(clamp(wanted, NAME_layout.detail.z, f32(levels - 1u)));
+    // floor(log2(footprint)) from the float's exponent (footprints below 1 voxel ask for level 0).
+    let wanted = (bitcast<u32>(max(footprint, 1.0)) >> 23u) - 127u;
+    let levels = u32(NAME_layout.grid.w);
+    var level = clamp(wanted, u32(NAME_layout.detail.y), levels - 1u);
+    var level_dims = NAME_layout.dims[level];
+    // Level voxels, clamped to the centres of the edge voxels as the sampler clamps.
+    var x = clamp(x0 * level_dims.w, vec3f(0.5), level_dims.xyz - 0.5);
+    if level + 1u == NAME_level && all(x >= NAME_lo) && all(x < NAME_hi) {
+        if NAME_value >= 0.0 {
+            return NAME_value;
+        }
+        return textureSampleLevel(NAME, NAME_sampler, (x + NAME_shift) * NAME_layout.pool.xyz, 0.0).x;
+    }
     let edge = NAME_layout.pool.w;
     var value = 0.0;
     loop {
-        let scale = exp2(f32(level));
-        // Level voxels, clamped to the centres of the edge voxels as the sampler clamps.
-        let x = clamp(x0 / scale, vec3f(0.5), ceil(grid / scale) - 0.5);
         let brick = min(vec3u(x / edge), NAME_layout.bricks[level].xyz - 1u);
         let texel = brick + NAME_layout.offsets[level].xyz;
         let request = texel.x + NAME_layout.table.x * (texel.y + NAME_layout.table.y * texel.z);
-        if request + 1u != NAME_last.x {
-            let read = textureLoad(NAME_pages, texel, 0).x;
-            NAME_last = vec2u(request + 1u, read);
-            // A resident brick is marked used (least recently used bricks are evicted first), a
-            // missing one needed.
-            NAME_requests[request] = select(1u, 2u, (read >> 30u) == 1u);
-        }
-        let entry = NAME_last.y;
+        let entry = textureLoad(NAME_pages, texel, 0).x;
         let kind = entry >> 30u;
+        if kind != 0u {
+            // Remembered for the ray's next samples.
+            let lo = vec3f(brick) * edge;
+            NAME_level = level + 1u;
+            NAME_lo = lo;
+            // The last brick of an axis takes what lies past its edge (clamped above).
+            NAME_hi = select(lo + edge, vec3f(1e30), brick + 1u >= NAME_layout.bricks[level].xyz);
+        }
         if kind == 1u {
+            // Marked used: least recently used bricks are evicted first.
+            NAME_requests[request] = 2u;
             // The slot's position in the pool (10 bits an axis); its first texel is the apron
             // before the brick's first voxel.
             let slot = vec3u((entry >> 20u) & 1023u, (entry >> 10u) & 1023u, entry & 1023u);
-            let q = vec3f(slot) * (edge + 2.0) + 1.0 + (x - vec3f(brick) * edge);
-            value = textureSampleLevel(NAME, NAME_sampler, q / NAME_layout.pool.xyz, 0.0).x;
+            NAME_shift = vec3f(slot) * (edge + 2.0) + 1.0 - vec3f(brick) * edge;
+            NAME_value = -1.0;
+            value = textureSampleLevel(NAME, NAME_sampler, (x + NAME_shift) * NAME_layout.pool.xyz, 0.0).x;
             break;
         }
         if kind == 2u {
             // A brick of one value, in 30-bit fixed point.
             value = f32(entry & 0x3fffffffu) / 1073741823.0;
+            NAME_value = value;
             break;
         }
+        // Missing: asked for.
+        NAME_requests[request] = 1u;
         // Missing: the next coarser level answers (the coarsest is always resident; past it, 0).
         level += 1u;
         if level >= levels {
             break;
         }
+        level_dims = NAME_layout.dims[level];
+        x = clamp(x0 * level_dims.w, vec3f(0.5), level_dims.xyz - 0.5);
     }
     return value;
 }

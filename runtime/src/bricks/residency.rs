@@ -249,14 +249,18 @@ impl BrickedVolume {
                 (Vec3::ZERO, 0.0, across / height)
             }
         };
-        let mut words: Vec<u32> = Vec::with_capacity(4 * (5 + 2 * MAX_LEVELS));
+        let mut words: Vec<u32> = Vec::with_capacity(4 * (5 + 3 * MAX_LEVELS));
         let f = |x: f32| x.to_bits();
         words.extend([f(dims.x), f(dims.y), f(dims.z), f(self.levels.len() as f32)]);
         words.extend([f(eye.x), f(eye.y), f(eye.z), f(angle)]);
-        let pool = self.pool_dims.map(|n| n as f32);
+        let pool = self.pool_dims.map(|n| 1.0 / n as f32);
         words.extend([f(pool[0]), f(pool[1]), f(pool[2]), f(BRICK as f32)]);
-        words.extend([f(footprint), f(0.0), f(finest.min(self.levels.len() as u32 - 1) as f32), 0]);
+        words.extend([f(footprint), f(finest.min(self.levels.len() as u32 - 1) as f32), 0, 0]);
         words.extend([self.table_dims[0], self.table_dims[1], 0, 0]);
+        for l in 0..MAX_LEVELS {
+            let [x, y, z] = self.levels.get(l).map_or([1; 3], |l| l.dims);
+            words.extend([f(x as f32), f(y as f32), f(z as f32), f(1.0 / (1u32 << l) as f32)]);
+        }
         for l in 0..MAX_LEVELS {
             let [x, y, z] = self.offsets.get(l).copied().unwrap_or_default();
             words.extend([x, y, z, 0]);
