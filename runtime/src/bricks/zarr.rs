@@ -9,7 +9,7 @@
 //!   expects); datasets past the one-brick level are ignored. A store with fewer levels than
 //!   [`levels_for`] gives (a single array, say) gets the missing coarse levels built on demand:
 //!   each brick the 2x2x2 box average of the next finer level's bricks, which are kept in a
-//!   cache bounded by [`CACHE_BYTES`].
+//!   cache bounded by [`CACHE_BYTES`] (`lazy_levels`, shared with the memory-mapped source).
 //! - World: the OME `scale` and `translation` (of dataset 0, then of the multiscale) give the
 //!   grid-to-world transform, in the unit of the x axis (`millimeter` when none is named;
 //!   `micrometer`, `nanometer`, `centimeter`, `meter` are converted to mm). No axis is flipped:
@@ -21,7 +21,7 @@
 //!   reading, and the missing chunks are counted for [`BrickSource::warnings`]. Memory stays
 //!   bounded by what one brick's chunks decode to, whatever shape the metadata claims.
 
-use std::collections::{BTreeMap, HashMap, HashSet};
+use std::collections::HashSet;
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex, OnceLock};
@@ -36,15 +36,15 @@ use zarrs::array::{Array, ArrayError, ArrayMetadata, ArraySubsetTraits, DataType
 use zarrs::filesystem::FilesystemStore;
 use zarrs::storage::ReadableStorageTraits;
 
+#[cfg(test)]
+use super::lazy_levels::BrickCache;
+pub use super::lazy_levels::CACHE_BYTES;
+use super::lazy_levels::{LazyLevels, box_index, stored_box, sub};
 use super::pyramid::{check_brick, cut_brick};
-use super::source::stored_origin;
-use super::{BRICK, BrickData, BrickError, BrickSource, Level, STORED, levels_for};
+use super::{BRICK, BrickData, BrickError, BrickSource, Level, levels_for};
 
 /// The most bricks level 0 may have: one page-table entry each.
 pub const MAX_BRICKS: u64 = 1 << 24;
-
-/// Bytes of finer-level bricks kept to build coarse levels a store does not have.
-pub const CACHE_BYTES: u64 = 256 << 20;
 
 /// The most chunks whose presence is looked up for one brick; past that (tiny chunks) the
 /// brick is decoded directly, missing chunks reading as the fill value uncounted.
@@ -80,8 +80,8 @@ pub struct ZarrSource {
     range: [f32; 2],
     /// Per stored level, the chunks found missing so far.
     missing: Mutex<Vec<HashSet<Vec<u64>>>>,
-    /// Bricks of finer levels read to build the levels the store lacks.
-    cache: Mutex<BrickCache>,
+    /// Builds the levels the store lacks from bricks of finer levels.
+    lazy: LazyLevels,
     /// Per stored level, its chunk files listed once when first needed (`None`: too many).
     listings: Vec<OnceLock<Option<Listing>>>,
 }
@@ -156,7 +156,7 @@ impl ZarrSource {
             store,
             grid_to_world,
             range: [0.0, 0.0],
-            cache: Mutex::new(BrickCache::new(CACHE_BYTES)),
+            lazy: LazyLevels::new(CACHE_BYTES),
             listings: Vec::new(),
         };
         source.listings = source.scales.iter().map(|_| OnceLock::new()).collect();
@@ -350,7 +350,6 @@ impl ZarrSource {
     /// mean of the existing children at odd edges), read a finer brick at a time.
     fn build_brick(&self, level: usize, brick: [u32; 3]) -> Result<BrickData, BrickError> {
         let dims = self.levels[level].dims;
-        let fine = self.levels[level - 1].dims;
         let (lo, hi) = stored_box(dims, brick);
         // A brick over a part of the store without chunks is its fill value, without reading
         // the finer levels in between.
@@ -364,52 +363,7 @@ impl ZarrSource {
                 return Ok(BrickData::Constant(self.scales[stored].fill));
             }
         }
-        let size = sub(hi, lo);
-        let mut sums = vec![0.0f32; size.iter().map(|&n| n as usize).product()];
-        // The finer voxels under the box, and the finer bricks that hold them.
-        let flo = lo.map(|v| 2 * v);
-        let fhi = [0, 1, 2].map(|a| (2 * hi[a]).min(fine[a]));
-        let bricks: [Range<u32>; 3] = [0, 1, 2].map(|a| flo[a] / BRICK..(fhi[a] - 1) / BRICK + 1);
-        let mut uniform: Option<Option<f32>> = None;
-        for bz in bricks[2].clone() {
-            for by in bricks[1].clone() {
-                for bx in bricks[0].clone() {
-                    let fb = [bx, by, bz];
-                    let data = self.read_cached(level - 1, fb)?;
-                    uniform = Some(match (uniform, &*data) {
-                        (None, BrickData::Constant(v)) => Some(*v),
-                        (Some(Some(u)), BrickData::Constant(v)) if u.to_bits() == v.to_bits() => Some(u),
-                        _ => None,
-                    });
-                    add_children(&mut sums, lo, size, &data, fb, flo, fhi);
-                }
-            }
-        }
-        if let Some(Some(v)) = uniform {
-            return Ok(BrickData::Constant(v));
-        }
-        // Divide each sum by its number of children: 2 per axis, 1 at an odd edge.
-        let children = |c: u32, n: u32| (n - 2 * c).min(2) as f32;
-        for z in 0..size[2] {
-            for y in 0..size[1] {
-                let row = box_index([0, y, z], size);
-                let cyz = children(lo[1] + y, fine[1]) * children(lo[2] + z, fine[2]);
-                for x in 0..size[0] {
-                    sums[row + x as usize] /= children(lo[0] + x, fine[0]) * cyz;
-                }
-            }
-        }
-        Ok(cut_brick(dims, brick, |p| sums[box_index(sub(p, lo), size)]).collapse())
-    }
-
-    /// A brick through the cache (for building coarser levels).
-    fn read_cached(&self, level: usize, brick: [u32; 3]) -> Result<Arc<BrickData>, BrickError> {
-        if let Some(hit) = self.cache.lock().unwrap_or_else(|e| e.into_inner()).get((level, brick)) {
-            return Ok(hit);
-        }
-        let data = Arc::new(self.read(level, brick)?);
-        self.cache.lock().unwrap_or_else(|e| e.into_inner()).insert((level, brick), data.clone());
-        Ok(data)
+        self.lazy.build(&self.levels, level, brick, &|l, b| self.read(l, b))
     }
 }
 
@@ -775,48 +729,6 @@ fn transforms(list: Option<&Value>, ndim: usize) -> Result<(Vec3, Vec3), String>
     Ok((scale, offset))
 }
 
-/// The box of a level's voxels a stored brick covers: its stored voxels clamped to the grid.
-fn stored_box(dims: [u32; 3], brick: [u32; 3]) -> ([u32; 3], [u32; 3]) {
-    let origin = stored_origin(brick);
-    let lo = [0, 1, 2].map(|a| origin[a].max(0) as u32);
-    let hi = [0, 1, 2].map(|a| (origin[a] + STORED as i64).min(dims[a] as i64) as u32);
-    (lo, hi)
-}
-
-fn sub(a: [u32; 3], b: [u32; 3]) -> [u32; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-/// Index of `p` in a box of `size`, x fastest.
-fn box_index(p: [u32; 3], size: [u32; 3]) -> usize {
-    (p[2] as usize * size[1] as usize + p[1] as usize) * size[0] as usize + p[0] as usize
-}
-
-/// Adds the finer voxels of brick `fb` that lie in `[flo, fhi)` to the sums of the coarse
-/// voxels (box at `lo` of `size`) they fall in.
-fn add_children(
-    sums: &mut [f32],
-    lo: [u32; 3],
-    size: [u32; 3],
-    data: &BrickData,
-    fb: [u32; 3],
-    flo: [u32; 3],
-    fhi: [u32; 3],
-) {
-    let start = [0, 1, 2].map(|a| flo[a].max(fb[a] * BRICK));
-    let end = [0, 1, 2].map(|a| fhi[a].min((fb[a] + 1) * BRICK));
-    for z in start[2]..end[2] {
-        for y in start[1]..end[1] {
-            let row = box_index([0, y / 2 - lo[1], z / 2 - lo[2]], size);
-            for x in start[0]..end[0] {
-                // The finer voxel's place in its stored brick: past the one-voxel apron.
-                let v = data.at([x - fb[0] * BRICK + 1, y - fb[1] * BRICK + 1, z - fb[2] * BRICK + 1]);
-                sums[row + (x / 2 - lo[0]) as usize] += v;
-            }
-        }
-    }
-}
-
 fn chunk_count(ranges: &[Range<u64>]) -> u64 {
     ranges.iter().map(|r| r.end - r.start).fold(1u64, |a, n| a.saturating_mul(n))
 }
@@ -841,54 +753,6 @@ fn for_each_index<E>(ranges: &[Range<u64>], mut f: impl FnMut(&[u64]) -> Result<
                 break;
             }
             index[axis] = ranges[axis].start;
-        }
-    }
-}
-
-/// Bricks kept by recency of use within a byte budget.
-struct BrickCache {
-    budget: u64,
-    bytes: u64,
-    tick: u64,
-    entries: HashMap<(usize, [u32; 3]), (Arc<BrickData>, u64)>,
-    /// Keys by their last use, oldest first.
-    order: BTreeMap<u64, (usize, [u32; 3])>,
-}
-
-impl BrickCache {
-    fn new(budget: u64) -> BrickCache {
-        BrickCache { budget, bytes: 0, tick: 0, entries: HashMap::new(), order: BTreeMap::new() }
-    }
-
-    fn cost(data: &BrickData) -> u64 {
-        match data {
-            BrickData::Constant(_) => 64,
-            BrickData::Voxels(v) => v.len() as u64 * 4,
-        }
-    }
-
-    fn get(&mut self, key: (usize, [u32; 3])) -> Option<Arc<BrickData>> {
-        self.tick += 1;
-        let (data, used) = self.entries.get_mut(&key)?;
-        self.order.remove(used);
-        *used = self.tick;
-        self.order.insert(self.tick, key);
-        Some(data.clone())
-    }
-
-    fn insert(&mut self, key: (usize, [u32; 3]), data: Arc<BrickData>) {
-        self.tick += 1;
-        if let Some((old, used)) = self.entries.insert(key, (data.clone(), self.tick)) {
-            self.order.remove(&used);
-            self.bytes -= Self::cost(&old);
-        }
-        self.order.insert(self.tick, key);
-        self.bytes += Self::cost(&data);
-        while self.bytes > self.budget {
-            let Some((_, oldest)) = self.order.pop_first() else { break };
-            if let Some((gone, _)) = self.entries.remove(&oldest) {
-                self.bytes -= Self::cost(&gone);
-            }
         }
     }
 }

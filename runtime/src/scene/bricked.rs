@@ -6,6 +6,7 @@ use std::sync::Arc;
 use glam::{Mat4, Vec4};
 
 use super::{SceneRenderer, SceneView, VolumeGrid};
+use crate::bricks::mapped::MappedSource;
 use crate::bricks::pyramid::PyramidSource;
 use crate::bricks::zarr::ZarrSource;
 use crate::bricks::{BrickData, BrickSource, BrickView, BrickedVolume, Residency, STORED};
@@ -19,9 +20,11 @@ use vrsc::scene::{Memory, Scene, VolumeSource, is_zarr};
 /// it gives the picture as it is.
 const MAX_ROUNDS: usize = 64;
 
-/// The source of a bricked volume: a Zarr store as it is, any other file or phantom through a
-/// pyramid built from it in memory. With the automatic window of the whole volume when it was
-/// read whole (a Zarr store's comes from its coarsest level, [`load`]).
+/// The source of a bricked volume: a Zarr store as it is, a file whose samples are stored
+/// uncompressed (NRRD, MetaImage, `.nii`) memory-mapped and read a brick at a time, any other
+/// file or phantom through a pyramid built from it in memory. With the automatic window of the
+/// whole volume when it was read whole (a Zarr store's and a mapped file's come from their
+/// coarsest level, [`load`]).
 pub(super) fn open_source(
     source: &VolumeSource,
     phantom: impl Fn(&str) -> Result<Volume, RuntimeError>,
@@ -37,7 +40,14 @@ pub(super) fn open_source(
                 .map_err(|e| RuntimeError::Invalid(format!("`{}`: {e}", file.resolved.display())))?;
             (Arc::new(store), None)
         }
-        VolumeSource::File(file) => in_memory(volume::load(&file.resolved, progress).map_err(RuntimeError::Volume)?),
+        VolumeSource::File(file) => match volume::raw_layout(&file.resolved).map_err(RuntimeError::Volume)? {
+            Some(raw) => {
+                let mapped = MappedSource::new(&raw)
+                    .map_err(|e| RuntimeError::Invalid(format!("`{}`: {e}", file.resolved.display())))?;
+                (Arc::new(mapped), None)
+            }
+            None => in_memory(volume::load(&file.resolved, progress).map_err(RuntimeError::Volume)?),
+        },
         VolumeSource::Phantom(p) => in_memory(phantom(&p.value)?),
     })
 }

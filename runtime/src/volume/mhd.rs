@@ -11,7 +11,7 @@ use glam::{Mat4, Vec3};
 
 use super::raw::{self, Encoding, Placement, TextHeader};
 use super::{
-    Layout, LoadErrorKind, MAX_HEADER_LINES, SampleSink, ScalarType, Scaling, VolumeInfo, affine, check_dims,
+    Layout, LoadErrorKind, MAX_HEADER_LINES, RawData, SampleSink, ScalarType, Scaling, VolumeInfo, affine, check_dims,
     is_usable, lps_to_ras, parse_numbers, read_header_line,
 };
 
@@ -21,11 +21,18 @@ pub(super) fn load(
     progress: &mut dyn FnMut(u64, u64),
     sink: &mut dyn SampleSink,
 ) -> Result<VolumeInfo, LoadErrorKind> {
-    let parse = |reader: &mut dyn BufRead| {
-        let (fields, header_len) = read_header(reader)?;
-        Ok((Header::parse(&fields)?, header_len))
-    };
     raw::load(path, progress, parse, sink)
+}
+
+/// Where the samples of a `.mhd` or `.mha` file lie; `None` for compressed data.
+pub(super) fn locate(path: &Path) -> Result<Option<RawData>, LoadErrorKind> {
+    raw::locate(path, parse)
+}
+
+/// Reads and validates the header; returns it with its length in bytes.
+fn parse(reader: &mut dyn BufRead) -> Result<(Header, u64), LoadErrorKind> {
+    let (fields, header_len) = read_header(reader)?;
+    Ok((Header::parse(&fields)?, header_len))
 }
 
 /// Reads `Key = Value` lines up to and including `ElementDataFile`, which MetaImage requires

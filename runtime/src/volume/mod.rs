@@ -356,6 +356,54 @@ pub fn stream(
     result.map_err(|kind| LoadError { path: path.to_path_buf(), kind })
 }
 
+/// Where the samples of an uncompressed file lie, so they can be read in place (a
+/// memory-mapped brick source) instead of loaded: the header validated as a load would, and
+/// the file checked to hold exactly the samples it claims.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RawData {
+    /// The file holding the samples: the volume file, or the data file its header names.
+    pub file: PathBuf,
+    /// The byte of `file` where the first sample starts (x fastest, then y, then z).
+    pub offset: u64,
+    /// The stored type of each sample.
+    pub sample: ScalarType,
+    /// Whether multi-byte samples are big-endian.
+    pub big_endian: bool,
+    /// The volume's shape, placement and scaling.
+    pub info: VolumeInfo,
+}
+
+impl RawData {
+    /// Bytes of the samples in `file`.
+    pub fn bytes(&self) -> u64 {
+        self.info.dims.iter().map(|&d| u64::from(d)).product::<u64>() * self.sample.size()
+    }
+}
+
+/// Where the samples of the volume file at `path` lie when they are stored uncompressed (NRRD
+/// `encoding: raw`, MetaImage without `CompressedData`, `.nii`): `None` for compressed data and
+/// DICOM series, which must be loaded. Errors are a load's: a header it refuses, or a data
+/// section shorter or longer than the header claims.
+pub fn raw_layout(path: &Path) -> Result<Option<RawData>, LoadError> {
+    let name = path.file_name().map(|n| n.to_string_lossy().to_ascii_lowercase()).unwrap_or_default();
+    let located = if path.is_dir() || name.ends_with(".nii.gz") {
+        Ok(None)
+    } else if name.ends_with(".nii") {
+        nifti::locate(path).map(Some)
+    } else if name.ends_with(".nrrd") || name.ends_with(".nhdr") {
+        nrrd::locate(path)
+    } else if name.ends_with(".mhd") || name.ends_with(".mha") {
+        mhd::locate(path)
+    } else {
+        Err(LoadErrorKind::UnknownFormat)
+    };
+    let checked = located.and_then(|raw| {
+        raw.as_ref().map(|r| header::check_spacing(&r.info)).transpose()?;
+        Ok(raw)
+    });
+    checked.map_err(|kind| LoadError { path: path.to_path_buf(), kind })
+}
+
 /// A volume's shape, placement and value scaling: everything but its samples.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct VolumeInfo {
@@ -419,7 +467,7 @@ impl SampleSink for Collect {
 
 /// The sample types the loaders accept; `f64` is kept as `f32`, the others as they are.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum ScalarType {
+pub enum ScalarType {
     U8,
     I8,
     U16,
@@ -432,7 +480,7 @@ enum ScalarType {
 
 impl ScalarType {
     /// Bytes per sample.
-    fn size(self) -> u64 {
+    pub fn size(self) -> u64 {
         match self {
             ScalarType::U8 | ScalarType::I8 => 1,
             ScalarType::U16 | ScalarType::I16 => 2,

@@ -12,7 +12,7 @@ use glam::{DMat3, DQuat, Mat4, Vec3};
 use nifti::{Endianness, NiftiError, NiftiHeader};
 
 use super::{
-    DataSource, Layout, LoadErrorKind, ProgressReader, SampleSink, ScalarType, Scaling, VolumeInfo, affine,
+    DataSource, Layout, LoadErrorKind, ProgressReader, RawData, SampleSink, ScalarType, Scaling, VolumeInfo, affine,
     check_claim, check_dims, is_usable, open, read_samples, skip_bytes,
 };
 
@@ -34,6 +34,26 @@ pub(super) fn load(
     };
     progress(len, len);
     Ok(info)
+}
+
+/// Where the samples of a `.nii` file lie: the header validated as [`read`] does, and the
+/// file checked to hold exactly the samples after `vox_offset`.
+pub(super) fn locate(path: &Path) -> Result<RawData, LoadErrorKind> {
+    let (file, len) = open(path, false)?;
+    let source = DataSource { file: None, compressed: false, available: None };
+    let header = NiftiHeader::from_reader(BufReader::new(file)).map_err(|e| header_error(e, &source))?;
+    let (dims, layout) = layout(&header)?;
+    let offset = data_offset(&header)?;
+    let Some(available) = len.checked_sub(offset) else {
+        return Err(LoadErrorKind::Header(format!(
+            "the file ends before its data, which `vox_offset` places at byte {offset}"
+        )));
+    };
+    if available != layout.bytes() {
+        return Err(source.mismatch(layout.bytes(), available));
+    }
+    let info = VolumeInfo { dims, grid_to_world: grid_to_world(&header), scaling: scaling(&header) };
+    Ok(RawData { file: path.to_path_buf(), offset, sample: layout.ty, big_endian: layout.big_endian, info })
 }
 
 /// Reads a NIfTI-1 stream: header, extensions (skipped) and data. `len` is the file's length,

@@ -13,7 +13,7 @@ use glam::{Mat4, Vec3};
 
 use super::raw::{self, Encoding, Placement, TextHeader};
 use super::{
-    DataSource, Layout, LoadErrorKind, MAX_HEADER_LINES, SampleSink, ScalarType, Scaling, VolumeInfo, affine,
+    DataSource, Layout, LoadErrorKind, MAX_HEADER_LINES, RawData, SampleSink, ScalarType, Scaling, VolumeInfo, affine,
     check_dims, is_usable, lps_to_ras, parse_numbers, read_header_line,
 };
 
@@ -23,17 +23,24 @@ pub(super) fn load(
     progress: &mut dyn FnMut(u64, u64),
     sink: &mut dyn SampleSink,
 ) -> Result<VolumeInfo, LoadErrorKind> {
-    let parse = |reader: &mut dyn BufRead| {
-        let (fields, header_len) = read_header(reader)?;
-        let header = Header::parse(&fields)?;
-        if header.data_file.is_none() && path.extension().is_some_and(|e| e.eq_ignore_ascii_case("nhdr")) {
-            return Err(LoadErrorKind::Header(
-                "missing field `data file` (a detached .nhdr header names its data file)".into(),
-            ));
-        }
-        Ok((header, header_len))
-    };
-    raw::load(path, progress, parse, sink)
+    raw::load(path, progress, |reader| parse(path, reader), sink)
+}
+
+/// Where the samples of a `.nrrd` or `.nhdr` file lie; `None` for gzip data.
+pub(super) fn locate(path: &Path) -> Result<Option<RawData>, LoadErrorKind> {
+    raw::locate(path, |reader| parse(path, reader))
+}
+
+/// Reads and validates the header of the file at `path`; returns it with its length in bytes.
+fn parse(path: &Path, reader: &mut dyn BufRead) -> Result<(Header, u64), LoadErrorKind> {
+    let (fields, header_len) = read_header(reader)?;
+    let header = Header::parse(&fields)?;
+    if header.data_file.is_none() && path.extension().is_some_and(|e| e.eq_ignore_ascii_case("nhdr")) {
+        return Err(LoadErrorKind::Header(
+            "missing field `data file` (a detached .nhdr header names its data file)".into(),
+        ));
+    }
+    Ok((header, header_len))
 }
 
 /// Reads the magic line and the fields up to the blank line that ends an attached header (or
@@ -185,6 +192,12 @@ impl TextHeader for Header {
         file: Option<&Path>,
         sink: &mut dyn SampleSink,
     ) -> Result<(), LoadErrorKind> {
+        let consumed = self.skip_lines(reader, file)?;
+        let past_end = |skip| self.past_end(skip);
+        raw::read_data(reader, self.data, len.saturating_sub(consumed), file, &past_end, sink)
+    }
+
+    fn skip_lines(&self, reader: &mut dyn BufRead, file: Option<&Path>) -> Result<u64, LoadErrorKind> {
         let raw_source = DataSource { file, compressed: false, available: None };
         let mut consumed = 0;
         for _ in 0..self.line_skip {
@@ -197,8 +210,7 @@ impl TextHeader for Header {
             }
             consumed += n;
         }
-        let past_end = |skip| self.past_end(skip);
-        raw::read_data(reader, self.data, len.saturating_sub(consumed), file, &past_end, sink)
+        Ok(consumed)
     }
 }
 

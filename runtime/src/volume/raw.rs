@@ -11,8 +11,8 @@ use std::path::Path;
 use flate2::bufread::{GzDecoder, ZlibDecoder};
 
 use super::{
-    DataSource, Layout, LoadErrorKind, ProgressReader, SampleSink, VolumeInfo, check_claim, open, read_samples,
-    sibling, skip_bytes,
+    DataSource, Layout, LoadErrorKind, ProgressReader, RawData, SampleSink, VolumeInfo, check_claim, open,
+    read_samples, sibling, skip_bytes,
 };
 
 /// A parsed text header, as far as [`load`] needs it to find and read the data.
@@ -39,6 +39,13 @@ pub(super) trait TextHeader {
 
     /// The format's error for a skip of `skip` bytes that goes past the end of the data.
     fn past_end(&self, skip: u64) -> LoadErrorKind;
+
+    /// Skips what comes before the byte skip in the data stream (NRRD's `line skip`) and
+    /// returns the bytes skipped; nothing in a format without it.
+    fn skip_lines(&self, reader: &mut dyn BufRead, file: Option<&Path>) -> Result<u64, LoadErrorKind> {
+        let _ = (reader, file);
+        Ok(0)
+    }
 }
 
 /// Loads a file with a text header: `read_header` parses the header from the start of the file
@@ -77,6 +84,51 @@ pub(super) fn load<H: TextHeader>(
     };
     progress(total, total);
     Ok(header.info())
+}
+
+/// Where the samples of a file with a text header lie (see [`super::raw_layout`]), reading only
+/// the header (and the lines a NRRD `line skip` passes over); `None` for compressed data. The
+/// data section must hold exactly the header's samples, as [`load`] requires.
+pub(super) fn locate<H: TextHeader>(
+    path: &Path,
+    read_header: impl FnOnce(&mut dyn BufRead) -> Result<(H, u64), LoadErrorKind>,
+) -> Result<Option<RawData>, LoadErrorKind> {
+    let (file, len) = open(path, false)?;
+    let mut reader = BufReader::new(file);
+    let (header, header_len) = read_header(&mut reader)?;
+    let data = header.placement();
+    if data.encoding != Encoding::Raw {
+        return Ok(None);
+    }
+    // The data stream: the rest of this file, or the whole data file.
+    let (data_path, start, len, lines) = match header.data_file() {
+        None => {
+            check_placement(&header, len.saturating_sub(header_len))?;
+            let lines = header.skip_lines(&mut reader, None)?;
+            (path.to_path_buf(), header_len, len, lines)
+        }
+        Some(name) => {
+            let data_path = sibling(path, name);
+            let (file, len) = open(&data_path, true)?;
+            check_placement(&header, len)?;
+            let lines = header.skip_lines(&mut BufReader::new(file), Some(&data_path))?;
+            (data_path, 0, len, lines)
+        }
+    };
+    let offset = start + lines;
+    let available = len.saturating_sub(offset);
+    let expected = data.layout.bytes();
+    let mismatch = |found| LoadErrorKind::SizeMismatch { expected, found, compressed: false };
+    let skip = match data.skip {
+        Some(skip) => skip,
+        None => available.checked_sub(expected).ok_or_else(|| mismatch(available))?,
+    };
+    let stored = available.checked_sub(skip).ok_or_else(|| header.past_end(skip))?;
+    if stored != expected {
+        return Err(mismatch(stored));
+    }
+    let Layout { ty, big_endian, .. } = data.layout;
+    Ok(Some(RawData { file: data_path, offset: offset + skip, sample: ty, big_endian, info: header.info() }))
 }
 
 /// Refuses a header whose samples cannot fit in the `len` bytes of its data stream (see

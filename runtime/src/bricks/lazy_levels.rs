@@ -1,0 +1,190 @@
+//! Coarse levels a source does not store, built on demand: each brick the 2x2x2 box average of
+//! the next finer level (the mean of the existing children at odd edges), read a finer brick at
+//! a time through a cache bounded in bytes. Shared by the sources whose files hold only the
+//! finest levels (a Zarr array without a pyramid, a memory-mapped raw file), so that every
+//! source averages exactly as [`super::pyramid::PyramidSource`] does and gives the same bricks.
+
+use std::collections::{BTreeMap, HashMap};
+use std::ops::Range;
+use std::sync::{Arc, Mutex};
+
+use super::pyramid::cut_brick;
+use super::source::stored_origin;
+use super::{BRICK, BrickData, BrickError, Level, STORED};
+
+/// Bytes of finer-level bricks kept to build the coarse levels a source does not store.
+pub const CACHE_BYTES: u64 = 256 << 20;
+
+/// Builds bricks of levels a source lacks from the finer level, keeping the finer bricks it
+/// read in a [`BrickCache`] (each is read by up to 64 coarse bricks, their aprons included).
+pub(crate) struct LazyLevels {
+    cache: Mutex<BrickCache>,
+}
+
+impl LazyLevels {
+    /// Levels built with a cache of at most `budget` bytes of finer bricks.
+    pub(crate) fn new(budget: u64) -> LazyLevels {
+        LazyLevels { cache: Mutex::new(BrickCache::new(budget)) }
+    }
+
+    /// Brick `brick` of `level` (not 0) as the box average of `level - 1`, whose bricks come
+    /// from `read` (the source's own read, so that a built level can come from another).
+    pub(crate) fn build(
+        &self,
+        levels: &[Level],
+        level: usize,
+        brick: [u32; 3],
+        read: &dyn Fn(usize, [u32; 3]) -> Result<BrickData, BrickError>,
+    ) -> Result<BrickData, BrickError> {
+        let dims = levels[level].dims;
+        let fine = levels[level - 1].dims;
+        let (lo, hi) = stored_box(dims, brick);
+        let size = sub(hi, lo);
+        let mut sums = vec![0.0f32; size.iter().map(|&n| n as usize).product()];
+        // The finer voxels under the box, and the finer bricks that hold them.
+        let flo = lo.map(|v| 2 * v);
+        let fhi = [0, 1, 2].map(|a| (2 * hi[a]).min(fine[a]));
+        let bricks: [Range<u32>; 3] = [0, 1, 2].map(|a| flo[a] / BRICK..(fhi[a] - 1) / BRICK + 1);
+        let mut uniform: Option<Option<f32>> = None;
+        for bz in bricks[2].clone() {
+            for by in bricks[1].clone() {
+                for bx in bricks[0].clone() {
+                    let fb = [bx, by, bz];
+                    let data = self.read_cached(level - 1, fb, read)?;
+                    uniform = Some(match (uniform, &*data) {
+                        (None, BrickData::Constant(v)) => Some(*v),
+                        (Some(Some(u)), BrickData::Constant(v)) if u.to_bits() == v.to_bits() => Some(u),
+                        _ => None,
+                    });
+                    add_children(&mut sums, lo, size, &data, fb, flo, fhi);
+                }
+            }
+        }
+        if let Some(Some(v)) = uniform {
+            return Ok(BrickData::Constant(v));
+        }
+        divide_by_children(&mut sums, lo, size, fine);
+        Ok(cut_brick(dims, brick, |p| sums[box_index(sub(p, lo), size)]).collapse())
+    }
+
+    /// A brick through the cache.
+    fn read_cached(
+        &self,
+        level: usize,
+        brick: [u32; 3],
+        read: &dyn Fn(usize, [u32; 3]) -> Result<BrickData, BrickError>,
+    ) -> Result<Arc<BrickData>, BrickError> {
+        if let Some(hit) = self.cache.lock().unwrap_or_else(|e| e.into_inner()).get((level, brick)) {
+            return Ok(hit);
+        }
+        // Read without the lock, so that other loader threads are not held up.
+        let data = Arc::new(read(level, brick)?);
+        self.cache.lock().unwrap_or_else(|e| e.into_inner()).insert((level, brick), data.clone());
+        Ok(data)
+    }
+}
+
+/// Divides each sum of the box at `lo` of `size` by its number of children in a finer level
+/// of `fine` dims: 2 per axis, 1 at an odd edge.
+fn divide_by_children(sums: &mut [f32], lo: [u32; 3], size: [u32; 3], fine: [u32; 3]) {
+    let children = |c: u32, n: u32| (n - 2 * c).min(2) as f32;
+    for z in 0..size[2] {
+        for y in 0..size[1] {
+            let row = box_index([0, y, z], size);
+            let cyz = children(lo[1] + y, fine[1]) * children(lo[2] + z, fine[2]);
+            for x in 0..size[0] {
+                sums[row + x as usize] /= children(lo[0] + x, fine[0]) * cyz;
+            }
+        }
+    }
+}
+
+/// The box of a level's voxels a stored brick covers: its stored voxels clamped to the grid.
+pub(crate) fn stored_box(dims: [u32; 3], brick: [u32; 3]) -> ([u32; 3], [u32; 3]) {
+    let origin = stored_origin(brick);
+    let lo = [0, 1, 2].map(|a| origin[a].max(0) as u32);
+    let hi = [0, 1, 2].map(|a| (origin[a] + STORED as i64).min(dims[a] as i64) as u32);
+    (lo, hi)
+}
+
+pub(crate) fn sub(a: [u32; 3], b: [u32; 3]) -> [u32; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+/// Index of `p` in a box of `size`, x fastest.
+pub(crate) fn box_index(p: [u32; 3], size: [u32; 3]) -> usize {
+    (p[2] as usize * size[1] as usize + p[1] as usize) * size[0] as usize + p[0] as usize
+}
+
+/// Adds the finer voxels of brick `fb` that lie in `[flo, fhi)` to the sums of the coarse
+/// voxels (box at `lo` of `size`) they fall in.
+fn add_children(
+    sums: &mut [f32],
+    lo: [u32; 3],
+    size: [u32; 3],
+    data: &BrickData,
+    fb: [u32; 3],
+    flo: [u32; 3],
+    fhi: [u32; 3],
+) {
+    let start = [0, 1, 2].map(|a| flo[a].max(fb[a] * BRICK));
+    let end = [0, 1, 2].map(|a| fhi[a].min((fb[a] + 1) * BRICK));
+    for z in start[2]..end[2] {
+        for y in start[1]..end[1] {
+            let row = box_index([0, y / 2 - lo[1], z / 2 - lo[2]], size);
+            for x in start[0]..end[0] {
+                // The finer voxel's place in its stored brick: past the one-voxel apron.
+                let v = data.at([x - fb[0] * BRICK + 1, y - fb[1] * BRICK + 1, z - fb[2] * BRICK + 1]);
+                sums[row + (x / 2 - lo[0]) as usize] += v;
+            }
+        }
+    }
+}
+
+/// Bricks kept by recency of use within a byte budget.
+pub(crate) struct BrickCache {
+    pub(crate) budget: u64,
+    pub(crate) bytes: u64,
+    tick: u64,
+    pub(crate) entries: HashMap<(usize, [u32; 3]), (Arc<BrickData>, u64)>,
+    /// Keys by their last use, oldest first.
+    order: BTreeMap<u64, (usize, [u32; 3])>,
+}
+
+impl BrickCache {
+    pub(crate) fn new(budget: u64) -> BrickCache {
+        BrickCache { budget, bytes: 0, tick: 0, entries: HashMap::new(), order: BTreeMap::new() }
+    }
+
+    fn cost(data: &BrickData) -> u64 {
+        match data {
+            BrickData::Constant(_) => 64,
+            BrickData::Voxels(v) => v.len() as u64 * 4,
+        }
+    }
+
+    pub(crate) fn get(&mut self, key: (usize, [u32; 3])) -> Option<Arc<BrickData>> {
+        self.tick += 1;
+        let (data, used) = self.entries.get_mut(&key)?;
+        self.order.remove(used);
+        *used = self.tick;
+        self.order.insert(self.tick, key);
+        Some(data.clone())
+    }
+
+    pub(crate) fn insert(&mut self, key: (usize, [u32; 3]), data: Arc<BrickData>) {
+        self.tick += 1;
+        if let Some((old, used)) = self.entries.insert(key, (data.clone(), self.tick)) {
+            self.order.remove(&used);
+            self.bytes -= Self::cost(&old);
+        }
+        self.order.insert(self.tick, key);
+        self.bytes += Self::cost(&data);
+        while self.bytes > self.budget {
+            let Some((_, oldest)) = self.order.pop_first() else { break };
+            if let Some((gone, _)) = self.entries.remove(&oldest) {
+                self.bytes -= Self::cost(&gone);
+            }
+        }
+    }
+}
