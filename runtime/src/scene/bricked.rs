@@ -172,6 +172,9 @@ pub struct BrickProgress {
     pub arrived: usize,
     /// Bricks asked for in this call.
     pub asked: usize,
+    /// A read-back of the requests was still under way when the call returned (a later call
+    /// finishes it): a viewer must call again before it knows what its frames asked for.
+    pub reading: bool,
 }
 
 impl SceneRenderer {
@@ -189,7 +192,9 @@ impl SceneRenderer {
         let mut progress = BrickProgress::default();
         for volume in self.resources.bricked.values() {
             volume.start_collect(&self.gpu);
-            progress.asked += volume.finish_collect(&self.gpu, wait)?.unwrap_or(0);
+            let asked = volume.finish_collect(&self.gpu, wait)?;
+            progress.reading |= asked.is_none();
+            progress.asked += asked.unwrap_or(0);
             progress.arrived += volume.receive(&self.gpu, wait)?;
             progress.residency = sum(progress.residency, volume.residency());
         }
