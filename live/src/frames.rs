@@ -154,7 +154,10 @@ impl ViewFrames {
 
     fn collect(&mut self) {
         let finished = self.pending.as_ref().and_then(|(_, _, done)| *done.lock().ok()?);
-        if let (Some(at), Some((work, submitted, _))) = (finished, self.pending.take()) {
+        // Only finished work is taken: work still on the GPU stays pending (taking it would
+        // leave the schedule waiting for it forever).
+        let Some(at) = finished else { return };
+        if let Some((work, submitted, _)) = self.pending.take() {
             let elapsed = at.saturating_duration_since(submitted);
             self.refiner.finished(&work, elapsed);
             self.last = Some((work, elapsed));
