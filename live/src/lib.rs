@@ -16,6 +16,7 @@ mod frames;
 mod refine;
 mod save;
 mod session;
+mod streaming;
 mod watch;
 
 pub use frames::{GpuWaiter, Shown, ViewFrames};

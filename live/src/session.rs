@@ -2,12 +2,13 @@
 //! broken edit, and the user's own settings carried across reloads.
 
 use crate::save::{self, SaveError, SavedUniform};
+use crate::streaming::Streaming;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 use vrs_runtime::reflection::FunctionInfo;
-use vrs_runtime::scene::MeshHandle;
+use vrs_runtime::scene::{BrickProgress, MeshHandle};
 use vrs_runtime::tf::TfCurve;
 use vrs_runtime::view::Region;
 use vrs_runtime::{Applied, OrbitCamera, ProbeImage, ProbeSpec, RuntimeError, SceneRenderer, SlicePlane, Value};
@@ -145,6 +146,8 @@ pub struct LiveScene {
     /// The (mesh, uniform) pairs of the points meshes follow that are positions (a needle's
     /// tip, a cylinder's ends, a sphere's centre, a box's corners; not a needle's direction).
     mesh_points: Vec<(String, String)>,
+    /// The streaming of bricked volumes between frames ([`LiveScene::stream_bricks`]).
+    bricks: Streaming,
 }
 
 impl LiveScene {
@@ -163,6 +166,7 @@ impl LiveScene {
             scene_curves: BTreeMap::new(),
             scene_meshes: BTreeMap::new(),
             mesh_points: Vec::new(),
+            bricks: Streaming::default(),
         };
         live.note_scene_state();
         live.note_scene_curves();
@@ -515,7 +519,43 @@ impl LiveScene {
         target: &wgpu::TextureView,
         region: Region,
     ) -> Result<(), RuntimeError> {
+        self.bricks.drawn();
         self.renderer.encode_view_into(index, encoder, target, region)
+    }
+
+    /// After the frames of a redraw were submitted: reads back (without waiting) what their
+    /// rays asked of the bricked volumes, asks the loaders and places the bricks that arrived;
+    /// every view renders again when any was placed. Does nothing, and returns `None`, for a
+    /// scene without bricked volumes; skips the GPU when nothing was drawn or is on its way
+    /// since streaming settled ([`Self::bricks_busy`]).
+    pub fn stream_bricks(&mut self) -> Result<Option<BrickProgress>, RuntimeError> {
+        if !self.renderer.has_bricked() {
+            self.bricks.clear();
+            return Ok(None);
+        }
+        if !self.bricks.busy() && self.bricks.last().is_some() {
+            return Ok(self.bricks.last());
+        }
+        let before = self.renderer.brick_residency();
+        let progress = self.renderer.stream_bricks(false)?;
+        if self.bricks.note(before, progress) {
+            for name in self.view_names() {
+                self.advance(&name);
+            }
+        }
+        Ok(Some(progress))
+    }
+
+    /// What the last [`Self::stream_bricks`] found (`None` without bricked volumes).
+    pub fn brick_progress(&self) -> Option<BrickProgress> {
+        self.bricks.last()
+    }
+
+    /// Whether [`Self::stream_bricks`] has more to do: frames whose requests were not read
+    /// back yet, a read-back under way, bricks loading or just placed. A viewer keeps drawing
+    /// (after a short pause: the loaders do not wake it) while this holds.
+    pub fn bricks_busy(&self) -> bool {
+        self.renderer.has_bricked() && self.bricks.busy()
     }
 
     /// Renders every view at full quality and reads the images back (for `vrsc watch`).
@@ -634,7 +674,15 @@ impl LiveScene {
         self.user.slices.retain(|n, (_, then)| names.contains(n) && self.scene_slices.get(n) == Some(then));
     }
 
+    /// A change of the user's or the files' to `view`: it renders again, and may ask for bricks
+    /// anew.
     fn bump(&mut self, view: &str) {
+        self.bricks.restart();
+        self.advance(view);
+    }
+
+    /// `view` renders again.
+    fn advance(&mut self, view: &str) {
         *self.generations.entry(view.to_string()).or_default() += 1;
     }
 

@@ -11,7 +11,7 @@ use vrs_live::{FileWatcher, GpuWaiter, LiveScene, ViewFrames};
 use vrs_runtime::{RenderOptions, SceneRenderer};
 use winit::application::ApplicationHandler;
 use winit::event::WindowEvent;
-use winit::event_loop::{ActiveEventLoop, EventLoop, EventLoopProxy};
+use winit::event_loop::{ActiveEventLoop, ControlFlow, EventLoop, EventLoopProxy};
 use winit::window::{Window, WindowId};
 
 /// What `vrsc view` was asked to open.
@@ -36,6 +36,11 @@ pub fn run(options: ViewerOptions) -> Result<(), String> {
     }
 }
 
+/// How long the loop sleeps between looks at bricks being loaded: the loader threads do not
+/// wake the window, so it looks again after this (short enough that bricks show as they come,
+/// long enough not to spin).
+const BRICK_POLL: Duration = Duration::from_millis(30);
+
 /// Sent from the file watcher's and the GPU waiter's threads: something is ready to show.
 #[derive(Clone, Copy, Debug)]
 pub struct Wake;
@@ -59,6 +64,8 @@ struct Running {
     layout: Layout,
     side: SidePanel,
     status: String,
+    /// When to draw again without an event (bricks loading).
+    wake_at: Option<Instant>,
 }
 
 impl ApplicationHandler<Wake> for App {
@@ -78,6 +85,20 @@ impl ApplicationHandler<Wake> for App {
     fn user_event(&mut self, _: &ActiveEventLoop, _: Wake) {
         if let Some(r) = &self.running {
             r.surface.window.request_redraw();
+        }
+    }
+
+    /// Sleeps until the next event, or until the time a redraw was asked for.
+    fn about_to_wait(&mut self, event_loop: &ActiveEventLoop) {
+        let Some(r) = &mut self.running else { return };
+        match r.wake_at {
+            Some(at) if Instant::now() >= at => {
+                r.wake_at = None;
+                r.surface.window.request_redraw();
+                event_loop.set_control_flow(ControlFlow::Wait);
+            }
+            Some(at) => event_loop.set_control_flow(ControlFlow::WaitUntil(at)),
+            None => event_loop.set_control_flow(ControlFlow::Wait),
         }
     }
 
@@ -142,6 +163,7 @@ impl App {
             layout: Layout::Tiles,
             side: SidePanel::default(),
             status: "watching the scene's files".into(),
+            wake_at: None,
         };
         running.sync_slots(self.options.budget);
         Ok(running)
@@ -185,6 +207,7 @@ impl Running {
             slot.show(&mut self.surface, &self.live, index);
             busy |= slot.frames.busy();
         }
+        self.stream_bricks(now);
         self.surface.paint(&self.egui, output);
         // Work in flight wakes the loop when it finishes; work held back while the user
         // interacts needs a look once input has settled.
@@ -193,6 +216,15 @@ impl Running {
             self.egui.request_repaint_after(settle);
             self.surface.window.request_redraw();
         }
+    }
+
+    /// Places the bricks that arrived for the frames just submitted and asks for those they
+    /// need; while bricks are on their way the loop draws again after [`BRICK_POLL`].
+    fn stream_bricks(&mut self, now: Instant) {
+        if let Err(e) = self.live.stream_bricks() {
+            self.status = format!("bricks: {e}");
+        }
+        self.wake_at = self.live.bricks_busy().then(|| now + BRICK_POLL);
     }
 
     /// Rebuilds after a change of the scene's files; the window and the terminal get the same

@@ -9,6 +9,7 @@ use egui::{Color32, Rect, Sense, Vec2};
 use std::time::Instant;
 use vrs_live::{LiveScene, Quality, ViewFrames, Work};
 use vrs_runtime::SliceAxis;
+use vrs_runtime::scene::BrickProgress;
 
 /// How views share the window.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -107,6 +108,9 @@ pub fn show(
     egui::Panel::top("toolbar").show(ui, |ui| toolbar(ui, slots, layout, side));
     egui::Panel::bottom("status").show(ui, |ui| {
         ui.label(status);
+        if let Some(progress) = live.brick_progress() {
+            ui.weak(brick_line(&progress));
+        }
         if let Some(error) = live.last_error() {
             egui::ScrollArea::vertical().max_height(220.0).show(ui, |ui| {
                 ui.label(egui::RichText::new(error).monospace().color(Color32::from_rgb(255, 110, 100)));
@@ -133,6 +137,22 @@ pub fn show(
             slots.iter_mut().for_each(|s| s.frames.input(now));
         }
     });
+}
+
+/// The residency of the scene's bricked volumes in one line, e.g. `bricks: 65 of 512 slots
+/// resident · 12 loading · 227 of one value`.
+pub fn brick_line(progress: &BrickProgress) -> String {
+    let r = progress.residency;
+    let mut line = format!("bricks: {} of {} slots resident", r.resident, r.slots);
+    if r.pending > 0 {
+        line += &format!(" · {} loading", r.pending);
+    }
+    line += &format!(" · {} of one value", r.constant);
+    if r.refused > 0 {
+        // The pool is full: the rays show those parts from a coarser level.
+        line += " · memory budget full, parts shown coarser";
+    }
+    line
 }
 
 fn toolbar(ui: &mut egui::Ui, slots: &[ViewSlot], layout: &mut Layout, side: &mut SidePanel) {
@@ -428,4 +448,20 @@ fn handle_input(ui: &egui::Ui, live: &mut LiveScene, index: usize, response: &eg
         }
     }
     changed
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use vrs_runtime::bricks::Residency;
+
+    #[test]
+    fn the_brick_line_says_what_is_resident_loading_and_of_one_value() {
+        let residency = Residency { resident: 65, slots: 512, pending: 12, constant: 227, ..Residency::default() };
+        let progress = BrickProgress { residency, ..BrickProgress::default() };
+        assert_eq!(brick_line(&progress), "bricks: 65 of 512 slots resident · 12 loading · 227 of one value");
+        let settled = Residency { pending: 0, refused: 3, ..residency };
+        let line = brick_line(&BrickProgress { residency: settled, ..progress });
+        assert!(!line.contains("loading") && line.ends_with("parts shown coarser"), "{line}");
+    }
 }
