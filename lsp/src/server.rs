@@ -232,7 +232,7 @@ impl Server {
 
     fn request(&mut self, request: Request, connection: &Connection) -> Response {
         let id = request.id.clone();
-        let result = match request.method.as_str() {
+        match request.method.as_str() {
             HoverRequest::METHOD => self.with::<HoverRequest>(request, connection, |a, p| {
                 hover::hover(a, p.text_document_position_params.position)
             }),
@@ -250,21 +250,18 @@ impl Server {
             CodeActionRequest::METHOD => {
                 self.with::<CodeActionRequest>(request, connection, |a, p| Some(code_actions::actions(a, p.range)))
             }
-            method => {
-                Err(Response::new_err(id.clone(), ErrorCode::MethodNotFound as i32, format!("no method `{method}`")))
-            }
-        };
-        result.unwrap_or_else(|error| error)
+            method => Response::new_err(id.clone(), ErrorCode::MethodNotFound as i32, format!("no method `{method}`")),
+        }
     }
 
     /// Runs `handle` on the analysis of the request's document: `null` for a document the
-    /// server has not seen.
+    /// server has not seen; an `InvalidParams` error for parameters that do not parse.
     fn with<R>(
         &mut self,
         request: Request,
         connection: &Connection,
         handle: impl FnOnce(&Analysis, &R::Params) -> R::Result,
-    ) -> Result<Response, Response>
+    ) -> Response
     where
         R: lsp_types::request::Request,
         R::Params: DocumentParams,
@@ -272,11 +269,11 @@ impl Server {
         let id: RequestId = request.id.clone();
         let params: R::Params = match request.extract(R::METHOD) {
             Ok((_, params)) => params,
-            Err(e) => return Err(Response::new_err(id, ErrorCode::InvalidParams as i32, format!("{e:?}"))),
+            Err(e) => return Response::new_err(id, ErrorCode::InvalidParams as i32, format!("{e:?}")),
         };
         let uri = params.document().clone();
         let result = self.analysis(&uri, connection).map(|a| handle(a, &params));
-        Ok(Response::new_ok(id, result))
+        Response::new_ok(id, result)
     }
 }
 

@@ -223,3 +223,53 @@ fn bad_mesh_files_are_build_errors_at_their_path() {
         assert!(message.contains(expected), "{file}: {message}");
     }
 }
+
+/// Zarr stores that cannot be read: `build` reports E0702 at the path with the reason (a dtype
+/// it does not read, metadata that is not JSON), and a store whose chunk is corrupt renders
+/// with that brick shown coarser and a note naming the chunk, never a panic.
+#[test]
+fn bad_zarr_stores_are_build_errors_or_render_notes() {
+    let dir = tempfile::tempdir().expect("a folder");
+    let zarray = |dtype: &str| {
+        format!(
+            r#"{{"zarr_format": 2, "shape": [70, 70, 70], "chunks": [64, 64, 64], "dtype": "{dtype}",
+               "compressor": null, "fill_value": 0, "order": "C", "filters": null}}"#
+        )
+    };
+    let scene = |store: &str| {
+        format!(
+            "[[volume]]\nname = \"z\"\nrole = \"primary\"\npath = \"{store}\"\nwindow = [0.0, 100.0]\n\n\
+             [[view]]\nname = \"3d\"\nkind = \"raycast\"\nsize = [32, 32]\n"
+        )
+    };
+    let store = |name: &str, metadata: &str| {
+        let path = dir.path().join(name);
+        std::fs::create_dir_all(&path).expect("a store");
+        std::fs::write(path.join(".zarray"), metadata).expect("metadata");
+        let scene_path = dir.path().join(format!("{name}.toml"));
+        std::fs::write(&scene_path, scene(name)).expect("scene");
+        scene_path
+    };
+    for (name, metadata, expected) in
+        [("complex.zarr", zarray("<c8"), "c8"), ("broken.zarr", "{ not json".to_string(), "")]
+    {
+        let (code, diags) = build(&store(name, &metadata));
+        let (id, line, message) = only(&diags);
+        assert_eq!((code, id.as_str(), line), (1, "E0702", 4), "{name}: {message}");
+        assert!(
+            message.starts_with(&format!("cannot read volume `{name}`")) && message.contains(expected),
+            "{message}"
+        );
+    }
+    // Chunk 0.0.0 is 3 bytes where 64^3 uint16 are due; the others are missing (fill value).
+    let corrupt = store("corrupt.zarr", &zarray("<u2"));
+    std::fs::write(dir.path().join("corrupt.zarr/0.0.0"), [1u8, 2, 3]).expect("a chunk");
+    let out = dir.path().join("out");
+    let rendered = Command::new(env!("CARGO_BIN_EXE_vrsc"))
+        .args(["render", &corrupt.display().to_string(), "--software", "-o", &out.display().to_string()])
+        .output()
+        .expect("vrsc runs");
+    let stderr = String::from_utf8_lossy(&rendered.stderr);
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert!(stderr.contains("0.0.0"), "the corrupt chunk is named: {stderr}");
+}

@@ -32,16 +32,20 @@ pub type Arrival = (u32, Result<Normalized, BrickError>);
 pub struct Loader {
     source: Arc<dyn BrickSource>,
     queue: Arc<Queue>,
-    arrivals: Receiver<Arrival>,
+    /// In a mutex so that a volume can be shared between threads (`Receiver` is not `Sync`).
+    arrivals: Mutex<Receiver<Arrival>>,
     /// Cache hits go straight to the arrivals.
     sender: Sender<Arrival>,
     cache: Arc<Mutex<HostCache>>,
 }
 
+/// A brick asked for: (page-table entry, level, brick).
+type Job = (u32, usize, [u32; 3]);
+
 /// Bricks asked for and not yet taken by a thread; `None` once the loader is dropped.
 #[derive(Default)]
 struct Queue {
-    jobs: Mutex<Option<VecDeque<(u32, usize, [u32; 3])>>>,
+    jobs: Mutex<Option<VecDeque<Job>>>,
     ready: Condvar,
 }
 
@@ -68,7 +72,7 @@ impl Loader {
                 }
             });
         }
-        Loader { source, queue, arrivals, sender, cache }
+        Loader { source, queue, arrivals: Mutex::new(arrivals), sender, cache }
     }
 
     /// Asks for brick `brick` of level `level` (page-table entry `entry`).
@@ -85,12 +89,12 @@ impl Loader {
 
     /// A brick that arrived, if any.
     pub fn try_next(&self) -> Option<Arrival> {
-        self.arrivals.try_recv().ok()
+        lock(&self.arrivals).try_recv().ok()
     }
 
     /// The next brick to arrive, waiting for it.
     pub fn wait(&self) -> Option<Arrival> {
-        self.arrivals.recv().ok()
+        lock(&self.arrivals).recv().ok()
     }
 
     pub fn warnings(&self) -> Vec<String> {
@@ -107,7 +111,7 @@ impl Drop for Loader {
 
 impl Queue {
     /// The next job, waiting for one; `None` when the loader is gone.
-    fn next(&self) -> Option<(u32, usize, [u32; 3])> {
+    fn next(&self) -> Option<Job> {
         let mut jobs = lock(&self.jobs);
         loop {
             match jobs.as_mut() {
@@ -181,7 +185,7 @@ mod tests {
     #[test]
     fn the_host_cache_keeps_the_recently_used_within_its_budget() {
         let brick = || Normalized::Voxels(Arc::new(vec![half::f16::ZERO; 100]));
-        let mut cache = HostCache::new(450);
+        let mut cache = HostCache::new(650);
         for entry in 0..3 {
             cache.insert(entry, brick());
         }

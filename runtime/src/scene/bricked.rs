@@ -20,6 +20,9 @@ use vrsc::scene::{Memory, Scene, VolumeSource, is_zarr};
 /// it gives the picture as it is.
 const MAX_ROUNDS: usize = 64;
 
+/// A bricked volume's source, with its automatic window when it was read whole.
+pub(super) type Opened = (Arc<dyn BrickSource>, Option<[f32; 2]>);
+
 /// The source of a bricked volume: a Zarr store as it is, a file whose samples are stored
 /// uncompressed (NRRD, MetaImage, `.nii`) memory-mapped and read a brick at a time, any other
 /// file or phantom through a pyramid built from it in memory. With the automatic window of the
@@ -29,8 +32,8 @@ pub(super) fn open_source(
     source: &VolumeSource,
     phantom: impl Fn(&str) -> Result<Volume, RuntimeError>,
     progress: &mut dyn FnMut(u64, u64),
-) -> Result<(Arc<dyn BrickSource>, Option<[f32; 2]>), RuntimeError> {
-    let in_memory = |volume: Volume| -> (Arc<dyn BrickSource>, Option<[f32; 2]>) {
+) -> Result<Opened, RuntimeError> {
+    let in_memory = |volume: Volume| -> Opened {
         let window = volume::auto_window(&volume);
         (Arc::new(PyramidSource::from_volume(&volume)), Some(window))
     };
@@ -115,7 +118,7 @@ fn copy_interior(brick: &BrickData, [bx, by, bz]: [u32; 3], dims: [u32; 3], out:
 pub(super) fn load(
     gpu: &Gpu,
     name: &str,
-    (source, automatic): (Arc<dyn BrickSource>, Option<[f32; 2]>),
+    (source, automatic): Opened,
     fixed: Option<[f32; 2]>,
     (memory, share): (&Memory, u64),
     primary: Option<&VolumeGrid>,
