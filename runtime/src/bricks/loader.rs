@@ -191,7 +191,7 @@ mod tests {
         }
         assert!(cache.get(0).is_some());
         cache.insert(3, brick());
-        assert!(cache.bytes <= 450);
+        assert!(cache.bytes <= 650);
         assert!(cache.get(1).is_none(), "the least recently used went first");
         assert!(cache.get(0).is_some() && cache.get(3).is_some());
     }
