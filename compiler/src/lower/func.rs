@@ -738,22 +738,23 @@ impl<'a> FnCtx<'a> {
         if callee.params.len() != args.len() {
             return Err(internal(span, format!("a call of `{}` with {} arguments", callee.name, args.len())));
         }
+        // The callee first (its variant from the bricked volumes passed), then the arguments:
+        // functions are emitted callees first, in the order calls reach them.
         let mut variant = ResourceVariant::new();
+        for (p, a) in callee.params.iter().zip(args) {
+            if p.ty.is_resource() {
+                variant.push(self.bricked(a)?);
+            }
+        }
+        let function = self.b.lower_lib_fn(self.program, id, &variant)?;
         let mut arguments = Vec::with_capacity(args.len());
         for (p, a) in callee.params.iter().zip(args) {
             if !p.ty.is_resource() {
                 arguments.push(self.expr(a, block)?);
-                continue;
-            }
-            match self.resource(a)? {
-                Resource::Texture { texture, sampler } => {
-                    arguments.extend([texture, sampler]);
-                    variant.push(None);
-                }
-                Resource::Bricked(fns) => variant.push(Some(fns)),
+            } else if let Resource::Texture { texture, sampler } = self.resource(a)? {
+                arguments.extend([texture, sampler]);
             }
         }
-        let function = self.b.lower_lib_fn(self.program, id, &variant)?;
         let result = (callee.ret != Type::Void).then(|| self.append(E::CallResult(function), span));
         self.push(block, S::Call { function, arguments, result }, span);
         Ok(result)
@@ -781,6 +782,21 @@ impl<'a> FnCtx<'a> {
             _ => {}
         }
         Err(internal(e.span, "expected a `volume` or `tf` parameter or uniform"))
+    }
+
+    /// The bricked volume a `volume` argument is, if it is one (nothing is appended).
+    fn bricked(&self, e: &hir::Expr) -> R<Option<BrickedFns>> {
+        Ok(match e.kind {
+            ExprKind::Param(i) => match self.params.get(i) {
+                Some(ParamSlot::Bricked(fns)) => Some(*fns),
+                _ => None,
+            },
+            ExprKind::Uniform(i) => match self.uniform(i, e.span)?.0 {
+                UniformAccess::Bricked(fns) => Some(fns),
+                _ => None,
+            },
+            _ => None,
+        })
     }
 
     /// The texture and sampler of a `tf` (never bricked).
