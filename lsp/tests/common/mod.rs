@@ -110,8 +110,10 @@ impl Client {
     }
 
     /// `value` as pretty JSON with the test's folders replaced by placeholders.
+    /// `value` as pretty JSON with object keys sorted (whatever order serde_json keeps: a
+    /// dependency turns on its `preserve_order`), redacted.
     pub fn show(&self, value: &Value) -> String {
-        let mut text = serde_json::to_string_pretty(value).unwrap();
+        let mut text = serde_json::to_string_pretty(&sorted(value)).unwrap();
         for (from, to) in &self.redactions {
             text = text.replace(from, to);
         }
@@ -138,4 +140,17 @@ pub fn position_of(text: &str, needle: &str, offset: usize) -> Value {
     let line = text[..at].matches('\n').count();
     let column = at - text[..at].rfind('\n').map_or(0, |i| i + 1);
     json!({ "line": line, "character": column })
+}
+
+/// `value` with the keys of every object in sorted order.
+fn sorted(value: &Value) -> Value {
+    match value {
+        Value::Object(map) => {
+            let mut entries: Vec<(&String, &Value)> = map.iter().collect();
+            entries.sort_by(|a, b| a.0.cmp(b.0));
+            Value::Object(entries.into_iter().map(|(k, v)| (k.clone(), sorted(v))).collect())
+        }
+        Value::Array(items) => Value::Array(items.iter().map(sorted).collect()),
+        other => other.clone(),
+    }
 }
