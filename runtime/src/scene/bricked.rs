@@ -16,6 +16,9 @@ use crate::textures::HISTOGRAM_BINS;
 use crate::volume::{self, Scaling, Volume};
 use vrsc::scene::{Memory, Scene, VolumeSource, is_zarr};
 
+/// How the note of what `render_all` loaded starts.
+const LOADED_NOTE: &str = "bricked volumes: ";
+
 /// Rounds of render, read requests, load that [`SceneRenderer::render_all`] runs at most before
 /// it gives the picture as it is.
 const MAX_ROUNDS: usize = 64;
@@ -223,8 +226,11 @@ impl SceneRenderer {
             images = render(self)?;
         }
         let after = self.brick_residency();
+        // One residency note (the last render's) and each source's message once, however
+        // often the scene renders (`vrsc watch` renders on every edit).
+        self.notices.retain(|n| !n.starts_with(LOADED_NOTE));
         self.notices.push(format!(
-            "bricked volumes: {} bricks loaded for this picture ({} resident in {} slots, {} of one value, {} evicted{})",
+            "{LOADED_NOTE}{} bricks loaded for this picture ({} resident in {} slots, {} of one value, {} evicted{})",
             after.loaded - before.loaded,
             after.resident,
             after.slots,
@@ -232,8 +238,11 @@ impl SceneRenderer {
             after.evicted,
             if after.refused > 0 { "; the memory budget held no more: parts are shown coarser" } else { "" }
         ));
-        for volume in self.resources.bricked.values() {
-            self.notices.extend(volume.messages());
+        let messages: Vec<String> = self.resources.bricked.values().flat_map(|v| v.messages()).collect();
+        for message in messages {
+            if !self.notices.contains(&message) {
+                self.notices.push(message);
+            }
         }
         Ok(images)
     }
