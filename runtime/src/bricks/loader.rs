@@ -6,7 +6,7 @@ use std::collections::{HashMap, VecDeque};
 use std::sync::mpsc::{Receiver, Sender, channel};
 use std::sync::{Arc, Condvar, Mutex};
 
-use super::{BrickData, BrickError, BrickSource};
+use super::{BrickData, BrickError, BrickSource, lock};
 use crate::volume::{Scaling, Window};
 
 /// A brick ready for the pool: its value mapped to [0, 1] by the volume's window.
@@ -125,10 +125,6 @@ impl Queue {
             jobs = self.ready.wait(jobs).unwrap_or_else(std::sync::PoisonError::into_inner);
         }
     }
-}
-
-fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
-    m.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
 }
 
 /// Data units to the half floats the pool holds.

@@ -25,3 +25,13 @@ pub const APRON: u32 = 1;
 
 /// Voxels along each edge of a brick as stored: the brick and its apron on both sides.
 pub const STORED: u32 = BRICK + 2 * APRON;
+
+/// The most bricks a volume's pyramid may have (2^24, 64 MiB of page table): larger grids are
+/// refused when they are opened, before anything is allocated for them.
+pub const MAX_BRICKS: u64 = 1 << 24;
+
+/// Locks `m`, going on with the data of a thread that panicked while holding it (loader and
+/// residency state stay consistent between the statements that change them).
+pub(crate) fn lock<T>(m: &std::sync::Mutex<T>) -> std::sync::MutexGuard<'_, T> {
+    m.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
+}

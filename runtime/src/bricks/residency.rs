@@ -13,7 +13,7 @@ use std::sync::{Arc, Mutex};
 use glam::{Mat4, Vec3};
 
 use super::loader::{Loader, Normalized};
-use super::{BRICK, BrickSource, Level, STORED};
+use super::{BRICK, BrickSource, Level, MAX_BRICKS, STORED, lock};
 use crate::error::RuntimeError;
 use crate::gpu::Gpu;
 
@@ -34,9 +34,6 @@ pub const MAX_LEVELS: usize = 16;
 
 /// Bytes of one slot of the pool (half floats).
 pub const SLOT_BYTES: u64 = (STORED as u64).pow(3) * 2;
-
-/// The most page-table entries a volume may have (16M, 64 MiB of table).
-pub const MAX_ENTRIES: u64 = 1 << 24;
 
 /// How a view looks at its bricked volumes this frame: what picks the level of a sample.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -129,8 +126,8 @@ impl BrickedVolume {
             return Err(invalid(format!("{} levels; bricked volumes have 1 to {MAX_LEVELS}", levels.len())));
         }
         let entries: u64 = levels.iter().map(Level::brick_count).sum();
-        if entries > MAX_ENTRIES {
-            return Err(invalid(format!("{entries} bricks are more than the {MAX_ENTRIES} a page table holds")));
+        if entries > MAX_BRICKS {
+            return Err(invalid(format!("{entries} bricks are more than the {MAX_BRICKS} a page table holds")));
         }
         let (offsets, table_dims) = table_layout(&levels);
         let max_3d = gpu.device.limits().max_texture_dimension_3d;
@@ -470,10 +467,6 @@ impl BrickedVolume {
         let o = self.offsets[level];
         (level, [x - o[0], y - o[1], z - o[2]])
     }
-}
-
-fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
-    m.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
 }
 
 /// Where each level's bricks start in the page table, and the table's size: levels stacked

@@ -43,8 +43,7 @@ use super::lazy_levels::{LazyLevels, box_index, stored_box, sub};
 use super::pyramid::{check_brick, cut_brick};
 use super::{BRICK, BrickData, BrickError, BrickSource, Level, levels_for};
 
-/// The most bricks level 0 may have: one page-table entry each.
-pub const MAX_BRICKS: u64 = 1 << 24;
+pub use super::MAX_BRICKS;
 
 /// The most chunks whose presence is looked up for one brick; past that (tiny chunks) the
 /// brick is decoded directly, missing chunks reading as the fill value uncounted.
