@@ -91,15 +91,15 @@ pub enum BindingKind {
     /// `texture_3d<f32>` (`r16float`): the brick pool of a bricked volume (named like the
     /// volume's uniform), sampled through its page table; its sampler is a `VolumeSampler`.
     BrickPool,
-    /// `texture_3d<u32>` (`r32uint`): a bricked volume's page table, one texel per brick of
-    /// every level (levels stacked along z): missing, resident (the pool slot) or constant
+    /// `array<u32>` storage buffer (read-only): a bricked volume's page table, one word per
+    /// brick of every level (level after level): missing, resident (the pool slot) or constant
     /// (the value).
     PageTable,
     /// Uniform buffer `BrickLayout`: a bricked volume's grid, levels, pool and the view's eye
     /// (what the lookup needs to pick a level and find a brick).
     BrickLayout,
-    /// `array<u32>` storage buffer (read-write), one word per page-table texel: the bricks rays
-    /// needed and did not find resident (the feedback the runtime loads bricks from).
+    /// `array<u32>` storage buffer (read-write), one word per page-table word: the bricks rays
+    /// used, and those they needed and did not find resident (the feedback the runtime loads bricks from).
     BrickRequests,
 }
 

@@ -38,10 +38,10 @@ fn binding_type(kind: BindingKind) -> wgpu::BindingType {
             multisampled: false,
         },
         BindingKind::VolumeTexture | BindingKind::BrickPool => texture(wgpu::TextureViewDimension::D3),
-        BindingKind::PageTable => wgpu::BindingType::Texture {
-            sample_type: wgpu::TextureSampleType::Uint,
-            view_dimension: wgpu::TextureViewDimension::D3,
-            multisampled: false,
+        BindingKind::PageTable => wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Storage { read_only: true },
+            has_dynamic_offset: false,
+            min_binding_size: None,
         },
         BindingKind::BrickLayout => wgpu::BindingType::Buffer {
             ty: wgpu::BufferBindingType::Uniform,
@@ -133,9 +133,12 @@ pub fn group_entries<'a>(
                 BindingKind::BrickPool => wgpu::BindingResource::TextureView(
                     &shared.bricked.get(&b.name).ok_or_else(|| missing("bricked volume", &b.name))?.pool_view,
                 ),
-                BindingKind::PageTable => wgpu::BindingResource::TextureView(
-                    &shared.bricked.get(&b.name).ok_or_else(|| missing("bricked volume", &b.name))?.pages_view,
-                ),
+                BindingKind::PageTable => shared
+                    .bricked
+                    .get(&b.name)
+                    .ok_or_else(|| missing("bricked volume", &b.name))?
+                    .pages
+                    .as_entire_binding(),
                 BindingKind::BrickRequests => shared
                     .bricked
                     .get(&b.name)

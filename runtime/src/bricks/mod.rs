@@ -26,9 +26,16 @@ pub const APRON: u32 = 1;
 /// Voxels along each edge of a brick as stored: the brick and its apron on both sides.
 pub const STORED: u32 = BRICK + 2 * APRON;
 
-/// The most bricks a volume's pyramid may have (2^24, 64 MiB of page table): larger grids are
-/// refused when they are opened, before anything is allocated for them.
+/// The most page-table entries a volume may have (2^24, 64 MiB of page table; see
+/// [`table_entries`]): larger grids are refused when they are opened, before anything is
+/// allocated for them.
 pub const MAX_BRICKS: u64 = 1 << 24;
+
+/// Page-table entries of a pyramid: a block of level 0's brick count per level (each level is
+/// indexed in level 0's strides, so the lookup needs no per-level table).
+pub fn table_entries(levels: &[Level]) -> u64 {
+    levels.first().map_or(0, Level::brick_count) * levels.len() as u64
+}
 
 /// Locks `m`, going on with the data of a thread that panicked while holding it (loader and
 /// residency state stay consistent between the statements that change them).

@@ -1,6 +1,6 @@
 //! A bricked volume on the GPU: a brick pool (one `r16float` 3D texture of slots), a page table
-//! (`r32uint`, one texel per brick of every level, levels stacked along z) and the requests
-//! buffer rays write (`stdlib/bricks.wgsl`). After a frame the runtime reads the requests back
+//! (a storage buffer of one word per brick of every level, level after level) and the requests
+//! buffer rays write, a word per page-table word (`stdlib/bricks.wgsl`). After a frame the runtime reads the requests back
 //! ([`BrickedVolume::collect`]), loads what rays asked for on loader threads (from the host
 //! cache when it is there), and places arrived bricks in free or least recently used slots
 //! ([`BrickedVolume::receive`]). The coarsest level is loaded first and never evicted, so every
@@ -13,7 +13,7 @@ use std::sync::{Arc, Mutex};
 use glam::{Mat4, Vec3};
 
 use super::loader::{Loader, Normalized};
-use super::{BRICK, BrickSource, Level, MAX_BRICKS, STORED, lock};
+use super::{BRICK, BrickSource, Level, MAX_BRICKS, STORED, lock, table_entries};
 use crate::error::RuntimeError;
 use crate::gpu::Gpu;
 
@@ -88,9 +88,6 @@ struct State {
 pub struct BrickedVolume {
     pub name: String,
     levels: Vec<Level>,
-    /// Where each level's bricks start in the page table.
-    offsets: Vec<[u32; 3]>,
-    table_dims: [u32; 3],
     slots: [u32; 3],
     pool_dims: [u32; 3],
     pub grid_to_world: Mat4,
@@ -98,8 +95,7 @@ pub struct BrickedVolume {
     pub primary_to: Mat4,
     pool: wgpu::Texture,
     pub pool_view: wgpu::TextureView,
-    pages: wgpu::Texture,
-    pub pages_view: wgpu::TextureView,
+    pub pages: wgpu::Buffer,
     pub requests: wgpu::Buffer,
     readback: wgpu::Buffer,
     loader: Loader,
@@ -125,13 +121,15 @@ impl BrickedVolume {
         if levels.is_empty() || levels.len() > MAX_LEVELS {
             return Err(invalid(format!("{} levels; bricked volumes have 1 to {MAX_LEVELS}", levels.len())));
         }
-        let entries: u64 = levels.iter().map(Level::brick_count).sum();
+        let entries = table_entries(&levels);
         if entries > MAX_BRICKS {
-            return Err(invalid(format!("{entries} bricks are more than the {MAX_BRICKS} a page table holds")));
+            return Err(invalid(format!(
+                "{entries} page-table entries are more than the {MAX_BRICKS} a volume may have"
+            )));
         }
-        let (offsets, table_dims) = table_layout(&levels);
+        let bricks: u64 = levels.iter().map(Level::brick_count).sum();
         let max_3d = gpu.device.limits().max_texture_dimension_3d;
-        let slots = pool_slots(budgets.0, entries, max_3d)
+        let slots = pool_slots(budgets.0, bricks, max_3d)
             .ok_or_else(|| invalid(format!("a memory budget of {} MiB holds no brick", budgets.0 >> 20)))?;
         let pool_dims = slots.map(|n| n * STORED);
         let count = slots.iter().product::<u32>();
@@ -151,8 +149,7 @@ impl BrickedVolume {
             })
         };
         let pool = texture("brick pool", pool_dims, wgpu::TextureFormat::R16Float)?;
-        let pages = texture("page table", table_dims, wgpu::TextureFormat::R32Uint)?;
-        let words = table_dims.iter().map(|&n| n as u64).product::<u64>();
+        let words = entries;
         let buffer = |label: &str, usage| {
             gpu.capture(&doing, || {
                 gpu.device.create_buffer(&wgpu::BufferDescriptor {
@@ -164,9 +161,10 @@ impl BrickedVolume {
             })
         };
         use wgpu::BufferUsages as B;
+        let pages = buffer("page table", B::STORAGE | B::COPY_DST)?;
         let requests = buffer("brick requests", B::STORAGE | B::COPY_SRC | B::COPY_DST)?;
         let readback = buffer("brick requests read back", B::MAP_READ | B::COPY_DST)?;
-        let pinned = level_entries(&levels, &offsets, table_dims, levels.len() - 1).collect();
+        let pinned = level_entries(&levels, levels.len() - 1).collect();
         let state = State {
             table: vec![MISSING; words as usize],
             dirty: true,
@@ -185,14 +183,11 @@ impl BrickedVolume {
             grid_to_world: source.grid_to_world(),
             loader: Loader::new(source, window, budgets.1),
             levels,
-            offsets,
-            table_dims,
             slots,
             pool_dims,
             primary_to,
             pool_view: pool.create_view(&Default::default()),
             pool,
-            pages_view: pages.create_view(&Default::default()),
             pages,
             requests,
             readback,
@@ -246,26 +241,15 @@ impl BrickedVolume {
                 (Vec3::ZERO, 0.0, across / height)
             }
         };
-        let mut words: Vec<u32> = Vec::with_capacity(4 * (5 + 3 * MAX_LEVELS));
+        let mut words: Vec<u32> = Vec::with_capacity(20);
         let f = |x: f32| x.to_bits();
         words.extend([f(dims.x), f(dims.y), f(dims.z), f(self.levels.len() as f32)]);
-        words.extend([f(eye.x), f(eye.y), f(eye.z), f(angle)]);
+        words.extend([f(eye.x), f(eye.y), f(eye.z), f(angle * angle)]);
         let pool = self.pool_dims.map(|n| 1.0 / n as f32);
         words.extend([f(pool[0]), f(pool[1]), f(pool[2]), f(BRICK as f32)]);
-        words.extend([f(footprint), f(finest.min(self.levels.len() as u32 - 1) as f32), 0, 0]);
-        words.extend([self.table_dims[0], self.table_dims[1], 0, 0]);
-        for l in 0..MAX_LEVELS {
-            let [x, y, z] = self.levels.get(l).map_or([1; 3], |l| l.dims);
-            words.extend([f(x as f32), f(y as f32), f(z as f32), f(1.0 / (1u32 << l) as f32)]);
-        }
-        for l in 0..MAX_LEVELS {
-            let [x, y, z] = self.offsets.get(l).copied().unwrap_or_default();
-            words.extend([x, y, z, 0]);
-        }
-        for l in 0..MAX_LEVELS {
-            let [x, y, z] = self.levels.get(l).map_or([1; 3], |l| l.bricks);
-            words.extend([x, y, z, 0]);
-        }
+        words.extend([f(footprint * footprint), f(finest.min(self.levels.len() as u32 - 1) as f32), 0, 0]);
+        let [bx, by, bz] = self.levels[0].bricks.map(|n| n as f32);
+        words.extend([f(1.0), f(bx), f(bx * by), f(bx * by * bz)]);
         bytemuck::cast_slice(&words).to_vec()
     }
 
@@ -391,13 +375,7 @@ impl BrickedVolume {
         state.stats.resident = state.owner.iter().filter(|o| o.is_some()).count() as u32;
         if state.dirty {
             state.dirty = false;
-            let [w, h, d] = self.table_dims;
-            gpu.queue.write_texture(
-                self.pages.as_image_copy(),
-                bytemuck::cast_slice(&state.table),
-                wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(w * 4), rows_per_image: Some(h) },
-                wgpu::Extent3d { width: w, height: h, depth_or_array_layers: d },
-            );
+            gpu.queue.write_buffer(&self.pages, 0, bytemuck::cast_slice(&state.table));
         }
         Ok(arrived)
     }
@@ -461,42 +439,28 @@ impl BrickedVolume {
 
     /// The level and brick of page-table entry `entry`.
     fn brick_of(&self, entry: u32) -> (usize, [u32; 3]) {
-        let [w, h, _] = self.table_dims;
-        let (x, y, z) = (entry % w, (entry / w) % h, entry / (w * h));
-        let level = self.offsets.iter().rposition(|o| o[2] <= z).unwrap_or(0);
-        let o = self.offsets[level];
-        (level, [x - o[0], y - o[1], z - o[2]])
+        entry_brick(&self.levels, entry)
     }
 }
 
-/// Where each level's bricks start in the page table, and the table's size: levels stacked
-/// along z, each at x = y = 0.
-fn table_layout(levels: &[Level]) -> (Vec<[u32; 3]>, [u32; 3]) {
-    let mut z = 0;
-    let offsets = levels
-        .iter()
-        .map(|l| {
-            let at = [0, 0, z];
-            z += l.bricks[2];
-            at
-        })
-        .collect();
-    let first = levels[0].bricks;
-    (offsets, [first[0], first[1], z])
+/// The page-table entry of brick `brick` of level `level`: its level's block, then the brick
+/// in level 0's strides (what the lookup computes).
+fn brick_entry(levels: &[Level], level: usize, [x, y, z]: [u32; 3]) -> u32 {
+    let [w, h, d] = levels[0].bricks;
+    level as u32 * (w * h * d) + x + w * (y + h * z)
 }
 
-/// The page-table entries of level `level`.
-fn level_entries<'a>(
-    levels: &'a [Level],
-    offsets: &'a [[u32; 3]],
-    table: [u32; 3],
-    level: usize,
-) -> impl Iterator<Item = u32> + 'a {
+/// The level and brick of page-table entry `entry`: the inverse of [`brick_entry`].
+fn entry_brick(levels: &[Level], entry: u32) -> (usize, [u32; 3]) {
+    let [w, h, d] = levels[0].bricks;
+    let i = entry % (w * h * d);
+    ((entry / (w * h * d)) as usize, [i % w, (i / w) % h, i / (w * h)])
+}
+
+/// The page-table entries of level `level`'s bricks.
+fn level_entries(levels: &[Level], level: usize) -> impl Iterator<Item = u32> + '_ {
     let [bx, by, bz] = levels[level].bricks;
-    let o = offsets[level];
-    (0..bz).flat_map(move |z| {
-        (0..by).flat_map(move |y| (0..bx).map(move |x| (x + o[0]) + table[0] * ((y + o[1]) + table[1] * (z + o[2]))))
-    })
+    (0..bz).flat_map(move |z| (0..by).flat_map(move |y| (0..bx).map(move |x| brick_entry(levels, level, [x, y, z]))))
 }
 
 /// Slots per axis of a pool of at most `budget` bytes, no more than `wanted` slots (every
@@ -545,14 +509,19 @@ mod tests {
     }
 
     #[test]
-    fn the_page_table_stacks_levels_along_z() {
+    fn every_level_has_a_block_of_the_page_table_indexed_as_level_0() {
         let levels = levels_for([300, 200, 100]);
-        let (offsets, dims) = table_layout(&levels);
         assert_eq!(levels.iter().map(|l| l.bricks).collect::<Vec<_>>(), [[5, 4, 2], [3, 2, 1], [2, 1, 1], [1, 1, 1]]);
-        assert_eq!(offsets, [[0, 0, 0], [0, 0, 2], [0, 0, 3], [0, 0, 4]]);
-        assert_eq!(dims, [5, 4, 5]);
-        let last: Vec<u32> = level_entries(&levels, &offsets, dims, 3).collect();
-        assert_eq!(last, [5 * 4 * 4]);
-        assert_eq!(level_entries(&levels, &offsets, dims, 1).count(), 6);
+        assert_eq!(level_entries(&levels, 3).collect::<Vec<_>>(), [120]);
+        assert_eq!(level_entries(&levels, 1).collect::<Vec<_>>(), [40, 41, 42, 45, 46, 47]);
+        // Every brick of every level has its own entry, found again from it.
+        let mut seen = HashSet::new();
+        for level in 0..levels.len() {
+            for entry in level_entries(&levels, level) {
+                let (found, brick) = entry_brick(&levels, entry);
+                assert_eq!(brick_entry(&levels, found, brick), entry);
+                assert!(found == level && seen.insert(entry), "{entry}");
+            }
+        }
     }
 }

@@ -41,7 +41,7 @@ use super::lazy_levels::BrickCache;
 pub use super::lazy_levels::CACHE_BYTES;
 use super::lazy_levels::{LazyLevels, box_index, stored_box, sub};
 use super::pyramid::{check_brick, cut_brick};
-use super::{BRICK, BrickData, BrickError, BrickSource, Level, levels_for};
+use super::{BRICK, BrickData, BrickError, BrickSource, Level, levels_for, table_entries};
 
 pub use super::MAX_BRICKS;
 
@@ -628,14 +628,14 @@ fn dims_of(scale: &Scale) -> [u32; 3] {
 /// The pyramid: [`levels_for`] level 0, checking that each stored level is the previous halved.
 fn check_levels(scales: &[Scale]) -> Result<Vec<Level>, String> {
     let dims = dims_of(&scales[0]);
-    let bricks: u64 = Level::new(dims).bricks.iter().map(|&b| b as u64).product();
-    if bricks > MAX_BRICKS {
+    let levels = levels_for(dims);
+    let entries = table_entries(&levels);
+    if entries > MAX_BRICKS {
         return Err(format!(
-            "array `{}` of {dims:?} voxels (x, y, z) needs {bricks} bricks of {BRICK}^3, more than the {MAX_BRICKS} a volume may have",
+            "array `{}` of {dims:?} voxels (x, y, z) needs {entries} page-table entries for its bricks of {BRICK}^3, more than the {MAX_BRICKS} a volume may have",
             scales[0].path
         ));
     }
-    let levels = levels_for(dims);
     for (i, pair) in scales.windows(2).enumerate().take(levels.len() - 1) {
         let (finer, coarser) = (dims_of(&pair[0]), dims_of(&pair[1]));
         let expected = finer.map(|n| n.div_ceil(2));
