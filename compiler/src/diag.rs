@@ -96,6 +96,7 @@ codes! {
     InvalidInstance = "E0607", Error, "an instance name that is not an identifier, or is listed twice";
     UnboundResource = "E0608", Error, "a `volume` or `tf` uniform that the scene does not bind";
     LayerRule = "E0609", Error, "a layer that reads what no earlier layer of its view writes (`geometry_depth` without meshes)";
+    BadLookup = "E0610", Error, "a bricked volume's own lookup (`lookup`) that does not parse, validate or have the lookup's interface";
     // Scenes.
     SceneSyntax = "E0701", Error, "a scene file that is not valid TOML";
     SceneInvalid = "E0702", Error, "a scene value that is missing, of the wrong type, out of range or in conflict with another";

@@ -95,13 +95,17 @@ pub enum BindingKind {
     /// brick of every level (level after level): missing, resident (the pool slot) or constant
     /// (the value).
     PageTable,
-    /// Uniform buffer `BrickLayout`: a bricked volume's grid, levels, pool and the view's eye
-    /// (what the lookup needs to pick a level and find a brick).
+    /// Uniform buffer `BrickLayout` ([`BRICK_LAYOUT_BYTES`]): a bricked volume's grid, levels,
+    /// pool and the view's eye (what the lookup needs to pick a level and find a brick).
     BrickLayout,
     /// `array<u32>` storage buffer (read-write), one word per page-table word: the bricks rays
     /// used, and those they needed and did not find resident (the feedback the runtime loads bricks from).
     BrickRequests,
 }
+
+/// Bytes of the `BrickLayout` uniform the runtime writes for a bricked volume (five `vec4f`,
+/// `stdlib/bricks.wgsl`): a lookup's layout struct may be no larger.
+pub const BRICK_LAYOUT_BYTES: u64 = 80;
 
 /// One `@group(g) @binding(n)` of the view's shader.
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]

@@ -87,3 +87,31 @@ fn bricked_and_single_texture_volumes_render_alike() {
         assert!(mean <= 0.5, "{name}: bricked differs from the single texture by {mean:.3}/255 on average");
     }
 }
+
+/// A scene's own lookup (`lookup = "FILE.wgsl"`) replaces the standard one: a lookup that
+/// answers 0 everywhere makes a uniform slice of the abdomen, which the standard lookup shows.
+#[test]
+fn a_scenes_own_lookup_replaces_the_standard_one() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let zero = r#"
+struct BrickLayout { grid: vec4f, eye: vec4f, pool: vec4f, detail: vec4f, table: vec4f }
+@group(0) @binding(0) var NAME: texture_3d<f32>;
+@group(0) @binding(1) var NAME_sampler: sampler;
+@group(0) @binding(2) var<storage, read> NAME_pages: array<u32>;
+@group(0) @binding(3) var<uniform> NAME_layout: BrickLayout;
+@group(0) @binding(4) var<storage, read_write> NAME_requests: array<u32>;
+fn NAME_sample(p: vec3f) -> f32 { return 0.0; }
+fn NAME_dims() -> vec3u { return vec3u(NAME_layout.grid.xyz); }
+"#;
+    std::fs::write(dir.path().join("zero.wgsl"), zero).expect("lookup written");
+    let standard = scene(true);
+    let own = standard.replace("bricks = true\n", "bricks = true\nlookup = \"zero.wgsl\"\n");
+    assert_ne!(own, standard);
+    let uniform = |image: &image::RgbaImage| image.pixels().all(|p| p == image.get_pixel(0, 0));
+    let (with_standard, _) = render(dir.path(), "standard.toml", &standard);
+    let (with_own, _) = render(dir.path(), "own.toml", &own);
+    let slice =
+        |images: &[(String, image::RgbaImage)]| images.iter().find(|(n, _)| n == "seam").expect("seam").1.clone();
+    assert!(!uniform(&slice(&with_standard)), "the standard lookup shows the abdomen");
+    assert!(uniform(&slice(&with_own)), "the scene's lookup answers 0 everywhere");
+}

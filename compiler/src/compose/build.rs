@@ -11,8 +11,9 @@ use super::view;
 use crate::check;
 use crate::diag::{Code, Diagnostic, Diagnostics};
 use crate::loader::{Loader, ModuleGraph, ParsedFiles};
+use crate::lower::LookupSource;
 use crate::scene::{self, ModuleRef, ModuleSource, Scene, View};
-use crate::source::{SourceMap, Span};
+use crate::source::{FileId, SourceMap, Span};
 use crate::source_text::SourceText;
 use std::path::Path;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -143,9 +144,11 @@ pub fn compose_scene_with(
     // Loading grows the source map, so it runs view after view (each file parsed once); the rest
     // of a view's work only reads the map, so the views compose in parallel. (Parsing the files in
     // parallel too saved less than handing work to another thread costs here.)
+    let lookups = load_lookups(&scene, &mut sources, &mut diags);
     let loaded: Vec<LoadedView> =
         chosen.iter().map(|view| load_view(&scene, view, extra, &mut sources, &mut parsed)).collect();
-    let composed = compose_loaded_views(&scene, &chosen, loaded, &sources, keep);
+    let context = ComposeContext { scene: &scene, sources: &sources, lookups: &lookups, keep };
+    let composed = compose_loaded_views(&context, &chosen, loaded);
     let mut views = Vec::with_capacity(composed.len());
     let mut data_flow = DataFlowWarnings::default();
     for (output, view_diags) in composed {
@@ -362,11 +365,9 @@ fn run_jobs<T: Send>(jobs: Vec<Job<'_, T>>, first: usize) -> Vec<T> {
 /// starts at once with the heaviest view (most items in its modules), while a composer thread
 /// is still waking up for the others.
 fn compose_loaded_views(
-    scene: &Scene,
+    context: &ComposeContext<'_>,
     views: &[&View],
     loaded: Vec<LoadedView>,
-    sources: &SourceMap,
-    keep: Keep,
 ) -> Vec<(ViewOutput, Diagnostics)> {
     let weight = |l: &LoadedView| -> usize { l.graph.modules.iter().map(|m| m.ast.items.len()).sum() };
     let heaviest = loaded.iter().enumerate().max_by_key(|(_, l)| weight(l)).map_or(0, |(i, _)| i);
@@ -375,7 +376,7 @@ fn compose_loaded_views(
         .zip(loaded)
         .map(|(&view, loaded)| {
             let job: Job<'_, _> = Box::new(move || {
-                stacker::maybe_grow(VIEW_STACK_MIN, VIEW_STACK, || compose_loaded(scene, view, loaded, sources, keep))
+                stacker::maybe_grow(VIEW_STACK_MIN, VIEW_STACK, || compose_loaded(context, view, loaded))
             });
             job
         })
@@ -384,13 +385,8 @@ fn compose_loaded_views(
 }
 
 /// Checks, places and emits one loaded view.
-fn compose_loaded(
-    scene: &Scene,
-    view: &View,
-    loaded: LoadedView,
-    sources: &SourceMap,
-    keep: Keep,
-) -> (ViewOutput, Diagnostics) {
+fn compose_loaded(context: &ComposeContext<'_>, view: &View, loaded: LoadedView) -> (ViewOutput, Diagnostics) {
+    let ComposeContext { sources, keep, .. } = *context;
     let LoadedView { graph, uses, mut diags } = loaded;
     let program = check::check_program(&graph, sources, &mut diags);
     let is_std = |m: usize| graph.modules.get(m).is_some_and(|m| m.std_name.is_some());
@@ -405,7 +401,7 @@ fn compose_loaded(
     let emitted = if diags.has_errors() {
         None
     } else {
-        match emit_shader(scene, view, &program, &composition, sources) {
+        match emit_shader(context, view, &program, &composition) {
             Ok(emitted) => Some(emitted),
             Err(d) => {
                 diags.push(d);
@@ -417,6 +413,38 @@ fn compose_loaded(
     // Unless kept, the program and the module are freed here, by the thread that made them.
     let ir = (keep == Keep::Ir).then(|| ViewIr { program, module });
     (ViewOutput { name: view.name.name.clone(), composition, shader, ir }, diags)
+}
+
+/// Each bricked volume's binding and the file of its own lookup (`[[volume]] lookup`), if any.
+type Lookups = Vec<(String, Option<FileId>)>;
+
+/// Reads the scene's own brick lookups into `sources`; one that cannot be read is an error
+/// (E0201) and its volume keeps the standard lookup.
+fn load_lookups(scene: &Scene, sources: &mut SourceMap, diags: &mut Diagnostics) -> Lookups {
+    let mut lookups = Vec::new();
+    for (binding, lookup) in scene.bricked_bindings() {
+        let file = lookup.and_then(|l| match std::fs::read_to_string(&l.resolved) {
+            Ok(text) => Some(sources.add(l.given.clone(), Some(l.resolved.clone()), text)),
+            Err(e) => {
+                diags.push(
+                    Diagnostic::new(Code::ImportNotFound, l.span, format!("cannot read `{}`: {e}", l.given))
+                        .with_label("named here")
+                        .with_note("lookup paths are relative to the scene file"),
+                );
+                None
+            }
+        });
+        lookups.push((binding, file));
+    }
+    lookups
+}
+
+/// What every view of a scene composes with.
+struct ComposeContext<'a> {
+    scene: &'a Scene,
+    sources: &'a SourceMap,
+    lookups: &'a Lookups,
+    keep: Keep,
 }
 
 fn load_module(loader: &mut Loader<'_>, module_ref: &ModuleRef) -> Result<usize, Diagnostic> {
@@ -434,13 +462,23 @@ fn load_module(loader: &mut Loader<'_>, module_ref: &ModuleRef) -> Result<usize,
 }
 
 fn emit_shader(
-    scene: &Scene,
+    context: &ComposeContext<'_>,
     view: &View,
     program: &crate::hir::Program,
     composition: &Composition,
-    sources: &SourceMap,
 ) -> Result<(ViewShader, ValidModule), Diagnostic> {
-    let vm = view::emit(program, composition, sources, &scene.bricked_bindings())?;
+    let ComposeContext { scene, sources, lookups, .. } = *context;
+    let bricked: Vec<(String, LookupSource<'_>)> = lookups
+        .iter()
+        .map(|(binding, file)| {
+            let lookup = file.map_or(LookupSource::Standard, |id| {
+                let file = sources.file(id);
+                LookupSource::File { text: &file.text, base: file.base }
+            });
+            (binding.clone(), lookup)
+        })
+        .collect();
+    let vm = view::emit(program, composition, sources, &bricked)?;
     let wgsl = crate::lower::write_wgsl(&vm.module, &vm.info)?;
     let reflection = reflect::reflect(scene, view, program, composition, &vm, &wgsl, sources);
     Ok((ViewShader { wgsl, reflection }, ValidModule { module: vm.module, info: vm.info }))

@@ -96,7 +96,9 @@ pub fn structural_key(scene: &Scene) -> String {
         }
         key.push('\n');
     }
-    let _ = write!(key, "bricked {:?}", scene.bricked_bindings());
+    for (binding, lookup) in scene.bricked_bindings() {
+        let _ = writeln!(key, "bricked {binding} {:?}", lookup.map(|l| &l.resolved));
+    }
     key
 }
 

@@ -13,7 +13,7 @@ use super::ir::{Composition, Uniform};
 use crate::ast::{AssignOp, PlacementKind};
 use crate::diag::Diagnostic;
 use crate::hir::{self, ConstValue, ScalarValue};
-use crate::lower::{self, ModuleBuilder, PipelineEnv, StructLayout, UniformAccess};
+use crate::lower::{self, LookupSource, ModuleBuilder, PipelineEnv, StructLayout, UniformAccess};
 use crate::source::{SourceMap, Span};
 use crate::steps::Step;
 use crate::types::Type;
@@ -45,7 +45,7 @@ pub fn emit(
     program: &hir::Program,
     comp: &Composition,
     sources: &SourceMap,
-    bricked: &[String],
+    bricked: &[(String, LookupSource<'_>)],
 ) -> Result<ViewModule, Diagnostic> {
     let mut b = ModuleBuilder::new();
     let fields: Vec<(String, Type)> = comp.fields.iter().map(|f| (f.name.clone(), f.ty)).collect();
@@ -82,7 +82,7 @@ pub fn emit(
     let mut access: Vec<UniformAccess> = Vec::with_capacity(comp.uniforms.len());
     for u in &comp.uniforms {
         access.push(match u.ty {
-            Type::Volume if bricked.contains(&u.name) => {
+            Type::Volume if let Some((_, lookup)) = bricked.iter().find(|(name, _)| *name == u.name) => {
                 let kinds = [
                     BindingKind::BrickPool,
                     BindingKind::VolumeSampler,
@@ -90,7 +90,12 @@ pub fn emit(
                     BindingKind::BrickLayout,
                     BindingKind::BrickRequests,
                 ];
-                UniformAccess::Bricked(b.add_bricked_volume(&u.name, kinds.map(|k| bind(&u.name, k)), u.span)?)
+                UniformAccess::Bricked(b.add_bricked_volume(
+                    &u.name,
+                    kinds.map(|k| bind(&u.name, k)),
+                    u.span,
+                    *lookup,
+                )?)
             }
             Type::Volume => b.add_volume_binding(
                 &u.name,

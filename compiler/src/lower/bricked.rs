@@ -1,14 +1,15 @@
 //! Bricked volumes in a view module: the lookup `sample(v, p)` and `dims(v)` call for a volume
-//! the runtime keeps in bricks. The lookup is WGSL (`stdlib/bricks.wgsl`), parsed once by naga's
-//! front end and copied into each module that needs it, once per bricked volume, its globals
-//! bound where the caller says and its names prefixed by the volume's.
+//! the runtime keeps in bricks. The lookup is WGSL (`stdlib/bricks.wgsl`, or a scene's own file
+//! with the same interface: `[[volume]] lookup`), parsed by naga's front end and copied into
+//! each module that needs it, once per bricked volume, its globals bound where the caller says
+//! and its names prefixed by the volume's.
 
 use std::sync::OnceLock;
 
 use naga::{Expression as E, Handle, ResourceBinding};
 
 use super::{ModuleBuilder, emitted_name, internal};
-use crate::diag::Diagnostic;
+use crate::diag::{Code, Diagnostic};
 use crate::source::Span;
 
 /// The lookup's source; `NAME` stands for the volume's uniform.
@@ -27,37 +28,88 @@ pub struct BrickedFns {
     pub dims: Handle<naga::Function>,
 }
 
-fn template() -> Result<&'static naga::Module, Diagnostic> {
+/// Where a bricked volume's lookup comes from.
+#[derive(Clone, Copy, Debug)]
+pub enum LookupSource<'a> {
+    /// `stdlib/bricks.wgsl`.
+    Standard,
+    /// A scene's own lookup: the file's text and its first byte's global offset (the spans of
+    /// its diagnostics).
+    File { text: &'a str, base: u32 },
+}
+
+/// What is wrong with a lookup, and where in its text.
+pub(super) type LookupError = (naga::Span, String);
+
+fn standard_template() -> Result<&'static naga::Module, Diagnostic> {
     static PARSED: OnceLock<Result<naga::Module, String>> = OnceLock::new();
     PARSED
-        .get_or_init(|| naga::front::wgsl::parse_str(BRICKS_WGSL).map_err(|e| e.emit_to_string(BRICKS_WGSL)))
+        .get_or_init(|| parse_lookup(BRICKS_WGSL).map_err(|(_, e)| e))
         .as_ref()
-        .map_err(|e| internal(Span::DUMMY, format!("stdlib/bricks.wgsl does not parse: {e}")))
+        .map_err(|e| internal(Span::DUMMY, format!("stdlib/bricks.wgsl: {e}")))
+}
+
+/// Parses and validates a lookup and checks its interface: the five bindings of a bricked
+/// volume and the two functions, as `stdlib/bricks.wgsl` has them.
+fn parse_lookup(text: &str) -> Result<naga::Module, LookupError> {
+    let module = naga::front::wgsl::parse_str(text).map_err(|e| {
+        let span = e.labels().next().map_or(naga::Span::UNDEFINED, |(span, _)| span);
+        (span, format!("the lookup does not parse: {}", e.message()))
+    })?;
+    naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::empty())
+        .validate(&module)
+        .map_err(|e| {
+            let span = e.spans().next().map_or(naga::Span::UNDEFINED, |(span, _)| *span);
+            let mut message = format!("the lookup is not valid WGSL: {}", e.as_inner());
+            let mut cause = std::error::Error::source(e.as_inner());
+            while let Some(c) = cause {
+                message.push_str(&format!(": {c}"));
+                cause = c.source();
+            }
+            (span, message)
+        })?;
+    super::lookup_interface::check(&module)?;
+    Ok(module)
+}
+
+/// A lookup error as a diagnostic: the user's (E0610, in their file) or a compiler bug.
+fn lookup_diagnostic(source: LookupSource<'_>, at: Span, (span, message): LookupError) -> Diagnostic {
+    match source {
+        LookupSource::Standard => internal(at, format!("stdlib/bricks.wgsl: {message}")),
+        LookupSource::File { base, .. } => {
+            let span = span.to_range().map_or(at, |r| Span::new(base + r.start as u32, base + r.end as u32));
+            Diagnostic::new(Code::BadLookup, span, message).with_label("in this brick lookup").with_note(
+                "a lookup has the interface of stdlib/bricks.wgsl (see \"Bricked volumes\" in docs/reference.md)",
+            )
+        }
+    }
 }
 
 impl ModuleBuilder {
-    /// Adds the lookup of bricked volume `name`: its five globals bound at `bindings` (pool,
-    /// sampler, page table, layout, requests) and its two functions.
+    /// Adds the lookup of bricked volume `name` from `source`: its five globals bound at
+    /// `bindings` (pool, sampler, page table, layout, requests) and its two functions. `span`
+    /// (the volume's uniform) is where errors of the standard lookup are reported.
     pub fn add_bricked_volume(
         &mut self,
         name: &str,
         bindings: [ResourceBinding; BRICK_GLOBALS],
         span: Span,
+        source: LookupSource<'_>,
     ) -> Result<BrickedFns, Diagnostic> {
-        let template = template()?;
+        let parsed;
+        let template = match source {
+            LookupSource::Standard => standard_template()?,
+            LookupSource::File { text, .. } => {
+                parsed = parse_lookup(text).map_err(|e| lookup_diagnostic(source, span, e))?;
+                &parsed
+            }
+        };
         let name = emitted_name(name);
         let rename = |n: &Option<String>| n.as_ref().map(|n| n.replacen(PLACEHOLDER, &name, 1));
         let types = self.copy_types(template);
-        let bound = template.global_variables.iter().filter(|(_, g)| g.binding.is_some()).count();
-        if bound != BRICK_GLOBALS {
-            return Err(internal(span, "stdlib/bricks.wgsl must bind exactly the five globals of a bricked volume"));
-        }
         let mut bindings = bindings.into_iter();
         let mut globals = Vec::with_capacity(template.global_variables.len());
         for (_, g) in template.global_variables.iter() {
-            if g.init.is_some() {
-                return Err(internal(span, "stdlib/bricks.wgsl's globals may not have initializers"));
-            }
             let var = naga::GlobalVariable {
                 name: rename(&g.name),
                 space: g.space,
@@ -70,7 +122,7 @@ impl ModuleBuilder {
             globals.push(self.module.global_variables.append(var, span.into()));
         }
         let mut functions = Vec::new();
-        for (_, f) in template.functions.iter() {
+        for (handle, f) in template.functions.iter() {
             let mut copy = f.clone();
             copy.name = rename(&f.name);
             for arg in &mut copy.arguments {
@@ -83,17 +135,30 @@ impl ModuleBuilder {
                 local.ty = types[local.ty.index()];
             }
             for (_, expr) in copy.expressions.iter_mut() {
-                remap_expression(expr, &types, &globals).map_err(|what| internal(span, what))?;
+                remap_expression(expr, &types, &globals)
+                    .map_err(|what| lookup_diagnostic(source, span, (template.functions.get_span(handle), what)))?;
             }
             if let Some(n) = &copy.name {
                 self.function_names.insert(n.clone());
             }
-            // No VRS span: `vrsc explain` names the lookup's source by the function's name.
-            functions.push(self.module.functions.append(copy, naga::Span::UNDEFINED));
+            // The standard lookup has no span (`vrsc explain` names it by the function's name);
+            // a scene's own has its place in its file.
+            let at = match source {
+                LookupSource::Standard => naga::Span::UNDEFINED,
+                LookupSource::File { base, .. } => template
+                    .functions
+                    .get_span(handle)
+                    .to_range()
+                    .map_or(naga::Span::UNDEFINED, |r| naga::Span::new(base + r.start as u32, base + r.end as u32)),
+            };
+            functions.push(self.module.functions.append(copy, at));
         }
+        // The interface check found exactly these two, in this order.
         match functions[..] {
             [sample, dims] => Ok(BrickedFns { sample, dims }),
-            _ => Err(internal(span, "stdlib/bricks.wgsl must define exactly `NAME_sample` and `NAME_dims`")),
+            _ => {
+                Err(lookup_diagnostic(source, span, (naga::Span::UNDEFINED, "no `NAME_sample` and `NAME_dims`".into())))
+            }
         }
     }
 
@@ -119,8 +184,8 @@ impl ModuleBuilder {
     }
 }
 
-/// Points an expression copied from the template at the module's types and globals. The
-/// template calls no function and has no constants, which this refuses.
+/// Points an expression copied from the template at the module's types and globals. A lookup
+/// calls no function and uses no module-scope constant, which this refuses.
 fn remap_expression(
     expr: &mut E,
     types: &[Handle<naga::Type>],
@@ -130,7 +195,10 @@ fn remap_expression(
         E::Compose { ty, .. } | E::ZeroValue(ty) => *ty = types[ty.index()],
         E::GlobalVariable(g) => *g = globals[g.index()],
         E::Constant(_) | E::Override(_) | E::CallResult(_) => {
-            return Err(format!("stdlib/bricks.wgsl may not use constants or calls ({expr:?})"));
+            return Err(
+                "a lookup may not use module-scope constants or overrides, nor call its own functions: write them inline"
+                    .to_string(),
+            );
         }
         _ => {}
     }

@@ -35,6 +35,7 @@
 mod bricked;
 pub(crate) mod emitter;
 mod func;
+mod lookup_interface;
 #[cfg(test)]
 mod tests;
 
@@ -49,7 +50,7 @@ use crate::hir;
 use crate::source::{SourceMap, Span};
 use crate::types::{Scalar, Type};
 
-pub use bricked::BrickedFns;
+pub use bricked::{BrickedFns, LookupSource};
 
 /// An `E0901` diagnostic: something that the checker or composer should have ruled out.
 pub(crate) fn internal(span: Span, message: impl Into<String>) -> Diagnostic {

@@ -177,6 +177,9 @@ pub struct Volume {
     /// ([`is_zarr`]); the runtime also bricks a volume whose file is too large for one texture
     /// before it composes. What `vrsc explain` shows.
     pub bricked: bool,
+    /// `lookup = "FILE.wgsl"`: the volume's own brick lookup in place of `stdlib/bricks.wgsl`
+    /// (same interface), when it is bricked.
+    pub lookup: Option<FileRef>,
     /// The whole `[[volume]]` table.
     pub span: Span,
 }
@@ -445,9 +448,10 @@ impl UniformValue {
 // Queries.
 
 impl Scene {
-    /// The resource names (`volume`, `volume_NAME`) of the volumes kept in bricks.
-    pub fn bricked_bindings(&self) -> Vec<String> {
-        self.volumes.iter().filter(|v| v.bricked).map(Volume::binding).collect()
+    /// The resource names (`volume`, `volume_NAME`) of the volumes kept in bricks, with their
+    /// own lookups (`lookup`), if any.
+    pub fn bricked_bindings(&self) -> Vec<(String, Option<&FileRef>)> {
+        self.volumes.iter().filter(|v| v.bricked).map(|v| (v.binding(), v.lookup.as_ref())).collect()
     }
 
     /// The primary volume (validation guarantees exactly one).

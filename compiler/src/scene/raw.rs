@@ -80,9 +80,10 @@ pub(super) struct RawVolume {
     pub(super) level: Option<Spanned<f32>>,
     pub(super) width: Option<Spanned<f32>>,
     pub(super) bricks: Option<Spanned<bool>>,
+    pub(super) lookup: Option<Spanned<String>>,
 }
 pub(super) const VOLUME_KEYS: &[&str] =
-    &["name", "role", "path", "phantom", "fallback", "tf", "window", "level", "width", "bricks"];
+    &["name", "role", "path", "phantom", "fallback", "tf", "window", "level", "width", "bricks", "lookup"];
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]

@@ -415,3 +415,23 @@ fn meshes_overlays_and_planes_name_what_the_scene_has() {
         assert!(messages.iter().any(|m| m.contains(want)), "{want}: {messages:?}");
     }
 }
+
+#[test]
+fn a_lookup_belongs_to_a_bricked_volume() {
+    let bricked =
+        MINIMAL.replace("phantom = \"sphere\"\n", "phantom = \"sphere\"\nbricks = true\nlookup = \"mine.wgsl\"\n");
+    let (_, scene, warnings) = parse_reporting(&bricked);
+    let scene = scene.unwrap_or_else(|| panic!("{warnings:?}"));
+    assert!(warnings.is_empty(), "{warnings:?}");
+    let lookups = scene.bricked_bindings();
+    assert_eq!(lookups.len(), 1);
+    assert_eq!((lookups[0].0.as_str(), lookups[0].1.map(|l| l.given.as_str())), ("volume", Some("mine.wgsl")));
+    let single = bricked.replace("bricks = true", "bricks = false");
+    let (_, scene, warnings) = parse_reporting(&single);
+    assert!(scene.is_some_and(|s| s.bricked_bindings().is_empty()));
+    let w: Vec<_> = warnings.iter().map(|d| (d.code.as_str(), d.message.as_str())).collect();
+    assert_eq!(
+        w,
+        [("W0701", "`lookup` has no effect on a volume kept in one texture (`bricks = true` keeps it in bricks)")]
+    );
+}

@@ -470,7 +470,19 @@ impl Cx<'_> {
             let window = self.window(&v.window, &v.level, &v.width);
             let bricks = v.bricks.as_ref().map(|b| Located { value: *b.get_ref(), span: self.span(b) });
             let bricked = bricks.as_ref().map_or_else(|| outgrows_a_texture(&source, memory), |b| b.value);
-            out.push(Volume { name, role, source, fallback, tf, window, bricks, bricked, span });
+            let lookup = match &v.lookup {
+                Some(path) if !bricked => {
+                    self.ignored(
+                        path,
+                        "lookup",
+                        "on a volume kept in one texture (`bricks = true` keeps it in bricks)",
+                    );
+                    None
+                }
+                Some(path) => Some(self.file_ref(path, "lookup")),
+                None => None,
+            };
+            out.push(Volume { name, role, source, fallback, tf, window, bricks, bricked, lookup, span });
         }
         if !out.iter().any(|v| v.role.value == Role::Primary) {
             let span = out.first().map_or(Span::new(self.base, self.base), |v| v.role.span);
