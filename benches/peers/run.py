@@ -176,9 +176,11 @@ def main():
     parser.add_argument("--sizes", default="512,256")
     parser.add_argument(
         "--contenders",
-        default="vrsc,before,vtk,pygfx",
+        default="vrsc,noskip,bricked,before,vtk,pygfx",
         help="vrsc, before (--before's shaders), vtk, pygfx, and the variants of vrsc: noskip (empty-space "
-        "skipping off), noflag (the writer of `contributes` removed: every function runs for every sample)",
+        "skipping off), noflag (the writer of `contributes` removed: every function runs for every sample), "
+        "bricked (the volume kept in bricks, every brick resident: compare with noskip, as bricked volumes "
+        "skip no empty space)",
     )
     parser.add_argument("--rounds", type=int, default=3)
     parser.add_argument("--frames", type=int, default=1, help="timed frames per round and contender")
@@ -284,11 +286,20 @@ def run_case(label, case, volume, workers, wanted, args, out):
         build(args.before, before_scene, shaders["before"])
     phantom = volume["volume"].get("size", 128)
     workers["vrsc"].ask(cmd="open", scene=str(scene), size=case["size"], phantom_size=phantom)
+    # The same scene with the volume in bricks, opened as its own scene: the worker renders it
+    # with the shader its runtime composes and streams every brick in before it answers.
+    own_scenes = set()
+    if "bricked" in wanted:
+        bricked = folder / "bricked.toml"
+        text = scene.read_text().replace('role = "primary"\n', 'role = "primary"\nbricks = true\n', 1)
+        bricked.write_text(text)
+        workers["vrsc"].ask(cmd="open", scene=str(bricked), size=case["size"], phantom_size=phantom, **{"as": "bricked"})
+        own_scenes.add("bricked")
 
     # Set up every contender that renders this mode.
     active = []
     for name in wanted:
-        if name in shaders:
+        if name in shaders or name in own_scenes:
             active.append(name)
         elif name in workers:
             try:
@@ -301,17 +312,22 @@ def run_case(label, case, volume, workers, wanted, args, out):
     def uniforms_of(name):
         return before_uniforms if name == "before" else uniforms
 
+    def vrsc_request(name, cmd):
+        """A request to the vrsc worker for contender `name`: one of its shaders, or a scene of its own."""
+        request = dict(cmd=cmd, view="3d", uniforms=uniforms_of(name))
+        if name in own_scenes:
+            return dict(request, scene=name)
+        return dict(request, shader=str(shaders[name]))
+
     def time_frames(name, warmup):
-        if name in shaders:
-            request = dict(cmd="time", shader=str(shaders[name]), view="3d", uniforms=uniforms_of(name))
-            return workers["vrsc"].ask(**request, frames=args.frames, warmup=warmup)["ms"]
+        if name in shaders or name in own_scenes:
+            return workers["vrsc"].ask(**vrsc_request(name, "time"), frames=args.frames, warmup=warmup)["ms"]
         return workers[name].ask(cmd="time", frames=args.frames, warmup=warmup)["ms"]
 
     def image(name):
-        if name in shaders:
+        if name in shaders or name in own_scenes:
             path = folder / f"{name}.png"
-            request = dict(cmd="image", shader=str(shaders[name]), view="3d", uniforms=uniforms_of(name), out=str(path))
-            workers["vrsc"].ask(**request)
+            workers["vrsc"].ask(**vrsc_request(name, "image"), out=str(path))
         else:
             path = folder / f"{name}.npy"
             workers[name].ask(cmd="image", out=str(path))
@@ -344,6 +360,10 @@ def run_case(label, case, volume, workers, wanted, args, out):
             f"{label:<28} {name:<10} {ms:9.1f} {ms / reference:7.2f} {row['msamples_per_s']:12.1f} {diff:11.2f}",
             flush=True,
         )
+    if "bricked" in times and "noskip" in times:
+        # What bricks cost: both skip no empty space.
+        over = statistics.median(times["bricked"]) / statistics.median(times["noskip"])
+        print(f"{label:<28} bricked over noskip: {over:.2f}x", flush=True)
     return rows
 
 

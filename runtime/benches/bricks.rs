@@ -9,7 +9,13 @@
 //! The volume is the MNI152 T1 of `../shared/data` when it is there, else the built-in head
 //! phantom at 256^3 (said in the output). Run: `cargo bench -p vrs-runtime --bench bricks`;
 //! settings: `VRS_BENCH_SIZE` (512), `VRS_BENCH_ROUNDS` (4), `VRS_BENCH_FRAMES` (2),
-//! `VRS_BENCH_SHADING` (0; 1 for shaded DVR).
+//! `VRS_BENCH_SHADING` (0; 1 for shaded DVR), `VRS_BENCH_LOOKUP` (lookup files, comma
+//! separated: a bricked row each with the scene's `lookup = FILE`, to weigh one's own lookup
+//! against the standard one), `VRS_BENCH_NO_ERT` (1: no early ray termination, so every ray
+//! takes the same samples whatever a lookup answers), `VRS_BENCH_BREAKDOWN` (1: rows with
+//! parts of `stdlib/bricks.wgsl` taken out or doubled, early ray termination off, to show what
+//! each part costs), `VRS_BENCH_ONLY` (a row's number: time that row alone, for instruction
+//! counts: `bash scripts/bench-instructions.sh bricks ROWS`).
 
 #[path = "timing.rs"]
 mod timing;
@@ -24,12 +30,84 @@ fn number(name: &str, default: usize) -> usize {
     std::env::var(name).ok().and_then(|v| v.parse().ok()).filter(|&n| n > 0).unwrap_or(default)
 }
 
-fn scene(volume: &str, size: u32, shading: bool, bricks: bool, skipping: bool) -> String {
+/// One row of the table: how its volume is kept.
+struct Variant {
+    name: String,
+    bricks: bool,
+    skipping: bool,
+    /// A lookup file replacing the standard one.
+    lookup: Option<String>,
+}
+
+impl Variant {
+    fn new(name: &str, bricks: bool, skipping: bool) -> Variant {
+        Variant { name: name.to_string(), bricks, skipping, lookup: None }
+    }
+}
+
+fn flag(name: &str) -> bool {
+    std::env::var(name).is_ok_and(|v| v != "0" && v != "false")
+}
+
+/// Lookups made from the standard one (`standard`) by taking a part out or doing it twice, by
+/// what they show. Each edit names the text it changes, so a changed lookup stops the bench
+/// rather than measuring something else.
+fn breakdown(standard: &str) -> Vec<(String, String)> {
+    let edit = |text: &str, from: &str, to: &str| {
+        assert_eq!(text.matches(from).count(), 1, "the breakdown expects `{from}` once in stdlib/bricks.wgsl");
+        text.replace(from, to)
+    };
+    // The fallback loop run once, as when every brick is resident: straight-line code.
+    let start = standard.find("    var x: vec3f;").expect("the loop's variables");
+    let end = standard.find("    // A resident brick's slot").expect("the code after the loop");
+    let body = "    let scale = bitcast<f32>((127 - level) << 23);
+    let x = clamp(x0 * scale, vec3f(0.5), ceil(NAME_layout.grid.xyz * scale) - 0.5);
+    let brick = floor(x * (1.0 / edge));
+    let lo = brick * edge;
+    let index = i32(dot(vec4f(brick, f32(level)), NAME_layout.table));
+    let entry = NAME_pages[index];
+    NAME_requests[index] = select(2u, 1u, entry == 0u);
+";
+    let no_loop = format!("{}{body}{}", &standard[..start], &standard[end..]);
+    let no_loop = edit(&no_loop, "    var level = min(", "    let level = min(");
+    let level_0 = edit(
+        &no_loop,
+        "let level = min(max(wanted, i32(NAME_layout.detail.y)), coarsest);",
+        "let level = i32(NAME_layout.detail.y);",
+    );
+    let read = "        entry = NAME_pages[index];\n";
+    // Twice: the second read's answer joins the first through a uniform that is 0.
+    let two_reads =
+        edit(standard, read, &format!("{read}        entry |= NAME_pages[index ^ 1] & u32(NAME_layout.detail.w);\n"));
+    let write = "        NAME_requests[index] = select(2u, 1u, entry == 0u);\n";
+    // Twice: the second marks the neighbouring entry used, which changes nothing resident.
+    let two_writes = edit(standard, write, &format!("{write}        NAME_requests[index ^ 1] = 2u;\n"));
+    let sample_start = standard.find("fn NAME_sample(p: vec3f) -> f32 {").expect("NAME_sample");
+    let sample_end = standard.find("// Level-0 voxels per axis of bricked").expect("NAME_dims");
+    let pool_only = format!(
+        "{}fn NAME_sample(p: vec3f) -> f32 {{\n    return textureSampleLevel(NAME, NAME_sampler, p, 0.0).x;\n}}\n\n{}",
+        &standard[..sample_start],
+        &standard[sample_end..]
+    );
+    vec![
+        ("no fallback loop".to_string(), no_loop),
+        ("no loop, level 0 only".to_string(), level_0),
+        ("a second page-table read".to_string(), two_reads),
+        ("a second request write".to_string(), two_writes),
+        ("the pool sampled at p, no lookup".to_string(), pool_only),
+    ]
+}
+
+fn scene(volume: &str, size: u32, shading: bool, variant: &Variant) -> String {
+    let Variant { bricks, skipping, .. } = variant;
+    let no_ert = flag("VRS_BENCH_NO_ERT") || flag("VRS_BENCH_BREAKDOWN");
+    let uniforms = if no_ert { "[uniforms]\nert_threshold = 2.0\n\n" } else { "" };
+    let lookup = variant.lookup.as_ref().map(|file| format!("lookup = {file:?}\n")).unwrap_or_default();
     format!(
         "[render]\ncompositing = \"dvr\"\nshading = {shading}\njitter = 1.0\nempty_space_skipping = {skipping}\n\n\
-         [[volume]]\nname = \"t1\"\nrole = \"primary\"\n{volume}\nbricks = {bricks}\n\n\
+         [[volume]]\nname = \"t1\"\nrole = \"primary\"\n{volume}\nbricks = {bricks}\n{lookup}\n\
          [[view]]\nname = \"3d\"\nkind = \"raycast\"\nsize = [{size}, {size}]\n\
-         camera = {{ azimuth = 35.0, elevation = 15.0, distance = 2.4 }}\n"
+         camera = {{ azimuth = 35.0, elevation = 15.0, distance = 2.4 }}\n\n{uniforms}"
     )
 }
 
@@ -45,22 +123,41 @@ fn main() {
     };
     let (size, rounds, frames) =
         (number("VRS_BENCH_SIZE", 512) as u32, number("VRS_BENCH_ROUNDS", 4), number("VRS_BENCH_FRAMES", 2));
-    let shading = std::env::var("VRS_BENCH_SHADING").is_ok_and(|v| v != "0" && v != "false");
+    let shading = flag("VRS_BENCH_SHADING");
     let gpu = Gpu::headless(AdapterChoice::Software).expect("the software adapter");
     let dir = tempfile::tempdir().expect("a folder");
     println!("adapter: {}, {size}x{size}, {rounds} rounds of {frames} frames, shading {shading}", gpu.adapter);
-    // (name, bricked, skipping)
-    let variants = [
-        ("single texture, no skipping", false, false),
-        ("bricked, all resident", true, false),
-        ("single texture, skipping", false, true),
+    let mut variants = vec![
+        Variant::new("single texture, no skipping", false, false),
+        Variant::new("bricked, all resident", true, false),
+        Variant::new("single texture, skipping", false, true),
     ];
+    if flag("VRS_BENCH_BREAKDOWN") {
+        let standard = std::fs::read_to_string(root.join("stdlib/bricks.wgsl")).expect("stdlib/bricks.wgsl");
+        for (name, text) in breakdown(&standard) {
+            let path = dir.path().join(format!("{}.wgsl", name.replace([' ', ','], "_")));
+            std::fs::write(&path, text).expect("lookup written");
+            variants.push(Variant { lookup: Some(path.display().to_string()), ..Variant::new(&name, true, false) });
+        }
+    }
+    let lookups = std::env::var("VRS_BENCH_LOOKUP").unwrap_or_default();
+    for file in lookups.split(',').filter(|f| !f.is_empty()) {
+        let path = std::fs::canonicalize(file).expect("the lookup file exists");
+        let name = format!("bricked, {}", path.file_name().unwrap_or_default().to_string_lossy());
+        variants.push(Variant { lookup: Some(path.display().to_string()), ..Variant::new(&name, true, false) });
+    }
+    let only =
+        std::env::var("VRS_BENCH_ONLY").ok().map(|n| n.parse::<usize>().expect("VRS_BENCH_ONLY is a row number"));
+    if let Some(row) = only {
+        assert!(row < variants.len(), "VRS_BENCH_ONLY: there are {} rows", variants.len());
+        variants = vec![variants.swap_remove(row)];
+    }
     let mut renderers: Vec<SceneRenderer> = variants
         .iter()
         .enumerate()
-        .map(|(i, &(_, bricks, skipping))| {
+        .map(|(i, variant)| {
             let path = dir.path().join(format!("scene{i}.toml"));
-            std::fs::write(&path, scene(&volume, size, shading, bricks, skipping)).expect("scene written");
+            std::fs::write(&path, scene(&volume, size, shading, variant)).expect("scene written");
             let mut renderer =
                 SceneRenderer::open(gpu.clone(), &path, options.clone(), &mut |_, _, _| {}).expect("opens");
             // Streams every brick the view needs: the timed frames find them resident.
@@ -68,11 +165,13 @@ fn main() {
             renderer
         })
         .collect();
-    let residency = renderers[1].brick_residency();
-    println!(
-        "bricks: {} resident, {} of one value, {} pending",
-        residency.resident, residency.constant, residency.pending
-    );
+    if let Some(bricked) = renderers.iter().find(|r| r.has_bricked()) {
+        let residency = bricked.brick_residency();
+        println!(
+            "bricks: {} resident, {} of one value, {} pending",
+            residency.resident, residency.constant, residency.pending
+        );
+    }
     let mut times = vec![Vec::new(); variants.len()];
     for _ in 0..rounds {
         for (renderer, times) in renderers.iter_mut().zip(&mut times) {
@@ -80,8 +179,12 @@ fn main() {
         }
     }
     let medians: Vec<f64> = times.into_iter().map(median).collect();
-    for ((name, _, _), ms) in variants.iter().zip(&medians) {
-        println!("{name:<30} {ms:8.1} ms");
+    if only.is_some() {
+        println!("{}: {:.1} ms", variants[0].name, medians[0]);
+        return;
+    }
+    for (row, (variant, ms)) in variants.iter().zip(&medians).enumerate() {
+        println!("{row:>2} {:<40} {ms:8.1} ms {:6.3}x", variant.name, ms / medians[0]);
     }
     println!("bricked over single texture: {:.3}x (target <= 1.3)", medians[1] / medians[0]);
 }

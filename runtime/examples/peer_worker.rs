@@ -7,16 +7,21 @@
 //!   | null, "tf": PRESET, "out": DIR}`: loads the volume as a scene would, writes what the other
 //!   contenders render: `DIR/volume.f32` (normalized by the window, x fastest), `DIR/tf.rgba8`
 //!   (the transfer function over the window, as uploaded) and answers dims, extent and window.
-//! - `{"cmd": "open", "scene": PATH, "size": [w, h], "phantom_size": N}`: opens the scene.
-//! - `{"cmd": "time", "shader": DIR, "view": V, "uniforms": {..}, "frames": N, "warmup": B}`:
-//!   renders view V with `DIR/V.wgsl` and `.json`, N frames (after an untimed one unless
-//!   `warmup` is false); answers their times in ms, from submit to completion (no read-back).
-//! - `{"cmd": "image", "shader": DIR, "view": V, "uniforms": {..}, "out": PNG}`: one frame, read
-//!   back and written.
+//! - `{"cmd": "open", "scene": PATH, "size": [w, h], "phantom_size": N, "as": NAME}`: opens the
+//!   scene as NAME (`"vrsc"` when left out), in place of the scene of that name; its bricked
+//!   volumes stream every brick its views need before it answers.
+//! - `{"cmd": "time", "shader": DIR, "view": V, "uniforms": {..}, "frames": N, "warmup": B,
+//!   "scene": NAME}`: renders view V of scene NAME (`"vrsc"` when left out) with `DIR/V.wgsl` and
+//!   `.json` (with the scene's own shader when `shader` is left out), N frames (after an untimed
+//!   one unless `warmup` is false); answers their times in ms, from submit to completion (no
+//!   read-back).
+//! - `{"cmd": "image", "shader": DIR, "view": V, "uniforms": {..}, "out": PNG, "scene": NAME}`:
+//!   one frame, read back and written.
 //!
 //! Run by the driver as `cargo run --release -p vrs-runtime --example peer_worker`.
 
 use serde_json::{Value, json};
+use std::collections::HashMap;
 use std::io::{BufRead, Write};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -24,8 +29,13 @@ use vrs_runtime::{AdapterChoice, Gpu, RenderOptions, SceneRenderer, ViewShader, 
 
 struct Worker {
     gpu: Gpu,
-    scene: Option<SceneRenderer>,
-    /// The shader directory view 0 renders with now.
+    scenes: HashMap<String, OpenScene>,
+}
+
+/// A scene the driver opened, by the name it gave.
+struct OpenScene {
+    renderer: SceneRenderer,
+    /// The shader directory view 0 renders with now (`None`: the scene's own).
     current: Option<PathBuf>,
 }
 
@@ -38,7 +48,7 @@ fn main() {
         }
     };
     eprintln!("peer_worker: adapter {}", gpu.adapter);
-    let mut worker = Worker { gpu, scene: None, current: None };
+    let mut worker = Worker { gpu, scenes: HashMap::new() };
     let stdin = std::io::stdin();
     let mut stdout = std::io::stdout();
     for line in stdin.lock().lines() {
@@ -59,6 +69,11 @@ fn text<'a>(request: &'a Value, key: &str) -> Result<&'a str, String> {
     request[key].as_str().ok_or_else(|| format!("`{key}` is missing"))
 }
 
+/// The name of the scene `request` is about: `key`'s value, `"vrsc"` when left out.
+fn scene_name<'a>(request: &'a Value, key: &str) -> &'a str {
+    request[key].as_str().unwrap_or("vrsc")
+}
+
 impl Worker {
     fn handle(&mut self, request: &Value) -> Result<Value, String> {
         match text(request, "cmd")? {
@@ -76,24 +91,31 @@ impl Worker {
         let n = request["phantom_size"].as_u64().unwrap_or(128) as u32;
         let options = RenderOptions { size, phantom_size: [n; 3] };
         let path = Path::new(text(request, "scene")?);
-        self.scene = None;
-        self.current = None;
-        let scene =
+        let name = scene_name(request, "as");
+        self.scenes.remove(name);
+        let mut renderer =
             SceneRenderer::open(self.gpu.clone(), path, options, &mut |_, _, _| {}).map_err(|e| e.to_string())?;
-        self.scene = Some(scene);
+        if renderer.has_bricked() {
+            // Streams every brick the views need: timed frames find them resident.
+            renderer.render_all().map_err(|e| e.to_string())?;
+        }
+        self.scenes.insert(name.to_string(), OpenScene { renderer, current: None });
         Ok(json!({ "ok": true }))
     }
 
-    /// The scene with view 0 rendering `request`'s shader and uniforms.
+    /// The scene `request` names with view 0 rendering its shader (or the scene's own) and its
+    /// uniforms.
     fn ready(&mut self, request: &Value) -> Result<&mut SceneRenderer, String> {
-        let dir = PathBuf::from(text(request, "shader")?);
-        let view = text(request, "view")?;
-        let scene = self.scene.as_mut().ok_or("no scene is open")?;
-        if self.current.as_ref() != Some(&dir) {
-            let shader = ViewShader::load_view(&dir, view).map_err(|e| e.to_string())?;
-            scene.replace_shader(0, shader).map_err(|e| e.to_string())?;
-            self.current = Some(dir);
+        let name = scene_name(request, "scene");
+        let open = self.scenes.get_mut(name).ok_or_else(|| format!("no scene `{name}` is open"))?;
+        if let Some(dir) = request["shader"].as_str().map(PathBuf::from)
+            && open.current.as_ref() != Some(&dir)
+        {
+            let shader = ViewShader::load_view(&dir, text(request, "view")?).map_err(|e| e.to_string())?;
+            open.renderer.replace_shader(0, shader).map_err(|e| e.to_string())?;
+            open.current = Some(dir);
         }
+        let scene = &mut open.renderer;
         // A new shader starts from its reflection's defaults: the scene's values again.
         if let Some(uniforms) = request["uniforms"].as_object() {
             let renderer = &mut scene.views[0].renderer;
