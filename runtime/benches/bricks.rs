@@ -57,17 +57,19 @@ fn breakdown(standard: &str) -> Vec<(String, String)> {
         assert_eq!(text.matches(from).count(), 1, "the breakdown expects `{from}` once in stdlib/bricks.wgsl");
         text.replace(from, to)
     };
-    // The fallback loop run once, as when every brick is resident: straight-line code.
+    // The fallback loop run once, as when every brick is resident: its body as straight-line
+    // code, its variables bound where they were assigned.
     let start = standard.find("    var x: vec3f;").expect("the loop's variables");
     let end = standard.find("    // A resident brick's slot").expect("the code after the loop");
-    let body = "    let scale = bitcast<f32>((127 - level) << 23);
-    let x = clamp(x0 * scale, vec3f(0.5), ceil(NAME_layout.grid.xyz * scale) - 0.5);
-    let brick = floor(x * (1.0 / edge));
-    let lo = brick * edge;
-    let index = i32(dot(vec4f(brick, f32(level)), NAME_layout.table));
-    let entry = NAME_pages[index];
-    NAME_requests[index] = select(2u, 1u, entry == 0u);
-";
+    let body_start = standard.find("    loop {\n").expect("the loop") + "    loop {\n".len();
+    let body_end = standard.find("        // Missing: the next coarser level answers").expect("the loop's end");
+    let mut body: String = standard[body_start..body_end]
+        .lines()
+        .map(|line| format!("{}\n", line.strip_prefix("    ").unwrap_or(line)))
+        .collect();
+    for variable in ["x", "lo", "entry"] {
+        body = edit(&body, &format!("\n    {variable} = "), &format!("\n    let {variable} = "));
+    }
     let no_loop = format!("{}{body}{}", &standard[..start], &standard[end..]);
     let no_loop = edit(&no_loop, "    var level = min(", "    let level = min(");
     let level_0 = edit(
