@@ -110,6 +110,7 @@ pub fn group_entries<'a>(
     };
     in_group(reflection, group)
         .map(|b| {
+            let bricked = || shared.bricked.get(&b.name).ok_or_else(|| missing("bricked volume", &b.name));
             let resource = match b.kind {
                 BindingKind::UniformBlock => own.uniforms.as_entire_binding(),
                 BindingKind::OutputImage => wgpu::BindingResource::TextureView(own.output),
@@ -130,21 +131,9 @@ pub fn group_entries<'a>(
                     &shared.tfs.get(&b.name).ok_or_else(|| missing("transfer function", &b.name))?.view,
                 ),
                 BindingKind::VolumeSampler | BindingKind::TfSampler => wgpu::BindingResource::Sampler(&shared.sampler),
-                BindingKind::BrickPool => wgpu::BindingResource::TextureView(
-                    &shared.bricked.get(&b.name).ok_or_else(|| missing("bricked volume", &b.name))?.pool_view,
-                ),
-                BindingKind::PageTable => shared
-                    .bricked
-                    .get(&b.name)
-                    .ok_or_else(|| missing("bricked volume", &b.name))?
-                    .pages
-                    .as_entire_binding(),
-                BindingKind::BrickRequests => shared
-                    .bricked
-                    .get(&b.name)
-                    .ok_or_else(|| missing("bricked volume", &b.name))?
-                    .requests
-                    .as_entire_binding(),
+                BindingKind::BrickPool => wgpu::BindingResource::TextureView(&bricked()?.pool_view),
+                BindingKind::PageTable => bricked()?.pages.as_entire_binding(),
+                BindingKind::BrickRequests => bricked()?.requests.as_entire_binding(),
                 BindingKind::BrickLayout => {
                     own.brick_layouts.get(&b.name).ok_or_else(|| missing("brick layout", &b.name))?.as_entire_binding()
                 }
