@@ -89,7 +89,7 @@ impl Worker {
         let size =
             request["size"].as_array().and_then(|s| Some([s.first()?.as_u64()? as u32, s.get(1)?.as_u64()? as u32]));
         let n = request["phantom_size"].as_u64().unwrap_or(128) as u32;
-        let options = RenderOptions { size, phantom_size: [n; 3] };
+        let options = RenderOptions { size, phantom_size: [n; 3], ..RenderOptions::default() };
         let path = Path::new(text(request, "scene")?);
         let name = scene_name(request, "as");
         self.scenes.remove(name);

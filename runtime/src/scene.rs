@@ -37,11 +37,14 @@ pub struct RenderOptions {
     pub size: Option<[u32; 2]>,
     /// Grid size of built-in phantoms.
     pub phantom_size: [u32; 3],
+    /// Volumes the application holds in memory, by their names in the scene: each is read from
+    /// its feed instead of its `path` or `phantom` (see [`crate::volume::VolumeFeed`]).
+    pub feeds: volume::Feeds,
 }
 
 impl Default for RenderOptions {
     fn default() -> RenderOptions {
-        RenderOptions { size: None, phantom_size: [128, 128, 128] }
+        RenderOptions { size: None, phantom_size: [128, 128, 128], feeds: volume::Feeds::new() }
     }
 }
 
@@ -180,7 +183,7 @@ impl SceneRenderer {
         self.notices = notices;
         self.grids = loaded.grids;
         self.skipping = loaded.ranges;
-        self.volumes_key = volumes_key(scene);
+        self.volumes_key = volumes_key(scene, &self.options.feeds);
         self.derived.generation += 1;
         self.upload_max_grid();
         self.update_occupancy();
@@ -240,7 +243,7 @@ impl SceneRenderer {
     /// leaves the renderer as it was.
     pub fn apply(&mut self, cached: &CachedBuild) -> Result<Applied, RuntimeError> {
         let scene = composed_scene(&cached.built, cached.scene.clone())?;
-        let key = volumes_key(&scene);
+        let key = volumes_key(&scene, &self.options.feeds);
         let volumes_reloaded = key != self.volumes_key;
         if volumes_reloaded {
             self.load_scene_volumes(&scene, &mut |_, _, _| {})?;
@@ -272,12 +275,31 @@ impl SceneRenderer {
         self.render_resident(SceneRenderer::render_all_once)
     }
 
+    /// Renders view `index` alone, as [`SceneRenderer::render_all`] renders each view (an
+    /// application that shows one view at a time need not render the others).
+    pub fn render_view(&mut self, index: usize) -> Result<image::RgbaImage, RuntimeError> {
+        if index >= self.views.len() {
+            return Err(RuntimeError::Invalid(format!("the scene has no view {index}")));
+        }
+        let images = self.render_resident(|scene| scene.render_views_once(index..index + 1))?;
+        let image = images.into_iter().next().map(|(_, image)| image);
+        image.ok_or_else(|| RuntimeError::Invalid(format!("view {index} gave no image")))
+    }
+
     /// Renders every view once with the bricks resident now.
     fn render_all_once(&mut self) -> Result<Vec<(String, image::RgbaImage)>, RuntimeError> {
+        self.render_views_once(0..self.views.len())
+    }
+
+    /// Renders views `indices` once with the bricks resident now.
+    fn render_views_once(
+        &mut self,
+        indices: std::ops::Range<usize>,
+    ) -> Result<Vec<(String, image::RgbaImage)>, RuntimeError> {
         self.update_light_volumes()?;
         self.update_followed_meshes()?;
         let mut images = Vec::new();
-        for index in 0..self.views.len() {
+        for index in indices {
             self.render_planes(index)?;
             let view = &mut self.views[index];
             apply_view_uniforms(view, &self.grids)?;
@@ -476,12 +498,13 @@ impl SceneRenderer {
 }
 
 /// Everything of a scene's volumes that loading reads: equal keys, same textures.
-fn volumes_key(scene: &Scene) -> String {
+fn volumes_key(scene: &Scene, feeds: &volume::Feeds) -> String {
     let mut key = format!("skip {}\n", scene.skips_empty_space());
     for v in &scene.volumes {
-        let source = match &v.source {
-            VolumeSource::File(f) => f.resolved.display().to_string(),
-            VolumeSource::Phantom(p) => format!("phantom {}", p.value),
+        let source = match (feeds.get(&v.name.name), &v.source) {
+            (Some(feed), _) => format!("feed {}", feed.version()),
+            (None, VolumeSource::File(f)) => f.resolved.display().to_string(),
+            (None, VolumeSource::Phantom(p)) => format!("phantom {}", p.value),
         };
         let tf = match &v.tf {
             Some(TfRef::Preset(p)) => format!("preset {}", p.value),
@@ -650,6 +673,12 @@ fn load_volumes(
             let bricks = ranges.then(|| crate::occupancy::BrickRanges::new(&data, Some(window)));
             Ok((VolumeTexture::upload(gpu, name, &data, Some(window))?, window, bricks))
         };
+        let fed = options.feeds.get(name);
+        if v.bricked && fed.is_some() {
+            return Err(RuntimeError::Invalid(format!(
+                "volume `{name}`: a volume held in memory is kept in one texture, not in bricks (`bricks = true`)"
+            )));
+        }
         if v.bricked {
             let report = &mut |done, total| progress(name, done, total);
             let source = match (&v.source, &v.fallback) {
@@ -681,6 +710,14 @@ fn load_volumes(
             continue;
         }
         let (texture, window, bricks) = match (&v.source, &v.fallback) {
+            (source, _) if let Some(feed) = fed => {
+                let path = match source {
+                    VolumeSource::File(file) => file.resolved.clone(),
+                    VolumeSource::Phantom(p) => PathBuf::from(&p.value),
+                };
+                let report = &mut |done, total| progress(name, done, total);
+                VolumeTexture::stream_feed(gpu, name, &path, feed.as_ref(), fixed, ranges, report)?
+            }
             (VolumeSource::File(file), Some(fallback)) if !file.resolved.exists() => {
                 notices.push(format!(
                     "volume `{name}`: `{}` is absent; using the built-in `{}` phantom instead",

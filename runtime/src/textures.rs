@@ -5,7 +5,9 @@ use crate::error::RuntimeError;
 use crate::gpu::{Gpu, GpuFault};
 use crate::occupancy::{BrickRanges, RangeBuilder};
 use crate::tf::{TF_WIDTH, TransferFunction};
-use crate::volume::{Histogram, LoadErrorKind, RangeSink, SampleSink, Samples, Volume, VolumeInfo, Window};
+use crate::volume::{
+    Histogram, LoadError, LoadErrorKind, RangeSink, SampleSink, Samples, Volume, VolumeFeed, VolumeInfo, Window,
+};
 use glam::Mat4;
 
 /// A volume as a 3D `R16Float` texture of values normalized to [0, 1], uploaded a slab at a time.
@@ -55,11 +57,47 @@ impl VolumeTexture {
         ranges: bool,
         progress: &mut dyn FnMut(u64, u64),
     ) -> Result<(VolumeTexture, [f32; 2], Option<BrickRanges>), RuntimeError> {
+        let mut source = |report: &mut dyn FnMut(u64, u64), sink: &mut dyn SampleSink| {
+            crate::volume::stream(path, report, sink).map_err(RuntimeError::from)
+        };
+        VolumeTexture::stream_passes(gpu, name, window, ranges, progress, &mut source)
+    }
+
+    /// [`VolumeTexture::stream_file`] for a volume the application holds in memory: read where
+    /// it lies, a chunk at a time, in as many passes as a file. `path` names it in errors.
+    pub fn stream_feed(
+        gpu: &Gpu,
+        name: &str,
+        path: &std::path::Path,
+        feed: &dyn VolumeFeed,
+        window: Option<[f32; 2]>,
+        ranges: bool,
+        progress: &mut dyn FnMut(u64, u64),
+    ) -> Result<(VolumeTexture, [f32; 2], Option<BrickRanges>), RuntimeError> {
+        let mut source = |report: &mut dyn FnMut(u64, u64), sink: &mut dyn SampleSink| {
+            let info = crate::volume::stream_feed(feed, sink)
+                .map_err(|kind| RuntimeError::Volume(LoadError { path: path.to_path_buf(), kind }))?;
+            report(1, 1);
+            Ok(info)
+        };
+        VolumeTexture::stream_passes(gpu, name, window, ranges, progress, &mut source)
+    }
+
+    /// The passes of [`VolumeTexture::stream_file`] over any `source` that streams a volume
+    /// into a sink (reporting its progress), once per pass.
+    fn stream_passes(
+        gpu: &Gpu,
+        name: &str,
+        window: Option<[f32; 2]>,
+        ranges: bool,
+        progress: &mut dyn FnMut(u64, u64),
+        source: &mut dyn FnMut(&mut dyn FnMut(u64, u64), &mut dyn SampleSink) -> Result<VolumeInfo, RuntimeError>,
+    ) -> Result<(VolumeTexture, [f32; 2], Option<BrickRanges>), RuntimeError> {
         let passes = if window.is_some() { 1 } else { 3 };
         let mut pass = 0;
         let mut stream = |sink: &mut dyn SampleSink| {
             let mut report = |done: u64, total: u64| progress(pass * total + done, passes * total);
-            let info = crate::volume::stream(path, &mut report, sink);
+            let info = source(&mut report, sink);
             pass += 1;
             info
         };

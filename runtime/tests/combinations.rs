@@ -31,7 +31,7 @@ fn every_combination_renders_or_is_refused_at_build() {
         let dir = tempfile::tempdir().expect("a temporary folder");
         let path = dir.path().join("scene.toml");
         std::fs::write(&path, group[0].scene()).expect("scene written");
-        let options = RenderOptions { size: Some([16, 16]), phantom_size: [24, 24, 24] };
+        let options = RenderOptions { size: Some([16, 16]), phantom_size: [24, 24, 24], ..RenderOptions::default() };
         let mut renderer = SceneRenderer::open(gpu.clone(), &path, options, &mut |_, _, _| {})
             .unwrap_or_else(|e| panic!("{}: {e}", group[0].describe()));
         for cell in group {
@@ -82,7 +82,7 @@ fn every_combination_with_bricked_volumes_renders_or_is_refused_at_build() {
         let dir = tempfile::tempdir().expect("a temporary folder");
         let path = dir.path().join("scene.toml");
         std::fs::write(&path, bricked(&group[0])).expect("scene written");
-        let options = RenderOptions { size: Some([16, 16]), phantom_size: [24, 24, 24] };
+        let options = RenderOptions { size: Some([16, 16]), phantom_size: [24, 24, 24], ..RenderOptions::default() };
         let mut renderer = SceneRenderer::open(gpu.clone(), &path, options, &mut |_, _, _| {})
             .unwrap_or_else(|e| panic!("{} (bricked): {e}", group[0].describe()));
         assert!(renderer.has_bricked(), "{}: no bricked volume", group[0].describe());
@@ -109,7 +109,7 @@ fn every_light_option_renders_or_is_refused_at_build() {
         let path = dir.path().join("scene.toml");
         let first = LightCell { shadows: "off", ..group[0] };
         std::fs::write(&path, first.scene()).expect("scene written");
-        let options = RenderOptions { size: Some([16, 16]), phantom_size: [24, 24, 24] };
+        let options = RenderOptions { size: Some([16, 16]), phantom_size: [24, 24, 24], ..RenderOptions::default() };
         let mut renderer = SceneRenderer::open(gpu.clone(), &path, options, &mut |_, _, _| {})
             .unwrap_or_else(|e| panic!("{}: {e}", first.describe()));
         for cell in group {
@@ -152,7 +152,7 @@ fn every_mesh_option_renders() {
         let path = dir.path().join("scene.toml");
         std::fs::write(dir.path().join("target.vrs"), MeshCell::TARGET_MODULE).expect("module written");
         std::fs::write(&path, group[0].scene()).expect("scene written");
-        let options = RenderOptions { size: Some([16, 16]), phantom_size: [24, 24, 24] };
+        let options = RenderOptions { size: Some([16, 16]), phantom_size: [24, 24, 24], ..RenderOptions::default() };
         let mut renderer = SceneRenderer::open(gpu.clone(), &path, options, &mut |_, _, _| {})
             .unwrap_or_else(|e| panic!("{}: {e}", group[0].describe()));
         for cell in group {

@@ -10,6 +10,7 @@
 //! different formats line up.
 
 mod dicom;
+mod feed;
 mod header;
 pub mod histogram;
 mod mhd;
@@ -29,6 +30,7 @@ use std::path::{Path, PathBuf};
 
 use glam::{Mat4, Vec3, Vec4};
 
+pub use feed::{Feeds, VolumeFeed, stream_feed};
 pub use header::{MAX_ANISOTROPY, MAX_SPACING, MIN_SPACING, header};
 pub use histogram::{Histogram, auto_window};
 pub use phantom::{PHANTOMS, UnknownPhantom, phantom};
