@@ -173,10 +173,13 @@ fn check_finite(array: &Bound<'_, PyUntypedArray>, dtype: Dtype) -> PyResult<()>
     }
 }
 
+/// Where a sample that is not finite is, and what it holds.
+type BadSample = ((usize, usize, usize), String);
+
 fn first_non_finite<T: Element + Copy + std::fmt::Display>(
     array: &Bound<'_, PyUntypedArray>,
     finite: impl Fn(T) -> bool,
-) -> PyResult<Option<((usize, usize, usize), String)>> {
+) -> PyResult<Option<BadSample>> {
     let typed = array.cast::<PyArray3<T>>()?;
     let readonly = typed.try_readonly().map_err(|e| PyValueError::new_err(format!("cannot read the array: {e}")))?;
     let view = readonly.as_array();

@@ -454,7 +454,9 @@ fn current(state: &State, name: &str) -> Outcome<(String, Value)> {
         .renderer
         .views
         .iter()
-        .flat_map(|v| v.renderer.shader().reflection.uniforms.iter().map(|u| u.name.clone()))
+        .flat_map(|v| {
+            v.renderer.shader().reflection.uniforms.iter().filter(|u| u.offset.is_some()).map(|u| u.name.clone())
+        })
         .collect::<std::collections::BTreeSet<_>>()
         .into_iter()
         .collect();

@@ -119,7 +119,7 @@ pub fn to_python<'py>(py: Python<'py>, ty: &str, value: &Value) -> PyResult<Boun
     };
     if let Some(rows) = matrix_rows(ty)
         && rows > 0
-        && items.len() % rows == 0
+        && items.len().is_multiple_of(rows)
     {
         let columns: Vec<Bound<'py, PyList>> =
             items.chunks(rows).map(|col| PyList::new(py, col)).collect::<PyResult<_>>()?;

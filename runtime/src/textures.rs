@@ -91,7 +91,7 @@ impl VolumeTexture {
         window: Option<[f32; 2]>,
         ranges: bool,
         progress: &mut dyn FnMut(u64, u64),
-        source: &mut dyn FnMut(&mut dyn FnMut(u64, u64), &mut dyn SampleSink) -> Result<VolumeInfo, RuntimeError>,
+        source: &mut StreamPass,
     ) -> Result<(VolumeTexture, [f32; 2], Option<BrickRanges>), RuntimeError> {
         let passes = if window.is_some() { 1 } else { 3 };
         let mut pass = 0;
@@ -123,6 +123,10 @@ impl VolumeTexture {
         Ok((texture, window, ranges))
     }
 }
+
+/// One pass over a volume's samples into a sink, reporting its progress (done, total): a file
+/// read, or an application's feed.
+type StreamPass<'a> = dyn FnMut(&mut dyn FnMut(u64, u64), &mut dyn SampleSink) -> Result<VolumeInfo, RuntimeError> + 'a;
 
 /// Creates its [`TextureWriter`] when the loader announces the grid (`begin`), so one pass
 /// both reads the header and fills the texture.
