@@ -23,7 +23,7 @@ mod derived;
 mod meshes;
 mod probe;
 mod tf_edit;
-pub use bricked::BrickProgress;
+pub use bricked::{BrickProgress, open_store, selection, store_location};
 pub use meshes::{MeshHandle, mesh_surface};
 pub use probe::{ProbeAt, ProbeImage, ProbeSpec};
 pub use tf_edit::VolumeStatus;
@@ -504,6 +504,7 @@ fn volumes_key(scene: &Scene, feeds: &volume::Feeds) -> String {
         let source = match (feeds.get(&v.name.name), &v.source) {
             (Some(feed), _) => format!("feed {}", feed.version()),
             (None, VolumeSource::File(f)) => f.resolved.display().to_string(),
+            (None, VolumeSource::Url(u)) => format!("url {}", u.value),
             (None, VolumeSource::Phantom(p)) => format!("phantom {}", p.value),
         };
         let tf = match &v.tf {
@@ -517,7 +518,8 @@ fn volumes_key(scene: &Scene, feeds: &volume::Feeds) -> String {
         };
         let fallback = v.fallback.as_ref().map(|f| f.value.as_str());
         let window = format!("{:?}", v.window.as_ref().map(|w| w.value));
-        key.push_str(&format!("{} {:?} {source} {tf} {fallback:?} {window}\n", v.name.name, v.role.value));
+        let zarr = format!("{:?}", v.zarr);
+        key.push_str(&format!("{} {:?} {source} {tf} {fallback:?} {window} {zarr}\n", v.name.name, v.role.value));
     }
     key
 }
@@ -680,6 +682,8 @@ fn load_volumes(
             )));
         }
         if v.bricked {
+            // The source's cache for built levels: its part of this volume's host budget.
+            let cache = crate::bricks::cache_bytes(scene.memory.host / bricked::sharing(scene).max(1));
             let report = &mut |done, total| progress(name, done, total);
             let source = match (&v.source, &v.fallback) {
                 (VolumeSource::File(file), Some(fallback)) if !file.resolved.exists() => {
@@ -688,9 +692,9 @@ fn load_volumes(
                         file.resolved.display(),
                         fallback.value
                     ));
-                    bricked::open_source(&VolumeSource::Phantom(fallback.clone()), phantom, report)?
+                    bricked::open_source(&VolumeSource::Phantom(fallback.clone()), &v.zarr, cache, phantom, report)?
                 }
-                (source, _) => bricked::open_source(source, phantom, report)?,
+                (source, _) => bricked::open_source(source, &v.zarr, cache, phantom, report)?,
             };
             let budget = (&scene.memory, bricked::sharing(scene));
             let (volume, window, histogram) = bricked::load(gpu, name, source, fixed, budget, grids.first())?;
@@ -713,6 +717,7 @@ fn load_volumes(
             (source, _) if let Some(feed) = fed => {
                 let path = match source {
                     VolumeSource::File(file) => file.resolved.clone(),
+                    VolumeSource::Url(u) => PathBuf::from(&u.value),
                     VolumeSource::Phantom(p) => PathBuf::from(&p.value),
                 };
                 let report = &mut |done, total| progress(name, done, total);
@@ -726,8 +731,13 @@ fn load_volumes(
                 ));
                 uploaded(phantom(&fallback.value)?)?
             }
+            (VolumeSource::Url(url), _) => {
+                let store = crate::bricks::zarr::StoreLocation::Url(url.value.clone());
+                uploaded(bricked::zarr_volume(&store, &v.zarr)?)?
+            }
             (VolumeSource::File(file), _) if vscene::is_zarr(&file.resolved) => {
-                uploaded(bricked::zarr_volume(&file.resolved)?)?
+                let store = crate::bricks::zarr::StoreLocation::Path(file.resolved.clone());
+                uploaded(bricked::zarr_volume(&store, &v.zarr)?)?
             }
             (VolumeSource::File(file), _) => {
                 let report = &mut |done, total| progress(name, done, total);

@@ -26,7 +26,7 @@ fn copy_example(name: &str, dir: &Path) {
 fn small(scene: &Path) -> RenderOptions {
     let in_mm = std::fs::read_to_string(scene).is_ok_and(|text| text.contains("[[mesh]]"));
     let side = if in_mm { 128 } else { 64 };
-    RenderOptions { size: Some([96, 96]), phantom_size: [side; 3] }
+    RenderOptions { size: Some([96, 96]), phantom_size: [side; 3], ..RenderOptions::default() }
 }
 
 fn open(scene: &Path) -> SceneRenderer {

@@ -12,7 +12,7 @@ use vrs_runtime::{ProbeAt, ProbeSpec, RenderOptions, SceneRenderer};
 fn open(scene: &str) -> SceneRenderer {
     let gpu = common::software_gpu();
     let side = if scene.contains("ablation") { 128 } else { 64 };
-    let options = RenderOptions { phantom_size: [side; 3], size: Some([96, 96]) };
+    let options = RenderOptions { phantom_size: [side; 3], size: Some([96, 96]), ..RenderOptions::default() };
     let path = common::root().join(scene);
     SceneRenderer::open(gpu, &path, options, &mut |_, _, _| {}).unwrap_or_else(|e| panic!("{scene}: {e}"))
 }

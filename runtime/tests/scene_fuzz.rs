@@ -1217,7 +1217,8 @@ impl Case {
         }
         let scene = built.scene.as_ref().ok_or("a build without errors and without a scene")?;
         let small = scene.views.iter().all(|v| v.size[0] <= OWN_SIZE_LIMIT && v.size[1] <= OWN_SIZE_LIMIT);
-        let options = RenderOptions { size: (!small).then_some([8, 8]), phantom_size: [16, 16, 16] };
+        let options =
+            RenderOptions { size: (!small).then_some([8, 8]), phantom_size: [16, 16, 16], ..RenderOptions::default() };
         let _ = gpu.take_fault();
         let opened = SceneRenderer::from_built(gpu.clone(), &path, scene, &built, options, &mut |_, _, _| {});
         let fault = |stage: &str| gpu.take_fault().map(|f| format!("a wgpu error escaped while {stage}: {f}"));

@@ -140,15 +140,21 @@ pub fn show(
 }
 
 /// The residency of the scene's bricked volumes in one line, e.g. `bricks: 65 of 512 slots
-/// resident · 12 loading · 227 of one value`.
+/// resident · 12 loading · 3 requested · 227 of one value`.
 pub fn brick_line(progress: &BrickProgress) -> String {
     let r = progress.residency;
     let mut line = format!("bricks: {} of {} slots resident", r.resident, r.slots);
     if r.pending > 0 {
         line += &format!(" · {} loading", r.pending);
     }
+    if progress.asked > 0 {
+        line += &format!(" · {} requested", progress.asked);
+    }
     line += &format!(" · {} of one value", r.constant);
-    if r.refused > 0 {
+    if r.floor > 0 {
+        // The pictures ask for more than the pool holds: they show a coarser level throughout.
+        line += &format!(" · level {} and coarser shown (memory budget)", r.floor);
+    } else if r.refused > 0 {
         // The pool is full: the rays show those parts from a coarser level.
         line += " · memory budget full, parts shown coarser";
     }
@@ -463,5 +469,8 @@ mod tests {
         let settled = Residency { pending: 0, refused: 3, ..residency };
         let line = brick_line(&BrickProgress { residency: settled, ..progress });
         assert!(!line.contains("loading") && line.ends_with("parts shown coarser"), "{line}");
+        let coarse = Residency { floor: 2, ..settled };
+        let line = brick_line(&BrickProgress { residency: coarse, asked: 4, ..progress });
+        assert!(line.contains("4 requested") && line.ends_with("level 2 and coarser shown (memory budget)"), "{line}");
     }
 }

@@ -13,6 +13,7 @@
 //! checked), and a built-in shape whose points are all numbers is made.
 
 use std::path::Path;
+use vrs_runtime::bricks::zarr::{StoreLocation, ZarrSource};
 use vrs_runtime::{tf, volume};
 use vrsc::diag::{Code, Diagnostic};
 use vrsc::scene::{MeshSource, Scene, TfRef, VolumeSource};
@@ -29,10 +30,19 @@ pub fn check_scene_inputs(scene: &Scene) -> Vec<Diagnostic> {
                     out.push(invalid(name.span, e.to_string(), "not a built-in phantom"));
                 }
             }
+            VolumeSource::Url(url) => {
+                let location = StoreLocation::Url(url.value.clone());
+                if let Err(e) = ZarrSource::open_at(&location, &vrs_runtime::scene::selection(&v.zarr), 1 << 20) {
+                    let d = invalid(url.span, format!("cannot read volume `{}`: {e}", url.value), "this store");
+                    out.push(d.with_help("check the URL and that the server answers"));
+                }
+            }
             VolumeSource::File(file) if !file.resolved.exists() && v.fallback.is_some() => {}
             VolumeSource::File(file) => {
                 let header = if vrsc::scene::is_zarr(&file.resolved) {
-                    vrs_runtime::bricks::zarr::ZarrSource::open(&file.resolved).map(|_| ()).map_err(|e| e.to_string())
+                    let location = StoreLocation::Path(file.resolved.clone());
+                    let selection = vrs_runtime::scene::selection(&v.zarr);
+                    ZarrSource::open_at(&location, &selection, 1 << 20).map(|_| ()).map_err(|e| e.to_string())
                 } else {
                     volume::header(&file.resolved).map(|_| ()).map_err(|e| e.kind.to_string())
                 };

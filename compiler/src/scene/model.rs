@@ -180,6 +180,8 @@ pub struct Volume {
     /// `lookup = "FILE.wgsl"`: the volume's own brick lookup in place of `stdlib/bricks.wgsl`
     /// (same interface), when it is bricked.
     pub lookup: Option<FileRef>,
+    /// What of a Zarr store the volume shows (`multiscale`, `channel`, `time`).
+    pub zarr: ZarrKeys,
     /// The whole `[[volume]]` table.
     pub span: Span,
 }
@@ -199,11 +201,38 @@ pub fn is_zarr(path: &std::path::Path) -> bool {
         || ["zarr.json", ".zarray", ".zgroup"].iter().any(|m| path.join(m).is_file())
 }
 
+/// `multiscale`, `channel` and `time` of a `[[volume]]` table: what of a Zarr store it shows.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ZarrKeys {
+    /// The OME multiscale (the first when absent).
+    pub multiscale: Option<Located<Entry>>,
+    /// The channel, by index or by its `omero` label.
+    pub channel: Option<Located<Entry>>,
+    /// The time point.
+    pub time: Option<Located<u64>>,
+}
+
+/// An entry of a store's list: its index or its name.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Entry {
+    Index(u64),
+    Name(String),
+}
+
+/// Whether `path` names a remote store: it has a URL scheme (`https://`, `s3://`, ...).
+pub fn is_url(path: &str) -> bool {
+    path.split_once("://").is_some_and(|(scheme, _)| {
+        !scheme.is_empty() && scheme.chars().all(|c| c.is_ascii_alphanumeric() || "+-.".contains(c))
+    })
+}
+
 /// Where a volume's samples come from.
 #[derive(Clone, Debug, PartialEq)]
 pub enum VolumeSource {
     /// `path = "..."`.
     File(FileRef),
+    /// `path = "https://..."`: a Zarr store served over HTTP(S).
+    Url(Located<String>),
     /// `phantom = "NAME"`: a built-in data set of the runtime.
     Phantom(Located<String>),
 }

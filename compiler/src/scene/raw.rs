@@ -81,9 +81,34 @@ pub(super) struct RawVolume {
     pub(super) width: Option<Spanned<f32>>,
     pub(super) bricks: Option<Spanned<bool>>,
     pub(super) lookup: Option<Spanned<String>>,
+    pub(super) multiscale: Option<Spanned<RawEntry>>,
+    pub(super) channel: Option<Spanned<RawEntry>>,
+    pub(super) time: Option<Spanned<i64>>,
 }
-pub(super) const VOLUME_KEYS: &[&str] =
-    &["name", "role", "path", "phantom", "fallback", "tf", "window", "level", "width", "bricks", "lookup"];
+pub(super) const VOLUME_KEYS: &[&str] = &[
+    "name",
+    "role",
+    "path",
+    "phantom",
+    "fallback",
+    "tf",
+    "window",
+    "level",
+    "width",
+    "bricks",
+    "lookup",
+    "multiscale",
+    "channel",
+    "time",
+];
+
+/// An entry of a store's list, by index or by name.
+#[derive(Deserialize)]
+#[serde(untagged)]
+pub(super) enum RawEntry {
+    Index(i64),
+    Name(String),
+}
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]

@@ -435,3 +435,41 @@ fn a_lookup_belongs_to_a_bricked_volume() {
         [("W0701", "`lookup` has no effect on a volume kept in one texture (`bricks = true` keeps it in bricks)")]
     );
 }
+
+#[test]
+fn zarr_keys_choose_what_a_store_shows() {
+    let store = MINIMAL.replace(
+        "phantom = \"sphere\"\n",
+        "path = \"https://example.org/cells.ome.zarr\"\nmultiscale = \"raw\"\nchannel = 2\ntime = 0\n",
+    );
+    let (_, scene, warnings) = parse_reporting(&store);
+    let scene = scene.unwrap_or_else(|| panic!("{warnings:?}"));
+    assert!(warnings.is_empty(), "{warnings:?}");
+    let v = scene.primary();
+    assert!(matches!(&v.source, VolumeSource::Url(u) if u.value == "https://example.org/cells.ome.zarr"));
+    assert!(v.bricked, "a remote store is kept in bricks");
+    assert_eq!(v.zarr.multiscale.as_ref().map(|m| &m.value), Some(&Entry::Name("raw".into())));
+    assert_eq!(v.zarr.channel.as_ref().map(|m| &m.value), Some(&Entry::Index(2)));
+    assert_eq!(v.zarr.time.as_ref().map(|t| t.value), Some(0));
+    // On a volume that is no store they do nothing; a negative index is an error.
+    let phantom = MINIMAL.replace("phantom = \"sphere\"\n", "phantom = \"sphere\"\nchannel = 1\n");
+    let (_, scene, warnings) = parse_reporting(&phantom);
+    assert!(scene.is_some_and(|s| s.primary().zarr.channel.is_none()));
+    let w: Vec<_> = warnings.iter().map(|d| (d.code.as_str(), d.message.as_str())).collect();
+    assert_eq!(w, [("W0701", "`channel` has no effect on a volume that is not a Zarr store")]);
+    let negative = store.replace("time = 0", "time = -1");
+    let e = errors(&negative);
+    assert_eq!(e.len(), 1, "{e:?}");
+    assert_eq!((e[0].0, e[0].3.as_str()), ("E0702", "`time = -1` is negative"));
+}
+
+#[test]
+fn only_http_urls_name_remote_stores() {
+    for (url, scheme) in [("s3://bucket/cells.zarr", "s3"), ("gs://b/c.zarr", "gs"), ("file:///tmp/c.zarr", "file")] {
+        let text = MINIMAL.replace("phantom = \"sphere\"\n", &format!("path = \"{url}\"\n"));
+        let e = errors(&text);
+        assert_eq!(e.len(), 1, "{e:?}");
+        assert_eq!((e[0].0, e[0].3.clone()), ("E0702", format!("`{scheme}://` stores are not supported")));
+    }
+    assert!(is_url("http://host/a.zarr") && !is_url("data/a.zarr") && !is_url("C:\\data\\a.zarr"));
+}

@@ -413,7 +413,7 @@ impl Cx<'_> {
                 );
             }
             let source = match (v.path, v.phantom) {
-                (Some(path), None) => VolumeSource::File(self.file_ref(&path, "path")),
+                (Some(path), None) => self.volume_path(&path),
                 (None, Some(p)) => {
                     let span = self.span(&p);
                     if !is_identifier(p.get_ref()) {
@@ -444,6 +444,10 @@ impl Cx<'_> {
             let fallback = match (v.fallback, &source) {
                 (Some(f), VolumeSource::Phantom(_)) => {
                     self.ignored(&f, "fallback", "on a volume that is a phantom");
+                    None
+                }
+                (Some(f), VolumeSource::Url(_)) => {
+                    self.ignored(&f, "fallback", "on a remote store (an unreachable server is an error)");
                     None
                 }
                 (Some(f), _) => {
@@ -482,7 +486,8 @@ impl Cx<'_> {
                 Some(path) => Some(self.file_ref(path, "lookup")),
                 None => None,
             };
-            out.push(Volume { name, role, source, fallback, tf, window, bricks, bricked, lookup, span });
+            let zarr = self.zarr_keys(&source, v.multiscale, v.channel, v.time);
+            out.push(Volume { name, role, source, fallback, tf, window, bricks, bricked, lookup, zarr, span });
         }
         if !out.iter().any(|v| v.role.value == Role::Primary) {
             let span = out.first().map_or(Span::new(self.base, self.base), |v| v.role.span);
@@ -508,6 +513,64 @@ impl Cx<'_> {
         } else {
             TfRef::File(self.file_ref(tf, "tf"))
         }
+    }
+
+    /// A volume's `path`: a file or folder relative to the scene, or the URL of a remote Zarr
+    /// store (`http://` and `https://` only: another scheme is an error here, at build).
+    fn volume_path(&mut self, path: &Spanned<String>) -> VolumeSource {
+        let given = path.get_ref();
+        if !is_url(given) {
+            return VolumeSource::File(self.file_ref(path, "path"));
+        }
+        let span = self.span(path);
+        let scheme = given.split_once("://").map_or("", |(s, _)| s).to_ascii_lowercase();
+        if scheme != "http" && scheme != "https" {
+            self.emit(
+                self.invalid(span, format!("`{scheme}://` stores are not supported"))
+                    .with_label("not an HTTP(S) URL")
+                    .with_help("a remote Zarr store is read over `https://` or `http://` (an S3 or GCS bucket by its HTTPS address)"),
+            );
+        }
+        VolumeSource::Url(Located { value: given.clone(), span })
+    }
+
+    /// `multiscale`, `channel` and `time`: for a Zarr store only, indices not negative.
+    fn zarr_keys(
+        &mut self,
+        source: &VolumeSource,
+        multiscale: Option<Spanned<RawEntry>>,
+        channel: Option<Spanned<RawEntry>>,
+        time: Option<Spanned<i64>>,
+    ) -> ZarrKeys {
+        let is_store = match source {
+            VolumeSource::File(f) => is_zarr(&f.resolved),
+            VolumeSource::Url(_) => true,
+            VolumeSource::Phantom(_) => false,
+        };
+        let entry = |cx: &mut Self, value: Option<Spanned<RawEntry>>, key: &str| -> Option<Located<Entry>> {
+            let value = value?;
+            let span = cx.span(&value);
+            if !is_store {
+                cx.ignored_at(span, key, "on a volume that is not a Zarr store");
+                return None;
+            }
+            match value.into_inner() {
+                RawEntry::Index(i) if i < 0 => {
+                    cx.emit(cx.invalid(span, format!("`{key} = {i}` is negative")).with_label("an index from 0"));
+                    None
+                }
+                RawEntry::Index(i) => Some(Located { value: Entry::Index(i as u64), span }),
+                RawEntry::Name(n) => Some(Located { value: Entry::Name(n), span }),
+            }
+        };
+        let multiscale = entry(self, multiscale, "multiscale");
+        let channel = entry(self, channel, "channel");
+        let time = entry(self, time.map(|t| Spanned::new(t.span(), RawEntry::Index(t.into_inner()))), "time");
+        let time = time.and_then(|t| match t.value {
+            Entry::Index(i) => Some(Located { value: i, span: t.span }),
+            Entry::Name(_) => None,
+        });
+        ZarrKeys { multiscale, channel, time }
     }
 
     pub(super) fn file_ref(&mut self, path: &Spanned<String>, key: &str) -> FileRef {
@@ -813,6 +876,10 @@ pub(crate) fn parse_bytes(text: &str) -> Option<u64> {
 /// of the GPU budget (its samples as half floats would take at least half of it, more for 8-bit
 /// data). Decided from the file system alone, so `vrsc explain` and the renderer agree.
 fn outgrows_a_texture(source: &VolumeSource, memory: &Memory) -> bool {
-    let VolumeSource::File(file) = source else { return false };
+    let file = match source {
+        VolumeSource::File(file) => file,
+        VolumeSource::Url(_) => return true,
+        VolumeSource::Phantom(_) => return false,
+    };
     is_zarr(&file.resolved) || std::fs::metadata(&file.resolved).is_ok_and(|m| m.is_file() && m.len() > memory.gpu / 4)
 }

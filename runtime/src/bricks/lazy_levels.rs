@@ -12,8 +12,12 @@ use super::pyramid::cut_brick;
 use super::source::stored_origin;
 use super::{BRICK, BrickData, BrickError, Level, STORED};
 
-/// Bytes of finer-level bricks kept to build the coarse levels a source does not store.
-pub const CACHE_BYTES: u64 = 256 << 20;
+/// Bytes of finer-level bricks kept to build the coarse levels a source does not store, out of
+/// a volume's host budget of `host` bytes: a quarter, at most 256 MiB (the rest holds the
+/// loader's normalized bricks, `loader.rs`).
+pub fn cache_bytes(host: u64) -> u64 {
+    (host / 4).min(256 << 20)
+}
 
 /// Builds bricks of levels a source lacks from the finer level, keeping the finer bricks it
 /// read in a [`BrickCache`] (each is read by up to 64 coarse bricks, their aprons included).

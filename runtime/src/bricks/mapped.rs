@@ -6,7 +6,8 @@
 //!   file's sample type and byte order to `f32` data units (with the file's scaling), exactly as
 //!   a load would convert it, so the bricks equal [`super::pyramid::PyramidSource`]'s.
 //! - The coarser levels are built on demand by box averaging (`lazy_levels`, as for a Zarr
-//!   array without a pyramid), the finer bricks kept in a cache of [`CACHE_BYTES`].
+//!   array without a pyramid), the finer bricks kept in a cache of the size the caller gives (see
+//!   [`super::lazy_levels::cache_bytes`]).
 //! - Memory: the mapping's pages a read touched are handed back to the kernel after the read
 //!   (`madvise(MADV_DONTNEED)` on Unix), so reading the whole file (for the coarsest level) does
 //!   not leave the process holding it; the page cache keeps them for the next read.
@@ -20,7 +21,7 @@ use std::path::Path;
 use glam::Mat4;
 use memmap2::{Mmap, MmapOptions};
 
-use super::lazy_levels::{CACHE_BYTES, LazyLevels, box_index, stored_box, sub};
+use super::lazy_levels::{LazyLevels, box_index, stored_box, sub};
 use super::pyramid::{check_brick, cut_brick};
 use super::{BrickData, BrickError, BrickSource, Level, levels_for};
 use crate::volume::{RawData, ScalarType, Scaling};
@@ -49,12 +50,12 @@ impl MappedSource {
     /// `None` when they are not (or `path` is a DICOM folder): such a file must be loaded.
     pub fn open(path: &Path) -> Result<Option<MappedSource>, BrickError> {
         let raw = crate::volume::raw_layout(path).map_err(|e| BrickError(e.to_string()))?;
-        raw.map(|raw| MappedSource::new(&raw)).transpose()
+        raw.map(|raw| MappedSource::new(&raw, 256 << 20)).transpose()
     }
 
     /// Maps the samples `raw` places, checking first that the file still holds them, and reads a
-    /// few bricks for the value range.
-    pub fn new(raw: &RawData) -> Result<MappedSource, BrickError> {
+    /// few bricks for the value range; coarse levels are built through a cache of `cache_bytes`.
+    pub fn new(raw: &RawData, cache_bytes: u64) -> Result<MappedSource, BrickError> {
         let name = raw.file.file_name().map_or_else(|| raw.file.display().to_string(), |n| n.to_string_lossy().into());
         let map = map_samples(raw).map_err(|m| BrickError(format!("{name}: {m}")))?;
         let mut source = MappedSource {
@@ -66,7 +67,7 @@ impl MappedSource {
             levels: levels_for(raw.info.dims),
             grid_to_world: raw.info.grid_to_world,
             range: [0.0, 0.0],
-            lazy: LazyLevels::new(CACHE_BYTES),
+            lazy: LazyLevels::new(cache_bytes),
         };
         source.range = source.estimate_range()?;
         Ok(source)
@@ -435,7 +436,7 @@ mod tests {
         let path = write(&dir, "cut.nrrd", &attached(&nrrd_header("short", "little", ""), &data));
         let raw = crate::volume::raw_layout(&path).unwrap().unwrap();
         std::fs::OpenOptions::new().write(true).open(&path).unwrap().set_len(raw.offset + 100).unwrap();
-        let e = MappedSource::new(&raw).err().expect("a cut file is refused").0;
+        let e = MappedSource::new(&raw, 1 << 20).err().expect("a cut file is refused").0;
         assert!(e.starts_with("cut.nrrd: ") && e.contains("but the file has"), "{e}");
     }
 

@@ -14,6 +14,7 @@ pub mod residency;
 pub mod source;
 pub mod zarr;
 
+pub use lazy_levels::cache_bytes;
 pub use residency::{BrickView, BrickedVolume, BrickedVolumes, Residency};
 pub use source::{BrickData, BrickError, BrickSource, Level, levels_for};
 

@@ -7,7 +7,7 @@
 //! ray finds an answer.
 
 use std::collections::{HashMap, HashSet};
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 use std::sync::{Arc, Mutex};
 
 use glam::{Mat4, Vec3};
@@ -62,6 +62,9 @@ pub struct Residency {
     pub slots: u32,
     /// Requests the pool had no room for in the last frame (every slot in use by that frame).
     pub refused: u32,
+    /// The finest level rays may ask for now: 0, or higher while the pictures ask for more
+    /// bricks than the pool holds.
+    pub floor: u32,
 }
 
 /// The CPU side of the residency.
@@ -102,12 +105,17 @@ pub struct BrickedVolume {
     state: Mutex<State>,
     /// The read-back under way: set by the map's callback when the requests can be read.
     mapping: Mutex<Option<Arc<AtomicBool>>>,
+    /// The finest level rays may ask for: raised while the pictures ask for more bricks than
+    /// the pool holds (so coarser levels stand in rather than bricks evicting each other every
+    /// frame), lowered again when a finer level would fit ([`next_floor`]).
+    floor: AtomicU32,
 }
 
 impl BrickedVolume {
-    /// The GPU objects of `source` with a pool of at most `gpu_budget` bytes, values mapped to
-    /// [0, 1] by `window`; the coarsest level is loaded before it returns. `host_budget` bounds
-    /// the bricks kept in host memory.
+    /// The GPU objects of `source` with a pool of at most `budgets.0` bytes, values mapped to
+    /// [0, 1] by `window`; the coarsest level is loaded before it returns. `budgets.1` is the
+    /// volume's host budget, of which the source's cache for built levels takes
+    /// [`super::cache_bytes`] and the loader's cache of normalized bricks the rest.
     pub fn new(
         gpu: &Gpu,
         name: &str,
@@ -181,7 +189,7 @@ impl BrickedVolume {
         let volume = BrickedVolume {
             name: name.to_string(),
             grid_to_world: source.grid_to_world(),
-            loader: Loader::new(source, window, budgets.1),
+            loader: Loader::new(source, window, budgets.1 - super::cache_bytes(budgets.1)),
             levels,
             slots,
             pool_dims,
@@ -193,6 +201,7 @@ impl BrickedVolume {
             readback,
             state: Mutex::new(state),
             mapping: Mutex::new(None),
+            floor: AtomicU32::new(0),
         };
         volume.load_coarsest(gpu)?;
         Ok(volume)
@@ -206,7 +215,7 @@ impl BrickedVolume {
     /// Counts of the residency now.
     pub fn residency(&self) -> Residency {
         let state = self.lock();
-        Residency { pending: state.pending.len() as u32, ..state.stats }
+        Residency { pending: state.pending.len() as u32, floor: self.floor.load(Ordering::Relaxed), ..state.stats }
     }
 
     /// Errors of bricks that could not be read (each brick once), and the source's warnings.
@@ -247,7 +256,8 @@ impl BrickedVolume {
         words.extend([f(eye.x), f(eye.y), f(eye.z), f(angle * angle)]);
         let pool = self.pool_dims.map(|n| 1.0 / n as f32);
         words.extend([f(pool[0]), f(pool[1]), f(pool[2]), f(BRICK as f32)]);
-        words.extend([f(footprint * footprint), f(finest.min(self.levels.len() as u32 - 1) as f32), 0, 0]);
+        let finest = finest.max(self.floor.load(Ordering::Relaxed)).min(self.levels.len() as u32 - 1);
+        words.extend([f(footprint * footprint), f(finest as f32), 0, 0]);
         let [bx, by, bz] = self.levels[0].bricks.map(|n| n as f32);
         words.extend([f(1.0), f(bx), f(bx * by), f(bx * by * bz)]);
         bytemuck::cast_slice(&words).to_vec()
@@ -304,6 +314,7 @@ impl BrickedVolume {
         state.frame += 1;
         let frame = state.frame;
         let mut needed = Vec::new();
+        let mut used = 0u64;
         for (entry, &word) in words.iter().enumerate() {
             match word {
                 USED => {
@@ -311,13 +322,18 @@ impl BrickedVolume {
                     if table & !PAYLOAD == RESIDENT {
                         let slot = self.slot_index(table & PAYLOAD) as usize;
                         state.used[slot] = frame;
+                        used += 1;
                     }
                 }
                 NEEDED => needed.push(entry as u32),
                 _ => {}
             }
         }
+        let room = (state.owner.len() - state.pinned.len().min(state.owner.len())) as u64;
         drop(state);
+        let floor = self.floor.load(Ordering::Relaxed);
+        let next = next_floor(floor, used + needed.len() as u64, room, self.levels.len() as u32 - 1);
+        self.floor.store(next, Ordering::Relaxed);
         needed.sort_by_key(|&e| std::cmp::Reverse(self.level_of(e)));
         needed
     }
@@ -367,7 +383,11 @@ impl BrickedVolume {
                 },
                 Err(error) => {
                     state.failed.insert(entry);
-                    state.errors.push(format!("volume `{}`: {error}; the brick is shown coarser", self.name));
+                    let shown = match self.level_of(entry) + 1 < self.levels.len() {
+                        true => "the brick is drawn from the next coarser level",
+                        false => "the brick is left empty (it is of the coarsest level)",
+                    };
+                    state.errors.push(format!("volume `{}`: {error}; {shown}", self.name));
                 }
             }
         }
@@ -463,24 +483,48 @@ fn level_entries(levels: &[Level], level: usize) -> impl Iterator<Item = u32> + 
     (0..bz).flat_map(move |z| (0..by).flat_map(move |y| (0..bx).map(move |x| brick_entry(levels, level, [x, y, z]))))
 }
 
-/// Slots per axis of a pool of at most `budget` bytes, no more than `wanted` slots (every
-/// brick of the pyramid), each axis within `max_3d` texels; `None` when not one slot fits.
+/// The finest level rays may ask for next, from the bricks the last pictures asked for at
+/// `floor` (`demand`: used and needed) and the unpinned slots (`room`): one level coarser when
+/// they asked for more than the pool holds; one finer when even 8 times the demand (a level
+/// finer has at most 8 bricks for each) fits, so the floor does not swing back and forth.
+fn next_floor(floor: u32, demand: u64, room: u64, coarsest: u32) -> u32 {
+    if demand > room && floor < coarsest {
+        floor + 1
+    } else if floor > 0 && demand.saturating_mul(8) <= room {
+        floor - 1
+    } else {
+        floor
+    }
+}
+
+/// Slots per axis of a pool of at most `budget` bytes with room for `wanted` slots (every
+/// brick of the pyramid) where the budget allows, each axis within `max_3d` texels; `None`
+/// when not one slot fits. Of the shapes that hold the most of `wanted`, the one wasting the
+/// fewest slots (a prime count may need a few spare ones), then the most even one.
 fn pool_slots(budget: u64, wanted: u64, max_3d: u32) -> Option<[u32; 3]> {
     // Entries hold a slot's position in 10 bits an axis.
     let per_axis = (max_3d / STORED).clamp(1, 1024) as u64;
-    let count = (budget / SLOT_BYTES).min(wanted).min(per_axis.pow(3));
-    if count == 0 {
+    let cap = (budget / SLOT_BYTES).min(per_axis.pow(3));
+    let wanted = wanted.max(1);
+    if cap == 0 {
         return None;
     }
-    // The most slots x * y * z <= count with x >= y >= z as even as the count allows.
-    let side = |n: u64, k: u32| (n as f64).powf(1.0 / k as f64).floor().max(1.0) as u64;
-    let x = side(count, 3).min(per_axis);
-    let mut best = [x, 1, 1];
-    for z in 1..=x.min(per_axis) {
-        let y = (count / (x * z)).min(per_axis);
-        let x_fit = (count / (y.max(1) * z)).min(per_axis);
-        if x_fit * y * z > best.iter().product() {
-            best = [x_fit, y.max(1), z];
+    let key = |s: [u64; 3]| {
+        let n = s.iter().product::<u64>();
+        (n.min(wanted), std::cmp::Reverse(n), std::cmp::Reverse(s[0].max(s[1]).max(s[2])))
+    };
+    let mut best = [1u64, 1, 1];
+    // z <= y, and x the fewest that hold `wanted` within the cap: at most per_axis^2 / 2
+    // pairs (per_axis is max_3d / 66: 62 on lavapipe).
+    for z in 1..=per_axis.min(cap) {
+        for y in z..=per_axis.min(cap / z) {
+            let x = wanted.div_ceil(y * z).min(per_axis).min(cap / (y * z));
+            if x == 0 {
+                break;
+            }
+            if key([x, y, z]) > key(best) {
+                best = [x, y, z];
+            }
         }
     }
     Some(best.map(|n| n as u32))
@@ -499,13 +543,56 @@ mod tests {
         for (budget, wanted) in [(512u64 << 20, 18725u64), (64 << 20, 10), (8 << 30, 100000), (1 << 30, 73)] {
             let slots = pool_slots(budget, wanted, 2048).expect("some slots");
             let count: u64 = slots.iter().map(|&n| n as u64).product();
-            assert!(count * SLOT_BYTES <= budget && count <= wanted, "{budget} {wanted}: {slots:?}");
+            assert!(count * SLOT_BYTES <= budget, "{budget} {wanted}: {slots:?}");
             assert!(slots.iter().all(|&n| n * STORED <= 2048), "{slots:?}");
-            // Nearly all of what fits is used.
+            // All of what fits is used, with few spare slots.
             let fits = (budget / SLOT_BYTES).min(wanted).min(31u64.pow(3));
-            assert!(count * 10 >= fits * 8, "{budget} {wanted}: {count} of {fits}");
+            // (A budget-bound count may have no shape within the texture limit: 933 = 3 x 311.)
+            assert!(count + fits / 50 >= fits && count <= fits + fits / 8 + 2, "{budget} {wanted}: {count} of {fits}");
         }
         assert_eq!(pool_slots(SLOT_BYTES - 1, 5, 2048), None);
+    }
+
+    /// Whenever the budget and the texture limit hold every brick of the pyramid, the pool
+    /// has a slot for each (a 128^3 volume's 9 bricks once got 2 x 2 x 2 slots).
+    #[test]
+    fn a_pool_holds_every_brick_when_the_budget_allows() {
+        let mut sizes = vec![[128, 128, 128], [256, 256, 256], [65, 64, 64], [1000, 30, 30], [300, 200, 100]];
+        for n in [1u32, 63, 64, 65, 127, 129, 200, 333, 512, 700] {
+            sizes.push([n, n, n]);
+            sizes.push([n, (n / 2).max(1), (3 * n / 4).max(1)]);
+        }
+        for dims in sizes {
+            let wanted: u64 = levels_for(dims).iter().map(Level::brick_count).sum();
+            for max_3d in [2048, 4096] {
+                let per_axis = (max_3d / STORED) as u64;
+                if wanted > per_axis.pow(3) {
+                    continue;
+                }
+                let slots = pool_slots(1 << 30, wanted, max_3d).expect("some slots");
+                let count: u64 = slots.iter().map(|&n| n as u64).product();
+                assert!(count >= wanted, "{dims:?}: {slots:?} for {wanted} bricks");
+                assert!(slots.iter().all(|&n| n * STORED <= max_3d), "{dims:?}: {slots:?}");
+            }
+        }
+        // Prime counts fit too, with at most a few spare slots.
+        for wanted in [2u64, 3, 5, 7, 11, 13, 17, 31, 61, 73, 997, 7919] {
+            let slots = pool_slots(8 << 30, wanted, 4096).expect("some slots");
+            let count = slots.iter().map(|&n| n as u64).product::<u64>();
+            assert!(count >= wanted && count <= wanted + wanted / 16 + 2, "{wanted}: {slots:?}");
+        }
+    }
+
+    #[test]
+    fn a_pool_too_small_for_the_picture_shows_coarser_levels_rather_than_thrash() {
+        // 100 slots, pictures asking for 150 bricks: one level coarser, then stays.
+        assert_eq!(next_floor(0, 150, 100, 5), 1);
+        assert_eq!(next_floor(1, 40, 100, 5), 1);
+        // Finer again only when a finer level's bricks (up to 8 each) would fit.
+        assert_eq!(next_floor(1, 12, 100, 5), 0);
+        // Never past the coarsest level, never below 0.
+        assert_eq!(next_floor(5, 1000, 100, 5), 5);
+        assert_eq!(next_floor(0, 0, 100, 5), 0);
     }
 
     #[test]

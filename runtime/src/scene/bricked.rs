@@ -8,13 +8,13 @@ use glam::{Mat4, Vec4};
 use super::{SceneRenderer, SceneView, VolumeGrid};
 use crate::bricks::mapped::MappedSource;
 use crate::bricks::pyramid::PyramidSource;
-use crate::bricks::zarr::ZarrSource;
+use crate::bricks::zarr::{Choice, StoreLocation, ZarrSelection, ZarrSource};
 use crate::bricks::{BrickData, BrickSource, BrickView, BrickedVolume, Residency, STORED};
 use crate::error::RuntimeError;
 use crate::gpu::Gpu;
 use crate::textures::HISTOGRAM_BINS;
 use crate::volume::{self, Scaling, Volume};
-use vrsc::scene::{Memory, Scene, VolumeSource, is_zarr};
+use vrsc::scene::{Entry, Memory, Scene, VolumeSource, ZarrKeys, is_zarr};
 
 /// How the note of what `render_all` loaded starts.
 const LOADED_NOTE: &str = "bricked volumes: ";
@@ -33,6 +33,8 @@ pub(super) type Opened = (Arc<dyn BrickSource>, Option<[f32; 2]>);
 /// coarsest level, [`load`]).
 pub(super) fn open_source(
     source: &VolumeSource,
+    keys: &ZarrKeys,
+    cache: u64,
     phantom: impl Fn(&str) -> Result<Volume, RuntimeError>,
     progress: &mut dyn FnMut(u64, u64),
 ) -> Result<Opened, RuntimeError> {
@@ -40,22 +42,49 @@ pub(super) fn open_source(
         let window = volume::auto_window(&volume);
         (Arc::new(PyramidSource::from_volume(&volume)), Some(window))
     };
+    if let Some(location) = store_location(source) {
+        return Ok((Arc::new(open_store(&location, keys, cache)?), None));
+    }
     Ok(match source {
-        VolumeSource::File(file) if is_zarr(&file.resolved) => {
-            let store = ZarrSource::open(&file.resolved)
-                .map_err(|e| RuntimeError::Invalid(format!("`{}`: {e}", file.resolved.display())))?;
-            (Arc::new(store), None)
-        }
         VolumeSource::File(file) => match volume::raw_layout(&file.resolved).map_err(RuntimeError::Volume)? {
             Some(raw) => {
-                let mapped = MappedSource::new(&raw)
+                let mapped = MappedSource::new(&raw, cache)
                     .map_err(|e| RuntimeError::Invalid(format!("`{}`: {e}", file.resolved.display())))?;
                 (Arc::new(mapped), None)
             }
             None => in_memory(volume::load(&file.resolved, progress).map_err(RuntimeError::Volume)?),
         },
         VolumeSource::Phantom(p) => in_memory(phantom(&p.value)?),
+        VolumeSource::Url(u) => return Err(RuntimeError::Invalid(format!("`{}` is not a Zarr store", u.value))),
     })
+}
+
+/// Where the Zarr store of `source` is, when it is one (a `.zarr` folder or any URL).
+pub fn store_location(source: &VolumeSource) -> Option<StoreLocation> {
+    match source {
+        VolumeSource::File(file) if is_zarr(&file.resolved) => Some(StoreLocation::Path(file.resolved.clone())),
+        VolumeSource::Url(url) => Some(StoreLocation::Url(url.value.clone())),
+        _ => None,
+    }
+}
+
+/// What of a store the scene's keys pick.
+pub fn selection(keys: &ZarrKeys) -> ZarrSelection {
+    let choice = |e: &Entry| match e {
+        Entry::Index(i) => Choice::Index(*i),
+        Entry::Name(n) => Choice::Name(n.clone()),
+    };
+    ZarrSelection {
+        multiscale: keys.multiscale.as_ref().map(|m| choice(&m.value)),
+        channel: keys.channel.as_ref().map(|c| choice(&c.value)),
+        time: keys.time.as_ref().map(|t| t.value),
+    }
+}
+
+/// Opens the store at `location` as `keys` choose, with `cache` bytes for built levels.
+pub fn open_store(location: &StoreLocation, keys: &ZarrKeys, cache: u64) -> Result<ZarrSource, RuntimeError> {
+    ZarrSource::open_at(location, &selection(keys), cache)
+        .map_err(|e| RuntimeError::Invalid(format!("`{location}`: {e}")))
 }
 
 /// The coarsest level of `source` as a volume in memory (one brick or a few): what the
@@ -66,9 +95,8 @@ pub(super) fn coarsest(source: &dyn BrickSource) -> Result<Volume, RuntimeError>
 
 /// A Zarr store read whole into memory, for a volume the scene keeps in one texture
 /// (`bricks = false`); refused beyond [`volume::MAX_VOXELS`].
-pub(super) fn zarr_volume(path: &std::path::Path) -> Result<Volume, RuntimeError> {
-    let store = ZarrSource::open(path).map_err(|e| RuntimeError::Invalid(format!("`{}`: {e}", path.display())))?;
-    level_volume(&store, 0)
+pub(super) fn zarr_volume(location: &StoreLocation, keys: &ZarrKeys) -> Result<Volume, RuntimeError> {
+    level_volume(&open_store(location, keys, 64 << 20)?, 0)
 }
 
 /// Level `level` of `source` as a volume in memory, its voxels in data units.
@@ -262,6 +290,7 @@ fn sum(a: Residency, b: Residency) -> Residency {
         evicted: a.evicted + b.evicted,
         slots: a.slots + b.slots,
         refused: a.refused + b.refused,
+        floor: a.floor.max(b.floor),
     }
 }
 

@@ -104,6 +104,7 @@ impl SceneRenderer {
                 crate::volume::load(&file.resolved, &mut |_, _| {}).map_err(|e| invalid(e.to_string()))
             }
             (VolumeSource::Phantom(p), _) => phantom(&p.value),
+            (VolumeSource::Url(u), _) => Err(invalid(format!("the remote store `{}` is read in bricks", u.value))),
         }
     }
 

@@ -1,0 +1,204 @@
+//! Stores written by zarr-python 3 and ome-zarr-py (`tests/fixtures/zarr`, made by its
+//! `make_fixtures.py`) read as the same samples as their NIfTI twins: level 0 voxel for voxel,
+//! the same placement in patient space, and, rendered, the same picture as the twin in one
+//! texture (within 0.5/255 on average, the half-float pool's rounding).
+
+mod common;
+
+use std::path::{Path, PathBuf};
+
+use serde_json::Value;
+use vrs_runtime::bricks::BrickSource;
+use vrs_runtime::bricks::zarr::{Choice, StoreLocation, ZarrSelection, ZarrSource};
+use vrs_runtime::{RenderOptions, SceneRenderer};
+
+fn fixtures() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/fixtures/zarr")
+}
+
+/// Each fixture's store, selection and twin file, from `fixtures.json`.
+fn cases() -> Vec<(String, ZarrSelection, String)> {
+    let text = std::fs::read_to_string(fixtures().join("fixtures.json")).expect("fixtures.json");
+    let json: Value = serde_json::from_str(&text).expect("valid JSON");
+    let mut out = Vec::new();
+    for f in json["fixtures"].as_array().expect("a list") {
+        if f.get("corrupt_chunk").is_some() {
+            continue;
+        }
+        let name = f["name"].as_str().expect("a name").to_string();
+        let twins = f["nifti"].as_array().expect("twins");
+        let selects = f["select"].as_array().expect("selections");
+        for (i, twin) in twins.iter().enumerate() {
+            let mut selection = ZarrSelection::default();
+            // A selection is one {axis, index} or a list of them.
+            let chosen: Vec<&Value> = match selects.get(i) {
+                Some(Value::Array(list)) => list.iter().collect(),
+                Some(one) => vec![one],
+                None => vec![],
+            };
+            for s in chosen {
+                let index = s["index"].as_u64().expect("an index");
+                match s["axis"].as_str() {
+                    Some("c") => selection.channel = Some(Choice::Index(index)),
+                    Some("t") => selection.time = Some(index),
+                    other => panic!("axis {other:?}"),
+                }
+            }
+            out.push((name.clone(), selection, twin["file"].as_str().expect("a file").to_string()));
+        }
+    }
+    out
+}
+
+fn open(name: &str, selection: &ZarrSelection) -> ZarrSource {
+    let location = StoreLocation::Path(fixtures().join(name));
+    ZarrSource::open_at(&location, selection, 64 << 20).unwrap_or_else(|e| panic!("{name}: {e}"))
+}
+
+#[test]
+fn every_fixture_reads_as_its_nifti_twin() {
+    let cases = cases();
+    assert!(cases.len() >= 20, "{} cases", cases.len());
+    for (name, selection, twin) in cases {
+        let source = open(&name, &selection);
+        let volume = vrs_runtime::volume::load(&fixtures().join(&twin), &mut |_, _| {}).expect("twin");
+        let level = source.levels()[0];
+        assert_eq!(level.dims, volume.dims, "{name}");
+        let values = volume.values();
+        let mut worst = 0.0f32;
+        for bz in 0..level.bricks[2] {
+            for by in 0..level.bricks[1] {
+                for bx in 0..level.bricks[0] {
+                    let brick = source.read(0, [bx, by, bz]).unwrap_or_else(|e| panic!("{name}: {e}"));
+                    for z in 0..64.min(level.dims[2] - bz * 64) {
+                        for y in 0..64.min(level.dims[1] - by * 64) {
+                            for x in 0..64.min(level.dims[0] - bx * 64) {
+                                let p = [bx * 64 + x, by * 64 + y, bz * 64 + z];
+                                let i = p[0] as usize
+                                    + level.dims[0] as usize * (p[1] as usize + level.dims[1] as usize * p[2] as usize);
+                                worst = worst.max((brick.at([x + 1, y + 1, z + 1]) - values[i]).abs());
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        assert_eq!(worst, 0.0, "{name} {selection:?}: level 0 differs from {twin} by up to {worst}");
+        let (a, b) = (source.grid_to_world(), volume.grid_to_world);
+        // Voxel sizes of micrometres: compare to a thousandth of a voxel.
+        let scale = b.x_axis.length().max(1e-6);
+        assert!(a.abs_diff_eq(b, 1e-3 * scale), "{name}: placed at {a} but {twin} at {b}");
+        // Every level reads (the pyramid's coarse levels from the store's datasets or built).
+        for l in 1..source.levels().len() {
+            let b = source.levels()[l].bricks;
+            source.read(l, [b[0] - 1, b[1] - 1, b[2] - 1]).unwrap_or_else(|e| panic!("{name} level {l}: {e}"));
+        }
+        assert!(source.warnings().is_empty(), "{name}: {:?}", source.warnings());
+    }
+}
+
+#[test]
+fn ome_zarr_py_default_pyramids_use_their_datasets() {
+    // x and y halved, z kept: levels 1 and 2 average the datasets' voxels along z only.
+    for name in ["ome04_default.zarr", "ome05_default.zarr"] {
+        let source = open(name, &ZarrSelection::default());
+        assert!(source.stored_levels() >= 1, "{name}");
+        assert_eq!(source.levels()[0].dims, [40, 48, 24], "{name}");
+    }
+    // Halved rounding down: every dataset answers its level.
+    assert_eq!(open("odd_floor_ome05.zarr", &ZarrSelection::default()).stored_levels(), 1);
+}
+
+#[test]
+fn unchosen_channels_and_times_are_refused_with_the_way_to_choose() {
+    let location = StoreLocation::Path(fixtures().join("channels_czyx_ome05.zarr"));
+    let error = ZarrSource::open_at(&location, &ZarrSelection::default(), 1 << 20).err().expect("refused").0;
+    assert!(error.contains("3 channels") && error.contains("`channel = 0`"), "{error}");
+    let location = StoreLocation::Path(fixtures().join("time_tczyx_ome04.zarr"));
+    let error = ZarrSource::open_at(&location, &ZarrSelection::default(), 1 << 20).err().expect("refused").0;
+    assert!(error.contains("2 time points") && error.contains("`time = 0`"), "{error}");
+}
+
+#[test]
+fn a_corrupt_chunk_names_itself_and_its_brick_comes_from_the_next_level() {
+    for (name, chunk) in [("corrupt_ome04.zarr", "s0/1/0/1"), ("corrupt_odd_ome05.zarr", "s0/c/0/1/1")] {
+        let source = open(name, &ZarrSelection::default());
+        let error = source.read(0, [0, 0, 0]).err().unwrap_or_else(|| panic!("{name}: read"));
+        assert!(error.0.contains(&format!("chunk `{chunk}`")), "{name}: {error}");
+        // The coarser levels read.
+        for l in 1..source.levels().len() {
+            source.read(l, [0, 0, 0]).unwrap_or_else(|e| panic!("{name} level {l}: {e}"));
+        }
+    }
+}
+
+/// A scene of one volume at `path` (bricked or not), a raycast and a slice view.
+fn scene(path: &str, bricks: bool, keys: &str, window: [f32; 2]) -> String {
+    let [lo, hi] = window;
+    format!(
+        r#"
+[render]
+compositing = "dvr"
+jitter = 0.0
+
+[[volume]]
+name = "v"
+role = "primary"
+path = "{path}"
+bricks = {bricks}
+window = [{lo:?}, {hi:?}]
+{keys}
+
+[[view]]
+name = "3d"
+kind = "raycast"
+size = [96, 96]
+camera = {{ azimuth = 30.0, elevation = 20.0, distance = 2.2 }}
+
+[[view]]
+name = "axial"
+kind = "slice"
+axis = "axial"
+position = 0.45
+size = [96, 96]
+"#
+    )
+}
+
+fn render(dir: &Path, name: &str, text: &str) -> Vec<(String, image::RgbaImage)> {
+    let path = dir.join(name);
+    std::fs::write(&path, text).expect("scene written");
+    let mut renderer = SceneRenderer::open(common::software_gpu(), &path, RenderOptions::default(), &mut |_, _, _| {})
+        .unwrap_or_else(|e| panic!("{name}: {e}"));
+    renderer.render_all().unwrap_or_else(|e| panic!("{name}: {e}"))
+}
+
+#[test]
+fn stores_render_like_their_twins_in_one_texture() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let root = fixtures().canonicalize().expect("fixtures");
+    for (store, keys, twin) in [
+        ("ome05_default.zarr", "", "ome_default.nii"),
+        ("odd_floor_ome05.zarr", "", "odd_floor_ome05.nii"),
+        ("translation_um_ome04.zarr", "", "translation_um_ome04.nii"),
+        ("channels_czyx_ome05.zarr", "channel = 2", "channels_czyx_ome05_c2.nii"),
+        ("v3_sharded_float32.zarr", "", "v3_sharded_float32.nii"),
+    ] {
+        let store_path = root.join(store).display().to_string();
+        let twin_path = root.join(twin).display().to_string();
+        // One window for both: the twin's range.
+        let range = vrs_runtime::volume::load(&root.join(twin), &mut |_, _| {}).expect("twin").range;
+        let bricked = render(dir.path(), "store.toml", &scene(&store_path, true, keys, range));
+        let whole = render(dir.path(), "twin.toml", &scene(&twin_path, false, "", range));
+        assert_eq!(bricked.len(), whole.len());
+        for ((view, a), (_, b)) in bricked.iter().zip(&whole) {
+            let total: u64 =
+                a.as_raw().iter().zip(b.as_raw()).map(|(&x, &y)| (x as i64 - y as i64).unsigned_abs()).sum();
+            let mean = total as f64 / a.as_raw().len() as f64;
+            let lit = b.as_raw().iter().filter(|&&v| v > 0).count();
+            println!("{store} {view}: mean difference {mean:.4}/255");
+            assert!(lit > 100, "{store} {view}: the twin's picture is empty");
+            assert!(mean <= 0.5, "{store} {view}: mean difference {mean:.3}/255 to {twin}");
+        }
+    }
+}
