@@ -115,3 +115,59 @@ fn NAME_dims() -> vec3u { return vec3u(NAME_layout.grid.xyz); }
     assert!(!uniform(&slice(&with_standard)), "the standard lookup shows the abdomen");
     assert!(uniform(&slice(&with_own)), "the scene's lookup answers 0 everywhere");
 }
+
+/// A bricked primary volume casts volume shadows and gives surfaces: both read a level that
+/// fits one piece (the 128^3 abdomen phantom: level 0 itself), so the pictures are those of the same
+/// volume in one texture (at a size whose pixels are smaller than a voxel, so that the rays
+/// read level 0 too).
+#[test]
+fn light_volumes_and_surfaces_of_a_bricked_volume_come_from_a_level_that_fits() {
+    let shadows = "shading = true\nshadows = \"volume\"\nlights = [\"key\"]\n";
+    let surface = "[[mesh]]\nname = \"bone\"\nvolume = \"body\"\nlevel = 300.0\n";
+    for (what, render, mesh) in [("shadows", shadows, ""), ("surface", "", surface)] {
+        let text = |bricks: bool| {
+            format!(
+                r#"
+[render]
+compositing = "dvr"
+jitter = 0.0
+{render}
+[[volume]]
+name = "body"
+role = "primary"
+phantom = "abdomen"
+bricks = {bricks}
+
+{mesh}
+[uniforms]
+light_dir_key = [0.8, 0.3, 0.6]
+
+[[view]]
+name = "3d"
+kind = "raycast"
+size = [320, 320]
+camera = {{ azimuth = 35.0, elevation = 20.0, distance = 2.2 }}
+"#
+            )
+        };
+        let dir = tempfile::tempdir().expect("temp dir");
+        let path = dir.path().join("scene.toml");
+        let options = RenderOptions { phantom_size: [128, 128, 128], ..RenderOptions::default() };
+        let mut pictures = Vec::new();
+        for bricks in [false, true] {
+            let text = text(bricks).replace("light_dir_key", if render.is_empty() { "# " } else { "light_dir_key" });
+            std::fs::write(&path, text).expect("scene written");
+            let mut renderer = SceneRenderer::open(common::software_gpu(), &path, options.clone(), &mut |_, _, _| {})
+                .unwrap_or_else(|e| panic!("{what}, bricks = {bricks}: {e}"));
+            assert_eq!(renderer.has_bricked(), bricks);
+            pictures.push(renderer.render_all().unwrap_or_else(|e| panic!("{e}")).remove(0).1);
+        }
+        let mean = mean_difference(&pictures[0], &pictures[1]);
+        println!("{what}, bricked against one texture: mean difference {mean:.4}/255");
+        if std::env::var_os("VRS_KEEP_IMAGES").is_some() {
+            pictures[0].save(format!("/tmp/{what}-whole.png")).ok();
+            pictures[1].save(format!("/tmp/{what}-bricked.png")).ok();
+        }
+        assert!(mean <= 0.5, "{what}: mean difference {mean:.3}/255");
+    }
+}

@@ -116,40 +116,6 @@ impl Cx<'_> {
         memory
     }
 
-    /// What needs a volume's voxels in one texture or in memory, which a bricked volume never
-    /// has: light volumes (computed from the primary volume's texture) and surfaces extracted
-    /// from a volume. Errors at the bricked volume's table, or at the mesh's `volume`.
-    fn check_bricked_uses(&mut self, volumes: &[Volume], meshes: &[Mesh], render: &Render, views: &[View]) {
-        let bricked = |name: &str| volumes.iter().find(|v| v.bricked && v.name.name == name);
-        let light_volumes =
-            std::iter::once(render).chain(views.iter().map(|v| &v.render)).any(|r| r.shadows == Shadows::Volume);
-        if let Some(primary) = volumes.iter().find(|v| v.bricked && v.role.value == Role::Primary)
-            && light_volumes
-        {
-            let d = self
-                .invalid(primary.span, "`shadows = \"volume\"` needs the primary volume in one texture")
-                .with_label("this volume is kept in bricks")
-                .with_note("light volumes are computed from the primary volume's texture, which a bricked volume does not have")
-                .with_help("use `shadows = \"rays\"`, or `bricks = false` for a volume that fits one texture");
-            self.emit(d);
-        }
-        for mesh in meshes {
-            if let MeshSource::Surface { volume, .. } = &mesh.source
-                && bricked(&volume.value).is_some()
-            {
-                let d = self
-                    .invalid(
-                        volume.span,
-                        format!("a surface cannot be extracted from bricked volume `{}`", volume.value),
-                    )
-                    .with_label("kept in bricks")
-                    .with_note("marching cubes reads every voxel in memory, which a bricked volume never holds")
-                    .with_help("give that volume `bricks = false` if it fits one texture");
-                self.emit(d);
-            }
-        }
-    }
-
     pub(super) fn scene(&mut self, raw: RawScene) -> Scene {
         let shared = raw.render.clone();
         let memory = self.memory(raw.render.as_ref());
@@ -162,7 +128,6 @@ impl Cx<'_> {
         // The occupancy grid of empty-space skipping is made from every voxel's value, which a
         // bricked volume never has in memory: its rays skip nothing (constant bricks still cost
         // one page-table read per sample, not a texture fetch).
-        self.check_bricked_uses(&volumes, &meshes, &render, &views);
         let mut render = render;
         if volumes.iter().any(|v| v.bricked && matches!(v.role.value, Role::Primary | Role::Additional)) {
             render.empty_space_skipping = false;

@@ -97,6 +97,11 @@ impl Loader {
         lock(&self.arrivals).recv().ok()
     }
 
+    /// The source bricks are read from.
+    pub fn source(&self) -> &Arc<dyn BrickSource> {
+        &self.source
+    }
+
     pub fn warnings(&self) -> Vec<String> {
         self.source.warnings()
     }

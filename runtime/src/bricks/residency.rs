@@ -207,6 +207,11 @@ impl BrickedVolume {
         Ok(volume)
     }
 
+    /// The source the bricks are read from.
+    pub fn source(&self) -> &Arc<dyn BrickSource> {
+        self.loader.source()
+    }
+
     /// The levels, finest first.
     pub fn levels(&self) -> &[Level] {
         &self.levels

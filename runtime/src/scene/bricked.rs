@@ -87,6 +87,20 @@ pub fn open_store(location: &StoreLocation, keys: &ZarrKeys, cache: u64) -> Resu
         .map_err(|e| RuntimeError::Invalid(format!("`{location}`: {e}")))
 }
 
+/// Voxels of the level that stands in for a bricked volume where its voxels are needed in one
+/// piece: the light volumes of a bricked primary, a surface extracted from a bricked volume.
+pub(super) const STANDIN_VOXELS: u64 = 1 << 24;
+
+/// The finest level of `source` of at most [`STANDIN_VOXELS`] voxels (256^3), as a volume in
+/// memory placed in patient space as that level is (its box covers level 0's, a little more
+/// where a level rounds up).
+pub(super) fn standin(source: &dyn BrickSource) -> Result<Volume, RuntimeError> {
+    let levels = source.levels();
+    let fits = |l: &crate::bricks::Level| l.dims.iter().map(|&n| n as u64).product::<u64>() <= STANDIN_VOXELS;
+    let level = levels.iter().position(fits).unwrap_or(levels.len() - 1);
+    level_volume(source, level)
+}
+
 /// The coarsest level of `source` as a volume in memory (one brick or a few): what the
 /// automatic window and the histogram of a bricked volume are taken from.
 pub(super) fn coarsest(source: &dyn BrickSource) -> Result<Volume, RuntimeError> {

@@ -8,7 +8,7 @@ use super::{SceneRenderer, SceneView};
 use crate::error::RuntimeError;
 use crate::geometry;
 use crate::light_volume::{LightKey, LightVolumePass, Primary};
-use crate::textures::TfTexture;
+use crate::textures::{TfTexture, VolumeTexture};
 use crate::tf::{self, preintegrate::PreintegratedTable};
 use crate::uniforms::Value;
 use glam::Vec3;
@@ -29,6 +29,9 @@ pub(super) struct Derived {
     pass: Option<LightVolumePass>,
     /// Each light volume's key, by binding name.
     lights: HashMap<String, LightKey>,
+    /// A bricked primary volume's stand-in texture for the light volumes (a level that fits
+    /// one texture, `bricked::standin`), with the generation it was made in.
+    standin: Option<(u64, Arc<VolumeTexture>)>,
 }
 
 /// The names bound by some view that start with `prefix`, each once.
@@ -115,13 +118,35 @@ impl SceneRenderer {
         if self.derived.pass.is_none() {
             self.derived.pass = Some(LightVolumePass::new(&self.gpu)?);
         }
+        let texture = match self.resources.volumes.get("volume") {
+            Some(texture) => texture.clone(),
+            None => self.primary_standin()?,
+        };
         let pass = self.derived.pass.as_ref().ok_or_else(|| missing("pass"))?;
         let primary = Primary {
-            texture: self.resources.volumes.get("volume").ok_or_else(|| missing("volume"))?,
+            texture: &texture,
             tf: self.resources.tfs.get("tf").ok_or_else(|| missing("transfer function"))?,
             sampler: &self.resources.sampler,
             volume_to_world,
         };
         pass.compute(&self.gpu, &primary, key)
+    }
+
+    /// The texture that stands in for a bricked primary volume in the light volumes: its finest
+    /// level of at most 256^3 voxels, normalized by its window; made once per generation.
+    fn primary_standin(&mut self) -> Result<Arc<VolumeTexture>, RuntimeError> {
+        let generation = self.derived.generation;
+        if let Some((made, texture)) = &self.derived.standin
+            && *made == generation
+        {
+            return Ok(texture.clone());
+        }
+        let missing = || RuntimeError::Invalid("a light volume needs the primary volume".into());
+        let bricked = self.resources.bricked.get("volume").ok_or_else(missing)?;
+        let window = self.grids.first().ok_or_else(missing)?.window;
+        let volume = super::bricked::standin(bricked.source().as_ref())?;
+        let texture = Arc::new(VolumeTexture::upload(&self.gpu, "primary stand-in", &volume, Some(window))?);
+        self.derived.standin = Some((generation, texture.clone()));
+        Ok(texture)
     }
 }

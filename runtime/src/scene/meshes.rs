@@ -98,6 +98,10 @@ impl SceneRenderer {
         let invalid = |e: String| RuntimeError::Invalid(format!("volume `{name}`: {e}"));
         let phantom =
             |p: &str| crate::volume::phantom(p, self.options.phantom_size).map_err(|e| invalid(e.to_string()));
+        // A bricked volume: the finest level that fits in memory as one piece.
+        if let Some(bricked) = self.resources.bricked.get(&v.binding()) {
+            return super::bricked::standin(bricked.source().as_ref());
+        }
         match (&v.source, &v.fallback) {
             (VolumeSource::File(file), Some(fallback)) if !file.resolved.exists() => phantom(&fallback.value),
             (VolumeSource::File(file), _) => {

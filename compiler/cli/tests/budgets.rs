@@ -1,0 +1,106 @@
+//! Memory budgets hold: a 1024 x 1024 x 512 uint16 Zarr array (1 GiB of samples, one stored
+//! level, so every coarser level is built from it through the cache the host budget pays for)
+//! renders through `vrsc render` at `memory = host_memory = 64 MiB` and `512 MiB`, shaded at
+//! 256^2 and zoomed in (`fov = 8`), each within the budgets plus the fixed cost of a render (a
+//! phantom scene's peak, measured first) plus the loader threads' decode buffers. A measurement
+//! (ignored by default: it writes a 1 GiB store and renders four times); run with
+//! `cargo test --release -p vrsc-cli --test budgets -- --ignored --nocapture`.
+
+use std::path::Path;
+use std::process::Command;
+use std::time::{Duration, Instant};
+
+/// Slack over budgets and the fixed cost: two loader threads' brick reads (a 66^3 box of f32
+/// values per read, up to 16 dataset voxels per level voxel) and the chunks zarrs decodes.
+const SLACK: u64 = 96 << 20;
+
+fn scene(path: &str, budget: &str, fov: f32) -> String {
+    format!(
+        r#"
+[render]
+compositing = "dvr"
+shading = true
+jitter = 0.0
+memory = "{budget}"
+host_memory = "{budget}"
+
+[[volume]]
+name = "big"
+role = "primary"
+path = "{path}"
+window = [0.0, 1000.0]
+
+[[view]]
+name = "3d"
+kind = "raycast"
+size = [256, 256]
+camera = {{ azimuth = 30.0, elevation = 20.0, distance = 2.5, fov = {fov} }}
+"#
+    )
+}
+
+/// Runs `vrsc render` of `text`; its peak resident set in bytes, its time and its notes.
+#[expect(clippy::zombie_processes, reason = "waited for with wait4, which gives its resource usage too")]
+fn render(dir: &Path, name: &str, text: &str) -> (u64, Duration, String) {
+    let path = dir.join(format!("{name}.toml"));
+    std::fs::write(&path, text).expect("scene written");
+    let out = dir.join(name);
+    let started = Instant::now();
+    let child = Command::new(env!("CARGO_BIN_EXE_vrsc"))
+        .args(["render", path.to_str().expect("utf-8"), "-o", out.to_str().expect("utf-8"), "--software"])
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("vrsc runs");
+    let pid = child.id() as libc::pid_t;
+    let mut stderr = child.stderr.expect("its standard error");
+    let mut said = String::new();
+    std::io::Read::read_to_string(&mut stderr, &mut said).expect("readable");
+    let mut status = 0;
+    let mut usage: libc::rusage = unsafe { std::mem::zeroed() };
+    // SAFETY: `status` and `usage` are valid, writable; `pid` is our child, not yet waited for.
+    let waited = unsafe { libc::wait4(pid, &mut status, 0, &mut usage) };
+    assert_eq!(waited, pid, "wait4");
+    assert!(libc::WIFEXITED(status) && libc::WEXITSTATUS(status) == 0, "{name}: {said}");
+    (usage.ru_maxrss as u64 * 1024, started.elapsed(), said)
+}
+
+#[test]
+#[ignore = "a measurement: writes a 1 GiB store and renders it four times (minutes)"]
+fn budgets_bound_the_peak_memory_of_a_render() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let value = |_: usize, [x, y, z]: [u32; 3]| {
+        let (fx, fy, fz) = (x as f32 / 1024.0 - 0.5, y as f32 / 1024.0 - 0.5, z as f32 / 512.0 - 0.5);
+        let r = (fx * fx + fy * fy + fz * fz).sqrt();
+        1000.0 * (1.0 - (r / 0.45).min(1.0)) * (0.75 + 0.25 * (x as f32 * 0.05).sin() * (y as f32 * 0.07).cos())
+    };
+    let t = Instant::now();
+    let store = vrs_runtime::bricks::zarr::write_test_zarr(
+        dir.path(),
+        [1024, 1024, 512],
+        [128, 128, 64],
+        1,
+        value,
+        |_, _, _| true,
+    )
+    .expect("store written");
+    println!("wrote the 1 GiB store in {:?}", t.elapsed());
+    let fixed = "[[volume]]\nname = \"p\"\nrole = \"primary\"\nphantom = \"head\"\n\n[[view]]\nname = \"3d\"\nkind = \"raycast\"\nsize = [256, 256]\n";
+    let (base, _, _) = render(dir.path(), "fixed", fixed);
+    println!("fixed cost (a phantom scene): {} MiB", base >> 20);
+    for (budget, bytes) in [("64 MiB", 64u64 << 20), ("512 MiB", 512 << 20)] {
+        for fov in [30.0, 8.0] {
+            let name = format!("b{}-fov{fov}", bytes >> 20);
+            let (peak, took, said) = render(dir.path(), &name, &scene(store.to_str().expect("utf-8"), budget, fov));
+            let note = said.lines().find(|l| l.contains("bricks loaded")).unwrap_or("").trim().to_string();
+            // On a software device the pool lives in host memory: host budget + pool.
+            let bound = base + 2 * bytes + SLACK;
+            println!(
+                "{budget}, fov {fov}: peak {} MiB (bound {} MiB), {:.1} s; {note}",
+                peak >> 20,
+                bound >> 20,
+                took.as_secs_f64()
+            );
+            assert!(peak <= bound, "{budget} fov {fov}: peak {} MiB over {} MiB", peak >> 20, bound >> 20);
+        }
+    }
+}
