@@ -10,9 +10,12 @@ use std::path::Path;
 use std::process::Command;
 use std::time::{Duration, Instant};
 
-/// Slack over budgets and the fixed cost: two loader threads' brick reads (a 66^3 box of f32
-/// values per read, up to 16 dataset voxels per level voxel) and the chunks zarrs decodes.
-const SLACK: u64 = 96 << 20;
+/// Transient memory over budgets and the fixed cost: two loader threads' brick reads (a 66^3
+/// box of f32 values per read, up to 16 dataset voxels per level voxel), the chunks zarrs
+/// decodes for them, and up to 16 bricks staged for the pool (9 MiB).
+/// Measured (this machine, lavapipe): 64 MiB budgets 348 MiB (fov 30) and 362 MiB (fov 8),
+/// 512 MiB budgets 815 and 940 MiB, the fixed cost 130 MiB.
+const SLACK: u64 = 128 << 20;
 
 fn scene(path: &str, budget: &str, fov: f32) -> String {
     format!(

@@ -19,14 +19,52 @@ pub fn cache_bytes(host: u64) -> u64 {
     (host / 4).min(256 << 20)
 }
 
-/// Builds bricks of levels a source lacks from the finer level, keeping the finer bricks it
-/// read in a [`BrickCache`] (each is read by up to 64 coarse bricks, their aprons included).
+/// Builds bricks of levels a source lacks from the finer level. What a coarse brick needs of a
+/// finer one is the sum of each 2x2x2 block of its voxels (a [`Summary`], an eighth of the
+/// brick), so those are what the cache keeps: a finer brick is read once for all the coarse
+/// bricks that cover it (up to 8, their aprons included) within a small budget.
 pub(crate) struct LazyLevels {
     cache: Mutex<BrickCache>,
 }
 
+/// Edge of a [`Summary`]: one sum for each 2x2x2 block of a brick.
+const HALF: u32 = BRICK / 2;
+
+/// A finer brick as the level above reads it: the sum of its voxels (those inside the volume)
+/// in each 2x2x2 block, `HALF`^3 values x fastest; or, for a brick of one value, that value.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) enum Summary {
+    Constant(f32),
+    Sums(Vec<f32>),
+}
+
+impl Summary {
+    /// The sums of brick `fb` of a level of `fine` dims.
+    fn of(data: &BrickData, fb: [u32; 3], fine: [u32; 3]) -> Summary {
+        let BrickData::Voxels(_) = data else {
+            return match data {
+                BrickData::Constant(v) => Summary::Constant(*v),
+                BrickData::Voxels(_) => unreachable!("matched above"),
+            };
+        };
+        // Voxels of the brick inside the volume, per axis.
+        let inside = [0, 1, 2].map(|a| fine[a].saturating_sub(fb[a] * BRICK).min(BRICK));
+        let mut sums = vec![0.0f32; (HALF * HALF * HALF) as usize];
+        for z in 0..inside[2] {
+            for y in 0..inside[1] {
+                let row = box_index([0, y / 2, z / 2], [HALF; 3]);
+                for x in 0..inside[0] {
+                    // Past the one-voxel apron.
+                    sums[row + (x / 2) as usize] += data.at([x + 1, y + 1, z + 1]);
+                }
+            }
+        }
+        Summary::Sums(sums)
+    }
+}
+
 impl LazyLevels {
-    /// Levels built with a cache of at most `budget` bytes of finer bricks.
+    /// Levels built with a cache of at most `budget` bytes of finer bricks' sums.
     pub(crate) fn new(budget: u64) -> LazyLevels {
         LazyLevels { cache: Mutex::new(BrickCache::new(budget)) }
     }
@@ -45,22 +83,21 @@ impl LazyLevels {
         let (lo, hi) = stored_box(dims, brick);
         let size = sub(hi, lo);
         let mut sums = vec![0.0f32; size.iter().map(|&n| n as usize).product()];
-        // The finer voxels under the box, and the finer bricks that hold them.
-        let flo = lo.map(|v| 2 * v);
-        let fhi = [0, 1, 2].map(|a| (2 * hi[a]).min(fine[a]));
-        let bricks: [Range<u32>; 3] = [0, 1, 2].map(|a| flo[a] / BRICK..(fhi[a] - 1) / BRICK + 1);
+        // The finer bricks under the box: finer brick b's voxels are coarse voxels
+        // [b HALF, (b + 1) HALF).
+        let bricks: [Range<u32>; 3] = [0, 1, 2].map(|a| lo[a] / HALF..(hi[a] - 1) / HALF + 1);
         let mut uniform: Option<Option<f32>> = None;
         for bz in bricks[2].clone() {
             for by in bricks[1].clone() {
                 for bx in bricks[0].clone() {
                     let fb = [bx, by, bz];
-                    let data = self.read_cached(level - 1, fb, read)?;
-                    uniform = Some(match (uniform, &*data) {
-                        (None, BrickData::Constant(v)) => Some(*v),
-                        (Some(Some(u)), BrickData::Constant(v)) if u.to_bits() == v.to_bits() => Some(u),
+                    let summary = self.summary(level - 1, fb, fine, read)?;
+                    uniform = Some(match (uniform, &*summary) {
+                        (None, Summary::Constant(v)) => Some(*v),
+                        (Some(Some(u)), Summary::Constant(v)) if u.to_bits() == v.to_bits() => Some(u),
                         _ => None,
                     });
-                    add_children(&mut sums, lo, size, &data, fb, flo, fhi);
+                    add_summary(&mut sums, (lo, hi), &summary, fb, fine);
                 }
             }
         }
@@ -71,20 +108,42 @@ impl LazyLevels {
         Ok(cut_brick(dims, brick, |p| sums[box_index(sub(p, lo), size)]).collapse())
     }
 
-    /// A brick through the cache.
-    fn read_cached(
+    /// The summary of a finer brick, through the cache.
+    fn summary(
         &self,
         level: usize,
         brick: [u32; 3],
+        fine: [u32; 3],
         read: &dyn Fn(usize, [u32; 3]) -> Result<BrickData, BrickError>,
-    ) -> Result<Arc<BrickData>, BrickError> {
+    ) -> Result<Arc<Summary>, BrickError> {
         if let Some(hit) = self.cache.lock().unwrap_or_else(|e| e.into_inner()).get((level, brick)) {
             return Ok(hit);
         }
         // Read without the lock, so that other loader threads are not held up.
-        let data = Arc::new(read(level, brick)?);
-        self.cache.lock().unwrap_or_else(|e| e.into_inner()).insert((level, brick), data.clone());
-        Ok(data)
+        let summary = Arc::new(Summary::of(&read(level, brick)?, brick, fine));
+        self.cache.lock().unwrap_or_else(|e| e.into_inner()).insert((level, brick), summary.clone());
+        Ok(summary)
+    }
+}
+
+/// Adds the sums of finer brick `fb` (a level of `fine` dims) to the coarse voxels of the box
+/// `[lo, hi)` it covers.
+fn add_summary(sums: &mut [f32], (lo, hi): ([u32; 3], [u32; 3]), summary: &Summary, fb: [u32; 3], fine: [u32; 3]) {
+    let size = sub(hi, lo);
+    let start = [0, 1, 2].map(|a| lo[a].max(fb[a] * HALF));
+    let end = [0, 1, 2].map(|a| hi[a].min((fb[a] + 1) * HALF));
+    let children = |c: u32, n: u32| n.saturating_sub(2 * c).min(2) as f32;
+    for z in start[2]..end[2] {
+        for y in start[1]..end[1] {
+            let row = box_index([0, y - lo[1], z - lo[2]], size);
+            for x in start[0]..end[0] {
+                sums[row + (x - lo[0]) as usize] += match summary {
+                    // A constant brick's voxels inside the volume, each of its value.
+                    Summary::Constant(v) => v * children(x, fine[0]) * children(y, fine[1]) * children(z, fine[2]),
+                    Summary::Sums(s) => s[box_index([x, y, z].map(|c| c % HALF), [HALF; 3])],
+                };
+            }
+        }
     }
 }
 
@@ -120,37 +179,12 @@ pub(crate) fn box_index(p: [u32; 3], size: [u32; 3]) -> usize {
     (p[2] as usize * size[1] as usize + p[1] as usize) * size[0] as usize + p[0] as usize
 }
 
-/// Adds the finer voxels of brick `fb` that lie in `[flo, fhi)` to the sums of the coarse
-/// voxels (box at `lo` of `size`) they fall in.
-fn add_children(
-    sums: &mut [f32],
-    lo: [u32; 3],
-    size: [u32; 3],
-    data: &BrickData,
-    fb: [u32; 3],
-    flo: [u32; 3],
-    fhi: [u32; 3],
-) {
-    let start = [0, 1, 2].map(|a| flo[a].max(fb[a] * BRICK));
-    let end = [0, 1, 2].map(|a| fhi[a].min((fb[a] + 1) * BRICK));
-    for z in start[2]..end[2] {
-        for y in start[1]..end[1] {
-            let row = box_index([0, y / 2 - lo[1], z / 2 - lo[2]], size);
-            for x in start[0]..end[0] {
-                // The finer voxel's place in its stored brick: past the one-voxel apron.
-                let v = data.at([x - fb[0] * BRICK + 1, y - fb[1] * BRICK + 1, z - fb[2] * BRICK + 1]);
-                sums[row + (x / 2 - lo[0]) as usize] += v;
-            }
-        }
-    }
-}
-
 /// Bricks kept by recency of use within a byte budget.
 pub(crate) struct BrickCache {
     pub(crate) budget: u64,
     pub(crate) bytes: u64,
     tick: u64,
-    pub(crate) entries: HashMap<(usize, [u32; 3]), (Arc<BrickData>, u64)>,
+    pub(crate) entries: HashMap<(usize, [u32; 3]), (Arc<Summary>, u64)>,
     /// Keys by their last use, oldest first.
     order: BTreeMap<u64, (usize, [u32; 3])>,
 }
@@ -160,14 +194,14 @@ impl BrickCache {
         BrickCache { budget, bytes: 0, tick: 0, entries: HashMap::new(), order: BTreeMap::new() }
     }
 
-    fn cost(data: &BrickData) -> u64 {
+    fn cost(data: &Summary) -> u64 {
         match data {
-            BrickData::Constant(_) => 64,
-            BrickData::Voxels(v) => v.len() as u64 * 4,
+            Summary::Constant(_) => 64,
+            Summary::Sums(v) => v.len() as u64 * 4 + 64,
         }
     }
 
-    pub(crate) fn get(&mut self, key: (usize, [u32; 3])) -> Option<Arc<BrickData>> {
+    pub(crate) fn get(&mut self, key: (usize, [u32; 3])) -> Option<Arc<Summary>> {
         self.tick += 1;
         let (data, used) = self.entries.get_mut(&key)?;
         self.order.remove(used);
@@ -176,7 +210,7 @@ impl BrickCache {
         Some(data.clone())
     }
 
-    pub(crate) fn insert(&mut self, key: (usize, [u32; 3]), data: Arc<BrickData>) {
+    pub(crate) fn insert(&mut self, key: (usize, [u32; 3]), data: Arc<Summary>) {
         self.tick += 1;
         if let Some((old, used)) = self.entries.insert(key, (data.clone(), self.tick)) {
             self.order.remove(&used);

@@ -32,6 +32,10 @@ const USED: u32 = 2;
 /// Levels the layout has room for (`BrickLayout`'s arrays).
 pub const MAX_LEVELS: usize = 16;
 
+/// Bricks staged for the pool before they are submitted (so that the staging memory of many
+/// arrivals is not held at once: 16 bricks are 9 MiB).
+const UPLOADS_PER_SUBMIT: usize = 16;
+
 /// Bytes of one slot of the pool (half floats).
 pub const SLOT_BYTES: u64 = (STORED as u64).pow(3) * 2;
 
@@ -362,6 +366,7 @@ impl BrickedVolume {
     /// the page table if it changed. Returns how many arrived.
     pub fn receive(&self, gpu: &Gpu, wait: bool) -> Result<usize, RuntimeError> {
         let mut arrived = 0;
+        let mut uploads = 0usize;
         loop {
             let pending = !self.lock().pending.is_empty();
             let next = if wait && pending { self.loader.wait() } else { self.loader.try_next() };
@@ -378,6 +383,13 @@ impl BrickedVolume {
                 Ok(Normalized::Voxels(voxels)) => match self.slot_for(&mut state) {
                     Some(slot) => {
                         self.upload(gpu, slot, &voxels);
+                        uploads += 1;
+                        if uploads.is_multiple_of(UPLOADS_PER_SUBMIT) {
+                            // Let the staged bricks go to the pool before staging more: the
+                            // staging memory of a frame's uploads is freed as they complete.
+                            gpu.queue.submit([]);
+                            let _ = gpu.device.poll(wgpu::PollType::Poll);
+                        }
                         state.owner[slot as usize] = Some(entry);
                         state.used[slot as usize] = state.frame;
                         state.table[entry as usize] = RESIDENT | self.slot_bits(slot);

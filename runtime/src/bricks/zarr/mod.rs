@@ -38,7 +38,7 @@ use glam::{Mat4, Vec4};
 use zarrs::array::{ArrayError, ArraySubsetTraits};
 
 #[cfg(test)]
-use super::lazy_levels::BrickCache;
+use super::lazy_levels::{BrickCache, Summary};
 use super::lazy_levels::{LazyLevels, box_index, stored_box, sub};
 use super::pyramid::{check_brick, cut_brick};
 use super::{BRICK, BrickData, BrickError, BrickSource, Level, levels_for, lock, table_entries};
@@ -116,8 +116,8 @@ impl ZarrSource {
         Self::open_at(&StoreLocation::Path(path.to_path_buf()), &ZarrSelection::default(), 256 << 20)
     }
 
-    /// Opens the store at `location`, showing what `selection` picks, with `cache_bytes` for
-    /// the finer bricks that built levels are averaged from. Reads the metadata and a few
+    /// Opens the store at `location`, showing what `selection` picks, with `cache_bytes` for the
+    /// sums of finer bricks that built levels are averaged from. Reads the metadata and a few
     /// coarse bricks for the value range.
     pub fn open_at(
         location: &StoreLocation,

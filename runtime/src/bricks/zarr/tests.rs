@@ -371,8 +371,8 @@ fn a_corrupt_chunk_is_an_error_naming_it() {
     let dims = [40, 40, 40];
     let data: Vec<u16> = grid(dims, value).into_iter().map(|v| v as u16 + 1).collect();
     write_array(&root, "/", v3(zyx(dims), [20, 20, 20], "uint16", bytes_gzip()), data);
-    let source = ZarrSource::open(&root).unwrap();
     std::fs::write(root.join("c/1/0/1"), b"not gzip at all").unwrap();
+    let source = ZarrSource::open(&root).unwrap();
     let error = source.read(0, [0, 0, 0]).unwrap_err().0;
     assert!(error.contains("chunk `c/1/0/1`"), "{error}");
     // A chunk of the wrong size (valid gzip of too few bytes) is refused as well.
@@ -400,14 +400,15 @@ fn broken_metadata_is_an_error() {
 
 #[test]
 fn the_cache_keeps_to_its_budget() {
-    let mut cache = BrickCache::new(3 * BrickData::LEN as u64 * 4);
+    let sums = || Arc::new(Summary::Sums(vec![0.0; 32 * 32 * 32]));
+    let mut cache = BrickCache::new(3 * (32 * 32 * 32 * 4 + 64));
     for i in 0..5 {
-        cache.insert((0, [i, 0, 0]), Arc::new(BrickData::Voxels(vec![0.0; BrickData::LEN])));
+        cache.insert((0, [i, 0, 0]), sums());
         assert!(cache.bytes <= cache.budget);
     }
     assert!(cache.get((0, [0, 0, 0])).is_none());
     assert!(cache.get((0, [4, 0, 0])).is_some());
-    cache.insert((1, [0, 0, 0]), Arc::new(BrickData::Constant(1.0)));
+    cache.insert((1, [0, 0, 0]), Arc::new(Summary::Constant(1.0)));
     assert_eq!(cache.entries.len(), 3);
     assert!(cache.get((0, [4, 0, 0])).is_some());
 }
