@@ -202,3 +202,37 @@ fn stores_render_like_their_twins_in_one_texture() {
         }
     }
 }
+
+/// `channel = [0, 1, 2]` shows every channel as a volume of its own (napari's `channel_axis`),
+/// each with its transfer function, the others composited as additional volumes: the same
+/// picture as the three NIfTI twins as primary and additional volumes.
+#[test]
+fn a_channel_list_renders_like_its_channels_as_volumes() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let root = fixtures().canonicalize().expect("fixtures");
+    let store = root.join("channels_czyx_ome05.zarr").display().to_string();
+    let view = "[[view]]\nname = \"3d\"\nkind = \"raycast\"\nsize = [96, 96]\ncamera = { azimuth = 30.0, elevation = 20.0, distance = 2.2 }\n";
+    let render_table = "[render]\ncompositing = \"dvr\"\njitter = 0.0\n";
+    let tfs = ["vessel_red", "grayscale", "vessel_blue"];
+    let channels = format!(
+        "{render_table}\n[[volume]]\nname = \"cells\"\nrole = \"primary\"\npath = \"{store}\"\nwindow = [0.0, 255.0]\nchannel = [0, 1, 2]\ntf = [\"{}\", \"{}\", \"{}\"]\n\n{view}",
+        tfs[0], tfs[1], tfs[2]
+    );
+    let mut twins = render_table.to_string();
+    for (c, tf) in tfs.iter().enumerate() {
+        let role = if c == 0 { "primary" } else { "additional" };
+        let path = root.join(format!("channels_czyx_ome05_c{c}.nii")).display().to_string();
+        twins += &format!(
+            "\n[[volume]]\nname = \"cells_{c}\"\nrole = \"{role}\"\npath = \"{path}\"\nwindow = [0.0, 255.0]\ntf = \"{tf}\"\n"
+        );
+    }
+    twins += &format!("\n{view}");
+    let a = render(dir.path(), "channels.toml", &channels);
+    let b = render(dir.path(), "twins.toml", &twins);
+    let (a, b) = (&a[0].1, &b[0].1);
+    let total: u64 = a.as_raw().iter().zip(b.as_raw()).map(|(&x, &y)| (x as i64 - y as i64).unsigned_abs()).sum();
+    let mean = total as f64 / a.as_raw().len() as f64;
+    println!("three channels as volumes: mean difference {mean:.4}/255 to the twins");
+    assert!(b.as_raw().iter().filter(|&&v| v > 0).count() > 100, "the twins' picture is empty");
+    assert!(mean <= 0.5, "mean difference {mean:.3}/255");
+}

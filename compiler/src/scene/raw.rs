@@ -75,14 +75,14 @@ pub(super) struct RawVolume {
     pub(super) path: Option<Spanned<String>>,
     pub(super) phantom: Option<Spanned<String>>,
     pub(super) fallback: Option<Spanned<String>>,
-    pub(super) tf: Option<Spanned<String>>,
+    pub(super) tf: Option<Spanned<RawTf>>,
     pub(super) window: Option<Spanned<[f32; 2]>>,
     pub(super) level: Option<Spanned<f32>>,
     pub(super) width: Option<Spanned<f32>>,
     pub(super) bricks: Option<Spanned<bool>>,
     pub(super) lookup: Option<Spanned<String>>,
     pub(super) multiscale: Option<Spanned<RawEntry>>,
-    pub(super) channel: Option<Spanned<RawEntry>>,
+    pub(super) channel: Option<Spanned<RawChannels>>,
     pub(super) time: Option<Spanned<i64>>,
 }
 pub(super) const VOLUME_KEYS: &[&str] = &[
@@ -101,6 +101,22 @@ pub(super) const VOLUME_KEYS: &[&str] = &[
     "channel",
     "time",
 ];
+
+/// A volume's `tf`: one, or one per channel of `channel = [...]`.
+#[derive(Deserialize)]
+#[serde(untagged)]
+pub(super) enum RawTf {
+    One(String),
+    Many(Vec<String>),
+}
+
+/// `channel`: one channel, or a list of them (one volume each).
+#[derive(Deserialize)]
+#[serde(untagged)]
+pub(super) enum RawChannels {
+    One(RawEntry),
+    Many(Vec<RawEntry>),
+}
 
 /// An entry of a store's list, by index or by name.
 #[derive(Deserialize)]

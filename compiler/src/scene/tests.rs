@@ -473,3 +473,37 @@ fn only_http_urls_name_remote_stores() {
     }
     assert!(is_url("http://host/a.zarr") && !is_url("data/a.zarr") && !is_url("C:\\data\\a.zarr"));
 }
+
+#[test]
+fn a_channel_list_makes_one_volume_per_channel() {
+    let store = MINIMAL.replace(
+        "phantom = \"sphere\"\n",
+        "path = \"https://example.org/cells.ome.zarr\"\nchannel = [0, 2, \"DAPI\"]\ntf = [\"vessel_red\", \"grayscale\", \"vessel_blue\"]\n",
+    );
+    let (_, scene, warnings) = parse_reporting(&store);
+    let scene = scene.unwrap_or_else(|| panic!("{warnings:?}"));
+    let made: Vec<_> = scene
+        .volumes
+        .iter()
+        .map(|v| {
+            let tf = match &v.tf {
+                Some(TfRef::Preset(p)) => p.value.clone(),
+                other => panic!("{other:?}"),
+            };
+            (v.name.name.as_str(), v.role.value, v.zarr.channel.as_ref().map(|c| c.value.clone()), tf)
+        })
+        .collect();
+    assert_eq!(
+        made,
+        [
+            ("v_0", Role::Primary, Some(Entry::Index(0)), "vessel_red".to_string()),
+            ("v_1", Role::Additional, Some(Entry::Index(2)), "grayscale".to_string()),
+            ("v_2", Role::Additional, Some(Entry::Name("DAPI".into())), "vessel_blue".to_string()),
+        ]
+    );
+    // As many transfer functions as channels, or one for all.
+    let e = errors(&store.replace(", \"vessel_blue\"]", "]"));
+    assert_eq!((e[0].0, e[0].3.as_str()), ("E0702", "2 transfer functions for 3 channels"));
+    let e = errors(&store.replace("channel = [0, 2, \"DAPI\"]", "channel = 1"));
+    assert_eq!((e[0].0, e[0].3.as_str()), ("E0702", "a list of `tf` needs a list of `channel`"));
+}

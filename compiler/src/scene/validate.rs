@@ -426,7 +426,19 @@ impl Cx<'_> {
                 }
                 (None, _) => None,
             };
-            let tf = match (&v.tf, role.value) {
+            // One transfer function, or one per channel of a channel list (see `channels`).
+            let (tf_one, tf_list) = match &v.tf {
+                Some(tf) => match tf.get_ref() {
+                    RawTf::One(t) => (Some(Spanned::new(tf.span(), t.clone())), None),
+                    RawTf::Many(list) => {
+                        let span = tf.span();
+                        let first = list.first().map(|t| Spanned::new(span.clone(), t.clone()));
+                        (first, Some((list.clone(), span)))
+                    }
+                },
+                None => (None, None),
+            };
+            let tf = match (&tf_one, role.value) {
                 (Some(tf), Role::Mask) => {
                     self.ignored(tf, "tf", "on a mask volume");
                     None
@@ -451,8 +463,41 @@ impl Cx<'_> {
                 Some(path) => Some(self.file_ref(path, "lookup")),
                 None => None,
             };
-            let zarr = self.zarr_keys(&source, v.multiscale, v.channel, v.time);
-            out.push(Volume { name, role, source, fallback, tf, window, bricks, bricked, lookup, zarr, span });
+            let (channel, channels) = match v.channel {
+                Some(c) => {
+                    let span = c.span();
+                    match c.into_inner() {
+                        RawChannels::One(e) => (Some(Spanned::new(span, e)), None),
+                        RawChannels::Many(list) => (None, Some((list, span))),
+                    }
+                }
+                None => (None, None),
+            };
+            let zarr = self.zarr_keys(&source, v.multiscale, channel, v.time);
+            let volume = Volume { name, role, source, fallback, tf, window, bricks, bricked, lookup, zarr, span };
+            match channels {
+                Some((_, list_span)) if !is_store(&volume.source) => {
+                    let span = self.range(list_span);
+                    self.ignored_at(span, "channel", "on a volume that is not a Zarr store");
+                    out.push(volume);
+                }
+                Some((list, list_span)) => {
+                    for each in self.channels(volume, list, list_span, tf_list) {
+                        self.check_unique_name(&out, &each);
+                        out.push(each);
+                    }
+                }
+                None => {
+                    if let Some((_, tf_span)) = tf_list {
+                        let span = self.range(tf_span);
+                        self.emit(
+                            self.invalid(span, "a list of `tf` needs a list of `channel`")
+                                .with_label("one per channel"),
+                        );
+                    }
+                    out.push(volume);
+                }
+            }
         }
         if !out.iter().any(|v| v.role.value == Role::Primary) {
             let span = out.first().map_or(Span::new(self.base, self.base), |v| v.role.span);
@@ -499,6 +544,70 @@ impl Cx<'_> {
         VolumeSource::Url(Located { value: given.clone(), span })
     }
 
+    /// `channel = [A, B, ...]`: one volume per channel of the store, as napari's `channel_axis`
+    /// shows them: named `NAME_0`, `NAME_1`, ... in the list's order, the first with the
+    /// table's role and the others `additional` (all with the table's role when it is not
+    /// `primary`), each with its own transfer function when `tf` is a list of as many.
+    fn channels(
+        &mut self,
+        volume: Volume,
+        list: Vec<RawEntry>,
+        list_span: std::ops::Range<usize>,
+        tfs: Option<(Vec<String>, std::ops::Range<usize>)>,
+    ) -> Vec<Volume> {
+        let span = self.range(list_span.clone());
+        if list.is_empty() {
+            self.emit(self.invalid(span, "an empty `channel` list").with_label("name at least one channel"));
+            return vec![volume];
+        }
+        if let Some((tfs, tf_span)) = &tfs
+            && tfs.len() != list.len()
+        {
+            let tf_span = self.range(tf_span.clone());
+            self.emit(
+                self.invalid(tf_span, format!("{} transfer functions for {} channels", tfs.len(), list.len()))
+                    .with_label("one per channel")
+                    .with_secondary(span, "the channels"),
+            );
+        }
+        let mut out = Vec::with_capacity(list.len());
+        for (i, entry) in list.into_iter().enumerate() {
+            let mut each = volume.clone();
+            each.name = Ident { name: format!("{}_{i}", volume.name.name), span: volume.name.span };
+            if i > 0 && volume.role.value == Role::Primary {
+                each.role = Located { value: Role::Additional, span: volume.role.span };
+            }
+            let chosen = Spanned::new(list_span.clone(), entry);
+            each.zarr = self.zarr_keys(&volume.source, None, Some(chosen), None);
+            each.zarr.multiscale = volume.zarr.multiscale.clone();
+            each.zarr.time = volume.zarr.time.clone();
+            if let Some((tfs, tf_span)) = &tfs
+                && let Some(tf) = tfs.get(i)
+                && volume.role.value != Role::Mask
+            {
+                each.tf = Some(self.tf_ref(&Spanned::new(tf_span.clone(), tf.clone())));
+            }
+            out.push(each);
+        }
+        out
+    }
+
+    /// E0702 when a volume made from a channel list takes the name of an earlier one.
+    fn check_unique_name(&mut self, earlier: &[Volume], volume: &Volume) {
+        if let Some(first) = earlier.iter().find(|o| o.name.name == volume.name.name) {
+            let first = first.name.span;
+            self.emit(
+                Diagnostic::new(
+                    Code::InvalidInstance,
+                    volume.name.span,
+                    format!("two volumes are named `{}`", volume.name.name),
+                )
+                .with_label("a channel's volume, named after the table and the channel's place")
+                .with_secondary(first, "first here"),
+            );
+        }
+    }
+
     /// `multiscale`, `channel` and `time`: for a Zarr store only, indices not negative.
     fn zarr_keys(
         &mut self,
@@ -507,11 +616,7 @@ impl Cx<'_> {
         channel: Option<Spanned<RawEntry>>,
         time: Option<Spanned<i64>>,
     ) -> ZarrKeys {
-        let is_store = match source {
-            VolumeSource::File(f) => is_zarr(&f.resolved),
-            VolumeSource::Url(_) => true,
-            VolumeSource::Phantom(_) => false,
-        };
+        let is_store = is_store(source);
         let entry = |cx: &mut Self, value: Option<Spanned<RawEntry>>, key: &str| -> Option<Located<Entry>> {
             let value = value?;
             let span = cx.span(&value);
@@ -835,6 +940,16 @@ pub(crate) fn parse_bytes(text: &str) -> Option<u64> {
     };
     let bytes = number * scale as f64;
     (bytes.is_finite() && bytes >= 0.0 && bytes < u64::MAX as f64).then_some(bytes as u64)
+}
+
+/// Whether a volume's data is a Zarr store (a folder or a URL): what `multiscale`, `channel`
+/// and `time` choose from.
+fn is_store(source: &VolumeSource) -> bool {
+    match source {
+        VolumeSource::File(f) => is_zarr(&f.resolved),
+        VolumeSource::Url(_) => true,
+        VolumeSource::Phantom(_) => false,
+    }
 }
 
 /// Whether a volume without `bricks` is bricked: a Zarr store, or a file larger than a quarter
