@@ -79,7 +79,7 @@ pub(super) fn open(url: &str) -> Result<Arc<Store>, String> {
 }
 
 /// Only `http://` and `https://` URLs name remote stores here.
-pub fn check_scheme(url: &str) -> Result<(), String> {
+fn check_scheme(url: &str) -> Result<(), String> {
     let scheme = url.split_once("://").map(|(s, _)| s.to_ascii_lowercase());
     match scheme.as_deref() {
         Some("http" | "https") => Ok(()),

@@ -350,7 +350,7 @@ impl ZarrSource {
         match self.read_region(d, slo, shi)? {
             Region::Constant(v) => Ok(BrickData::Constant(v)),
             Region::Voxels(values) => {
-                let level_values = plan::resample(&values, (slo, shi), (lo, hi), ratio, offset);
+                let level_values = plan::resample(values, (slo, shi), (lo, hi), ratio, offset);
                 let size = sub(hi, lo);
                 Ok(cut_brick(dims, brick, |p| level_values[box_index(sub(p, lo), size)]).collapse())
             }

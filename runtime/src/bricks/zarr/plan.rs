@@ -106,12 +106,16 @@ pub(super) fn source_box(
 /// `[slo, shi)` (x fastest): each the mean of the voxels its window covers, or, past the
 /// dataset's end (a level rounded up over a dataset rounded down), the nearest voxel.
 pub(super) fn resample(
-    values: &[f32],
+    values: Vec<f32>,
     (slo, shi): ([u32; 3], [u32; 3]),
     (lo, hi): ([u32; 3], [u32; 3]),
     ratio: [u32; 3],
     offset: [i64; 3],
 ) -> Vec<f32> {
+    // A dataset that is the level (every brick of level 0, on the loaders' path): as read.
+    if ratio == [1, 1, 1] && offset == [0, 0, 0] && slo == lo && shi == hi {
+        return values;
+    }
     let ssize = [0, 1, 2].map(|a| (shi[a] - slo[a]) as usize);
     // Per axis and level voxel: the window of box indices it averages.
     let windows = |a: usize| -> Vec<(usize, usize)> {
@@ -131,9 +135,6 @@ pub(super) fn resample(
             .collect()
     };
     let (wx, wy, wz) = (windows(0), windows(1), windows(2));
-    if ratio == [1, 1, 1] && offset == [0, 0, 0] && slo == lo && shi == hi {
-        return values.to_vec();
-    }
     let mut out = Vec::with_capacity(wx.len() * wy.len() * wz.len());
     for &(z0, z1) in &wz {
         for &(y0, y1) in &wy {
@@ -191,10 +192,10 @@ mod tests {
     fn resampling_averages_windows_and_repeats_past_the_end() {
         // A 1D row (x) of 5 dataset voxels read as 3 level voxels with ratio 2: the last has one.
         let values = [1.0, 3.0, 5.0, 7.0, 9.0];
-        let out = resample(&values, ([0, 0, 0], [5, 1, 1]), ([0, 0, 0], [3, 1, 1]), [2, 1, 1], [0, 0, 0]);
+        let out = resample(values.to_vec(), ([0, 0, 0], [5, 1, 1]), ([0, 0, 0], [3, 1, 1]), [2, 1, 1], [0, 0, 0]);
         assert_eq!(out, [2.0, 6.0, 9.0]);
         // A level rounded up over a dataset rounded down: the voxel past the end repeats.
-        let out = resample(&values[..2], ([0, 0, 0], [2, 1, 1]), ([0, 0, 0], [3, 1, 1]), [1, 1, 1], [0, 0, 0]);
+        let out = resample(values[..2].to_vec(), ([0, 0, 0], [2, 1, 1]), ([0, 0, 0], [3, 1, 1]), [1, 1, 1], [0, 0, 0]);
         assert_eq!(out, [1.0, 3.0, 3.0]);
         assert_eq!(source_box([0, 0, 0], [3, 1, 1], [1, 1, 1], [0, 0, 0], [2, 1, 1]), ([0, 0, 0], [2, 1, 1]));
     }
