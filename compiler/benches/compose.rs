@@ -8,7 +8,7 @@
 
 use criterion::{Criterion, criterion_group, criterion_main};
 
-// The allocator the `vrsc` binary ships with (see compiler/cli/src/main.rs).
+// The allocator the `vrsc` binary ships with (see cli/src/main.rs).
 #[global_allocator]
 static GLOBAL: vrsc_alloc::MiMalloc = vrsc_alloc::MiMalloc;
 use std::hint::black_box;

@@ -6,7 +6,7 @@
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 
-// The allocator the `vrsc` binary ships with (see compiler/cli/src/main.rs).
+// The allocator the `vrsc` binary ships with (see cli/src/main.rs).
 #[global_allocator]
 static GLOBAL: vrsc_alloc::MiMalloc = vrsc_alloc::MiMalloc;
 use std::fmt::Write;

@@ -8,7 +8,7 @@
 //!     tests/fixtures/compose/bench_3vol_2lights_4clips/scene.toml 50 [VIEW]
 //! ```
 
-// The allocator the `vrsc` binary ships with (see compiler/cli/src/main.rs).
+// The allocator the `vrsc` binary ships with (see cli/src/main.rs).
 #[global_allocator]
 static GLOBAL: vrsc_alloc::MiMalloc = vrsc_alloc::MiMalloc;
 

@@ -13,7 +13,7 @@ use std::fmt::Write;
 use std::path::Path;
 use std::time::Duration;
 
-// The allocator the `vrsc` binary ships with (see compiler/cli/src/main.rs).
+// The allocator the `vrsc` binary ships with (see cli/src/main.rs).
 #[global_allocator]
 static GLOBAL: vrsc_alloc::MiMalloc = vrsc_alloc::MiMalloc;
 

@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 fn fixture(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/fixtures/cli").join(name).join("scene.toml")
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/fixtures/cli").join(name).join("scene.toml")
 }
 
 /// `vrsc --message-format json ARGS`, to run.

@@ -144,7 +144,7 @@ fn the_window_shows_the_scene_and_an_orbit_changes_the_picture() {
         return;
     }
     let (_xvfb, display) = start_xvfb();
-    let scene: PathBuf = [env!("CARGO_MANIFEST_DIR"), "..", "..", "examples", "basic", "scene.toml"].iter().collect();
+    let scene: PathBuf = [env!("CARGO_MANIFEST_DIR"), "..", "examples", "basic", "scene.toml"].iter().collect();
     let runtime_dir = tempfile::tempdir().unwrap();
     let log_path = runtime_dir.path().join("viewer.log");
     let mut viewer = start_viewer(&scene, &display, runtime_dir.path(), &log_path);
@@ -182,7 +182,7 @@ fn the_window_shows_the_scene_and_an_orbit_changes_the_picture() {
 /// The ablation example with only its axial view, needle A and zone A: one marker, one zone
 /// fill, and no 3D view to render (a quicker test). Written into `dir` with the modules.
 fn axial_ablation(dir: &Path) -> PathBuf {
-    let example: PathBuf = [env!("CARGO_MANIFEST_DIR"), "..", "..", "examples", "ablation"].iter().collect();
+    let example: PathBuf = [env!("CARGO_MANIFEST_DIR"), "..", "examples", "ablation"].iter().collect();
     for entry in std::fs::read_dir(&example).unwrap().flatten() {
         if entry.path().extension().is_some_and(|e| e == "vrs") {
             std::fs::copy(entry.path(), dir.join(entry.file_name())).unwrap();

@@ -13,7 +13,7 @@ use std::time::{Duration, Instant};
 use loopback::{Mode, Server};
 
 fn fixtures() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/fixtures/zarr").canonicalize().expect("fixtures")
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/fixtures/zarr").canonicalize().expect("fixtures")
 }
 
 fn scene(path: &str) -> String {
