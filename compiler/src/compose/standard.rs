@@ -16,104 +16,137 @@ impl Scene {
     /// (before the scene's `[[module]]`s and then the view's own `modules`). See
     /// `stdlib/README.md`.
     pub fn standard_modules(&self, view: &View) -> Vec<StdModule> {
-        let r = &view.render;
-        let mut out = Vec::new();
-        let mut add = |name: &'static str, instances: Vec<String>| out.push(StdModule { name, instances });
-        let additional = self.volume_names(Role::Additional);
-        let additional_names = additional.clone();
-        let masks = self.volume_names(Role::Mask);
-        let tags = self.volume_names(Role::Tag);
-        match view.kind.value {
-            ViewKind::Raycast => add("raycast", vec![]),
-            ViewKind::Slice => add("slice", vec![]),
+        let mut selection = Selection { view, out: Vec::new(), additional: self.volume_names(Role::Additional) };
+        selection.sampling_and_classification(self);
+        selection.compositing();
+        selection.late_modules();
+        if Scene::has_mesh_layer(view) {
+            // Last: `stop_at_meshes` follows the ray setup (and skipping's first walk), and
+            // `blend_meshes` runs after `encode_srgb` (mesh colours are display colours).
+            selection.add("meshes", vec![]);
         }
-        add("march", vec![]);
-        add("background", vec![]);
-        add("sample_primary", vec![]);
-        if !additional.is_empty() {
-            add("sample_volume", additional.clone());
+        selection.out
+    }
+}
+
+/// The standard modules chosen so far for one view, in order.
+struct Selection<'v> {
+    view: &'v View,
+    out: Vec<StdModule>,
+    /// The names of the additional volumes (instances of the per-volume modules).
+    additional: Vec<String>,
+}
+
+impl Selection<'_> {
+    fn add(&mut self, name: &'static str, instances: Vec<String>) {
+        self.out.push(StdModule { name, instances });
+    }
+
+    /// Instances for a per-volume module: one per additional volume (`None`: there are none).
+    fn per_additional(&self) -> Option<Vec<String>> {
+        (!self.additional.is_empty()).then(|| self.additional.clone())
+    }
+
+    /// The ray or slice set-up, sampling, gradients, classification, masks, tags and lights.
+    fn sampling_and_classification(&mut self, scene: &Scene) {
+        let r = &self.view.render;
+        match self.view.kind.value {
+            ViewKind::Raycast => self.add("raycast", vec![]),
+            ViewKind::Slice => self.add("slice", vec![]),
+        }
+        self.add("march", vec![]);
+        self.add("background", vec![]);
+        self.add("sample_primary", vec![]);
+        if let Some(volumes) = self.per_additional() {
+            self.add("sample_volume", volumes);
         }
         if r.shading || r.boundary {
-            add("gradient", vec![]);
+            self.add("gradient", vec![]);
         }
         // After `gradient`, before `light` and `tone`: its `ray.setup` and `sampling.gradient`
         // functions must run before theirs and after `sample_gradient`.
         if r.shading {
-            add("normal", vec![]);
+            self.add("normal", vec![]);
         }
-        add("classify", vec![]);
-        if !additional.is_empty() {
-            add("classify_volume", additional.clone());
+        self.add("classify", vec![]);
+        if let Some(volumes) = self.per_additional() {
+            self.add("classify_volume", volumes);
         }
         // After `classify`: their functions append to `classification.primary`.
+        let masks = scene.volume_names(Role::Mask);
         if !masks.is_empty() {
-            add("mask", masks);
+            self.add("mask", masks);
         }
+        let tags = scene.volume_names(Role::Tag);
         if !tags.is_empty() {
-            add("tag", tags);
+            self.add("tag", tags);
         }
         if r.shading && !r.lights.is_empty() {
-            add("light", r.lights.iter().map(|l| l.name.clone()).collect());
+            self.add("light", r.lights.iter().map(|l| l.name.clone()).collect());
         }
         if r.boundary {
-            add("boundary", vec![]);
+            self.add("boundary", vec![]);
         }
         if r.tone {
-            add("tone", vec![]);
+            self.add("tone", vec![]);
         }
-        add("composite", vec![]);
+    }
+
+    /// The compositing step: its common module, lighting, and the mode's modules.
+    fn compositing(&mut self) {
+        let r = &self.view.render;
+        self.add("composite", vec![]);
         if r.shading {
-            add("lighting", vec![]);
+            self.add("lighting", vec![]);
         }
         match r.compositing.value {
             Compositing::Dvr => {
-                add("composite_dvr", vec![]);
-                if !additional.is_empty() {
-                    add("composite_volume", additional);
+                self.add("composite_dvr", vec![]);
+                if let Some(volumes) = self.per_additional() {
+                    self.add("composite_volume", volumes);
                 }
             }
-            Compositing::Mip => add("composite_mip", vec![]),
-            Compositing::Iso => add("composite_iso", vec![]),
-            Compositing::Minip => add("composite_minip", vec![]),
-            Compositing::Average => add("composite_average", vec![]),
+            Compositing::Mip => self.add("composite_mip", vec![]),
+            Compositing::Iso => self.add("composite_iso", vec![]),
+            Compositing::Minip => self.add("composite_minip", vec![]),
+            Compositing::Average => self.add("composite_average", vec![]),
         }
+    }
+
+    /// Modules that follow every function above: skipping, pre-integration, shadows and HDR.
+    fn late_modules(&mut self) {
+        let (r, kind) = (&self.view.render, self.view.kind.value);
         // Last: its functions append to `ray.setup` and `end` after the ones above.
         if r.empty_space_skipping
-            && view.kind.value == ViewKind::Raycast
+            && kind == ViewKind::Raycast
             && let Some(module) = skip_module(r.compositing.value)
         {
-            add(module, vec![]);
+            self.add(module, vec![]);
         }
         // After `classify`: it replaces `classify_primary`.
         if r.preintegration && r.compositing.value == Compositing::Dvr {
-            add("preintegrate", vec![]);
+            self.add("preintegrate", vec![]);
         }
         // After `light`: each shadow runs just before its light's substep.
         if let Some(module) = shadow_module(r.shadows)
             && r.shading
             && !r.lights.is_empty()
         {
-            add(module, r.lights.iter().map(|l| l.name.clone()).collect());
+            self.add(module, r.lights.iter().map(|l| l.name.clone()).collect());
         }
         // Last: `linear_color` follows every classification function, and `expose`, the
         // operator and `encode_srgb` run in that order just before `blend_background` (after
         // `average_finish`).
         if let Some(operator) = tone_operator(r.tone_mapping) {
-            add("hdr", vec![]);
-            if !additional_names.is_empty() {
-                add("hdr_volume", additional_names);
+            self.add("hdr", vec![]);
+            if let Some(volumes) = self.per_additional() {
+                self.add("hdr_volume", volumes);
             }
-            add(operator, vec![]);
+            self.add(operator, vec![]);
             if r.auto_exposure {
-                add("auto_exposure", vec![]);
+                self.add("auto_exposure", vec![]);
             }
         }
-        // Last: `stop_at_meshes` follows the ray setup (and skipping's first walk), and
-        // `blend_meshes` runs after `encode_srgb` (mesh colours are display colours).
-        if Scene::has_mesh_layer(view) {
-            add("meshes", vec![]);
-        }
-        out
     }
 }
 
