@@ -152,6 +152,36 @@ fn a_case_named_after_a_code_expects_that_code() {
     }
 }
 
+/// Codes no case here gives, with the reason: they are about a render, the machine or the
+/// compiler itself, not about what a module or scene says (`compiler/tests/diagnostics.rs` and
+/// the CLI's tests produce them).
+const NOT_CASES: &[(&str, &str)] = &[
+    ("E0610", "a bricked volume's own WGSL lookup: a Zarr store or `bricks = true` and a WGSL file"),
+    ("E0801", "probes are asked for on `vrsc render`'s command line, which needs a GPU"),
+    ("E0802", "probes are asked for on `vrsc render`'s command line, which needs a GPU"),
+    ("E0901", "a compiler bug by definition"),
+    ("E0902", "a file of the command line or an output, not the input's content"),
+    ("E0903", "the machine's GPU"),
+    ("E0904", "the machine's GPU"),
+];
+
+#[test]
+fn every_code_a_module_or_scene_can_cause_has_a_case() {
+    let names: Vec<String> = cases().into_iter().map(|c| c.name).collect();
+    let mut missing = Vec::new();
+    for code in vrsc::diag::Code::ALL {
+        let code = code.as_str();
+        let exempt = NOT_CASES.iter().any(|(c, _)| *c == code);
+        let covered = names.iter().any(|n| n.starts_with(&format!("{code}_")));
+        if exempt && covered {
+            missing.push(format!("{code} has a case now: take it out of NOT_CASES"));
+        } else if !exempt && !covered {
+            missing.push(format!("{code}: no case tests/conformance/{code}_*"));
+        }
+    }
+    assert!(missing.is_empty(), "{}", missing.join("\n"));
+}
+
 #[test]
 fn expectations_are_read_strictly() {
     assert_eq!(expectations("// expect: ok\n"), Ok(vec![]));
