@@ -16,6 +16,7 @@
 //! | `toml,scene` | `vrsc build` of the scene, beside the page's named files: it composes |
 //! | `toml,scene,error=E0603` | `vrsc build` fails with exactly these error codes |
 //! | `toml,scene,warning=W0005` | `vrsc build` succeeds with exactly these warnings |
+//! | `json,output=NAME.vrs` | exactly what `vrsc --message-format json check NAME.vrs` prints (a named block above) |
 //! | `text`, `sh`, `json` | not run |
 //!
 //! In `docs/language.md` every block carries one of these labels, so no example goes unchecked.
@@ -163,6 +164,19 @@ fn check_page(page: &str, strict: bool) -> usize {
                 let (code, diags) = vrsc(dir.path(), &["build", &name, "-o", &out.display().to_string()]);
                 if let Some(why) = judge(block, code, &diags) {
                     failures.push(format!("{place}: {why}"));
+                }
+                ran += 1;
+            }
+            "json" if block.value("output").is_some() => {
+                let name = block.value("output").unwrap_or_default();
+                let out = Command::new(env!("CARGO_BIN_EXE_vrsc"))
+                    .current_dir(dir.path())
+                    .args(["--message-format", "json", "check", name])
+                    .output()
+                    .expect("vrsc runs");
+                let printed = String::from_utf8_lossy(&out.stdout);
+                if printed != block.text {
+                    failures.push(format!("{place}: vrsc prints\n{printed}"));
                 }
                 ran += 1;
             }
