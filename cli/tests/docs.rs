@@ -146,6 +146,13 @@ fn check_page(page: &str, strict: bool) -> usize {
     let mut ran = 0;
     for (index, block) in blocks(&text).iter().enumerate() {
         let place = format!("{page}:{} ({})", block.line, block.labels.join(","));
+        let known = |label: &String| {
+            label == "scene" || ["error=", "warning=", "file=", "output="].iter().any(|k| label.starts_with(k))
+        };
+        if strict && !block.labels.iter().skip(1).all(known) {
+            failures.push(format!("{place}: an attribute other than scene, error=, warning=, file=, output="));
+            continue;
+        }
         match block.lang() {
             "vrs" => {
                 let name = block.value("file").map(str::to_string).unwrap_or_else(|| format!("block_{index}.vrs"));
