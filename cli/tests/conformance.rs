@@ -68,7 +68,7 @@ fn expectations(text: &str) -> Result<Vec<(String, u64)>, String> {
             _ => return Err(format!("cannot read `expect: {what}` (write `ok` or `CODE at LINE`)")),
         }
     }
-    if ok == !out.is_empty() {
+    if ok != out.is_empty() {
         return Err("a case needs `expect: ok` or at least one `expect: CODE at LINE`, not both".into());
     }
     out.sort();
