@@ -1,5 +1,9 @@
 //! The library's front door: runs the passes over files and returns what they produced,
 //! together with the source map and every diagnostic.
+//!
+//! Public face: [`check_files`], [`check_files_with`] and [`check_source`], which load, parse
+//! and check modules into a [`Checked`]; [`InputError`] for a root file that cannot be read; and
+//! [`internal_error`]. The command line, the language server and the Python bindings start here.
 
 use crate::check;
 use crate::diag::{Code, Diagnostic, Diagnostics};
@@ -11,16 +15,22 @@ use std::path::{Path, PathBuf};
 
 /// The result of checking a set of modules.
 pub struct Checked {
+    /// Every file read (the standard modules included); all spans point into it.
     pub sources: SourceMap,
+    /// Every diagnostic of loading, parsing and checking.
     pub diags: Diagnostics,
+    /// The modules loaded, with their syntax trees and imports.
     pub graph: ModuleGraph,
+    /// The checked program: what the passes after the checker (lowering, composing) take.
     pub program: Program,
 }
 
 /// An input file that could not be read (an I/O problem, not a diagnostic).
 #[derive(Debug)]
 pub struct InputError {
+    /// The path as given.
     pub path: PathBuf,
+    /// Why it could not be read.
     pub error: std::io::Error,
 }
 

@@ -1,8 +1,12 @@
 //! Lexer: source text to tokens with global spans (logos).
 //!
+//! Public face: [`lex`], which turns one file's text into a [`Lexed`] (its [`Token`]s with their
+//! spans), and the token type with its literal payloads ([`IntLit`], [`IntSuffix`],
+//! [`FloatLit`]). The parser, and the language server's grammar tests, read these.
+//!
 //! Lexing never stops: a bad character is reported and skipped. Doc comments (`///`) do not
 //! become tokens; they are kept beside the stream, keyed by the start of the token they document,
-//! so the grammar needs no rule for them. Brackets nested deeper than [`MAX_NESTING`] are
+//! so the grammar needs no rule for them. Brackets nested deeper than `MAX_NESTING` (128) are
 //! reported and the over-deep run is replaced by one [`Token::Error`], which bounds the recursion
 //! of every later pass.
 
@@ -13,12 +17,14 @@ use rustc_hash::FxHashMap;
 use std::fmt;
 
 /// Deepest bracket nesting accepted: far beyond hand-written code, far below a stack overflow.
-pub const MAX_NESTING: usize = 128;
+pub(crate) const MAX_NESTING: usize = 128;
 
 /// A token of VRS source (logos).
 #[derive(Logos, Clone, Debug, PartialEq)]
 #[logos(skip r"[ \t\r\n\f]+")]
 pub enum Token {
+    /// A name that is not a keyword: `[A-Za-z_$][A-Za-z0-9_$]*` (a `$` makes it a template
+    /// name). Type names such as `f32` and `vec3f` are identifiers too.
     #[regex(r"[A-Za-z_$][A-Za-z0-9_$]*", |lex| lex.slice().to_string())]
     Ident(String),
     /// An integer literal: its value and suffix (`i`, `u` or none).
@@ -28,145 +34,212 @@ pub enum Token {
     /// `12..`: an integer directly followed by a range operator; split into `Int` + `DotDot`.
     #[regex(r"[0-9]+\.\.", |lex| int_value(lex.slice().trim_end_matches('.')))]
     IntDotDot(IntLit),
+    /// A float literal: `1.`, `1.5`, `.5`, `1e3`, `2f`, with an optional exponent and `f` suffix.
     #[regex(r"[0-9]+\.[0-9]*([eE][+-]?[0-9]+)?f?", float_literal)]
     #[regex(r"\.[0-9]+([eE][+-]?[0-9]+)?f?", float_literal)]
     #[regex(r"[0-9]+[eE][+-]?[0-9]+f?", float_literal)]
     #[regex(r"[0-9]+f", float_literal)]
     Float(FloatLit),
+    /// An attribute such as `@ray`: the name after the `@`.
     #[regex(r"@[A-Za-z_][A-Za-z0-9_]*", |lex| lex.slice()[1..].to_string())]
     Attribute(String),
     /// A string literal (only `import "path";` uses one): its unescaped contents.
     #[regex(r#""([^"\\\n]|\\.)*""#, string_literal)]
     Str(String),
 
+    /// `import`: starts an import item.
     #[token("import")]
     Import,
+    /// `const`: starts a constant item.
     #[token("const")]
     Const,
+    /// `lib`: starts a library function (`lib fn`).
     #[token("lib")]
     Lib,
+    /// `fn`: follows `lib` in a library function.
     #[token("fn")]
     Fn,
+    /// `pipeline`: starts a pipeline function.
     #[token("pipeline")]
     Pipeline,
+    /// `state`: declares a state field in a pipeline function.
     #[token("state")]
     State,
+    /// `uniform`: declares a uniform in a pipeline function.
     #[token("uniform")]
     Uniform,
+    /// `use`: lists names a pipeline function reads (`use a, b;`).
     #[token("use")]
     Use,
+    /// `remove`: starts a remove item.
     #[token("remove")]
     Remove,
+    /// `before`: places a pipeline function just before the target step.
     #[token("before")]
     Before,
+    /// `after`: places a pipeline function just after the target step.
     #[token("after")]
     After,
+    /// `replace`: places a pipeline function instead of the target step.
     #[token("replace")]
     Replace,
+    /// `in`: places a pipeline function into a step; also in `for i in a .. b` and a uniform's range.
     #[token("in")]
     In,
+    /// `when`: first word of `when active`.
     #[token("when")]
     When,
+    /// `active`: second word of `when active`.
     #[token("active")]
     Active,
+    /// `let`: binds an immutable local.
     #[token("let")]
     Let,
+    /// `var`: binds a mutable local.
     #[token("var")]
     Var,
+    /// `if`: starts a conditional.
     #[token("if")]
     If,
+    /// `else`: the alternative of an `if`.
     #[token("else")]
     Else,
+    /// `for`: starts a counted loop.
     #[token("for")]
     For,
+    /// `break`: leaves the innermost loop.
     #[token("break")]
     Break,
+    /// `continue`: goes on with the next iteration.
     #[token("continue")]
     Continue,
+    /// `return`: leaves the function.
     #[token("return")]
     Return,
+    /// `true`: the boolean literal.
     #[token("true")]
     True,
+    /// `false`: the boolean literal.
     #[token("false")]
     False,
 
+    /// `(`: opens arguments, parameters or a parenthesized expression.
     #[token("(")]
     LParen,
+    /// `)`: closes what `(` opened.
     #[token(")")]
     RParen,
+    /// `{`: opens a block or body.
     #[token("{")]
     LBrace,
+    /// `}`: closes what `{` opened.
     #[token("}")]
     RBrace,
+    /// `[`: opens an index or a substep.
     #[token("[")]
     LBracket,
+    /// `]`: closes what `[` opened.
     #[token("]")]
     RBracket,
+    /// `,`: separates arguments, parameters and names.
     #[token(",")]
     Comma,
+    /// `;`: ends a statement, declaration or item.
     #[token(";")]
     Semi,
+    /// `:`: precedes a type.
     #[token(":")]
     Colon,
+    /// `::`: separates the segments of `std::NAME`.
     #[token("::")]
     ColonColon,
+    /// `.`: member access, or separates the segments of a step path.
     #[token(".")]
     Dot,
+    /// `..`: the range operator (`a .. b`).
     #[token("..")]
     DotDot,
+    /// `->`: precedes a function's return type.
     #[token("->")]
     Arrow,
+    /// `=`: assignment or initializer.
     #[token("=")]
     Eq,
+    /// `+=`: compound assignment.
     #[token("+=")]
     PlusEq,
+    /// `-=`: compound assignment.
     #[token("-=")]
     MinusEq,
+    /// `*=`: compound assignment.
     #[token("*=")]
     StarEq,
+    /// `/=`: compound assignment.
     #[token("/=")]
     SlashEq,
+    /// `+`: addition.
     #[token("+")]
     Plus,
+    /// `-`: subtraction or negation.
     #[token("-")]
     Minus,
+    /// `*`: multiplication.
     #[token("*")]
     Star,
+    /// `/`: division.
     #[token("/")]
     Slash,
+    /// `%`: remainder.
     #[token("%")]
     Percent,
+    /// `<<`: shift left.
     #[token("<<")]
     Shl,
+    /// `>>`: shift right.
     #[token(">>")]
     Shr,
+    /// `<`: less than, or opens template arguments.
     #[token("<")]
     Lt,
+    /// `<=`: less than or equal.
     #[token("<=")]
     Le,
+    /// `>`: greater than, or closes template arguments.
     #[token(">")]
     Gt,
+    /// `>=`: greater than or equal.
     #[token(">=")]
     Ge,
+    /// `==`: equality.
     #[token("==")]
     EqEq,
+    /// `!=`: inequality.
     #[token("!=")]
     Ne,
+    /// `&`: bitwise and.
     #[token("&")]
     Amp,
+    /// `^`: bitwise exclusive or.
     #[token("^")]
     Caret,
+    /// `|`: bitwise or.
     #[token("|")]
     Pipe,
+    /// `&&`: logical and.
     #[token("&&")]
     AndAnd,
+    /// `||`: logical or.
     #[token("||")]
     OrOr,
+    /// `!`: logical not.
     #[token("!")]
     Bang,
 
+    /// A `///` line: the text after the slashes. [`lex`] keeps it beside the tokens (for the parser to
+    /// attach to the item after it), never in the token stream.
     #[regex(r"///[^\n]*", |lex| lex.slice()[3..].to_string(), allow_greedy = true)]
     DocComment(String),
+    /// A `//` or `/* */` comment. Logos skips them, so the stream never holds one.
     #[regex(r"//[^\n]*", logos::skip, allow_greedy = true)]
     #[token("/*", block_comment)]
     Comment,
@@ -179,7 +252,9 @@ pub enum Token {
 /// Suffix of a number literal.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum IntSuffix {
+    /// `i`: the literal is an `i32`.
     I,
+    /// `u`: the literal is a `u32`.
     U,
 }
 
@@ -188,12 +263,14 @@ pub enum IntSuffix {
 pub struct IntLit {
     /// `None` when the digits do not fit in 64 bits (reported as E0103).
     pub value: Option<u64>,
+    /// `i`, `u`, or `None` without a suffix.
     pub suffix: Option<IntSuffix>,
 }
 
 /// A float literal: its value and whether it has the `f` suffix.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FloatLit {
+    /// The value of the digits and exponent.
     pub value: f64,
     /// `true` for an explicit `f` suffix.
     pub suffixed: bool,
@@ -360,14 +437,16 @@ impl Token {
 /// The tokens of one file, its doc comments, and the lexical errors found.
 #[derive(Debug, Default)]
 pub struct Lexed {
+    /// The tokens in source order with their global spans; comments and doc comments are not
+    /// among them.
     pub tokens: Vec<(Token, Span)>,
     /// Doc comment text (lines joined with `\n`), keyed by the start of the token it precedes.
-    pub docs: FxHashMap<u32, String>,
+    pub(crate) docs: FxHashMap<u32, String>,
 }
 
 /// `[A-Za-z_][A-Za-z0-9_]*`: a name the scene gives that becomes part of an identifier (an
 /// instance, a volume, a light, a uniform). Unlike the lexer's identifiers, no `$`.
-pub fn is_identifier(s: &str) -> bool {
+pub(crate) fn is_identifier(s: &str) -> bool {
     let mut chars = s.chars();
     chars.next().is_some_and(|c| c.is_ascii_alphabetic() || c == '_')
         && chars.all(|c| c.is_ascii_alphanumeric() || c == '_')
@@ -375,7 +454,7 @@ pub fn is_identifier(s: &str) -> bool {
 
 /// Whether `word` is a VRS keyword: the lexer reads it whole as one token that is not an
 /// identifier (so the keyword list is the token definitions).
-pub fn is_keyword(word: &str) -> bool {
+pub(crate) fn is_keyword(word: &str) -> bool {
     let mut tokens = Token::lexer(word);
     let first = tokens.next();
     let whole = tokens.span() == (0..word.len());

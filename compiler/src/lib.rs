@@ -17,7 +17,7 @@ pub(crate) mod parser;
 pub mod progen;
 pub mod scene;
 pub mod source;
-pub mod source_text;
+pub(crate) mod source_text;
 pub mod stdlib;
 pub mod steps;
 pub(crate) mod suggest;

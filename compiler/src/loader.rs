@@ -1,5 +1,10 @@
 //! Loader: reads the root files, lexes and parses them, and follows their imports into a module
 //! graph. Missing files and import cycles are diagnostics at the `import` item.
+//!
+//! Public face: [`Loader`], which loads root files (from disk, from text or from the standard
+//! library) into a [`ModuleGraph`] of [`LoadedModule`]s, and [`ParsedFiles`], the files already
+//! read and parsed that a later load (another view of a scene, the language server's next check)
+//! can reuse.
 
 use crate::ast::{self, ItemKind};
 use crate::diag::{Code, Diagnostic, Diagnostics};
@@ -13,6 +18,7 @@ use std::sync::{Arc, OnceLock};
 /// One loaded file.
 #[derive(Debug)]
 pub struct LoadedModule {
+    /// Its file in the [`SourceMap`].
     pub file: FileId,
     /// Shared: the standard modules are parsed once per process, user files once per build.
     pub ast: Arc<ast::Module>,
@@ -24,12 +30,13 @@ pub struct LoadedModule {
     /// Some of its items may be missing: its file has lexical or syntax errors or is not UTF-8,
     /// or one of its imports failed. A name the checker cannot find in it (or in a module that
     /// imports it) is then a follow-on of that error, not a mistake of its own.
-    pub incomplete: bool,
+    pub(crate) incomplete: bool,
 }
 
 /// Every module reachable from the roots. A file imported from several places is loaded once.
 #[derive(Debug, Default)]
 pub struct ModuleGraph {
+    /// Every module loaded, each once; other modules refer to it by its index here.
     pub modules: Vec<LoadedModule>,
     /// The modules the user named, in the order given.
     pub roots: Vec<usize>,
@@ -73,7 +80,7 @@ pub struct Loader<'a> {
 
 impl<'a> Loader<'a> {
     /// A loader adding files to `sources` and reporting into `diags`.
-    pub fn new(sources: &'a mut SourceMap, diags: &'a mut Diagnostics) -> Loader<'a> {
+    pub(crate) fn new(sources: &'a mut SourceMap, diags: &'a mut Diagnostics) -> Loader<'a> {
         Loader::with_parsed(sources, diags, ParsedFiles::default())
     }
 
@@ -125,7 +132,7 @@ impl<'a> Loader<'a> {
     }
 
     /// The graph, and the parsed files for the next loader over the same source map.
-    pub fn finish_keeping_files(self) -> (ModuleGraph, ParsedFiles) {
+    pub(crate) fn finish_keeping_files(self) -> (ModuleGraph, ParsedFiles) {
         (self.graph, self.parsed)
     }
 

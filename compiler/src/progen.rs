@@ -8,6 +8,10 @@
 //! input gives a finite, well-formed module). The output is well typed by construction; it may
 //! still break a rule that needs values (`1 / 0`), which is the point: the property is that a
 //! module `check` accepts lowers to IR that validates.
+//!
+//! Public face: [`generate`], which writes a module from a [`Choices`] source, and
+//! [`check_clean_validates`], which checks it for that property and gives a [`Verdict`]; the
+//! property tests and the fuzz targets call them.
 
 use std::fmt::Write;
 

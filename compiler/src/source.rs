@@ -1,5 +1,8 @@
 //! Source files and spans.
 //!
+//! Public face: [`Span`], [`SourceMap`] (the files of one compilation, which turns a span back
+//! into a file, a line and a column: [`Position`]), [`SourceFile`] and [`FileId`].
+//!
 //! Every file gets a disjoint range of one global byte-offset space, so a [`Span`] is two `u32`
 //! offsets and needs no file id. That is exactly the shape of `naga::Span`, which lets lowering
 //! carry VRS spans straight into naga's span table and map validation errors back to VRS files.
@@ -12,11 +15,14 @@ use std::path::PathBuf;
 /// A byte range in the global offset space of a [`SourceMap`].
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub struct Span {
+    /// Global offset of the first byte covered.
     pub start: u32,
+    /// Global offset just past the last byte covered (`start` for an empty span).
     pub end: u32,
 }
 
 impl Span {
+    /// The empty span at offset 0, which no file holds: for what has no place in the source.
     pub const DUMMY: Span = Span { start: 0, end: 0 };
 
     /// The span `start..end` (global offsets).
@@ -94,7 +100,9 @@ pub struct SourceMap {
 /// A resolved position: 1-based line, 1-based column in characters.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Position {
+    /// The line, from 1.
     pub line: usize,
+    /// The column, from 1, counted in characters (not bytes).
     pub column: usize,
 }
 
@@ -130,7 +138,7 @@ impl SourceMap {
     }
 
     /// The file of standard module `name` (`shading` for `std::shading`).
-    pub fn std_file(&self, name: &str) -> Option<FileId> {
+    pub(crate) fn std_file(&self, name: &str) -> Option<FileId> {
         stdlib::index(name)
     }
 
@@ -145,7 +153,7 @@ impl SourceMap {
     }
 
     /// The file that holds a global offset.
-    pub fn file_of(&self, offset: u32) -> Option<FileId> {
+    pub(crate) fn file_of(&self, offset: u32) -> Option<FileId> {
         let idx = self.files.partition_point(|f| f.base <= offset);
         let id = idx.checked_sub(1)?;
         let f = &self.files[id];

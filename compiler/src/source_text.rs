@@ -1,6 +1,8 @@
 //! Reading the text of a source file (a VRS module or a scene). Both are UTF-8; a file that is
 //! not is a diagnostic (E0108) at its first invalid byte, like any other mistake in it, not an
 //! I/O error: the file exists and was read, its content is wrong.
+//!
+//! Public face: none outside the crate; the loader and the scene reader use [`SourceText`].
 
 use crate::diag::{Code, Diagnostic};
 use crate::source::{SourceMap, Span};
@@ -8,22 +10,30 @@ use std::path::Path;
 
 /// A file's bytes as text.
 #[derive(Debug)]
-pub enum SourceText {
+pub(crate) enum SourceText {
     /// Valid UTF-8.
     Utf8(String),
     /// Not UTF-8: the text with every invalid sequence replaced by U+FFFD (so it can be shown),
     /// and the offset of the first invalid byte, which is the same in both (everything before it
     /// is unchanged).
-    NotUtf8 { shown: String, first_bad: usize, byte: u8 },
+    NotUtf8 {
+        /// The text with U+FFFD in place of each invalid sequence.
+        shown: String,
+        /// Offset of the first invalid byte.
+        first_bad: usize,
+        /// That byte.
+        byte: u8,
+    },
 }
 
 impl SourceText {
     /// Reads `path`; only a file that cannot be opened or read is an `Err`.
-    pub fn read(path: &Path) -> std::io::Result<SourceText> {
+    pub(crate) fn read(path: &Path) -> std::io::Result<SourceText> {
         std::fs::read(path).map(SourceText::from_bytes)
     }
 
-    pub fn from_bytes(bytes: Vec<u8>) -> SourceText {
+    /// Takes the bytes as UTF-8 if they are, else as the lossy text and its first invalid byte.
+    pub(crate) fn from_bytes(bytes: Vec<u8>) -> SourceText {
         match String::from_utf8(bytes) {
             Ok(text) => SourceText::Utf8(text),
             Err(e) => {
@@ -35,7 +45,7 @@ impl SourceText {
     }
 
     /// The text to add to a [`SourceMap`].
-    pub fn text(self) -> String {
+    pub(crate) fn text(self) -> String {
         match self {
             SourceText::Utf8(text) | SourceText::NotUtf8 { shown: text, .. } => text,
         }
@@ -43,7 +53,7 @@ impl SourceText {
 
     /// Adds the text to `sources` as file `name`; for a file that is not UTF-8, also the E0108
     /// diagnostic at its first invalid byte.
-    pub fn add_to(
+    pub(crate) fn add_to(
         self,
         sources: &mut SourceMap,
         name: String,

@@ -1,12 +1,16 @@
 //! The fixed, ordered list of pipeline steps (section 6 of the language spec).
+//!
+//! Public face: [`Step`] (every step in execution order, with its dotted name and group) and
+//! [`Step::lookup`], which says what a dotted path names ([`StepLookup`]); the checker, the
+//! composer and the language server's completion and hover use them.
 
 use std::fmt;
 
 macro_rules! steps {
-    ($($variant:ident = $name:literal, $group:literal;)*) => {
+    ($($(#[$doc:meta])* $variant:ident = $name:literal, $group:literal;)*) => {
         /// One step of the raycasting pipeline, in execution order.
         #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
-        pub enum Step { $($variant),* }
+        pub enum Step { $($(#[$doc])* $variant),* }
 
         impl Step {
             /// Every step, in execution order.
@@ -18,7 +22,7 @@ macro_rules! steps {
             }
 
             /// The group the step belongs to: `shading`.
-            pub fn group(self) -> &'static str {
+            pub(crate) fn group(self) -> &'static str {
                 match self { $(Step::$variant => $group),* }
             }
         }
@@ -26,36 +30,60 @@ macro_rules! steps {
 }
 
 steps! {
+    /// `ray.setup`: once per ray, before the march: the camera ray, light directions, skipping
+    /// to the first content.
     RaySetup = "ray.setup", "ray";
+    /// `start`: the first step of each sample: the sample's position along the ray.
     Start = "start", "start";
+    /// `sampling.primary`: reads the primary volume at the sample position.
     SamplingPrimary = "sampling.primary", "sampling";
+    /// `sampling.mask`: reads the mask volumes, one substep each.
     SamplingMask = "sampling.mask", "sampling";
+    /// `sampling.tag`: reads the tag (label) volumes, one substep each.
     SamplingTag = "sampling.tag", "sampling";
+    /// `sampling.additional`: reads the additional volumes, one substep each.
     SamplingAdditional = "sampling.additional", "sampling";
+    /// `sampling.gradient`: the gradient and the shading normal at the sample.
     SamplingGradient = "sampling.gradient", "sampling";
+    /// `classification.primary`: turns the primary value into colour and opacity (transfer
+    /// function, masks, tags).
     ClassificationPrimary = "classification.primary", "classification";
+    /// `classification.additional`: classifies each additional volume, one substep each.
     ClassificationAdditional = "classification.additional", "classification";
+    /// `shading.lights`: the light each light source contributes, one substep each.
     ShadingLights = "shading.lights", "shading";
+    /// `shading.boundary`: boundary enhancement.
     ShadingBoundary = "shading.boundary", "shading";
+    /// `shading.tone`: tone shading.
     ShadingTone = "shading.tone", "shading";
+    /// `compositing.primary_color`: the sample's colour before lighting.
     CompositingPrimaryColor = "compositing.primary_color", "compositing";
+    /// `compositing.shading`: applies the lighting to that colour.
     CompositingShading = "compositing.shading", "compositing";
+    /// `compositing.alpha`: the rendering mode's rule (DVR opacity, MIP, MinIP, average, iso hit).
     CompositingAlpha = "compositing.alpha", "compositing";
+    /// `compositing.additional`: composites each additional volume, one substep each.
     CompositingAdditional = "compositing.additional", "compositing";
+    /// `end`: the last step of each sample: accumulation, advancing the ray, skipping empty space.
     End = "end", "end";
+    /// `ray.finish`: once per ray, after the march: the background and the pixel's final value.
     RayFinish = "ray.finish", "ray";
 }
 
 /// What a dotted path names.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum StepLookup {
+    /// A single step.
     Step(Step),
     /// A group of several steps: its first and last step. (`ray` is not a group one can place
     /// into: its two steps are not adjacent.)
     Group {
+        /// The group's first step in execution order.
         first: Step,
+        /// The group's last step in execution order.
         last: Step,
     },
+    /// Neither a step nor a group.
     Unknown,
 }
 
@@ -74,7 +102,7 @@ impl Step {
     }
 
     /// Steps that run once per ray rather than once per sample.
-    pub fn is_per_ray(self) -> bool {
+    pub(crate) fn is_per_ray(self) -> bool {
         matches!(self, Step::RaySetup | Step::RayFinish)
     }
 

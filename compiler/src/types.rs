@@ -1,13 +1,21 @@
 //! VRS types: WGSL's plain types plus the two resource types `volume` and `tf`.
+//!
+//! Public face: [`Type`] and its [`Scalar`]s, with their names as written (`Type::from_name`,
+//! `Display`) and the questions the checker asks of them; the runtime and the language server
+//! use them to describe uniforms and name types.
 
 use std::fmt;
 
 /// A VRS scalar type.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum Scalar {
+    /// `bool`.
     Bool,
+    /// `i32`: 32-bit signed integer.
     I32,
+    /// `u32`: 32-bit unsigned integer.
     U32,
+    /// `f32`: 32-bit float.
     F32,
 }
 
@@ -33,12 +41,12 @@ impl Scalar {
     }
 
     /// `i32` or `u32`.
-    pub fn is_integer(self) -> bool {
+    pub(crate) fn is_integer(self) -> bool {
         matches!(self, Scalar::I32 | Scalar::U32)
     }
 
     /// Not `bool`.
-    pub fn is_numeric(self) -> bool {
+    pub(crate) fn is_numeric(self) -> bool {
         self != Scalar::Bool
     }
 }
@@ -46,15 +54,20 @@ impl Scalar {
 /// A VRS type.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum Type {
+    /// A single `bool`, `i32`, `u32` or `f32`.
     Scalar(Scalar),
-    /// `size` is 2, 3 or 4.
+    /// `vecN<T>` (also written `vec3f` and the like).
     Vector {
+        /// The component count: 2, 3 or 4.
         size: u8,
+        /// The component type.
         scalar: Scalar,
     },
-    /// Always f32; `cols` and `rows` are 2, 3 or 4.
+    /// `matCxR<f32>`; always f32.
     Matrix {
+        /// The column count: 2, 3 or 4.
         cols: u8,
+        /// The row count: 2, 3 or 4.
         rows: u8,
     },
     /// A scalar 3D texture with its sampler.
@@ -69,13 +82,17 @@ pub enum Type {
 }
 
 impl Type {
+    /// The scalar type `bool`.
     pub const BOOL: Type = Type::Scalar(Scalar::Bool);
+    /// The scalar type `i32`.
     pub const I32: Type = Type::Scalar(Scalar::I32);
+    /// The scalar type `u32`.
     pub const U32: Type = Type::Scalar(Scalar::U32);
+    /// The scalar type `f32`.
     pub const F32: Type = Type::Scalar(Scalar::F32);
 
     /// `vecN<scalar>`.
-    pub fn vec(size: u8, scalar: Scalar) -> Type {
+    pub(crate) fn vec(size: u8, scalar: Scalar) -> Type {
         Type::Vector { size, scalar }
     }
 
@@ -112,7 +129,7 @@ impl Type {
     }
 
     /// Parses a generic type: `vec3<f32>`, `mat4x4<f32>`.
-    pub fn from_generic(name: &str, arg: Type) -> Option<Type> {
+    pub(crate) fn from_generic(name: &str, arg: Type) -> Option<Type> {
         let Type::Scalar(scalar) = arg else { return None };
         if let Some(n) = name.strip_prefix("vec") {
             return Some(Type::vec(vector_size(n)?, scalar));
@@ -126,7 +143,7 @@ impl Type {
     }
 
     /// Whether `name` is a generic type constructor that takes a template argument.
-    pub fn is_generic_name(name: &str) -> bool {
+    pub(crate) fn is_generic_name(name: &str) -> bool {
         matches!(name, "vec2" | "vec3" | "vec4")
             || (name.len() == 6 && name.starts_with("mat") && Type::from_generic(name, Type::F32).is_some())
     }
@@ -151,12 +168,12 @@ impl Type {
     }
 
     /// A `volume` or `tf`: allowed only as uniforms and library-function parameters.
-    pub fn is_resource(self) -> bool {
+    pub(crate) fn is_resource(self) -> bool {
         matches!(self, Type::Volume | Type::Tf)
     }
 
     /// Values that can live in state, locals, constants and be returned.
-    pub fn is_plain(self) -> bool {
+    pub(crate) fn is_plain(self) -> bool {
         matches!(self, Type::Scalar(_) | Type::Vector { .. } | Type::Matrix { .. } | Type::Error)
     }
 
@@ -166,7 +183,7 @@ impl Type {
     }
 
     /// The same shape with another scalar: `vec3f` with `Bool` gives `vec3<bool>`.
-    pub fn with_scalar(self, scalar: Scalar) -> Type {
+    pub(crate) fn with_scalar(self, scalar: Scalar) -> Type {
         match self {
             Type::Vector { size, .. } => Type::vec(size, scalar),
             _ => Type::Scalar(scalar),
