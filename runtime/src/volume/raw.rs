@@ -2,51 +2,20 @@
 //! header in the same file (attached) or sit in a file the header names (detached), raw or
 //! compressed, after some bytes to skip.
 //!
-//! Each format parses its own header; finding, sizing and reading the data is done here once, so
-//! both formats keep the same limits, progress reports and error messages.
+//! Each format validates its own header's fields (read and held by [`super::text_header`]);
+//! finding, sizing and reading the data is done here once, so both formats keep the same limits,
+//! progress reports and error messages.
 
 use std::io::{BufRead, BufReader, Read};
 use std::path::Path;
 
 use flate2::bufread::{GzDecoder, ZlibDecoder};
 
+use super::text_header::TextHeader;
 use super::{
     DataSource, Layout, LoadErrorKind, ProgressReader, RawData, SampleSink, VolumeInfo, check_claim, open,
     read_samples, sibling, skip_bytes,
 };
-
-/// A parsed text header, as far as [`load`] needs it to find and read the data.
-pub(super) trait TextHeader {
-    /// The data file a detached header names; `None` when the data follows the header.
-    fn data_file(&self) -> Option<&str>;
-
-    /// Reads the samples from a stream positioned at the start of the data: right after the
-    /// header (attached) or at the start of the data file (detached, then named by `file` for
-    /// error messages), holding `len` more bytes.
-    fn read_data(
-        &self,
-        reader: &mut dyn BufRead,
-        len: u64,
-        file: Option<&Path>,
-        sink: &mut dyn SampleSink,
-    ) -> Result<(), LoadErrorKind>;
-
-    /// The volume's shape, placement and scaling.
-    fn info(&self) -> VolumeInfo;
-
-    /// Where the samples are in the data stream and how they are stored.
-    fn placement(&self) -> Placement;
-
-    /// The format's error for a skip of `skip` bytes that goes past the end of the data.
-    fn past_end(&self, skip: u64) -> LoadErrorKind;
-
-    /// Skips what comes before the byte skip in the data stream (NRRD's `line skip`) and
-    /// returns the bytes skipped; nothing in a format without it.
-    fn skip_lines(&self, reader: &mut dyn BufRead, file: Option<&Path>) -> Result<u64, LoadErrorKind> {
-        let _ = (reader, file);
-        Ok(0)
-    }
-}
 
 /// Loads a file with a text header: `read_header` parses the header from the start of the file
 /// and returns it with its length in bytes; then the data is read from the rest of the file or
@@ -54,10 +23,10 @@ pub(super) trait TextHeader {
 ///
 /// Progress is about the file holding the data (so a small detached header reports nothing of
 /// its own) and ends with one report of `done == total`.
-pub(super) fn load<H: TextHeader>(
+pub(super) fn load(
     path: &Path,
     progress: &mut dyn FnMut(u64, u64),
-    read_header: impl FnOnce(&mut dyn BufRead) -> Result<(H, u64), LoadErrorKind>,
+    read_header: impl FnOnce(&mut dyn BufRead) -> Result<(TextHeader, u64), LoadErrorKind>,
     sink: &mut dyn SampleSink,
 ) -> Result<VolumeInfo, LoadErrorKind> {
     let (file, len) = open(path, false)?;
@@ -89,14 +58,14 @@ pub(super) fn load<H: TextHeader>(
 /// Where the samples of a file with a text header lie (see [`super::raw_layout`]), reading only
 /// the header (and the lines a NRRD `line skip` passes over); `None` for compressed data. The
 /// data section must hold exactly the header's samples, as [`load`] requires.
-pub(super) fn locate<H: TextHeader>(
+pub(super) fn locate(
     path: &Path,
-    read_header: impl FnOnce(&mut dyn BufRead) -> Result<(H, u64), LoadErrorKind>,
+    read_header: impl FnOnce(&mut dyn BufRead) -> Result<(TextHeader, u64), LoadErrorKind>,
 ) -> Result<Option<RawData>, LoadErrorKind> {
     let (file, len) = open(path, false)?;
     let mut reader = BufReader::new(file);
     let (header, header_len) = read_header(&mut reader)?;
-    let data = header.placement();
+    let data = header.data;
     if data.encoding != Encoding::Raw {
         return Ok(None);
     }
@@ -123,7 +92,7 @@ pub(super) fn locate<H: TextHeader>(
         Some(skip) => skip,
         None => available.checked_sub(expected).ok_or_else(|| mismatch(available))?,
     };
-    let stored = available.checked_sub(skip).ok_or_else(|| header.past_end(skip))?;
+    let stored = available.checked_sub(skip).ok_or_else(|| (header.past_end)(skip))?;
     if stored != expected {
         return Err(mismatch(stored));
     }
@@ -133,10 +102,10 @@ pub(super) fn locate<H: TextHeader>(
 
 /// Refuses a header whose samples cannot fit in the `len` bytes of its data stream (see
 /// [`check_claim`]), or whose skip goes past them, before the sink is told the grid.
-fn check_placement(header: &impl TextHeader, len: u64) -> Result<(), LoadErrorKind> {
-    let data = header.placement();
+fn check_placement(header: &TextHeader, len: u64) -> Result<(), LoadErrorKind> {
+    let data = header.data;
     let skip = data.skip.unwrap_or(0);
-    let stored = len.checked_sub(skip).ok_or_else(|| header.past_end(skip))?;
+    let stored = len.checked_sub(skip).ok_or_else(|| (header.past_end)(skip))?;
     check_claim(data.layout.bytes(), stored, data.encoding != Encoding::Raw)
 }
 
