@@ -9,8 +9,8 @@ use std::path::Path;
 
 use glam::{Mat4, Vec3};
 
-use super::raw::{self, Encoding, Placement};
-use super::text_header::{Syntax, TextHeader, read_fields};
+use super::raw::{Encoding, Placement};
+use super::text_header::{self, Syntax, TextHeader, read_fields};
 use super::{
     Layout, LoadErrorKind, RawData, SampleSink, ScalarType, VolumeInfo, affine, check_dims, is_usable, lps_to_ras,
     parse_numbers,
@@ -22,12 +22,12 @@ pub(super) fn load(
     progress: &mut dyn FnMut(u64, u64),
     sink: &mut dyn SampleSink,
 ) -> Result<VolumeInfo, LoadErrorKind> {
-    raw::load(path, progress, parse, sink)
+    text_header::load(path, progress, parse, sink)
 }
 
 /// Where the samples of a `.mhd` or `.mha` file lie; `None` for compressed data.
 pub(super) fn locate(path: &Path) -> Result<Option<RawData>, LoadErrorKind> {
-    raw::locate(path, parse)
+    text_header::locate(path, parse)
 }
 
 /// Reads and validates the header; returns it with its length in bytes.

@@ -11,8 +11,8 @@ use std::path::Path;
 
 use glam::{Mat4, Vec3};
 
-use super::raw::{self, Encoding, Placement};
-use super::text_header::{Syntax, TextHeader, read_fields};
+use super::raw::{Encoding, Placement};
+use super::text_header::{self, Syntax, TextHeader, read_fields};
 use super::{
     Layout, LoadErrorKind, RawData, SampleSink, ScalarType, VolumeInfo, affine, check_dims, is_usable, lps_to_ras,
     parse_numbers,
@@ -24,12 +24,12 @@ pub(super) fn load(
     progress: &mut dyn FnMut(u64, u64),
     sink: &mut dyn SampleSink,
 ) -> Result<VolumeInfo, LoadErrorKind> {
-    raw::load(path, progress, |reader| parse(path, reader), sink)
+    text_header::load(path, progress, |reader| parse(path, reader), sink)
 }
 
 /// Where the samples of a `.nrrd` or `.nhdr` file lie; `None` for gzip data.
 pub(super) fn locate(path: &Path) -> Result<Option<RawData>, LoadErrorKind> {
-    raw::locate(path, |reader| parse(path, reader))
+    text_header::locate(path, |reader| parse(path, reader))
 }
 
 /// Reads and validates the header of the file at `path`; returns it with its length in bytes.

@@ -1,15 +1,20 @@
-//! The header of the formats with a text header (NRRD, MetaImage): reading its `key <separator>
-//! value` lines ([`read_fields`], the format's syntax given as a [`Syntax`]) and, once a format
-//! has validated the fields, what the data side ([`super::raw`]) needs of it ([`TextHeader`]).
+//! The formats with a text header (NRRD, MetaImage): reading the header's `key <separator>
+//! value` lines ([`read_fields`], the format's syntax given as a [`Syntax`]); once a format has
+//! validated the fields ([`TextHeader`]), finding and sizing the data after the header or in the
+//! file it names, and reading it ([`load`]) or locating it for a mapping ([`locate`]), the same
+//! for both formats.
 
 use std::collections::HashMap;
-use std::io::BufRead;
+use std::io::{BufRead, BufReader};
 use std::path::Path;
 
 use glam::Mat4;
 
-use super::raw::{self, Placement};
-use super::{DataSource, LoadErrorKind, MAX_HEADER_LINES, SampleSink, Scaling, VolumeInfo, read_header_line};
+use super::raw::{self, Encoding, Placement};
+use super::{
+    DataSource, Layout, LoadErrorKind, MAX_HEADER_LINES, ProgressReader, RawData, SampleSink, Scaling, VolumeInfo,
+    check_claim, open, read_header_line, sibling,
+};
 
 /// How a format writes its header lines. Both formats skip `#` comment lines.
 pub(super) struct Syntax {
@@ -110,7 +115,7 @@ pub(super) fn read_fields(
 }
 
 /// The validated header fields the data and its placement depend on, as far as
-/// [`raw::load`] needs them to find and read the data.
+/// [`load`] needs them to find and read the data.
 #[derive(Debug)]
 pub(super) struct TextHeader {
     /// Voxels per axis (x, y, z).
@@ -169,6 +174,98 @@ impl TextHeader {
         }
         Ok(consumed)
     }
+}
+
+/// Loads a file with a text header: `read_header` parses the header from the start of the file
+/// and returns it with its length in bytes; then the data is read from the rest of the file or
+/// from the data file the header names into `sink`. Returns the volume's shape.
+///
+/// Progress is about the file holding the data (so a small detached header reports nothing of
+/// its own) and ends with one report of `done == total`.
+pub(super) fn load(
+    path: &Path,
+    progress: &mut dyn FnMut(u64, u64),
+    read_header: impl FnOnce(&mut dyn BufRead) -> Result<(TextHeader, u64), LoadErrorKind>,
+    sink: &mut dyn SampleSink,
+) -> Result<VolumeInfo, LoadErrorKind> {
+    let (file, len) = open(path, false)?;
+    let mut reader = BufReader::new(ProgressReader::new(file, len, &mut *progress));
+    let (header, header_len) = read_header(&mut reader)?;
+    let total = match header.data_file() {
+        None => {
+            let data_len = len.saturating_sub(header_len);
+            check_placement(&header, data_len)?;
+            sink.begin(&header.info())?;
+            header.read_data(&mut reader, data_len, None, sink)?;
+            len
+        }
+        Some(name) => {
+            drop(reader);
+            let data_path = sibling(path, name);
+            let (file, data_len) = open(&data_path, true)?;
+            check_placement(&header, data_len)?;
+            sink.begin(&header.info())?;
+            let mut reader = BufReader::new(ProgressReader::new(file, data_len, &mut *progress));
+            header.read_data(&mut reader, data_len, Some(&data_path), sink)?;
+            data_len
+        }
+    };
+    progress(total, total);
+    Ok(header.info())
+}
+
+/// Where the samples of a file with a text header lie (see [`super::raw_layout`]), reading only
+/// the header (and the lines a NRRD `line skip` passes over); `None` for compressed data. The
+/// data section must hold exactly the header's samples, as [`load`] requires.
+pub(super) fn locate(
+    path: &Path,
+    read_header: impl FnOnce(&mut dyn BufRead) -> Result<(TextHeader, u64), LoadErrorKind>,
+) -> Result<Option<RawData>, LoadErrorKind> {
+    let (file, len) = open(path, false)?;
+    let mut reader = BufReader::new(file);
+    let (header, header_len) = read_header(&mut reader)?;
+    let data = header.data;
+    if data.encoding != Encoding::Raw {
+        return Ok(None);
+    }
+    // The data stream: the rest of this file, or the whole data file.
+    let (data_path, start, len, lines) = match header.data_file() {
+        None => {
+            check_placement(&header, len.saturating_sub(header_len))?;
+            let lines = header.skip_lines(&mut reader, None)?;
+            (path.to_path_buf(), header_len, len, lines)
+        }
+        Some(name) => {
+            let data_path = sibling(path, name);
+            let (file, len) = open(&data_path, true)?;
+            check_placement(&header, len)?;
+            let lines = header.skip_lines(&mut BufReader::new(file), Some(&data_path))?;
+            (data_path, 0, len, lines)
+        }
+    };
+    let offset = start + lines;
+    let available = len.saturating_sub(offset);
+    let expected = data.layout.bytes();
+    let mismatch = |found| LoadErrorKind::SizeMismatch { expected, found, compressed: false };
+    let skip = match data.skip {
+        Some(skip) => skip,
+        None => available.checked_sub(expected).ok_or_else(|| mismatch(available))?,
+    };
+    let stored = available.checked_sub(skip).ok_or_else(|| (header.past_end)(skip))?;
+    if stored != expected {
+        return Err(mismatch(stored));
+    }
+    let Layout { ty, big_endian, .. } = data.layout;
+    Ok(Some(RawData { file: data_path, offset: offset + skip, sample: ty, big_endian, info: header.info() }))
+}
+
+/// Refuses a header whose samples cannot fit in the `len` bytes of its data stream (see
+/// [`check_claim`]), or whose skip goes past them, before the sink is told the grid.
+fn check_placement(header: &TextHeader, len: u64) -> Result<(), LoadErrorKind> {
+    let data = header.data;
+    let skip = data.skip.unwrap_or(0);
+    let stored = len.checked_sub(skip).ok_or_else(|| (header.past_end)(skip))?;
+    check_claim(data.layout.bytes(), stored, data.encoding != Encoding::Raw)
 }
 
 #[cfg(test)]
