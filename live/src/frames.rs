@@ -20,6 +20,7 @@ pub struct GpuWaiter {
 }
 
 impl GpuWaiter {
+    /// Starts the thread that waits on `device`'s submissions, calling `wake` after each.
     pub fn new(device: wgpu::Device, wake: impl Fn() + Send + 'static) -> GpuWaiter {
         let (sender, submissions) = channel::<(wgpu::SubmissionIndex, Done)>();
         let spawned = std::thread::Builder::new().name("vrs-gpu-wait".into()).spawn(move || {
@@ -49,6 +50,7 @@ impl GpuWaiter {
 pub struct Shown<'a> {
     /// `Rgba8Unorm`, premultiplied alpha; draw it over the view's whole rectangle.
     pub texture: &'a wgpu::Texture,
+    /// How refined the picture is (a preview, full resolution, or stale).
     pub quality: Quality,
     /// How long the last piece of work took on the GPU, and what it was.
     pub last: Option<(Work, Duration)>,
@@ -71,6 +73,7 @@ impl ViewFrames {
         ViewFrames { refiner: Refiner::new([1, 1], budget), preview: None, pending: None, last: None, output: None }
     }
 
+    /// The view's refinement schedule (its quality, what it renders next).
     pub fn refiner(&self) -> &Refiner {
         &self.refiner
     }

@@ -16,9 +16,21 @@ use vrs_runtime::view::Region;
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Work {
     /// The whole image at `size` (a fraction `scale` of the full size) into the preview target.
-    Preview { generation: u64, size: [u32; 2], scale: f32 },
+    Preview {
+        /// The view's state it renders (as given to [`Refiner::next`]).
+        generation: u64,
+        /// The preview's pixels (width, height).
+        size: [u32; 2],
+        /// `size` over the full size, per axis (at least 1/8).
+        scale: f32,
+    },
     /// `region` of the full-resolution image.
-    Tile { generation: u64, region: Region },
+    Tile {
+        /// The view's state it renders (as given to [`Refiner::next`]).
+        generation: u64,
+        /// The rows of the full image it renders.
+        region: Region,
+    },
 }
 
 impl Work {
@@ -42,7 +54,12 @@ pub enum Quality {
     /// Nothing rendered yet.
     None,
     /// A preview at `scale` of the full resolution; `refined` of the full image is done.
-    Preview { scale: f32, refined: f32 },
+    Preview {
+        /// The preview's size over the full size, per axis.
+        scale: f32,
+        /// The fraction (0 to 1) of the full image's rows rendered so far.
+        refined: f32,
+    },
     /// The full-resolution image of the current state.
     Full,
     /// The full-resolution image of an earlier state (the new one is on its way).

@@ -12,21 +12,29 @@ pub const RENDER_UNIFORMS: &[&str] = &["iso_value", "step_size", "jitter", "back
 /// One uniform to save: its name, its VRS type (`f32`, `vec4f`, `mat3x3f`, ...) and value.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SavedUniform {
+    /// The key written under `[uniforms]` (or `[render]`).
     pub name: String,
+    /// The VRS type, which decides how the value is written (a scalar or an array).
     pub ty: String,
+    /// The value, as the runtime holds it.
     pub value: Value,
 }
 
 /// Why the scene file could not be saved (it is left as it was).
 #[derive(Debug)]
 pub enum SaveError {
+    /// Reading the file, or writing and renaming its replacement, failed.
     Io {
+        /// The scene file.
         path: PathBuf,
+        /// What the file system said.
         error: std::io::Error,
     },
     /// The file is not valid TOML any more (the user is editing it): nothing is written.
     Parse {
+        /// The scene file.
         path: PathBuf,
+        /// The TOML parser's message.
         message: String,
     },
 }

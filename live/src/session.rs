@@ -34,6 +34,7 @@ pub struct Rebuild {
     /// The composition with its diagnostics (warnings too); `None` when the scene file could
     /// not be read at all.
     pub built: Option<Arc<BuiltScene>>,
+    /// What the runtime took on (volumes loaded, pipelines remade), or why nothing changed.
     pub outcome: Result<Applied, Failure>,
 }
 
@@ -182,6 +183,7 @@ impl LiveScene {
         live
     }
 
+    /// The renderer of the last good state: its views, volumes and meshes.
     pub fn renderer(&self) -> &SceneRenderer {
         &self.renderer
     }

@@ -4,9 +4,17 @@
 //! stand in for their files on disk) and composes every scene of the workspace that lists the
 //! document, so composition errors show on the module's lines. Hover, completion, go to
 //! definition, references of state fields and quick fixes read the syntax trees of the document,
-//! its imports, its scenes' modules and the standard library ([`workspace`]). Definitions in the
+//! its imports, its scenes' modules and the standard library (`workspace.rs`). Definitions in the
 //! standard library point at copies of its embedded sources in a cache folder
 //! ([`stdlib_files`]).
+//!
+//! Public API:
+//! - [`run_stdio`]: the server over standard input and output (`vrsc lsp`); [`serve`], the same
+//!   over any `lsp-server` connection (the tests' in-memory one); [`capabilities`], what it
+//!   offers the client.
+//! - [`uri`]: `file:` URIs to paths and back ([`uri::to_path`], [`uri::from_path`]).
+//! - [`stdlib_files`]: where the standard library's sources are written for editors
+//!   ([`stdlib_files::folder`], [`stdlib_files::path_of`], [`stdlib_files::module_of`]).
 
 mod analysis;
 mod code_actions;

@@ -5,6 +5,17 @@
 //! This crate is the contract between `vrsc` and `vrs-runtime`: the compiler builds these values,
 //! the runtime reads them, in process as typed values or from the `VIEW.json` that `vrsc build`
 //! writes (serde, the same types both ways).
+//!
+//! Public API:
+//! - [`Reflection`]: one view's reflection; [`Reflection::from_json`] reads `VIEW.json` (checking
+//!   [`FORMAT_VERSION`]), [`Reflection::uniform`] and [`Reflection::declared_by`] look uniforms up.
+//! - The uniforms: [`UniformBlock`] (the buffer's binding and size) and [`UniformInfo`] (each
+//!   uniform's type, offset, default, range and doc).
+//! - The bindings: [`BindingInfo`] with its [`BindingKind`]; [`BRICK_LAYOUT_BYTES`], the size of a
+//!   bricked volume's layout uniform.
+//! - For tools: the state layout ([`StateInfo`], [`FieldInfo`], [`Lifetime`]) and the pipeline
+//!   map ([`StepInfo`], [`FunctionInfo`], [`FunctionStatus`]).
+//! - [`content_hash`]: the hash written as `wgsl_hash`.
 
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
@@ -15,11 +26,15 @@ pub const FORMAT_VERSION: u32 = 1;
 /// A view's reflection.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Reflection {
+    /// The JSON format this was written in ([`FORMAT_VERSION`]; checked by [`Reflection::from_json`]).
     pub format_version: u32,
+    /// The scene's `[[view]]` name this shader renders.
     pub view: String,
     /// `raycast` or `slice`.
     pub kind: String,
+    /// The compute entry point's WGSL function name (`main`).
     pub entry_point: String,
+    /// The entry point's `@workgroup_size` (x, y, z): pixels one workgroup renders.
     pub workgroup_size: [u32; 3],
     /// xxh3-64 (hex) of the WGSL text: a runtime loading `.wgsl` + `.json` checks they belong
     /// together.
@@ -28,13 +43,17 @@ pub struct Reflection {
     /// values do not enter it, so equal hashes mean a configuration change only needs new
     /// uniform values, not a new pipeline.
     pub structural_hash: String,
+    /// Where the uniform buffer is bound and its size in bytes.
     pub uniform_block: UniformBlock,
+    /// Every uniform the shader reads: block members first, then `volume` and `tf` resources.
     pub uniforms: Vec<UniformInfo>,
+    /// Every resource binding of the shader, in binding order.
     pub bindings: Vec<BindingInfo>,
     /// The state layout and the pipeline map are for tools (inspectors, probes); a runtime
     /// needs neither, so JSON without them still loads.
     #[serde(default)]
     pub state: StateInfo,
+    /// The pipeline map: each step with the functions placed in it, in execution order.
     #[serde(default)]
     pub pipeline: Vec<StepInfo>,
 }
@@ -42,20 +61,25 @@ pub struct Reflection {
 /// Where the uniform block is bound and how large it is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct UniformBlock {
+    /// Its `@group`.
     pub group: u32,
+    /// Its `@binding` within the group.
     pub binding: u32,
+    /// Bytes of the block, padded to WGSL's uniform layout rules (what the buffer must hold).
     pub size: u32,
 }
 
 /// One uniform: a member of the uniform block, or a `volume` / `tf` resource (no offset).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct UniformInfo {
+    /// The uniform's name as scenes and `[uniforms]` spell it (instantiated for templates).
     pub name: String,
     /// The VRS type: `f32`, `vec3f`, `mat4x4f`, `volume`, `tf`, ...
     #[serde(rename = "type")]
     pub ty: String,
     /// Byte offset in the uniform block; `None` for `volume` and `tf` (they are bindings).
     pub offset: Option<u32>,
+    /// Bytes it takes in the uniform block; `None` for `volume` and `tf`.
     pub size: Option<u32>,
     /// A scalar as a JSON scalar, a vector as an array, a matrix as an array of columns.
     pub default: Option<Value>,
@@ -71,13 +95,19 @@ pub struct UniformInfo {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum BindingKind {
+    /// The uniform buffer ([`UniformBlock`]) holding every non-resource uniform.
     UniformBlock,
+    /// `texture_storage_2d<rgba8unorm, write>`: the picture the view renders.
     OutputImage,
     /// `vec4<u32>` uniform: the pixels `x0, y0, x1, y1` (end exclusive) that a dispatch renders.
     Region,
+    /// `texture_3d<f32>`: a `volume` uniform's samples, normalized by its window.
     VolumeTexture,
+    /// The (filtering) `sampler` a `volume` or brick pool is read through.
     VolumeSampler,
+    /// `texture_2d<f32>` of height 1: a `tf` uniform's RGBA table.
     TfTexture,
+    /// The (filtering) `sampler` a `tf` table is read through.
     TfSampler,
     /// `texture_storage_2d<r32float, write>`, as large as the output image: each pixel's
     /// `metered_luminance`, which the runtime reduces on the GPU for automatic exposure.
@@ -113,15 +143,20 @@ pub struct BindingInfo {
     /// The uniform's name for resources (`volume`, `tf_gm`); `uniforms`, `output` or `region`
     /// otherwise.
     pub name: String,
+    /// Its `@group`.
     pub group: u32,
+    /// Its `@binding` within the group.
     pub binding: u32,
+    /// What the runtime must bind there.
     pub kind: BindingKind,
 }
 
 /// The layout of the view's `State` struct.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct StateInfo {
+    /// Bytes of one `State` value (WGSL layout).
     pub size: u32,
+    /// Its fields, in member order.
     pub fields: Vec<FieldInfo>,
 }
 
@@ -129,25 +164,34 @@ pub struct StateInfo {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Lifetime {
+    /// `@ray state`: keeps its value from sample to sample along a ray.
     Ray,
+    /// Plain `state`: back to its default at the start of every sample.
     Sample,
 }
 
 /// One state field.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct FieldInfo {
+    /// The field's name (instantiated for templates).
     pub name: String,
+    /// Its VRS type (`f32`, `vec4f`, ...).
     #[serde(rename = "type")]
     pub ty: String,
+    /// Whether it lasts the whole ray or one sample.
     pub lifetime: Lifetime,
+    /// Byte offset in the `State` struct.
     pub offset: u32,
+    /// Bytes it takes in the `State` struct.
     pub size: u32,
+    /// Its initial value, as JSON like a uniform's default.
     pub default: Value,
 }
 
 /// One step of the pipeline and the functions placed in it, in order.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct StepInfo {
+    /// The step's name (`sampling`, `compositing.alpha`, ...).
     pub step: String,
     /// The functions that run, in execution order (all [`FunctionStatus::Active`]).
     pub functions: Vec<FunctionInfo>,
@@ -173,13 +217,19 @@ pub enum FunctionStatus {
 /// A placed pipeline function and where its source is.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct FunctionInfo {
+    /// The pipeline function's name as declared.
     pub name: String,
+    /// The template instance it belongs to (`$` substituted by this), if any.
     pub instance: Option<String>,
+    /// The source file it is declared in, as the compiler named it (`?` when unknown).
     pub file: String,
+    /// 1-based line of its declaration (0 when unknown).
     pub line: usize,
+    /// 1-based column, in characters, of its declaration (0 when unknown).
     pub column: usize,
     /// Byte range in the file.
     pub span: [u32; 2],
+    /// Whether it runs, and if not why.
     #[serde(default)]
     pub status: FunctionStatus,
     /// The uniforms it declares (instantiated names), in declaration order.

@@ -6,10 +6,12 @@
 //! window of the volume it classifies (the MR and generic presets). Before upload the table is
 //! resampled over the volume's window ([`TransferFunction::over_window`]), which is also what
 //! the volume's texture is normalized by, so the shader's `lookup(tf, value)` of a normalized
-//! value reads the entry of that data value. The opacity of an entry is the opacity of one sample at the
-//! compositor's reference step (`ref_step` in `std::composite_dvr`, 1/400 of the volume), so a
-//! value that fills a region should have a small opacity (a few hundredths) to stay
-//! see-through, and only surfaces meant to look solid should approach 1.
+//! value reads the entry of that data value. The opacity of an entry is the opacity of one sample
+//! at the compositor's reference step: `ref_step`, a uniform of `dvr_opacity` in
+//! `std::composite_dvr`, in millimetres (the scene's value, else the runtime's default, the
+//! primary volume's smallest voxel spacing; other steps are corrected to it). So a value that
+//! fills a region should have a small opacity (a few hundredths) to stay see-through, and only
+//! surfaces meant to look solid should approach 1.
 //!
 //! CT presets (`ct_*`) are defined in Hounsfield units over [`CT_DOMAIN`], whatever the window;
 //! the others over the window, so they fit any volume (an MR, a probability map) once its

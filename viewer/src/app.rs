@@ -17,6 +17,7 @@ use winit::window::{Window, WindowId};
 /// What `vrsc view` was asked to open.
 #[derive(Clone, Debug)]
 pub struct ViewerOptions {
+    /// The scene file (`.toml`) to show.
     pub scene: PathBuf,
     /// Only the software adapter (lavapipe).
     pub software: bool,

@@ -8,18 +8,36 @@ use vrs_runtime::reflection::UniformInfo;
 #[derive(Clone, Debug, PartialEq)]
 pub enum Control {
     /// A scalar with an `in LO .. HI` range.
-    Slider { lo: f64, hi: f64 },
+    Slider {
+        /// The range's low end.
+        lo: f64,
+        /// The range's high end.
+        hi: f64,
+    },
     /// A scalar without a range.
     Drag,
     /// A `bool`.
     Checkbox,
     /// A vector: one slider per component when a range is given (per component, or one for
     /// all), one drag value otherwise.
-    Vector { components: usize, ranges: Option<Vec<(f64, f64)>> },
+    Vector {
+        /// 2, 3 or 4.
+        components: usize,
+        /// Each component's `(lo, hi)` when the declaration has a range.
+        ranges: Option<Vec<(f64, f64)>>,
+    },
     /// A `vec3f` or `vec4f` colour (with alpha for `vec4f`).
-    Colour { alpha: bool },
+    Colour {
+        /// Whether it has a fourth, alpha component.
+        alpha: bool,
+    },
     /// A matrix: a grid of drag values, one column of the matrix per grid column.
-    Matrix { columns: usize, rows: usize },
+    Matrix {
+        /// The matrix's columns (grid columns).
+        columns: usize,
+        /// The matrix's rows (grid rows).
+        rows: usize,
+    },
     /// A volume or transfer function: edited in the transfer-function editor, not here.
     Resource,
     /// Set by the renderer before every frame (camera, slice plane, volume transforms): shown,

@@ -23,6 +23,7 @@ pub const IN_PLANE_MM: f32 = 2.0;
 /// A mesh's point as a slice view shows it.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Marker {
+    /// The `[[mesh]]` whose point it is.
     pub mesh: String,
     /// The `vec3f` uniform the point follows.
     pub uniform: String,
@@ -94,7 +95,9 @@ pub fn hit(markers: &[Marker], cursor: Vec2, size: Vec2, radius: f32) -> Option<
 /// the plane it had when grabbed.
 #[derive(Clone, Debug, PartialEq)]
 pub struct HandleDrag {
+    /// The `[[mesh]]` whose point is dragged.
     pub mesh: String,
+    /// The `vec3f` uniform the drag sets.
     pub uniform: String,
     /// The drawn point minus its foot on the plane: along the normal, the point's depth.
     offset: Vec3,

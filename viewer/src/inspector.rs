@@ -17,6 +17,7 @@ pub struct InspectorState {
 /// What the inspector needs from the live scene, asked for lazily (sources and the annotated
 /// WGSL cost a lookup or a composition).
 pub trait Sources {
+    /// The VRS source of `function` (its span in the last composition's files), if there.
     fn function_source(&self, function: &FunctionInfo) -> Option<String>;
     /// The annotated WGSL of the view, or why there is none.
     fn explained(&mut self) -> Result<String, String>;

@@ -13,6 +13,19 @@
 //! [`actions::Action`]s, applied to the live scene in one place, so they are tested headless.
 //!
 //! The compiler and the runtime stay free of GUI dependencies: winit and egui live here only.
+//!
+//! Public API:
+//! - [`run`] with [`ViewerOptions`]: opens the window on a scene (`vrsc view`).
+//! - The panels, each a `show` that draws into an `egui::Ui` and returns [`actions::Action`]s,
+//!   and the plain data it draws: [`params`] ([`params::groups`] of [`params::UniformRow`]s, each
+//!   with its [`controls::Control`] from [`controls::control_for`]), [`tf_editor`]
+//!   ([`tf_editor::EditedVolume`], [`tf_editor::TfEditorState`]), [`inspector`]
+//!   ([`inspector::InspectorState`], [`inspector::Sources`]) and [`mesh_panel`]
+//!   ([`mesh_panel::rows`] of [`mesh_panel::MeshRow`]s).
+//! - [`actions::apply`]: an [`actions::Action`] carried out on a `vrs_live::LiveScene`.
+//! - [`handles`]: the draggable points of slice views ([`handles::slice_markers`],
+//!   [`handles::grab`], [`handles::drag_to`]).
+//! - [`navigate`]: orbit, pan and zoom of cameras, stepping and turning of slice planes.
 
 pub mod actions;
 mod app;

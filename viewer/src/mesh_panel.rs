@@ -9,6 +9,7 @@ use vrs_live::{LiveScene, MeshStyle};
 /// One mesh as the panel shows it.
 #[derive(Clone, Debug, PartialEq)]
 pub struct MeshRow {
+    /// The `[[mesh]]`'s name.
     pub name: String,
     /// What it is drawn with now.
     pub style: MeshStyle,

@@ -11,7 +11,9 @@ use vrs_runtime::reflection::{Reflection, UniformInfo};
 /// One uniform as the panel shows it.
 #[derive(Clone, Debug)]
 pub struct UniformRow {
+    /// The uniform's reflection: name, type, range, default and doc comment (the tooltip).
     pub info: UniformInfo,
+    /// How it is edited ([`control_for`] its reflection).
     pub control: Control,
     /// The value in use (`None` for resources).
     pub value: Option<Value>,
@@ -24,10 +26,13 @@ pub struct UniformRow {
 pub struct Group {
     /// The function's (instantiated) name.
     pub function: String,
+    /// The template instance the function belongs to, shown in the group's title.
     pub instance: Option<String>,
+    /// The pipeline step the function is placed in (`entry point` for the rest group).
     pub step: String,
     /// `file:line` of the function.
     pub origin: String,
+    /// Its uniforms, in declaration order.
     pub rows: Vec<UniformRow>,
 }
 

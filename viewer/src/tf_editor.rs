@@ -11,9 +11,11 @@ use vrs_runtime::tf::{PRESETS, TfCurve, preset_curve};
 /// A volume as the editor shows it.
 #[derive(Clone, Debug)]
 pub struct EditedVolume {
+    /// The `[[volume]]`'s name.
     pub name: String,
     /// The value axis (data units).
     pub window: [f32; 2],
+    /// Voxel counts in equal bins over `window` (voxels outside it in the end bins).
     pub histogram: Vec<u64>,
     /// In data units over the window ([`TfCurve::in_data_units`]).
     pub curve: TfCurve,

@@ -5,6 +5,9 @@
 //! Rust allocation asks for at most the alignment `mi_malloc` already guarantees, so those take
 //! the plain entry points and only larger alignments the aligned ones.
 //!
+//! Public API: [`MiMalloc`], the allocator, to be declared as the binary's
+//! `#[global_allocator]`:
+//!
 //! ```ignore
 //! #[global_allocator]
 //! static GLOBAL: vrsc_alloc::MiMalloc = vrsc_alloc::MiMalloc;

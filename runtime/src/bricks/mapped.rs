@@ -18,31 +18,24 @@ use std::fs::File;
 use std::ops::Range;
 use std::path::Path;
 
-use glam::Mat4;
 use memmap2::{Mmap, MmapOptions};
 
-use super::lazy_levels::{LazyLevels, box_index, stored_box, sub};
-use super::pyramid::{check_brick, cut_brick};
-use super::{BrickData, BrickError, BrickSource, Level, levels_for};
+use super::grid::{GridSource, SourceGrid, spread};
+use super::lazy_levels::{box_index, stored_box, sub};
+use super::pyramid::cut_brick;
+use super::{BrickData, BrickError, BrickSource, levels_for};
 use crate::volume::{RawData, ScalarType, Scaling};
-
-/// Bricks per axis of level 0 read at open to estimate the value range (at most 4^3).
-const RANGE_BRICKS_PER_AXIS: u32 = 4;
 
 /// An uncompressed volume file, memory-mapped and read a brick at a time.
 pub struct MappedSource {
-    /// The data file's name, for messages.
-    name: String,
+    /// The data file's name (for messages), the pyramid and the world placement; levels 1..
+    /// are built from level 0.
+    grid: SourceGrid,
     /// The samples, and nothing else of the file.
     map: Mmap,
     sample: ScalarType,
     big_endian: bool,
     scaling: Scaling,
-    levels: Vec<Level>,
-    grid_to_world: Mat4,
-    range: [f32; 2],
-    /// Builds levels 1.. from level 0.
-    lazy: LazyLevels,
 }
 
 impl MappedSource {
@@ -59,30 +52,22 @@ impl MappedSource {
         let name = raw.file.file_name().map_or_else(|| raw.file.display().to_string(), |n| n.to_string_lossy().into());
         let map = map_samples(raw).map_err(|m| BrickError(format!("{name}: {m}")))?;
         let mut source = MappedSource {
-            name,
+            grid: SourceGrid::new(name, levels_for(raw.info.dims), raw.info.grid_to_world, cache_bytes),
             map,
             sample: raw.sample,
             big_endian: raw.big_endian,
             scaling: raw.info.scaling,
-            levels: levels_for(raw.info.dims),
-            grid_to_world: raw.info.grid_to_world,
-            range: [0.0, 0.0],
-            lazy: LazyLevels::new(cache_bytes),
         };
-        source.range = source.estimate_range()?;
+        source.grid.range = source.estimate_range()?;
         Ok(source)
     }
 
-    fn error(&self, message: impl std::fmt::Display) -> BrickError {
-        BrickError(format!("{}: {message}", self.name))
-    }
-
-    /// The finite range of up to [`RANGE_BRICKS_PER_AXIS`]^3 level-0 bricks spread evenly over
-    /// the volume (all of them in a small one): the true extremes may lie elsewhere, but reading
-    /// every voxel at open would read the whole file.
+    /// The finite range of up to [`super::grid::RANGE_BRICKS_PER_AXIS`]^3 level-0 bricks spread
+    /// evenly over the volume (all of them in a small one): the true extremes may lie elsewhere,
+    /// but reading every voxel at open would read the whole file.
     fn estimate_range(&self) -> Result<[f32; 2], BrickError> {
         let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
-        let [bx, by, bz] = self.levels[0].bricks.map(spread);
+        let [bx, by, bz] = self.grid.levels[0].bricks.map(spread);
         for &z in &bz {
             for &y in &by {
                 for &x in &bx {
@@ -102,7 +87,7 @@ impl MappedSource {
 
     /// Brick `brick` of level 0: the rows of its box converted from the mapping.
     fn read_stored(&self, brick: [u32; 3]) -> Result<BrickData, BrickError> {
-        let dims = self.levels[0].dims;
+        let dims = self.grid.levels[0].dims;
         let (lo, hi) = stored_box(dims, brick);
         let size = sub(hi, lo);
         let sample = self.sample.size() as usize;
@@ -115,7 +100,7 @@ impl MappedSource {
             for y in lo[1]..hi[1] {
                 let start = byte(lo[0], y, z);
                 let row = self.map.get(start..start + row_bytes).ok_or_else(|| {
-                    self.error(format_args!("row {y} of slice {z} lies past the {} mapped bytes", self.map.len()))
+                    self.grid.error(format_args!("row {y} of slice {z} lies past the {} mapped bytes", self.map.len()))
                 })?;
                 decode_row(self.sample, self.big_endian, self.scaling, row, &mut values);
             }
@@ -140,24 +125,15 @@ impl MappedSource {
     fn release(&self, _: Range<usize>) {}
 }
 
-impl BrickSource for MappedSource {
-    fn levels(&self) -> &[Level] {
-        &self.levels
+impl GridSource for MappedSource {
+    fn grid(&self) -> &SourceGrid {
+        &self.grid
     }
 
-    fn grid_to_world(&self) -> Mat4 {
-        self.grid_to_world
-    }
-
-    fn range(&self) -> [f32; 2] {
-        self.range
-    }
-
-    fn read(&self, level: usize, brick: [u32; 3]) -> Result<BrickData, BrickError> {
-        check_brick(&self.levels, level, brick).map_err(|e| self.error(e))?;
+    fn read_brick(&self, level: usize, brick: [u32; 3]) -> Result<BrickData, BrickError> {
         match level {
             0 => self.read_stored(brick),
-            _ => self.lazy.build(&self.levels, level, brick, &|l, b| self.read(l, b)),
+            _ => self.grid.lazy.build(&self.grid.levels, level, brick, &|l, b| self.read(l, b)),
         }
     }
 }
@@ -205,15 +181,6 @@ fn decode_row(sample: ScalarType, big_endian: bool, scaling: Scaling, row: &[u8]
         (ScalarType::F64, false) => each(row, out, s, |b| f64::from_le_bytes(b) as f32),
         (ScalarType::F64, true) => each(row, out, s, |b| f64::from_be_bytes(b) as f32),
     }
-}
-
-/// Up to [`RANGE_BRICKS_PER_AXIS`] brick indices spread evenly over `n` bricks, both ends
-/// included.
-fn spread(n: u32) -> Vec<u32> {
-    let k = RANGE_BRICKS_PER_AXIS.min(n);
-    let mut v: Vec<u32> = (0..k).map(|i| if k == 1 { 0 } else { i * (n - 1) / (k - 1) }).collect();
-    v.dedup();
-    v
 }
 
 #[cfg(test)]

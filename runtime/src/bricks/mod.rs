@@ -6,6 +6,7 @@
 //! Sources: Zarr v2/v3 and OME-Zarr stores (`zarr`, through the `zarrs` crate; multiscales read
 //! from the file), and every other format through a pyramid built at load (`pyramid`).
 
+mod grid;
 mod lazy_levels;
 pub mod loader;
 pub mod mapped;

@@ -9,10 +9,11 @@ use std::path::Path;
 
 use glam::{Mat4, Vec3};
 
-use super::raw::{self, Encoding, Placement, TextHeader};
+use super::raw::{Encoding, Placement};
+use super::text_header::{self, Syntax, TextHeader, read_fields};
 use super::{
-    Layout, LoadErrorKind, MAX_HEADER_LINES, RawData, SampleSink, ScalarType, Scaling, VolumeInfo, affine, check_dims,
-    is_usable, lps_to_ras, parse_numbers, read_header_line,
+    Layout, LoadErrorKind, RawData, SampleSink, ScalarType, VolumeInfo, affine, check_dims, is_usable, lps_to_ras,
+    parse_numbers,
 };
 
 /// Loads a `.mhd` or `.mha` file.
@@ -21,177 +22,104 @@ pub(super) fn load(
     progress: &mut dyn FnMut(u64, u64),
     sink: &mut dyn SampleSink,
 ) -> Result<VolumeInfo, LoadErrorKind> {
-    raw::load(path, progress, parse, sink)
+    text_header::load(path, progress, parse, sink)
 }
 
 /// Where the samples of a `.mhd` or `.mha` file lie; `None` for compressed data.
 pub(super) fn locate(path: &Path) -> Result<Option<RawData>, LoadErrorKind> {
-    raw::locate(path, parse)
+    text_header::locate(path, parse)
 }
 
 /// Reads and validates the header; returns it with its length in bytes.
-fn parse(reader: &mut dyn BufRead) -> Result<(Header, u64), LoadErrorKind> {
-    let (fields, header_len) = read_header(reader)?;
-    Ok((Header::parse(&fields)?, header_len))
+fn parse(reader: &mut dyn BufRead) -> Result<(TextHeader, u64), LoadErrorKind> {
+    let (fields, header_len) = read_fields(reader, &SYNTAX)?;
+    Ok((header(&fields)?, header_len))
 }
 
-/// Reads `Key = Value` lines up to and including `ElementDataFile`, which MetaImage requires
-/// to be the last field (for `LOCAL` data the data starts right after it). Returns the fields
-/// by lowercase key and the header's length in bytes.
-fn read_header(reader: &mut dyn BufRead) -> Result<(HashMap<String, String>, u64), LoadErrorKind> {
-    let mut fields = HashMap::new();
-    let mut consumed = 0;
-    for line_number in 1.. {
-        if line_number > MAX_HEADER_LINES {
-            return Err(LoadErrorKind::Header(format!("the header has more than {MAX_HEADER_LINES} lines")));
-        }
-        let line = read_header_line(reader).map_err(|e| match e {
-            LoadErrorKind::Header(_) if line_number == 1 => not_metaimage(),
-            other => other,
-        })?;
-        let Some((line, n)) = line else {
-            return Err(if fields.is_empty() {
-                not_metaimage()
-            } else {
-                LoadErrorKind::Header("missing field `ElementDataFile`".into())
-            });
-        };
-        consumed += n;
-        if line.trim().is_empty() || line.starts_with('#') {
-            continue;
-        }
-        let Some((key, value)) = line.split_once('=') else {
-            return Err(if fields.is_empty() {
-                not_metaimage()
-            } else {
-                LoadErrorKind::Header(format!("header line {line_number} is not `Key = Value`: `{line}`"))
-            });
-        };
-        let key = key.trim().to_ascii_lowercase();
-        let last = key == "elementdatafile";
-        fields.insert(key, value.trim().to_string());
-        if last {
-            break;
-        }
+/// MetaImage's `Key = Value` lines, up to and including `ElementDataFile`, which MetaImage
+/// requires to be the last field (for `LOCAL` data the data starts right after it); keys are
+/// matched in lowercase.
+const SYNTAX: Syntax = Syntax {
+    magic: None,
+    separator: "=",
+    metadata: None,
+    key: |key| key.trim().to_ascii_lowercase(),
+    blank_ends: false,
+    last: Some(("elementdatafile", "ElementDataFile")),
+    shape: "`Key = Value`",
+    not_format: "not a MetaImage file: expected `Key = Value` header lines",
+};
+
+/// Validates the fields the data and its placement depend on.
+fn header(fields: &HashMap<String, String>) -> Result<TextHeader, LoadErrorKind> {
+    let get = |key: &str| fields.get(&key.to_ascii_lowercase()).map(String::as_str);
+    let require = |key: &str| get(key).ok_or_else(|| LoadErrorKind::Header(format!("missing field `{key}`")));
+    let header_error = |message: String| Err(LoadErrorKind::Header(message));
+
+    if let Some(object) = get("ObjectType")
+        && !object.eq_ignore_ascii_case("Image")
+    {
+        return header_error(format!("`ObjectType` is `{object}`, expected `Image`"));
     }
-    Ok((fields, consumed))
-}
-
-fn not_metaimage() -> LoadErrorKind {
-    LoadErrorKind::Header("not a MetaImage file: expected `Key = Value` header lines".into())
-}
-
-/// The validated header fields the data and its placement depend on.
-#[derive(Debug)]
-struct Header {
-    dims: [u32; 3],
-    grid_to_world: Mat4,
-    /// `ElementDataFile`, unless it is `LOCAL`.
-    data_file: Option<String>,
-    /// `ElementType`, the byte order, `CompressedData` and `HeaderSize` (0 for `LOCAL` data).
-    data: Placement,
-}
-
-impl Header {
-    fn parse(fields: &HashMap<String, String>) -> Result<Header, LoadErrorKind> {
-        let get = |key: &str| fields.get(&key.to_ascii_lowercase()).map(String::as_str);
-        let require = |key: &str| get(key).ok_or_else(|| LoadErrorKind::Header(format!("missing field `{key}`")));
-        let header_error = |message: String| Err(LoadErrorKind::Header(message));
-
-        if let Some(object) = get("ObjectType")
-            && !object.eq_ignore_ascii_case("Image")
-        {
-            return header_error(format!("`ObjectType` is `{object}`, expected `Image`"));
-        }
-        let ndims = require("NDims")?;
-        let ndims: usize = match ndims.parse() {
-            Ok(n @ (3 | 4)) => n,
-            _ => return header_error(format!("not a 3D volume: `NDims` is {ndims}")),
-        };
-        let sizes: Vec<u64> = parse_numbers("DimSize", require("DimSize")?)?;
-        let sizes = match sizes[..] {
-            [x, y, z] if ndims == 3 => [x, y, z],
-            [x, y, z, 1] if ndims == 4 => [x, y, z],
-            _ => return header_error(format!("`DimSize` {sizes:?} does not describe a 3D volume (`NDims` {ndims})")),
-        };
-        let dims = check_dims("DimSize", sizes)?;
-        let ty = scalar_type(require("ElementType")?)?;
-        if let Some(channels) = get("ElementNumberOfChannels")
-            && channels != "1"
-        {
+    let ndims = require("NDims")?;
+    let ndims: usize = match ndims.parse() {
+        Ok(n @ (3 | 4)) => n,
+        _ => return header_error(format!("not a 3D volume: `NDims` is {ndims}")),
+    };
+    let sizes: Vec<u64> = parse_numbers("DimSize", require("DimSize")?)?;
+    let sizes = match sizes[..] {
+        [x, y, z] if ndims == 3 => [x, y, z],
+        [x, y, z, 1] if ndims == 4 => [x, y, z],
+        _ => return header_error(format!("`DimSize` {sizes:?} does not describe a 3D volume (`NDims` {ndims})")),
+    };
+    let dims = check_dims("DimSize", sizes)?;
+    let ty = scalar_type(require("ElementType")?)?;
+    if let Some(channels) = get("ElementNumberOfChannels")
+        && channels != "1"
+    {
+        return header_error(format!(
+            "`ElementNumberOfChannels` is {channels}; only scalar volumes (1 channel) are supported"
+        ));
+    }
+    if get("BinaryData").is_some_and(|b| b.eq_ignore_ascii_case("false")) {
+        return header_error("`BinaryData = False` (text data) is not supported".into());
+    }
+    let big_endian = boolean(fields, "BinaryDataByteOrderMSB")?.or(boolean(fields, "ElementByteOrderMSB")?);
+    let compressed = boolean(fields, "CompressedData")?.unwrap_or(false);
+    let skip = match get("HeaderSize").map(str::parse::<i64>) {
+        None => Some(0),
+        Some(Ok(-1)) if !compressed => None,
+        Some(Ok(n)) if n >= 0 => Some(n as u64),
+        Some(_) => {
+            let value = get("HeaderSize").unwrap_or_default();
             return header_error(format!(
-                "`ElementNumberOfChannels` is {channels}; only scalar volumes (1 channel) are supported"
+                "`HeaderSize` `{value}` is not a byte count (or -1 for uncompressed data at the end of the file)"
             ));
         }
-        if get("BinaryData").is_some_and(|b| b.eq_ignore_ascii_case("false")) {
-            return header_error("`BinaryData = False` (text data) is not supported".into());
+    };
+    let data_file = match require("ElementDataFile")? {
+        local if local.eq_ignore_ascii_case("LOCAL") => None,
+        list if list.starts_with("LIST") || list.contains('%') => {
+            return header_error(format!("`ElementDataFile` `{list}`: data split over several files is not supported"));
         }
-        let big_endian = boolean(fields, "BinaryDataByteOrderMSB")?.or(boolean(fields, "ElementByteOrderMSB")?);
-        let compressed = boolean(fields, "CompressedData")?.unwrap_or(false);
-        let skip = match get("HeaderSize").map(str::parse::<i64>) {
-            None => Some(0),
-            Some(Ok(-1)) if !compressed => None,
-            Some(Ok(n)) if n >= 0 => Some(n as u64),
-            Some(_) => {
-                let value = get("HeaderSize").unwrap_or_default();
-                return header_error(format!(
-                    "`HeaderSize` `{value}` is not a byte count (or -1 for uncompressed data at the end of the file)"
-                ));
-            }
-        };
-        let data_file = match require("ElementDataFile")? {
-            local if local.eq_ignore_ascii_case("LOCAL") => None,
-            list if list.starts_with("LIST") || list.contains('%') => {
-                return header_error(format!(
-                    "`ElementDataFile` `{list}`: data split over several files is not supported"
-                ));
-            }
-            name => Some(name.to_string()),
-        };
-        // `HeaderSize` describes a separate data file; LOCAL data starts right after the header.
-        let skip = if data_file.is_some() { skip } else { Some(0) };
-        let voxels = dims.iter().map(|&d| u64::from(d)).product();
-        Ok(Header {
-            dims,
-            grid_to_world: grid_to_world(fields, ndims)?,
-            data_file,
-            data: Placement {
-                layout: Layout { ty, big_endian: big_endian.unwrap_or(false), voxels },
-                encoding: if compressed { Encoding::Zlib } else { Encoding::Raw },
-                skip,
-                decoded_skip: 0,
-            },
-        })
-    }
-}
-
-impl TextHeader for Header {
-    fn data_file(&self) -> Option<&str> {
-        self.data_file.as_deref()
-    }
-
-    fn info(&self) -> VolumeInfo {
-        VolumeInfo { dims: self.dims, grid_to_world: self.grid_to_world, scaling: Scaling::IDENTITY }
-    }
-
-    fn placement(&self) -> Placement {
-        self.data
-    }
-
-    fn past_end(&self, skip: u64) -> LoadErrorKind {
-        LoadErrorKind::Header(format!("`HeaderSize` {skip} is past the end of the data file"))
-    }
-
-    fn read_data(
-        &self,
-        reader: &mut dyn BufRead,
-        len: u64,
-        file: Option<&Path>,
-        sink: &mut dyn SampleSink,
-    ) -> Result<(), LoadErrorKind> {
-        let past_end = |skip| self.past_end(skip);
-        raw::read_data(reader, self.data, len, file, &past_end, sink)
-    }
+        name => Some(name.to_string()),
+    };
+    // `HeaderSize` describes a separate data file; LOCAL data starts right after the header.
+    let skip = if data_file.is_some() { skip } else { Some(0) };
+    let voxels = dims.iter().map(|&d| u64::from(d)).product();
+    Ok(TextHeader {
+        dims,
+        grid_to_world: grid_to_world(fields, ndims)?,
+        data_file,
+        data: Placement {
+            layout: Layout { ty, big_endian: big_endian.unwrap_or(false), voxels },
+            encoding: if compressed { Encoding::Zlib } else { Encoding::Raw },
+            skip,
+            decoded_skip: 0,
+        },
+        line_skip: 0,
+        past_end: |skip| LoadErrorKind::Header(format!("`HeaderSize` {skip} is past the end of the data file")),
+    })
 }
 
 /// A `True`/`False` field, if present.

@@ -21,6 +21,7 @@ mod oversized;
 pub mod phantom;
 mod raw;
 mod samples;
+mod text_header;
 
 use std::fmt;
 use std::fs::File;

@@ -11,10 +11,11 @@ use std::path::Path;
 
 use glam::{Mat4, Vec3};
 
-use super::raw::{self, Encoding, Placement, TextHeader};
+use super::raw::{Encoding, Placement};
+use super::text_header::{self, Syntax, TextHeader, read_fields};
 use super::{
-    DataSource, Layout, LoadErrorKind, MAX_HEADER_LINES, RawData, SampleSink, ScalarType, Scaling, VolumeInfo, affine,
-    check_dims, is_usable, lps_to_ras, parse_numbers, read_header_line,
+    Layout, LoadErrorKind, RawData, SampleSink, ScalarType, VolumeInfo, affine, check_dims, is_usable, lps_to_ras,
+    parse_numbers,
 };
 
 /// Loads a `.nrrd` or `.nhdr` file.
@@ -23,18 +24,18 @@ pub(super) fn load(
     progress: &mut dyn FnMut(u64, u64),
     sink: &mut dyn SampleSink,
 ) -> Result<VolumeInfo, LoadErrorKind> {
-    raw::load(path, progress, |reader| parse(path, reader), sink)
+    text_header::load(path, progress, |reader| parse(path, reader), sink)
 }
 
 /// Where the samples of a `.nrrd` or `.nhdr` file lie; `None` for gzip data.
 pub(super) fn locate(path: &Path) -> Result<Option<RawData>, LoadErrorKind> {
-    raw::locate(path, |reader| parse(path, reader))
+    text_header::locate(path, |reader| parse(path, reader))
 }
 
 /// Reads and validates the header of the file at `path`; returns it with its length in bytes.
-fn parse(path: &Path, reader: &mut dyn BufRead) -> Result<(Header, u64), LoadErrorKind> {
-    let (fields, header_len) = read_header(reader)?;
-    let header = Header::parse(&fields)?;
+fn parse(path: &Path, reader: &mut dyn BufRead) -> Result<(TextHeader, u64), LoadErrorKind> {
+    let (fields, header_len) = read_fields(reader, &SYNTAX)?;
+    let header = header(&fields)?;
     if header.data_file.is_none() && path.extension().is_some_and(|e| e.eq_ignore_ascii_case("nhdr")) {
         return Err(LoadErrorKind::Header(
             "missing field `data file` (a detached .nhdr header names its data file)".into(),
@@ -43,175 +44,84 @@ fn parse(path: &Path, reader: &mut dyn BufRead) -> Result<(Header, u64), LoadErr
     Ok((header, header_len))
 }
 
-/// Reads the magic line and the fields up to the blank line that ends an attached header (or
-/// the end of a detached one). Returns the fields by normalized name (lowercase, no spaces, so
-/// `data file` and `datafile` are one field) and the header's length in bytes.
-fn read_header(reader: &mut dyn BufRead) -> Result<(HashMap<String, String>, u64), LoadErrorKind> {
-    let not_nrrd = || LoadErrorKind::Header("not a NRRD file: it does not start with `NRRD000`".into());
-    let first = read_header_line(reader).map_err(|e| match e {
-        LoadErrorKind::Header(_) => not_nrrd(),
-        other => other,
-    })?;
-    let (magic, mut consumed) = first.ok_or_else(not_nrrd)?;
-    if !magic.starts_with("NRRD000") {
-        return Err(not_nrrd());
-    }
-    let mut fields = HashMap::new();
-    for line_number in 2.. {
-        if line_number > MAX_HEADER_LINES {
-            return Err(LoadErrorKind::Header(format!("the header has more than {MAX_HEADER_LINES} lines")));
-        }
-        let Some((line, n)) = read_header_line(reader)? else { break };
-        consumed += n;
-        if line.is_empty() {
-            break;
-        }
-        if line.starts_with('#') {
-            continue;
-        }
-        let field = line.find(": ").map(|i| (i, 2)).or_else(|| line.strip_suffix(':').map(|s| (s.len(), 1)));
-        let pair = line.find(":=");
-        match (field, pair) {
-            (Some((i, sep)), pair) if pair.is_none_or(|p| i < p) => {
-                let key = line[..i].replace(' ', "").to_ascii_lowercase();
-                fields.insert(key, line[i + sep..].trim().to_string());
-            }
-            (_, Some(_)) => {} // a key/value pair: metadata only
-            _ => {
-                return Err(LoadErrorKind::Header(format!(
-                    "header line {line_number} is not `field: value`: `{line}`"
-                )));
-            }
-        }
-    }
-    Ok((fields, consumed))
-}
+/// NRRD's header: the magic line, then `field: value` lines up to the blank line that ends an
+/// attached header (or the end of a detached one), `key:=value` pairs skipped. Fields are
+/// stored by normalized name (lowercase, no spaces, so `data file` and `datafile` are one).
+const SYNTAX: Syntax = Syntax {
+    magic: Some("NRRD000"),
+    separator: ": ",
+    metadata: Some(":="),
+    key: |key| key.replace(' ', "").to_ascii_lowercase(),
+    blank_ends: true,
+    last: None,
+    shape: "`field: value`",
+    not_format: "not a NRRD file: it does not start with `NRRD000`",
+};
 
-/// The validated header fields the data and its placement depend on.
-#[derive(Debug)]
-struct Header {
-    dims: [u32; 3],
-    grid_to_world: Mat4,
-    /// `data file`, for a detached header.
-    data_file: Option<String>,
-    /// `type`, `endian`, `encoding` and `byte skip`.
-    data: Placement,
-    /// `line skip`: lines of the data file before the data.
-    line_skip: u64,
-}
-
-impl Header {
-    fn parse(fields: &HashMap<String, String>) -> Result<Header, LoadErrorKind> {
-        let get = |key: &str| fields.get(key).map(String::as_str);
-        let require =
-            |key: &str, name: &str| get(key).ok_or_else(|| LoadErrorKind::Header(format!("missing field `{name}`")));
-        let dimension = require("dimension", "dimension")?;
-        let dimension: usize = dimension
-            .parse()
-            .map_err(|_| LoadErrorKind::Header(format!("`dimension` `{dimension}` is not a number")))?;
-        let sizes: Vec<u64> = parse_numbers("sizes", require("sizes", "sizes")?)?;
-        if sizes.len() != dimension {
+/// Validates the fields the data and its placement depend on.
+fn header(fields: &HashMap<String, String>) -> Result<TextHeader, LoadErrorKind> {
+    let get = |key: &str| fields.get(key).map(String::as_str);
+    let require =
+        |key: &str, name: &str| get(key).ok_or_else(|| LoadErrorKind::Header(format!("missing field `{name}`")));
+    let dimension = require("dimension", "dimension")?;
+    let dimension: usize =
+        dimension.parse().map_err(|_| LoadErrorKind::Header(format!("`dimension` `{dimension}` is not a number")))?;
+    let sizes: Vec<u64> = parse_numbers("sizes", require("sizes", "sizes")?)?;
+    if sizes.len() != dimension {
+        return Err(LoadErrorKind::Header(format!(
+            "`sizes` has {} numbers but `dimension` is {dimension}",
+            sizes.len()
+        )));
+    }
+    let axes = spatial_axes(&sizes)?;
+    let dims = check_dims("sizes", axes.map(|a| sizes[a]))?;
+    let ty = scalar_type(require("type", "type")?)?;
+    let encoding = match require("encoding", "encoding")? {
+        "raw" => Encoding::Raw,
+        "gzip" | "gz" => Encoding::Gzip,
+        other => {
+            return Err(LoadErrorKind::Header(format!("unsupported `encoding` `{other}`; supported: raw, gzip")));
+        }
+    };
+    let big_endian = match (ty.size(), get("endian")) {
+        (1, _) => false,
+        (_, Some("little")) => false,
+        (_, Some("big")) => true,
+        (_, Some(other)) => {
+            return Err(LoadErrorKind::Header(format!("`endian` is `{other}`, expected `little` or `big`")));
+        }
+        (_, None) => return Err(LoadErrorKind::Header("missing field `endian`".into())),
+    };
+    let byte_skip = match get("byteskip").map(str::parse::<i64>) {
+        None => Some(0),
+        Some(Ok(-1)) if encoding == Encoding::Raw => None,
+        Some(Ok(n)) if n >= 0 => Some(n as u64),
+        Some(_) => {
             return Err(LoadErrorKind::Header(format!(
-                "`sizes` has {} numbers but `dimension` is {dimension}",
-                sizes.len()
+                "`byte skip` `{}` is not a byte count (or -1 for raw data at the end of the file)",
+                get("byteskip").unwrap_or_default()
             )));
         }
-        let axes = spatial_axes(&sizes)?;
-        let dims = check_dims("sizes", axes.map(|a| sizes[a]))?;
-        let ty = scalar_type(require("type", "type")?)?;
-        let encoding = match require("encoding", "encoding")? {
-            "raw" => Encoding::Raw,
-            "gzip" | "gz" => Encoding::Gzip,
-            other => {
-                return Err(LoadErrorKind::Header(format!("unsupported `encoding` `{other}`; supported: raw, gzip")));
-            }
-        };
-        let big_endian = match (ty.size(), get("endian")) {
-            (1, _) => false,
-            (_, Some("little")) => false,
-            (_, Some("big")) => true,
-            (_, Some(other)) => {
-                return Err(LoadErrorKind::Header(format!("`endian` is `{other}`, expected `little` or `big`")));
-            }
-            (_, None) => return Err(LoadErrorKind::Header("missing field `endian`".into())),
-        };
-        let byte_skip = match get("byteskip").map(str::parse::<i64>) {
-            None => Some(0),
-            Some(Ok(-1)) if encoding == Encoding::Raw => None,
-            Some(Ok(n)) if n >= 0 => Some(n as u64),
-            Some(_) => {
-                return Err(LoadErrorKind::Header(format!(
-                    "`byte skip` `{}` is not a byte count (or -1 for raw data at the end of the file)",
-                    get("byteskip").unwrap_or_default()
-                )));
-            }
-        };
-        let line_skip = match get("lineskip") {
-            None => 0,
-            Some(v) => v.parse().map_err(|_| LoadErrorKind::Header(format!("`line skip` `{v}` is not a count")))?,
-        };
-        let data_file = get("datafile").map(data_file).transpose()?;
-        // For gzip, `byte skip` counts bytes of the decompressed data, as NRRD specifies.
-        let (skip, decoded_skip) = match encoding {
-            Encoding::Raw => (byte_skip, 0),
-            Encoding::Gzip | Encoding::Zlib => (Some(0), byte_skip.unwrap_or_default()),
-        };
-        let voxels = dims.iter().map(|&d| u64::from(d)).product();
-        Ok(Header {
-            dims,
-            grid_to_world: grid_to_world(fields, &sizes, axes)?,
-            data_file,
-            data: Placement { layout: Layout { ty, big_endian, voxels }, encoding, skip, decoded_skip },
-            line_skip,
-        })
-    }
-}
-
-impl TextHeader for Header {
-    fn data_file(&self) -> Option<&str> {
-        self.data_file.as_deref()
-    }
-
-    fn info(&self) -> VolumeInfo {
-        VolumeInfo { dims: self.dims, grid_to_world: self.grid_to_world, scaling: Scaling::IDENTITY }
-    }
-
-    fn placement(&self) -> Placement {
-        self.data
-    }
-
-    fn past_end(&self, skip: u64) -> LoadErrorKind {
-        LoadErrorKind::Header(format!("`byte skip` {skip} is past the end of the data"))
-    }
-
-    /// Skips `line skip` lines, then reads the data after `byte skip`.
-    fn read_data(
-        &self,
-        reader: &mut dyn BufRead,
-        len: u64,
-        file: Option<&Path>,
-        sink: &mut dyn SampleSink,
-    ) -> Result<(), LoadErrorKind> {
-        let consumed = self.skip_lines(reader, file)?;
-        let past_end = |skip| self.past_end(skip);
-        raw::read_data(reader, self.data, len.saturating_sub(consumed), file, &past_end, sink)
-    }
-
-    fn skip_lines(&self, reader: &mut dyn BufRead, file: Option<&Path>) -> Result<u64, LoadErrorKind> {
-        let raw_source = DataSource { file, compressed: false, available: None };
-        let mut consumed = 0;
-        for _ in 0..self.line_skip {
-            let n = reader.skip_until(b'\n').map_err(|e| raw_source.read_error(e))? as u64;
-            if n == 0 {
-                return Err(LoadErrorKind::Header(format!(
-                    "`line skip` {} is more lines than the data has",
-                    self.line_skip
-                )));
-            }
-            consumed += n;
-        }
-        Ok(consumed)
-    }
+    };
+    let line_skip = match get("lineskip") {
+        None => 0,
+        Some(v) => v.parse().map_err(|_| LoadErrorKind::Header(format!("`line skip` `{v}` is not a count")))?,
+    };
+    let data_file = get("datafile").map(data_file).transpose()?;
+    // For gzip, `byte skip` counts bytes of the decompressed data, as NRRD specifies.
+    let (skip, decoded_skip) = match encoding {
+        Encoding::Raw => (byte_skip, 0),
+        Encoding::Gzip | Encoding::Zlib => (Some(0), byte_skip.unwrap_or_default()),
+    };
+    let voxels = dims.iter().map(|&d| u64::from(d)).product();
+    Ok(TextHeader {
+        dims,
+        grid_to_world: grid_to_world(fields, &sizes, axes)?,
+        data_file,
+        data: Placement { layout: Layout { ty, big_endian, voxels }, encoding, skip, decoded_skip },
+        line_skip,
+        past_end: |skip| LoadErrorKind::Header(format!("`byte skip` {skip} is past the end of the data")),
+    })
 }
 
 /// The indices of the three spatial axes among `sizes`: all of a 3D volume, or the last three

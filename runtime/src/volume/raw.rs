@@ -2,143 +2,16 @@
 //! header in the same file (attached) or sit in a file the header names (detached), raw or
 //! compressed, after some bytes to skip.
 //!
-//! Each format parses its own header; finding, sizing and reading the data is done here once, so
-//! both formats keep the same limits, progress reports and error messages.
+//! How the header places the data ([`Placement`]) and reading the samples it places
+//! ([`read_data`]), once for both formats, so they keep the same limits and error messages;
+//! [`super::text_header`] finds and sizes the data stream from a header.
 
-use std::io::{BufRead, BufReader, Read};
+use std::io::{BufRead, Read};
 use std::path::Path;
 
 use flate2::bufread::{GzDecoder, ZlibDecoder};
 
-use super::{
-    DataSource, Layout, LoadErrorKind, ProgressReader, RawData, SampleSink, VolumeInfo, check_claim, open,
-    read_samples, sibling, skip_bytes,
-};
-
-/// A parsed text header, as far as [`load`] needs it to find and read the data.
-pub(super) trait TextHeader {
-    /// The data file a detached header names; `None` when the data follows the header.
-    fn data_file(&self) -> Option<&str>;
-
-    /// Reads the samples from a stream positioned at the start of the data: right after the
-    /// header (attached) or at the start of the data file (detached, then named by `file` for
-    /// error messages), holding `len` more bytes.
-    fn read_data(
-        &self,
-        reader: &mut dyn BufRead,
-        len: u64,
-        file: Option<&Path>,
-        sink: &mut dyn SampleSink,
-    ) -> Result<(), LoadErrorKind>;
-
-    /// The volume's shape, placement and scaling.
-    fn info(&self) -> VolumeInfo;
-
-    /// Where the samples are in the data stream and how they are stored.
-    fn placement(&self) -> Placement;
-
-    /// The format's error for a skip of `skip` bytes that goes past the end of the data.
-    fn past_end(&self, skip: u64) -> LoadErrorKind;
-
-    /// Skips what comes before the byte skip in the data stream (NRRD's `line skip`) and
-    /// returns the bytes skipped; nothing in a format without it.
-    fn skip_lines(&self, reader: &mut dyn BufRead, file: Option<&Path>) -> Result<u64, LoadErrorKind> {
-        let _ = (reader, file);
-        Ok(0)
-    }
-}
-
-/// Loads a file with a text header: `read_header` parses the header from the start of the file
-/// and returns it with its length in bytes; then the data is read from the rest of the file or
-/// from the data file the header names into `sink`. Returns the volume's shape.
-///
-/// Progress is about the file holding the data (so a small detached header reports nothing of
-/// its own) and ends with one report of `done == total`.
-pub(super) fn load<H: TextHeader>(
-    path: &Path,
-    progress: &mut dyn FnMut(u64, u64),
-    read_header: impl FnOnce(&mut dyn BufRead) -> Result<(H, u64), LoadErrorKind>,
-    sink: &mut dyn SampleSink,
-) -> Result<VolumeInfo, LoadErrorKind> {
-    let (file, len) = open(path, false)?;
-    let mut reader = BufReader::new(ProgressReader::new(file, len, &mut *progress));
-    let (header, header_len) = read_header(&mut reader)?;
-    let total = match header.data_file() {
-        None => {
-            let data_len = len.saturating_sub(header_len);
-            check_placement(&header, data_len)?;
-            sink.begin(&header.info())?;
-            header.read_data(&mut reader, data_len, None, sink)?;
-            len
-        }
-        Some(name) => {
-            drop(reader);
-            let data_path = sibling(path, name);
-            let (file, data_len) = open(&data_path, true)?;
-            check_placement(&header, data_len)?;
-            sink.begin(&header.info())?;
-            let mut reader = BufReader::new(ProgressReader::new(file, data_len, &mut *progress));
-            header.read_data(&mut reader, data_len, Some(&data_path), sink)?;
-            data_len
-        }
-    };
-    progress(total, total);
-    Ok(header.info())
-}
-
-/// Where the samples of a file with a text header lie (see [`super::raw_layout`]), reading only
-/// the header (and the lines a NRRD `line skip` passes over); `None` for compressed data. The
-/// data section must hold exactly the header's samples, as [`load`] requires.
-pub(super) fn locate<H: TextHeader>(
-    path: &Path,
-    read_header: impl FnOnce(&mut dyn BufRead) -> Result<(H, u64), LoadErrorKind>,
-) -> Result<Option<RawData>, LoadErrorKind> {
-    let (file, len) = open(path, false)?;
-    let mut reader = BufReader::new(file);
-    let (header, header_len) = read_header(&mut reader)?;
-    let data = header.placement();
-    if data.encoding != Encoding::Raw {
-        return Ok(None);
-    }
-    // The data stream: the rest of this file, or the whole data file.
-    let (data_path, start, len, lines) = match header.data_file() {
-        None => {
-            check_placement(&header, len.saturating_sub(header_len))?;
-            let lines = header.skip_lines(&mut reader, None)?;
-            (path.to_path_buf(), header_len, len, lines)
-        }
-        Some(name) => {
-            let data_path = sibling(path, name);
-            let (file, len) = open(&data_path, true)?;
-            check_placement(&header, len)?;
-            let lines = header.skip_lines(&mut BufReader::new(file), Some(&data_path))?;
-            (data_path, 0, len, lines)
-        }
-    };
-    let offset = start + lines;
-    let available = len.saturating_sub(offset);
-    let expected = data.layout.bytes();
-    let mismatch = |found| LoadErrorKind::SizeMismatch { expected, found, compressed: false };
-    let skip = match data.skip {
-        Some(skip) => skip,
-        None => available.checked_sub(expected).ok_or_else(|| mismatch(available))?,
-    };
-    let stored = available.checked_sub(skip).ok_or_else(|| header.past_end(skip))?;
-    if stored != expected {
-        return Err(mismatch(stored));
-    }
-    let Layout { ty, big_endian, .. } = data.layout;
-    Ok(Some(RawData { file: data_path, offset: offset + skip, sample: ty, big_endian, info: header.info() }))
-}
-
-/// Refuses a header whose samples cannot fit in the `len` bytes of its data stream (see
-/// [`check_claim`]), or whose skip goes past them, before the sink is told the grid.
-fn check_placement(header: &impl TextHeader, len: u64) -> Result<(), LoadErrorKind> {
-    let data = header.placement();
-    let skip = data.skip.unwrap_or(0);
-    let stored = len.checked_sub(skip).ok_or_else(|| header.past_end(skip))?;
-    check_claim(data.layout.bytes(), stored, data.encoding != Encoding::Raw)
-}
+use super::{DataSource, Layout, LoadErrorKind, SampleSink, read_samples, skip_bytes};
 
 /// How the data is stored.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -214,8 +87,8 @@ fn read_decoded(
 
 #[cfg(test)]
 mod tests {
-    use super::super::ScalarType;
     use super::super::tests::{gzip, zlib};
+    use super::super::{ScalarType, VolumeInfo};
     use super::*;
 
     fn placement(encoding: Encoding, skip: Option<u64>, decoded_skip: u64) -> Placement {

@@ -37,11 +37,12 @@ use std::sync::{Arc, Mutex, OnceLock};
 use glam::{Mat4, Vec4};
 use zarrs::array::{ArrayError, ArraySubsetTraits};
 
+use super::grid::{GridSource, SourceGrid, spread};
 #[cfg(test)]
 use super::lazy_levels::{BrickCache, Summary};
-use super::lazy_levels::{LazyLevels, box_index, stored_box, sub};
-use super::pyramid::{check_brick, cut_brick};
-use super::{BRICK, BrickData, BrickError, BrickSource, Level, levels_for, lock, table_entries};
+use super::lazy_levels::{box_index, stored_box, sub};
+use super::pyramid::cut_brick;
+use super::{BRICK, BrickData, BrickError, BrickSource, levels_for, lock, table_entries};
 use dataset::{Dataset, Fixed, Store};
 use ome::{Axis, AxisKind, Multiscale, Transform};
 use plan::{LevelPlan, Placement};
@@ -55,11 +56,9 @@ pub use testdata::write_test_zarr;
 /// brick is decoded directly, missing chunks reading as the fill value.
 const MAX_CHUNK_LOOKUPS: u64 = 4096;
 
-/// Bricks read at open to estimate the value range (see [`ZarrSource::estimate_range`]).
+/// Bricks read at open to estimate the value range (see [`ZarrSource::estimate_range`]); as
+/// many as [`spread`] gives over a grid of bricks.
 const RANGE_BRICKS: usize = 64;
-
-/// [`RANGE_BRICKS`] spread over a grid of bricks: this many per axis.
-const RANGE_BRICKS_PER_AXIS: u32 = 4;
 
 /// Notes about unreadable chunks kept (each names one).
 const MAX_NOTES: usize = 32;
@@ -84,9 +83,9 @@ pub struct ZarrSelection {
 
 /// A Zarr store read a brick at a time.
 pub struct ZarrSource {
-    /// The store's name, for messages.
-    name: String,
-    levels: Vec<Level>,
+    /// The store's name (for messages), the pyramid and the world placement; the levels no
+    /// dataset answers are built from the level below.
+    grid: SourceGrid,
     /// The arrays read, dataset 0 (level 0) first.
     datasets: Vec<Dataset>,
     /// How each level is read.
@@ -95,10 +94,6 @@ pub struct ZarrSource {
     dir: Option<std::path::PathBuf>,
     /// Per dataset, its chunk files listed once when first needed (`None`: too many, or remote).
     listings: Vec<OnceLock<Option<Listing>>>,
-    grid_to_world: Mat4,
-    range: [f32; 2],
-    /// Builds the levels no dataset answers from the level below.
-    lazy: LazyLevels,
     /// Unreadable chunks met while building levels, once each.
     notes: Mutex<Vec<String>>,
 }
@@ -145,18 +140,14 @@ impl ZarrSource {
             None => (vec![Placement { factor: [1.0; 3], shift: [0.0; 3], dims: datasets[0].dims }], Mat4::IDENTITY),
         };
         let mut source = ZarrSource {
-            name,
             plans: plan::plan_levels(levels.len(), &placements),
-            levels,
+            grid: SourceGrid::new(name, levels, grid_to_world, cache_bytes),
             listings: datasets.iter().map(|_| OnceLock::new()).collect(),
             datasets,
             dir: opened.dir,
-            grid_to_world,
-            range: [0.0, 0.0],
-            lazy: LazyLevels::new(cache_bytes),
             notes: Mutex::new(Vec::new()),
         };
-        source.range = source.estimate_range();
+        source.grid.range = source.estimate_range();
         Ok(source)
     }
 
@@ -164,10 +155,6 @@ impl ZarrSource {
     /// a finer dataset or built from the level below.
     pub fn stored_levels(&self) -> usize {
         self.plans.iter().filter(|p| matches!(p, LevelPlan::Read { ratio: [1, 1, 1], .. })).count()
-    }
-
-    fn error(&self, message: impl std::fmt::Display) -> BrickError {
-        BrickError(format!("{}: {message}", self.name))
     }
 
     /// Remembers an unreadable chunk's note (once, at most [`MAX_NOTES`]).
@@ -213,13 +200,7 @@ impl ZarrSource {
 
     /// The bricks [`ZarrSource::estimate_range`] reads.
     fn range_bricks(&self, level: usize) -> Vec<[u32; 3]> {
-        let level_info = self.levels[level];
-        let spread = |n: u32| -> Vec<u32> {
-            let k = RANGE_BRICKS_PER_AXIS.min(n);
-            let mut v: Vec<u32> = (0..k).map(|i| if k == 1 { 0 } else { i * (n - 1) / (k - 1) }).collect();
-            v.dedup();
-            v
-        };
+        let level_info = self.grid.levels[level];
         let grid = |axis: &dyn Fn(u32) -> Vec<u32>| {
             let b = level_info.bricks;
             let mut out = Vec::new();
@@ -263,12 +244,12 @@ impl ZarrSource {
         let chunks = dataset
             .array
             .chunks_in_array_subset(&subset)
-            .map_err(|e| self.error(format_args!("`{}`: {e}", dataset.path)))?
-            .ok_or_else(|| self.error(format_args!("`{}`: its chunk grid cannot be indexed", dataset.path)))?;
+            .map_err(|e| self.grid.error(format_args!("`{}`: {e}", dataset.path)))?
+            .ok_or_else(|| self.grid.error(format_args!("`{}`: its chunk grid cannot be indexed", dataset.path)))?;
         let chunk_ranges = chunks.to_ranges();
         if chunk_count(&chunk_ranges) > MAX_CHUNK_LOOKUPS {
             let read = dataset.read_box(lo, hi);
-            return read.map(Region::Voxels).map_err(|e| self.error(format_args!("`{}`: {e}", dataset.path)));
+            return read.map(Region::Voxels).map_err(|e| self.grid.error(format_args!("`{}`: {e}", dataset.path)));
         }
         let mut present = Vec::new();
         for_each_index(&chunk_ranges, |index| {
@@ -330,10 +311,10 @@ impl ZarrSource {
             let Ok(subset) = dataset.array.chunk_subset_bounded(index) else { continue };
             if let Err(e) = dataset.read_f32(&subset as &dyn ArraySubsetTraits) {
                 let key = dataset.array.chunk_key(index);
-                return self.error(format_args!("chunk `{key}` of `{}` cannot be read: {e}", dataset.path));
+                return self.grid.error(format_args!("chunk `{key}` of `{}` cannot be read: {e}", dataset.path));
             }
         }
-        self.error(format_args!("`{}`: {error}", dataset.path))
+        self.grid.error(format_args!("`{}`: {error}", dataset.path))
     }
 
     /// Brick `brick` of a level a dataset answers.
@@ -344,7 +325,7 @@ impl ZarrSource {
         plan: (usize, [u32; 3], [i64; 3]),
     ) -> Result<BrickData, BrickError> {
         let (d, ratio, offset) = plan;
-        let dims = self.levels[level].dims;
+        let dims = self.grid.levels[level].dims;
         let (lo, hi) = stored_box(dims, brick);
         let (slo, shi) = plan::source_box(lo, hi, ratio, offset, self.datasets[d].dims);
         match self.read_region(d, slo, shi)? {
@@ -360,7 +341,7 @@ impl ZarrSource {
     /// Brick `brick` of a level no dataset answers: the 2x2x2 box average of the level below,
     /// read a finer brick at a time (an unreadable one counts as the fill value, noted).
     fn build_brick(&self, level: usize, brick: [u32; 3]) -> Result<BrickData, BrickError> {
-        let (lo, hi) = stored_box(self.levels[level].dims, brick);
+        let (lo, hi) = stored_box(self.grid.levels[level].dims, brick);
         // A brick over a part of the store without chunks is its fill value, without reading
         // the finer levels in between: asked of the nearest finer level a dataset answers.
         let finer = (0..level).rev().find_map(|l| match self.plans[l] {
@@ -371,7 +352,7 @@ impl ZarrSource {
             && level - l < 32
         {
             let shift = level - l;
-            let below = self.levels[l].dims;
+            let below = self.grid.levels[l].dims;
             let flo = lo.map(|v| v.saturating_mul(1 << shift));
             let fhi = [0, 1, 2].map(|a| hi[a].saturating_mul(1 << shift).min(below[a]));
             let (slo, shi) = plan::source_box(flo, fhi, ratio, offset, self.datasets[d].dims);
@@ -386,32 +367,23 @@ impl ZarrSource {
                 Ok(BrickData::Constant(fill))
             })
         };
-        self.lazy.build(&self.levels, level, brick, &read)
+        self.grid.lazy.build(&self.grid.levels, level, brick, &read)
     }
 }
 
-impl BrickSource for ZarrSource {
-    fn levels(&self) -> &[Level] {
-        &self.levels
+impl GridSource for ZarrSource {
+    fn grid(&self) -> &SourceGrid {
+        &self.grid
     }
 
-    fn grid_to_world(&self) -> Mat4 {
-        self.grid_to_world
-    }
-
-    fn range(&self) -> [f32; 2] {
-        self.range
-    }
-
-    fn read(&self, level: usize, brick: [u32; 3]) -> Result<BrickData, BrickError> {
-        check_brick(&self.levels, level, brick).map_err(|e| self.error(e))?;
+    fn read_brick(&self, level: usize, brick: [u32; 3]) -> Result<BrickData, BrickError> {
         match self.plans[level] {
             LevelPlan::Read { dataset, ratio, offset } => self.read_planned(level, brick, (dataset, ratio, offset)),
             LevelPlan::Built => self.build_brick(level, brick),
         }
     }
 
-    fn warnings(&self) -> Vec<String> {
+    fn notes(&self) -> Vec<String> {
         lock(&self.notes).clone()
     }
 }
