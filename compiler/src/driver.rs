@@ -2,15 +2,15 @@
 //! together with the source map and every diagnostic.
 //!
 //! Public face: [`check_files`], [`check_files_with`] and [`check_source`], which load, parse
-//! and check modules into a [`Checked`]; [`InputError`] for a root file that cannot be read; and
-//! [`internal_error`]. The command line, the language server and the Python bindings start here.
+//! and check modules into a [`Checked`]; [`InputError`] for a root file that cannot be read.
+//! The command line, the language server and the Python bindings start here.
 
 use crate::check;
-use crate::diag::{Code, Diagnostic, Diagnostics};
+use crate::diag::Diagnostics;
 use crate::hir::Program;
 use crate::loader::{Loader, ModuleGraph, ParsedFiles};
 use crate::lower;
-use crate::source::{SourceMap, Span};
+use crate::source::SourceMap;
 use std::path::{Path, PathBuf};
 
 /// The result of checking a set of modules.
@@ -92,11 +92,6 @@ impl Checked {
             }
         }
     }
-}
-
-/// An internal error not tied to any source position.
-pub fn internal_error(message: impl Into<String>) -> Diagnostic {
-    Diagnostic::new(Code::Internal, Span::DUMMY, message)
 }
 
 #[cfg(test)]

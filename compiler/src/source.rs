@@ -79,11 +79,6 @@ impl SourceFile {
         };
         (line, (local - self.line_starts[line]) as usize)
     }
-
-    /// How many lines the file has.
-    pub fn line_count(&self) -> usize {
-        self.line_starts.len()
-    }
 }
 
 /// All files of one compilation. Files are only ever added, so spans stay valid.
