@@ -146,6 +146,18 @@ pub struct ConstValue {
     pub components: Vec<ScalarValue>,
 }
 
+impl ConstValue {
+    /// The value as an index, when it is one integer (`i32` or `u32`); whether it is in range is
+    /// the caller's question.
+    pub fn as_index(&self) -> Option<i64> {
+        match self.components.as_slice() {
+            [ScalarValue::I32(i)] => Some(i64::from(*i)),
+            [ScalarValue::U32(u)] => Some(i64::from(*u)),
+            _ => None,
+        }
+    }
+}
+
 /// One component of a constant value.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum ScalarValue {
@@ -251,6 +263,16 @@ pub struct Expr {
     pub kind: ExprKind,
     pub ty: Type,
     pub span: Span,
+}
+
+impl Expr {
+    /// The value of a constant integer index, if the expression is one.
+    pub fn const_index(&self) -> Option<i64> {
+        match &self.kind {
+            ExprKind::Const(v) => v.as_index(),
+            _ => None,
+        }
+    }
 }
 
 /// What a checked expression is.

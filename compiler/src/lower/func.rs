@@ -991,14 +991,7 @@ fn element_type(t: Type) -> Option<Type> {
 
 /// A non-negative constant index.
 fn const_index(e: &hir::Expr) -> Option<u32> {
-    match &e.kind {
-        ExprKind::Const(c) => match c.components.as_slice() {
-            [ScalarValue::I32(i)] => u32::try_from(*i).ok(),
-            [ScalarValue::U32(u)] => Some(*u),
-            _ => None,
-        },
-        _ => None,
-    }
+    e.const_index().and_then(|i| u32::try_from(i).ok())
 }
 
 fn binary_op(op: AssignOp) -> BinaryOp {
