@@ -11,66 +11,6 @@ use crate::source::Span;
 use crate::suggest::did_you_mean;
 use crate::types::{Scalar, Type};
 
-/// Every built-in function, for suggestions.
-const BUILTINS: &[Builtin] = {
-    use Builtin::*;
-    &[
-        Abs,
-        Min,
-        Max,
-        Clamp,
-        Mix,
-        Step,
-        Smoothstep,
-        Sign,
-        Floor,
-        Ceil,
-        Fract,
-        Round,
-        Trunc,
-        Sqrt,
-        InverseSqrt,
-        Pow,
-        Exp,
-        Exp2,
-        Log,
-        Log2,
-        Sin,
-        Cos,
-        Tan,
-        Asin,
-        Acos,
-        Atan,
-        Atan2,
-        Dot,
-        Cross,
-        Length,
-        Distance,
-        Normalize,
-        Reflect,
-        FaceForward,
-        Transpose,
-        Determinant,
-        Select,
-        Any,
-        All,
-        Sample,
-        Lookup,
-        Dims,
-    ]
-};
-
-/// How many arguments a built-in takes (WGSL's overloads all have one count).
-fn arity(b: Builtin) -> usize {
-    use Builtin::*;
-    match b {
-        Abs | Sign | Floor | Ceil | Fract | Round | Trunc | Sqrt | InverseSqrt | Exp | Exp2 | Log | Log2 | Sin
-        | Cos | Tan | Asin | Acos | Atan | Length | Normalize | Transpose | Determinant | Any | All | Dims => 1,
-        Min | Max | Step | Pow | Atan2 | Dot | Cross | Distance | Reflect | Sample | Lookup => 2,
-        Clamp | Mix | Smoothstep | FaceForward | Select => 3,
-    }
-}
-
 fn plural(n: usize) -> &'static str {
     if n == 1 { "" } else { "s" }
 }
@@ -102,7 +42,7 @@ impl Checker<'_> {
         if Type::is_generic_name(name) {
             return self.construct_inferred(f, span, callee, args, hint);
         }
-        if let Some(builtin) = rules::builtin_by_name(name) {
+        if let Some(builtin) = Builtin::by_name(name) {
             return self.builtin_call(f, span, callee, builtin, args, hint);
         }
         match self.item(f.module, name) {
@@ -133,7 +73,7 @@ impl Checker<'_> {
             )
             .with_label("called here");
         }
-        let mut known: Vec<&str> = BUILTINS.iter().map(|b| rules::builtin_name(*b)).collect();
+        let mut known: Vec<&str> = Builtin::ALL.iter().map(|&(_, name)| name).collect();
         if let Some(scope) = self.scopes.get(f.module) {
             known.extend(scope.names.iter().filter(|(_, r)| matches!(r, ItemRef::Lib(_))).map(|(n, _)| n.as_str()));
         }
@@ -261,7 +201,7 @@ impl Checker<'_> {
         hint: Hint,
     ) -> hir::Expr {
         let checked = self.shared_args(f, args, hint);
-        let expected = arity(builtin);
+        let expected = builtin.arity();
         if checked.len() != expected {
             let d = Diagnostic::new(
                 Code::ArgumentCount,
