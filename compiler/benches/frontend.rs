@@ -1,8 +1,9 @@
 //! Front end + lowering + WGSL writing, against naga's own WGSL front end parsing and
 //! validating the WGSL we emit. Run: `cargo bench -p vrsc --bench frontend`.
 //!
-//! Inputs: a generated module of 3000 functions (library and pipeline functions), and the
-//! clip-plane template of the language specification.
+//! Inputs: a generated module of 3000 functions (library and pipeline functions), a pipeline
+//! function whose body is 5000 statements long (the front end must stay linear in the length of
+//! a body), and the clip-plane template of the language specification.
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 
@@ -28,6 +29,17 @@ fn large_module() -> String {
         );
     }
     src
+}
+
+/// One pipeline function of 5000 statements, each a call, an index and a swizzle.
+fn long_body() -> String {
+    let stmt = "    state.color = vec4f(state.color.rgb * 0.5 + f(x, y)[1], 1.0);\n";
+    format!(
+        "lib fn f(a: f32, b: f32) -> vec3f {{\n    return vec3f(a, b, 1.0);\n}}\n\n\
+         pipeline long_body in shading.tone {{\n    uniform x: f32 = 1.0 in 0.0 .. 4.0;\n    \
+         uniform y: f32 = 2.0 in 0.0 .. 4.0;\n    state color: vec4f = vec4f(0.0);\n    use f;\n\n{}}}\n",
+        stmt.repeat(5_000)
+    )
 }
 
 const CLIP_PLANE: &str = r#"
@@ -75,6 +87,7 @@ fn bench_input(c: &mut Criterion, name: &str, src: &str) {
 
 fn benches(c: &mut Criterion) {
     bench_input(c, "module_3000_functions", &large_module());
+    bench_input(c, "pipeline_5000_statements", &long_body());
     bench_input(c, "clip_plane_template", CLIP_PLANE);
 }
 

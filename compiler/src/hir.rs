@@ -146,6 +146,18 @@ pub struct ConstValue {
     pub components: Vec<ScalarValue>,
 }
 
+impl ConstValue {
+    /// The value as an index, when it is one integer (`i32` or `u32`); whether it is in range is
+    /// the caller's question.
+    pub fn as_index(&self) -> Option<i64> {
+        match self.components.as_slice() {
+            [ScalarValue::I32(i)] => Some(i64::from(*i)),
+            [ScalarValue::U32(u)] => Some(i64::from(*u)),
+            _ => None,
+        }
+    }
+}
+
 /// One component of a constant value.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum ScalarValue {
@@ -253,6 +265,16 @@ pub struct Expr {
     pub span: Span,
 }
 
+impl Expr {
+    /// The value of a constant integer index, if the expression is one.
+    pub fn const_index(&self) -> Option<i64> {
+        match &self.kind {
+            ExprKind::Const(v) => v.as_index(),
+            _ => None,
+        }
+    }
+}
+
 /// What a checked expression is.
 #[derive(Clone, Debug)]
 pub enum ExprKind {
@@ -303,54 +325,91 @@ pub enum ExprKind {
     },
 }
 
-/// The built-in functions of section 3 of the language spec.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum Builtin {
-    Abs,
-    Min,
-    Max,
-    Clamp,
-    Mix,
-    Step,
-    Smoothstep,
-    Sign,
-    Floor,
-    Ceil,
-    Fract,
-    Round,
-    Trunc,
-    Sqrt,
-    InverseSqrt,
-    Pow,
-    Exp,
-    Exp2,
-    Log,
-    Log2,
-    Sin,
-    Cos,
-    Tan,
-    Asin,
-    Acos,
-    Atan,
-    Atan2,
-    Dot,
-    Cross,
-    Length,
-    Distance,
-    Normalize,
-    Reflect,
-    FaceForward,
-    Transpose,
-    Determinant,
-    Select,
-    Any,
-    All,
+/// Declares [`Builtin`] from one table of variants, VRS names and argument counts, so that the
+/// enum, its list, its names and its arities cannot drift apart.
+macro_rules! builtins {
+    ($($(#[$doc:meta])* $variant:ident = $name:literal / $arity:literal,)*) => {
+        /// The built-in functions of section 3 of the language spec.
+        #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+        pub enum Builtin {
+            $($(#[$doc])* $variant,)*
+        }
+
+        impl Builtin {
+            /// Every built-in with the name it is called by in VRS, in declaration order.
+            pub const ALL: &[(Builtin, &str)] = &[$((Builtin::$variant, $name),)*];
+
+            /// The name the built-in is called by in VRS.
+            pub fn name(self) -> &'static str {
+                match self {
+                    $(Builtin::$variant => $name,)*
+                }
+            }
+
+            /// How many arguments the built-in takes (WGSL's overloads of each have one count).
+            pub fn arity(self) -> usize {
+                match self {
+                    $(Builtin::$variant => $arity,)*
+                }
+            }
+
+            /// The built-in called `name`, if any.
+            pub fn by_name(name: &str) -> Option<Builtin> {
+                match name {
+                    $($name => Some(Builtin::$variant),)*
+                    _ => None,
+                }
+            }
+        }
+    };
+}
+
+builtins! {
+    Abs = "abs" / 1,
+    Min = "min" / 2,
+    Max = "max" / 2,
+    Clamp = "clamp" / 3,
+    Mix = "mix" / 3,
+    Step = "step" / 2,
+    Smoothstep = "smoothstep" / 3,
+    Sign = "sign" / 1,
+    Floor = "floor" / 1,
+    Ceil = "ceil" / 1,
+    Fract = "fract" / 1,
+    Round = "round" / 1,
+    Trunc = "trunc" / 1,
+    Sqrt = "sqrt" / 1,
+    InverseSqrt = "inverseSqrt" / 1,
+    Pow = "pow" / 2,
+    Exp = "exp" / 1,
+    Exp2 = "exp2" / 1,
+    Log = "log" / 1,
+    Log2 = "log2" / 1,
+    Sin = "sin" / 1,
+    Cos = "cos" / 1,
+    Tan = "tan" / 1,
+    Asin = "asin" / 1,
+    Acos = "acos" / 1,
+    Atan = "atan" / 1,
+    Atan2 = "atan2" / 2,
+    Dot = "dot" / 2,
+    Cross = "cross" / 2,
+    Length = "length" / 1,
+    Distance = "distance" / 2,
+    Normalize = "normalize" / 1,
+    Reflect = "reflect" / 2,
+    FaceForward = "faceForward" / 3,
+    Transpose = "transpose" / 1,
+    Determinant = "determinant" / 1,
+    Select = "select" / 3,
+    Any = "any" / 1,
+    All = "all" / 1,
     /// `sample(v: volume, p: vec3f) -> f32`
-    Sample,
+    Sample = "sample" / 2,
     /// `lookup(t: tf, x: f32) -> vec4f`
-    Lookup,
+    Lookup = "lookup" / 2,
     /// `dims(v: volume) -> vec3u`
-    Dims,
+    Dims = "dims" / 1,
 }
 
 /// A constant as VRS source: `1.0`, `vec3f(0.5, 0.5, 0.5)`.

@@ -1,7 +1,7 @@
 //! Calls: type constructors and conversions, built-in functions and library functions
 //! (with the `use` rule of pipeline functions).
 
-use super::expr::{Hint, Literal, concrete_hint, literal_kind, mk, poison};
+use super::expr::{Hint, Literal, concrete_hint, literal_kind, mk};
 use super::scope::{FnCx, FnKind, ItemRef};
 use super::{Checker, rules};
 use crate::ast::{self, Ident, TypeExpr};
@@ -10,66 +10,6 @@ use crate::hir::{self, Builtin};
 use crate::source::Span;
 use crate::suggest::did_you_mean;
 use crate::types::{Scalar, Type};
-
-/// Every built-in function, for suggestions.
-const BUILTINS: &[Builtin] = {
-    use Builtin::*;
-    &[
-        Abs,
-        Min,
-        Max,
-        Clamp,
-        Mix,
-        Step,
-        Smoothstep,
-        Sign,
-        Floor,
-        Ceil,
-        Fract,
-        Round,
-        Trunc,
-        Sqrt,
-        InverseSqrt,
-        Pow,
-        Exp,
-        Exp2,
-        Log,
-        Log2,
-        Sin,
-        Cos,
-        Tan,
-        Asin,
-        Acos,
-        Atan,
-        Atan2,
-        Dot,
-        Cross,
-        Length,
-        Distance,
-        Normalize,
-        Reflect,
-        FaceForward,
-        Transpose,
-        Determinant,
-        Select,
-        Any,
-        All,
-        Sample,
-        Lookup,
-        Dims,
-    ]
-};
-
-/// How many arguments a built-in takes (WGSL's overloads all have one count).
-fn arity(b: Builtin) -> usize {
-    use Builtin::*;
-    match b {
-        Abs | Sign | Floor | Ceil | Fract | Round | Trunc | Sqrt | InverseSqrt | Exp | Exp2 | Log | Log2 | Sin
-        | Cos | Tan | Asin | Acos | Atan | Length | Normalize | Transpose | Determinant | Any | All | Dims => 1,
-        Min | Max | Step | Pow | Atan2 | Dot | Cross | Distance | Reflect | Sample | Lookup => 2,
-        Clamp | Mix | Smoothstep | FaceForward | Select => 3,
-    }
-}
 
 fn plural(n: usize) -> &'static str {
     if n == 1 { "" } else { "s" }
@@ -92,7 +32,7 @@ impl Checker<'_> {
             if target.is_error() {
                 f.failed = true;
                 self.check_args_for_errors(f, args);
-                return poison(f, span);
+                return f.poison(span);
             }
             return self.construct(f, span, target, args);
         }
@@ -102,7 +42,7 @@ impl Checker<'_> {
         if Type::is_generic_name(name) {
             return self.construct_inferred(f, span, callee, args, hint);
         }
-        if let Some(builtin) = rules::builtin_by_name(name) {
+        if let Some(builtin) = Builtin::by_name(name) {
             return self.builtin_call(f, span, callee, builtin, args, hint);
         }
         match self.item(f.module, name) {
@@ -111,7 +51,7 @@ impl Checker<'_> {
                 self.check_args_for_errors(f, args);
                 let d = self.unknown_function(f, callee, other.is_some());
                 self.emit(f, d);
-                poison(f, span)
+                f.poison(span)
             }
         }
     }
@@ -133,7 +73,7 @@ impl Checker<'_> {
             )
             .with_label("called here");
         }
-        let mut known: Vec<&str> = BUILTINS.iter().map(|b| rules::builtin_name(*b)).collect();
+        let mut known: Vec<&str> = Builtin::ALL.iter().map(|&(_, name)| name).collect();
         if let Some(scope) = self.scopes.get(f.module) {
             known.extend(scope.names.iter().filter(|(_, r)| matches!(r, ItemRef::Lib(_))).map(|(n, _)| n.as_str()));
         }
@@ -168,7 +108,7 @@ impl Checker<'_> {
                     "`{target}` values come from uniforms and are passed to library functions as parameters"
                 ));
             self.emit(f, d);
-            return poison(f, span);
+            return f.poison(span);
         }
         let hint = target.scalar().map(Type::Scalar);
         let checked: Vec<hir::Expr> = args.iter().map(|a| self.value(f, a, hint)).collect();
@@ -177,14 +117,14 @@ impl Checker<'_> {
 
     fn finish_construct(&mut self, f: &mut FnCx, span: Span, target: Type, args: Vec<hir::Expr>) -> hir::Expr {
         if args.iter().any(|a| a.ty.is_error()) {
-            return poison(f, span);
+            return f.poison(span);
         }
         let types: Vec<Type> = args.iter().map(|a| a.ty).collect();
         match rules::constructor(target, &types) {
             Ok(rules::ConstructorKind::Construct) => mk(hir::ExprKind::Construct { args }, target, span),
             Ok(rules::ConstructorKind::Convert) => match args.into_iter().next() {
                 Some(arg) if types.len() == 1 => mk(hir::ExprKind::Convert { arg: Box::new(arg) }, target, span),
-                _ => poison(f, span),
+                _ => f.poison(span),
             },
             Err(why) => {
                 let shown: Vec<String> = types.iter().map(Type::to_string).collect();
@@ -192,7 +132,7 @@ impl Checker<'_> {
                 let d = Diagnostic::new(Code::InvalidConstructor, span, msg)
                     .with_label(format!("`{target}` from ({})", shown.join(", ")));
                 self.emit(f, d);
-                poison(f, span)
+                f.poison(span)
             }
         }
     }
@@ -208,7 +148,7 @@ impl Checker<'_> {
     ) -> hir::Expr {
         let checked = self.shared_args(f, args, hint);
         if checked.iter().any(|a| a.ty.is_error()) {
-            return poison(f, span);
+            return f.poison(span);
         }
         let scalar =
             if callee.name.starts_with("mat") { Some(Scalar::F32) } else { checked.iter().find_map(|a| a.ty.scalar()) };
@@ -222,7 +162,7 @@ impl Checker<'_> {
             .with_label("no argument gives a component type")
             .with_help(format!("write the type: `{0}f(...)` or `{0}<f32>(...)`", callee.name));
             self.emit(f, d);
-            return poison(f, span);
+            return f.poison(span);
         };
         self.finish_construct(f, span, target, checked)
     }
@@ -261,7 +201,7 @@ impl Checker<'_> {
         hint: Hint,
     ) -> hir::Expr {
         let checked = self.shared_args(f, args, hint);
-        let expected = arity(builtin);
+        let expected = builtin.arity();
         if checked.len() != expected {
             let d = Diagnostic::new(
                 Code::ArgumentCount,
@@ -276,10 +216,10 @@ impl Checker<'_> {
             )
             .with_label(format!("{} argument{}", checked.len(), plural(checked.len())));
             self.emit(f, d);
-            return poison(f, span);
+            return f.poison(span);
         }
         if checked.iter().any(|a| a.ty.is_error()) {
-            return poison(f, span);
+            return f.poison(span);
         }
         let types: Vec<Type> = checked.iter().map(|a| a.ty).collect();
         match rules::builtin_result(builtin, &types) {
@@ -296,7 +236,7 @@ impl Checker<'_> {
                     shown.join(", ")
                 ));
                 self.emit(f, d);
-                poison(f, span)
+                f.poison(span)
             }
         }
     }
@@ -315,13 +255,13 @@ impl Checker<'_> {
                 .with_label("function calls run at run time")
                 .with_note("constant expressions may use literals, constructors, arithmetic and other constants");
                 self.emit(f, d);
-                return poison(f, span);
+                return f.poison(span);
             }
             FnKind::Lib => {}
         }
         let site = f.calls.len();
         f.calls.push((id, callee.span));
-        let Some(lib) = self.libs.get(id) else { return poison(f, span) };
+        let Some(lib) = self.libs.get(id) else { return f.poison(span) };
         let (params, ret, def) = (lib.params.iter().map(|p| p.ty).collect::<Vec<_>>(), lib.ret, lib.name_span);
         if params.len() != args.len() {
             self.check_args_for_errors(f, args);
@@ -340,7 +280,7 @@ impl Checker<'_> {
             .with_label(format!("{} argument{}", args.len(), plural(args.len())))
             .with_secondary(def, "defined here");
             self.emit(f, d);
-            return poison(f, span);
+            return f.poison(span);
         }
         let mut checked = Vec::new();
         let mut ok = !ret.is_error();
@@ -362,7 +302,7 @@ impl Checker<'_> {
             checked.push(e);
         }
         if !ok {
-            return poison(f, span);
+            return f.poison(span);
         }
         mk(hir::ExprKind::CallLib { site, args: checked }, ret, span)
     }

@@ -172,8 +172,8 @@ fn scalar_binary(op: BinaryOp, lhs: ScalarValue, rhs: ScalarValue) -> Eval<Scala
     match (lhs, rhs) {
         (V::I32(a), V::U32(b)) => shift_i32(op, a, b),
         (V::U32(a), V::U32(b)) if matches!(op, BinaryOp::Shl | BinaryOp::Shr) => shift_u32(op, a, b),
-        (V::I32(a), V::I32(b)) => int_i32(op, a, b),
-        (V::U32(a), V::U32(b)) => int_u32(op, a, b),
+        (V::I32(a), V::I32(b)) => int(op, a, b),
+        (V::U32(a), V::U32(b)) => int(op, a, b),
         (V::F32(a), V::F32(b)) => float(op, a, b),
         (V::Bool(a), V::Bool(b)) => logical(op, a, b),
         _ => Err(ConstError::NotConstant),
@@ -200,31 +200,58 @@ fn checked<T>(result: Option<T>, wrap: fn(T) -> ScalarValue) -> Eval<ScalarValue
     result.map(wrap).ok_or(ConstError::Overflow)
 }
 
-fn int_i32(op: BinaryOp, a: i32, b: i32) -> Eval<ScalarValue> {
-    use BinaryOp::*;
-    let w = ScalarValue::I32;
-    match op {
-        Add => checked(a.checked_add(b), w),
-        Sub => checked(a.checked_sub(b), w),
-        Mul => checked(a.checked_mul(b), w),
-        Div | Rem if b == 0 => Err(ConstError::DivisionByZero),
-        Div => checked(a.checked_div(b), w),
-        Rem => checked(a.checked_rem(b), w),
-        BitAnd => Ok(w(a & b)),
-        BitOr => Ok(w(a | b)),
-        BitXor => Ok(w(a ^ b)),
-        _ => compare(op, a, b),
-    }
+/// The integer types WGSL folds (`i32`, `u32`): the checked operations of each, and how its
+/// value is stored.
+trait ConstInt:
+    Copy + PartialOrd + std::ops::BitAnd<Output = Self> + std::ops::BitOr<Output = Self> + std::ops::BitXor<Output = Self>
+{
+    const ZERO: Self;
+    fn wrap(self) -> ScalarValue;
+    fn checked_add(self, b: Self) -> Option<Self>;
+    fn checked_sub(self, b: Self) -> Option<Self>;
+    fn checked_mul(self, b: Self) -> Option<Self>;
+    fn checked_div(self, b: Self) -> Option<Self>;
+    fn checked_rem(self, b: Self) -> Option<Self>;
 }
 
-fn int_u32(op: BinaryOp, a: u32, b: u32) -> Eval<ScalarValue> {
+macro_rules! const_int {
+    ($ty:ty, $variant:ident) => {
+        impl ConstInt for $ty {
+            const ZERO: Self = 0;
+            fn wrap(self) -> ScalarValue {
+                ScalarValue::$variant(self)
+            }
+            fn checked_add(self, b: Self) -> Option<Self> {
+                <$ty>::checked_add(self, b)
+            }
+            fn checked_sub(self, b: Self) -> Option<Self> {
+                <$ty>::checked_sub(self, b)
+            }
+            fn checked_mul(self, b: Self) -> Option<Self> {
+                <$ty>::checked_mul(self, b)
+            }
+            fn checked_div(self, b: Self) -> Option<Self> {
+                <$ty>::checked_div(self, b)
+            }
+            fn checked_rem(self, b: Self) -> Option<Self> {
+                <$ty>::checked_rem(self, b)
+            }
+        }
+    };
+}
+
+const_int!(i32, I32);
+const_int!(u32, U32);
+
+/// An integer operator on two values of one integer type (shifts aside).
+fn int<T: ConstInt>(op: BinaryOp, a: T, b: T) -> Eval<ScalarValue> {
     use BinaryOp::*;
-    let w = ScalarValue::U32;
+    let w = T::wrap;
     match op {
         Add => checked(a.checked_add(b), w),
         Sub => checked(a.checked_sub(b), w),
         Mul => checked(a.checked_mul(b), w),
-        Div | Rem if b == 0 => Err(ConstError::DivisionByZero),
+        Div | Rem if b == T::ZERO => Err(ConstError::DivisionByZero),
         Div => checked(a.checked_div(b), w),
         Rem => checked(a.checked_rem(b), w),
         BitAnd => Ok(w(a & b)),

@@ -15,7 +15,6 @@ use super::Checker;
 use super::builtin_eval::eval_builtin;
 use super::consteval::{self, ConstError};
 use super::consts::index_const;
-use super::expr::{const_index, poison};
 use super::scope::FnCx;
 use crate::ast::BinaryOp;
 use crate::diag::{Code, Diagnostic};
@@ -49,10 +48,7 @@ pub(super) fn inlined_value(f: &FnCx, value: &hir::Expr) -> Option<ConstValue> {
 
 /// The value of a constant integer index (a literal, a constant or a folded expression).
 pub(super) fn known_index(f: &FnCx, e: &hir::Expr) -> Option<i64> {
-    const_index(e).or_else(|| {
-        let v = known_value(f, e)?;
-        const_index(&hir::Expr { kind: ExprKind::Const(v), ty: e.ty, span: e.span })
-    })
+    e.const_index().or_else(|| known_value(f, e)?.as_index())
 }
 
 /// Whether `e`, or a component of the vector it constructs, is a known value satisfying `pred`
@@ -98,7 +94,7 @@ impl Checker<'_> {
             && let Some(d) = self.operand_rule(f, *op, lhs.ty, rhs, e.span)
         {
             self.emit(f, d);
-            return poison(f, e.span);
+            return f.poison(e.span);
         }
         if let ExprKind::CallBuiltin { builtin: Builtin::Clamp, args } = &e.kind
             && let [_, low, high] = args.as_slice()
@@ -108,7 +104,7 @@ impl Checker<'_> {
             let err = ConstError::Domain("`clamp` with `low` greater than `high`");
             let d = self.const_error(e.span, &err, e.ty).with_secondary(low.span.to(high.span), "constant bounds");
             self.emit(f, d);
-            return poison(f, e.span);
+            return f.poison(e.span);
         }
         match fold_node(f, &e) {
             // Folded in the HIR, so the WGSL holds the value WGSL would compute: naga's own
@@ -118,7 +114,7 @@ impl Checker<'_> {
             Err(err) => {
                 let d = self.const_error(e.span, &err, e.ty);
                 self.emit(f, d);
-                poison(f, e.span)
+                f.poison(e.span)
             }
         }
     }

@@ -4,7 +4,6 @@
 
 use super::Checker;
 use super::consteval::{self, ConstError};
-use super::expr::const_index;
 use super::scope::{ConstState, FnCx, FnKind};
 use crate::ast;
 use crate::diag::{Code, Diagnostic};
@@ -139,8 +138,7 @@ fn fold(e: &hir::Expr) -> Result<ConstValue, (Span, (ConstError, Type))> {
         hir::ExprKind::Swizzle { base, components } => consteval::eval_swizzle(&fold(base)?, components).map_err(at),
         hir::ExprKind::Index { base, index } => {
             let b = fold(base)?;
-            let i = fold(index)?;
-            let i = const_index(&hir::Expr { kind: hir::ExprKind::Const(i), ty: index.ty, span: index.span });
+            let i = fold(index)?.as_index();
             index_const(&b, i).ok_or(at(ConstError::NotConstant))
         }
         _ => Err(at(ConstError::NotConstant)),

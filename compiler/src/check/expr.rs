@@ -77,13 +77,6 @@ pub(super) fn mk(kind: hir::ExprKind, ty: Type, span: Span) -> hir::Expr {
     hir::Expr { kind, ty, span }
 }
 
-/// The placeholder for an expression with an error: the function is marked failed, so this
-/// never reaches lowering.
-pub(super) fn poison(f: &mut FnCx, span: Span) -> hir::Expr {
-    f.failed = true;
-    mk(hir::ExprKind::Const(ConstValue { ty: Type::Error, components: Vec::new() }), Type::Error, span)
-}
-
 fn constant(value: ScalarValue, span: Span) -> hir::Expr {
     let ty = Type::Scalar(value.scalar());
     mk(hir::ExprKind::Const(ConstValue { ty, components: vec![value] }), ty, span)
@@ -122,18 +115,6 @@ pub(super) fn swizzle(ty: Type, text: &str) -> Result<(Vec<u8>, Type), String> {
     Ok((components, result))
 }
 
-/// The value of a constant integer index, if `e` is one.
-pub(super) fn const_index(e: &hir::Expr) -> Option<i64> {
-    match &e.kind {
-        hir::ExprKind::Const(v) => match v.components.as_slice() {
-            [ScalarValue::I32(i)] => Some(i64::from(*i)),
-            [ScalarValue::U32(u)] => Some(i64::from(*u)),
-            _ => None,
-        },
-        _ => None,
-    }
-}
-
 impl Checker<'_> {
     /// Checks an expression whose value is used: a call that returns nothing is an error here.
     pub(super) fn value(&mut self, f: &mut FnCx, e: &ast::Expr, hint: Hint) -> hir::Expr {
@@ -144,7 +125,7 @@ impl Checker<'_> {
         let d = Diagnostic::new(Code::TypeMismatch, e.span, format!("`{}` returns no value", self.show(e.span)))
             .with_label("used as a value here");
         self.emit(f, d);
-        poison(f, e.span)
+        f.poison(e.span)
     }
 
     /// Checks any expression (a call may return nothing). Follows at most [`MAX_DEPTH`] levels.
@@ -178,7 +159,7 @@ impl Checker<'_> {
             });
             self.emit(f, d);
         }
-        poison(f, span)
+        f.poison(span)
     }
 
     fn expr_kind(&mut self, f: &mut FnCx, e: &ast::Expr, hint: Hint) -> hir::Expr {
@@ -189,14 +170,14 @@ impl Checker<'_> {
             ExprKind::Name(id) => self.name(f, id, hint),
             ExprKind::State(id) => match self.state_field(f, id, e.span, StateUse::Read, hint) {
                 Some((index, ty)) => mk(hir::ExprKind::State(index), ty, e.span),
-                None => poison(f, e.span),
+                None => f.poison(e.span),
             },
             ExprKind::Member { base, member } => self.member(f, base, member, e.span),
             ExprKind::Index { base, index } => self.index(f, base, index, e.span),
             ExprKind::Call { callee, generics, args } => self.call(f, e.span, callee, generics, args, hint),
             ExprKind::Unary { op, operand } => self.unary(f, *op, operand, e.span, hint),
             ExprKind::Binary { op, lhs, rhs } => self.binary(f, *op, lhs, rhs, e.span, hint),
-            ExprKind::Error => poison(f, e.span),
+            ExprKind::Error => f.poison(e.span),
         }
     }
 
@@ -210,7 +191,7 @@ impl Checker<'_> {
         negative: bool,
         hint: Hint,
     ) -> hir::Expr {
-        let Some(magnitude) = value else { return poison(f, span) }; // reported by the lexer
+        let Some(magnitude) = value else { return f.poison(span) }; // reported by the lexer
         let scalar = match suffix {
             Some(IntSuffix::I) => Scalar::I32,
             Some(IntSuffix::U) => Scalar::U32,
@@ -244,7 +225,7 @@ impl Checker<'_> {
             .with_label(label)
             .with_help(help);
         self.emit(f, d);
-        poison(f, span)
+        f.poison(span)
     }
 
     fn float_literal(&mut self, f: &mut FnCx, span: Span, value: f64, negative: bool) -> hir::Expr {
@@ -256,7 +237,7 @@ impl Checker<'_> {
                 Diagnostic::new(Code::LiteralOutOfRange, span, format!("`{}` does not fit in f32", self.show(span)))
                     .with_label("f32 holds magnitudes up to about 3.4e38");
             self.emit(f, d);
-            return poison(f, span);
+            return f.poison(span);
         }
         constant(ScalarValue::F32(narrowed), span)
     }
@@ -269,7 +250,7 @@ impl Checker<'_> {
         match self.item(f.module, &id.name) {
             Some(ItemRef::Const(c)) => match self.const_value(c, id.span) {
                 Some(v) => mk(hir::ExprKind::Const(v.clone()), v.ty, id.span),
-                None => poison(f, id.span),
+                None => f.poison(id.span),
             },
             Some(ItemRef::Lib(_)) => {
                 let d = Diagnostic::new(
@@ -280,7 +261,7 @@ impl Checker<'_> {
                 .with_label("used as a value")
                 .with_help(format!("call it: `{}(...)`", id.name));
                 self.emit(f, d);
-                poison(f, id.span)
+                f.poison(id.span)
             }
             None => self.unknown_name(f, id, hint),
         }
@@ -288,7 +269,7 @@ impl Checker<'_> {
 
     fn unknown_name(&mut self, f: &mut FnCx, id: &Ident, hint: Hint) -> hir::Expr {
         if f.lost_statement || !f.first_report(format!("name {}", id.name)) {
-            return poison(f, id.span);
+            return f.poison(id.span);
         }
         let name = &id.name;
         let mut candidates = f.visible_names();
@@ -329,7 +310,7 @@ impl Checker<'_> {
             FnKind::Lib => {}
         }
         self.emit(f, d);
-        poison(f, id.span)
+        f.poison(id.span)
     }
 
     /// `state.F`: its index in the pipeline's declarations and its type, marking the use.
@@ -421,7 +402,7 @@ impl Checker<'_> {
     fn member(&mut self, f: &mut FnCx, base: &ast::Expr, member: &Ident, span: Span) -> hir::Expr {
         let b = self.value(f, base, None);
         if b.ty.is_error() {
-            return poison(f, span);
+            return f.poison(span);
         }
         match swizzle(b.ty, &member.name) {
             Ok((components, ty)) => mk(hir::ExprKind::Swizzle { base: Box::new(b), components }, ty, span),
@@ -430,7 +411,7 @@ impl Checker<'_> {
                 let d = Diagnostic::new(Code::InvalidMember, member.span, text)
                     .with_label(format!("not a member of {}", b.ty));
                 self.emit(f, d);
-                poison(f, span)
+                f.poison(span)
             }
         }
     }
@@ -440,9 +421,9 @@ impl Checker<'_> {
         let b = self.value(f, base, None);
         let i = self.value(f, index, None);
         if b.ty.is_error() || i.ty.is_error() {
-            return poison(f, span);
+            return f.poison(span);
         }
-        let Some(elem) = self.check_index(f, b.ty, &i, base.span) else { return poison(f, span) };
+        let Some(elem) = self.check_index(f, b.ty, &i, base.span) else { return f.poison(span) };
         mk(hir::ExprKind::Index { base: Box::new(b), index: Box::new(i) }, elem, span)
     }
 
@@ -488,7 +469,7 @@ impl Checker<'_> {
         }
         let x = self.value(f, operand, if op == UnaryOp::Not { Some(Type::BOOL) } else { hint });
         if x.ty.is_error() {
-            return poison(f, span);
+            return f.poison(span);
         }
         match rules::unary_result(op, x.ty) {
             Some(ty) if !ty.is_error() => mk(hir::ExprKind::Unary { op, operand: Box::new(x) }, ty, span),
@@ -501,7 +482,7 @@ impl Checker<'_> {
                     UnaryOp::Neg => d.with_note("`-` applies to i32, f32 and their vectors and matrices"),
                 };
                 self.emit(f, d);
-                poison(f, span)
+                f.poison(span)
             }
         }
     }
@@ -517,7 +498,7 @@ impl Checker<'_> {
     ) -> hir::Expr {
         let (l, r) = self.operands(f, op, lhs, rhs, hint);
         if l.ty.is_error() || r.ty.is_error() {
-            return poison(f, span);
+            return f.poison(span);
         }
         match rules::binary_result(op, l.ty, r.ty) {
             Some(ty) if !ty.is_error() => {
@@ -535,7 +516,7 @@ impl Checker<'_> {
                     d = d.with_help(help);
                 }
                 self.emit(f, d);
-                poison(f, span)
+                f.poison(span)
             }
         }
     }
@@ -602,18 +583,18 @@ fn binding_expr(f: &mut FnCx, binding: Binding, span: Span) -> hir::Expr {
     match binding {
         Binding::Local(l) => match f.locals.get(l) {
             Some(local) => mk(hir::ExprKind::Local(l), local.ty, span),
-            None => poison(f, span),
+            None => f.poison(span),
         },
         Binding::Param(p) => match f.params.get(p) {
             Some(param) => mk(hir::ExprKind::Param(p), param.ty, span),
-            None => poison(f, span),
+            None => f.poison(span),
         },
         Binding::Uniform(u) => match f.uniforms.get_mut(u) {
             Some(slot) => {
                 slot.read = true;
                 mk(hir::ExprKind::Uniform(u), slot.ty, span)
             }
-            None => poison(f, span),
+            None => f.poison(span),
         },
     }
 }

@@ -124,65 +124,19 @@ pub fn unary_result(op: UnaryOp, operand: Type) -> Option<Type> {
     ok.then_some(operand)
 }
 
-/// Every built-in with its VRS name.
-const BUILTINS: &[(Builtin, &str)] = &[
-    (Builtin::Abs, "abs"),
-    (Builtin::Min, "min"),
-    (Builtin::Max, "max"),
-    (Builtin::Clamp, "clamp"),
-    (Builtin::Mix, "mix"),
-    (Builtin::Step, "step"),
-    (Builtin::Smoothstep, "smoothstep"),
-    (Builtin::Sign, "sign"),
-    (Builtin::Floor, "floor"),
-    (Builtin::Ceil, "ceil"),
-    (Builtin::Fract, "fract"),
-    (Builtin::Round, "round"),
-    (Builtin::Trunc, "trunc"),
-    (Builtin::Sqrt, "sqrt"),
-    (Builtin::InverseSqrt, "inverseSqrt"),
-    (Builtin::Pow, "pow"),
-    (Builtin::Exp, "exp"),
-    (Builtin::Exp2, "exp2"),
-    (Builtin::Log, "log"),
-    (Builtin::Log2, "log2"),
-    (Builtin::Sin, "sin"),
-    (Builtin::Cos, "cos"),
-    (Builtin::Tan, "tan"),
-    (Builtin::Asin, "asin"),
-    (Builtin::Acos, "acos"),
-    (Builtin::Atan, "atan"),
-    (Builtin::Atan2, "atan2"),
-    (Builtin::Dot, "dot"),
-    (Builtin::Cross, "cross"),
-    (Builtin::Length, "length"),
-    (Builtin::Distance, "distance"),
-    (Builtin::Normalize, "normalize"),
-    (Builtin::Reflect, "reflect"),
-    (Builtin::FaceForward, "faceForward"),
-    (Builtin::Transpose, "transpose"),
-    (Builtin::Determinant, "determinant"),
-    (Builtin::Select, "select"),
-    (Builtin::Any, "any"),
-    (Builtin::All, "all"),
-    (Builtin::Sample, "sample"),
-    (Builtin::Lookup, "lookup"),
-    (Builtin::Dims, "dims"),
-];
-
 /// All built-ins with their names, e.g. for completion.
 pub fn builtins() -> &'static [(Builtin, &'static str)] {
-    BUILTINS
+    Builtin::ALL
 }
 
 /// The built-in called `name`, if any.
 pub fn builtin_by_name(name: &str) -> Option<Builtin> {
-    BUILTINS.iter().find(|(_, n)| *n == name).map(|(b, _)| *b)
+    Builtin::by_name(name)
 }
 
 /// The name a built-in is called by in VRS.
 pub fn builtin_name(builtin: Builtin) -> &'static str {
-    BUILTINS.iter().find(|(b, _)| *b == builtin).map_or("", |(_, n)| n)
+    builtin.name()
 }
 
 /// How a built-in is called and what it accepts, for editors: (`clamp(e, low, high)`, "takes
@@ -549,11 +503,11 @@ mod tests {
 
     #[test]
     fn builtin_names_round_trip() {
-        for &(b, name) in BUILTINS {
+        for &(b, name) in Builtin::ALL {
             assert_eq!(builtin_by_name(name), Some(b));
             assert_eq!(builtin_name(b), name);
         }
-        assert_eq!(BUILTINS.len(), 42);
+        assert_eq!(Builtin::ALL.len(), 42);
         assert_eq!(builtin_by_name("inversesqrt"), None);
     }
 

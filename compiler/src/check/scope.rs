@@ -433,6 +433,14 @@ impl FnCx {
         }
     }
 
+    /// The placeholder for an expression with an error: the function is marked failed, so this
+    /// never reaches lowering.
+    pub fn poison(&mut self, span: Span) -> hir::Expr {
+        self.failed = true;
+        let kind = hir::ExprKind::Const(hir::ConstValue { ty: Type::Error, components: Vec::new() });
+        hir::Expr { kind, ty: Type::Error, span }
+    }
+
     pub fn push_scope(&mut self) {
         self.scopes.push(FxHashMap::default());
     }

@@ -3,7 +3,7 @@
 //! always return? is a statement unreachable?).
 
 use super::constfold::inlined_value;
-use super::expr::{Hint, StateUse, concrete_hint, literal_kind, poison, swizzle};
+use super::expr::{Hint, StateUse, concrete_hint, literal_kind, swizzle};
 use super::scope::{Binding, FnCx, FnKind, LocalKind};
 use super::{Checker, MAX_DEPTH, rules};
 use crate::ast::{self, AssignOp, BinaryOp, ExprKind, StmtKind};
@@ -548,7 +548,7 @@ impl Checker<'_> {
         match &e.kind {
             ExprKind::Call { .. } => Some(hir::StmtKind::Expr(self.expr(f, e, None))),
             ExprKind::Error => {
-                poison(f, e.span);
+                f.poison(e.span);
                 None
             }
             _ => {

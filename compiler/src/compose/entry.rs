@@ -227,31 +227,8 @@ pub fn build(module: &mut naga::Module, plan: &EntryPlan) -> naga::EntryPoint {
     for &f in &plan.samples {
         b.call(&mut loop_body, f, state);
     }
-    if let Some(EntryGate::Each { flag: member }) = plan.gate {
-        // Samples that cannot contribute run only `samples` and `sample_end`, in an inner loop
-        // that moves on to the next sample until one contributes (or the ray ends): a group of
-        // invocations that runs in lockstep (SIMD lanes, a warp) then does the contributing
-        // work together rather than each lane in turn, and where lanes only mask code (as on
-        // lavapipe) the work is not done for samples that skip it. Every invocation still runs
-        // its samples' functions in the same order as with `if contributes { .. }`.
-        let mut skipping = naga::Block::new();
-        let contributes = load_member(&mut b, state, member);
-        b.exit_if(&mut skipping, contributes, S::Break);
-        for &f in &plan.sample_end {
-            b.call(&mut skipping, f, state);
-        }
-        increment(&mut b, &mut skipping, counter);
-        let done = sample_loop_done(&mut b, plan, state, counter);
-        b.exit_if(&mut skipping, done, S::Break);
-        b.call(&mut skipping, plan.reset_sample, state);
-        for &f in &plan.samples {
-            b.call(&mut skipping, f, state);
-        }
-        b.push(&mut loop_body, S::Loop { body: skipping, continuing: naga::Block::new(), break_if: None });
-        // Left without a contributing sample: the ray ended.
-        let contributes = load_member(&mut b, state, member);
-        let ended = b.expr(E::Unary { op: naga::UnaryOperator::LogicalNot, expr: contributes });
-        b.exit_if(&mut loop_body, ended, S::Break);
+    if let Some(EntryGate::Each { flag }) = plan.gate {
+        skip_non_contributing(&mut b, &mut loop_body, plan, state, counter, flag);
     }
     let kept = match &plan.gate {
         Some(EntryGate::Once { flag, saved, .. }) => {
@@ -279,6 +256,61 @@ pub fn build(module: &mut naga::Module, plan: &EntryPlan) -> naga::EntryPoint {
     for &f in &plan.ray_finish {
         b.call(&mut body, f, state);
     }
+    write_outputs(&mut b, module, &mut body, plan, state, p, output);
+    b.push(&mut body, S::Return { value: None });
+
+    let mut function = b.func;
+    function.body = body;
+    compute_entry_point(function)
+}
+
+/// The samples of a ray that cannot contribute, skipped ([`EntryGate::Each`] with flag `member`).
+///
+/// Samples that cannot contribute run only `samples` and `sample_end`, in an inner loop that
+/// moves on to the next sample until one contributes (or the ray ends): a group of invocations
+/// that runs in lockstep (SIMD lanes, a warp) then does the contributing work together rather
+/// than each lane in turn, and where lanes only mask code (as on lavapipe) the work is not done
+/// for samples that skip it. Every invocation still runs its samples' functions in the same
+/// order as with `if contributes { .. }`.
+fn skip_non_contributing(
+    b: &mut Body,
+    loop_body: &mut naga::Block,
+    plan: &EntryPlan,
+    state: Handle<E>,
+    counter: Handle<E>,
+    member: u32,
+) {
+    let mut skipping = naga::Block::new();
+    let contributes = load_member(b, state, member);
+    b.exit_if(&mut skipping, contributes, S::Break);
+    for &f in &plan.sample_end {
+        b.call(&mut skipping, f, state);
+    }
+    increment(b, &mut skipping, counter);
+    let done = sample_loop_done(b, plan, state, counter);
+    b.exit_if(&mut skipping, done, S::Break);
+    b.call(&mut skipping, plan.reset_sample, state);
+    for &f in &plan.samples {
+        b.call(&mut skipping, f, state);
+    }
+    b.push(loop_body, S::Loop { body: skipping, continuing: naga::Block::new(), break_if: None });
+    // Left without a contributing sample: the ray ended.
+    let contributes = load_member(b, state, member);
+    let ended = b.expr(E::Unary { op: naga::UnaryOperator::LogicalNot, expr: contributes });
+    b.exit_if(loop_body, ended, S::Break);
+}
+
+/// The ray's results: `state.out_color` (or zero) into the output image at pixel `p`, and the
+/// metered luminance into its image when the view meters.
+fn write_outputs(
+    b: &mut Body,
+    module: &mut naga::Module,
+    body: &mut naga::Block,
+    plan: &EntryPlan,
+    state: Handle<E>,
+    p: Handle<E>,
+    output: Handle<E>,
+) {
     let color = match plan.out_color {
         Some(member) => {
             let pointer = b.component(state, member);
@@ -290,25 +322,25 @@ pub fn build(module: &mut naga::Module, plan: &EntryPlan) -> naga::EntryPoint {
             b.expr(E::ZeroValue(vec4f))
         }
     };
-    b.push(&mut body, S::ImageStore { image: output, coordinate: p, array_index: None, value: color });
+    b.push(body, S::ImageStore { image: output, coordinate: p, array_index: None, value: color });
     if let Some((image, member)) = plan.metering {
         let pointer = b.component(state, member);
         let luminance = b.expr(E::Load { pointer });
         let value = b.expr(E::Splat { size: naga::VectorSize::Quad, value: luminance });
         let image = b.expr(E::GlobalVariable(image));
-        b.push(&mut body, S::ImageStore { image, coordinate: p, array_index: None, value });
+        b.push(body, S::ImageStore { image, coordinate: p, array_index: None, value });
     }
-    b.push(&mut body, S::Return { value: None });
+}
 
-    let mut func = b.func;
-    func.body = body;
+/// The compute entry point `main` running `function`.
+fn compute_entry_point(function: naga::Function) -> naga::EntryPoint {
     naga::EntryPoint {
         name: "main".into(),
         stage: naga::ShaderStage::Compute,
         early_depth_test: None,
         workgroup_size: WORKGROUP_SIZE,
         workgroup_size_overrides: None,
-        function: func,
+        function,
         mesh_info: None,
         task_payload: None,
         incoming_ray_payload: None,

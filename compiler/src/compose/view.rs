@@ -39,8 +39,8 @@ pub struct ViewModule {
 
 /// Builds and validates the module of a composition. Errors are internal (E0901): everything a
 /// user can get wrong was reported by the checker or the composer. The module is built in the
-/// order its WGSL reads (state, uniforms, bindings, functions step by step, entry point), in one
-/// function so that the order is visible.
+/// order its WGSL reads (state, uniforms, bindings, functions step by step, entry point), so
+/// that the order is visible here.
 pub fn emit(
     program: &hir::Program,
     comp: &Composition,
@@ -51,108 +51,23 @@ pub fn emit(
     let fields: Vec<(String, Type)> = comp.fields.iter().map(|f| (f.name.clone(), f.ty)).collect();
     let state_type = b.add_struct("State", &fields, Span::DUMMY)?;
 
-    let mut uniforms: Vec<Uniform> = comp.uniforms.iter().filter(|u| !u.ty.is_resource()).cloned().collect();
-    if !uniforms.iter().any(|u| u.name == MAX_SAMPLES) {
-        uniforms.push(Uniform {
-            name: MAX_SAMPLES.into(),
-            ty: Type::U32,
-            default: Some(ConstValue { ty: Type::U32, components: vec![ScalarValue::U32(DEFAULT_MAX_SAMPLES)] }),
-            range: None,
-            doc: Some("Upper bound of samples per ray (added by the composer).".into()),
-            span: Span::DUMMY,
-        });
-    }
+    let uniforms = block_uniforms(comp);
     let members: Vec<(String, Type)> = uniforms.iter().map(|u| (u.name.clone(), u.ty)).collect();
-    let mut bindings = Vec::new();
-    let mut bind = |name: &str, kind| {
-        let binding = bindings.len() as u32;
-        bindings.push(BindingInfo { name: name.to_string(), group: 0, binding, kind });
-        ResourceBinding { group: 0, binding }
-    };
-    let block = b.add_uniform_block(
-        "Uniforms",
-        "uniforms",
-        &members,
-        bind("uniforms", BindingKind::UniformBlock),
-        Span::DUMMY,
-    )?;
-    let output =
-        add_storage_image(&mut b, "output", naga::StorageFormat::Rgba8Unorm, bind("output", BindingKind::OutputImage));
-    let region = add_region(&mut b, bind("region", BindingKind::Region));
-    let mut access: Vec<UniformAccess> = Vec::with_capacity(comp.uniforms.len());
-    for u in &comp.uniforms {
-        access.push(match u.ty {
-            Type::Volume if let Some((_, lookup)) = bricked.iter().find(|(name, _)| *name == u.name) => {
-                let kinds = [
-                    BindingKind::BrickPool,
-                    BindingKind::VolumeSampler,
-                    BindingKind::PageTable,
-                    BindingKind::BrickLayout,
-                    BindingKind::BrickRequests,
-                ];
-                UniformAccess::Bricked(b.add_bricked_volume(
-                    &u.name,
-                    kinds.map(|k| bind(&u.name, k)),
-                    u.span,
-                    *lookup,
-                )?)
-            }
-            Type::Volume => b.add_volume_binding(
-                &u.name,
-                bind(&u.name, BindingKind::VolumeTexture),
-                bind(&u.name, BindingKind::VolumeSampler),
-                u.span,
-            ),
-            Type::Tf => b.add_tf_binding(
-                &u.name,
-                bind(&u.name, BindingKind::TfTexture),
-                bind(&u.name, BindingKind::TfSampler),
-                u.span,
-            ),
-            _ => {
-                let index = uniforms.iter().position(|p| p.name == u.name).unwrap_or_default() as u32;
-                UniformAccess::Member { block, index }
-            }
-        });
-    }
-
+    let mut bindings = Bindings::default();
+    let block_binding = bindings.next("uniforms", BindingKind::UniformBlock);
+    let block = b.add_uniform_block("Uniforms", "uniforms", &members, block_binding, Span::DUMMY)?;
+    let output_binding = bindings.next("output", BindingKind::OutputImage);
+    let output = add_storage_image(&mut b, "output", naga::StorageFormat::Rgba8Unorm, output_binding);
+    let region = add_region(&mut b, bindings.next("region", BindingKind::Region));
+    let access = bind_uniforms(&mut b, &mut bindings, comp, &uniforms, block, bricked)?;
     // Last of the bindings, so a view that does not meter keeps its numbering.
-    let metering = comp.field(entry::METERED_LUMINANCE).map(|member| {
-        let format = naga::StorageFormat::R32Float;
-        let image =
-            add_storage_image(&mut b, "luminance_image", format, bind("luminance_image", BindingKind::LuminanceImage));
-        (image, member as u32)
-    });
-    // After the luminance image: the mesh layer's images, for the fields the composition has.
-    // Both are `texture_2d<f32>` read with `textureLoad` (a depth texture cannot be loaded in
-    // every back end's compute shaders; the layer keeps its depth as `r32float` colour).
-    let layers =
-        [(entry::GEOMETRY_DEPTH, BindingKind::GeometryDepth), (entry::GEOMETRY_COLOR, BindingKind::GeometryColor)];
-    let class = naga::ImageClass::Sampled { kind: naga::ScalarKind::Float, multi: false };
-    let geometry = layers
-        .into_iter()
-        .filter_map(|(field, kind)| {
-            let member = comp.field(field)? as u32;
-            let components = comp.fields[member as usize].ty.components() as u32;
-            Some((add_image(&mut b, &format!("{field}_image"), class, bind(field, kind)), member, components))
-        })
-        .collect();
-    let lowered = |steps: &[Step], b: &mut ModuleBuilder| -> Result<Vec<Handle<naga::Function>>, Diagnostic> {
-        let mut out = Vec::new();
-        for placed in steps.iter().flat_map(|&s| comp.step(s)) {
-            let pf = &program.pipelines[placed.pipeline];
-            let env = PipelineEnv {
-                state_type,
-                state_members: placed.state.iter().map(|m| m.map(|i| i as u32)).collect(),
-                uniforms: placed.uniforms.iter().map(|&u| access[u]).collect(),
-            };
-            out.push(b.lower_pipeline_fn(program, pf, &placed.name, &env)?);
-        }
-        Ok(out)
-    };
-    let ray_setup = lowered(&[Step::RaySetup], &mut b)?;
+    let metering = add_metering_image(&mut b, &mut bindings, comp);
+    let geometry = add_geometry_images(&mut b, &mut bindings, comp);
+
+    let steps = StepLowering { program, comp, state_type, access: &access };
+    let ray_setup = steps.lower(&mut b, &[Step::RaySetup])?;
     let sample_steps: Vec<Step> = Step::ALL.iter().copied().filter(|s| !s.is_per_ray()).collect();
-    let lowered_samples = lowered(&sample_steps, &mut b)?;
+    let lowered_samples = steps.lower(&mut b, &sample_steps)?;
     // The entry point runs them in the order of the contribution schedule.
     let sample_fns: Vec<(Step, usize)> =
         sample_steps.iter().flat_map(|&s| (0..comp.step(s).len()).map(move |i| (s, i))).collect();
@@ -160,7 +75,7 @@ pub fn emit(
     let handles = |fns: &[(Step, usize)]| -> Vec<Handle<naga::Function>> {
         fns.iter().filter_map(|f| sample_fns.iter().position(|g| g == f).map(|k| lowered_samples[k])).collect()
     };
-    let ray_finish = lowered(&[Step::RayFinish], &mut b)?;
+    let ray_finish = steps.lower(&mut b, &[Step::RayFinish])?;
 
     let init_state = lower_defaults(&mut b, program, comp, state_type, "init_state", |_| true)?;
     let reset_sample = lower_defaults(&mut b, program, comp, state_type, "reset_sample", |ray| !ray)?;
@@ -179,7 +94,7 @@ pub fn emit(
         sample_end: handles(&schedule.end),
         ray_finish,
         uniforms: block,
-        max_samples: uniforms.iter().position(|u| u.name == MAX_SAMPLES).unwrap_or_default() as u32,
+        max_samples: block_member(&uniforms, MAX_SAMPLES, Span::DUMMY)?,
         output,
         region,
         metering,
@@ -192,7 +107,151 @@ pub fn emit(
     let mut module = b.finish();
     module.entry_points.push(entry_point);
     let info = lower::validate(&module, sources, Span::DUMMY)?;
-    Ok(ViewModule { module, info, uniforms, uniform_layout, state_layout, bindings })
+    Ok(ViewModule { module, info, uniforms, uniform_layout, state_layout, bindings: bindings.list })
+}
+
+/// The uniforms of the block, in its order: the composition's plain uniforms, then
+/// [`MAX_SAMPLES`] when no function declares it.
+fn block_uniforms(comp: &Composition) -> Vec<Uniform> {
+    let mut uniforms: Vec<Uniform> = comp.uniforms.iter().filter(|u| !u.ty.is_resource()).cloned().collect();
+    if !uniforms.iter().any(|u| u.name == MAX_SAMPLES) {
+        uniforms.push(Uniform {
+            name: MAX_SAMPLES.into(),
+            ty: Type::U32,
+            default: Some(ConstValue { ty: Type::U32, components: vec![ScalarValue::U32(DEFAULT_MAX_SAMPLES)] }),
+            range: None,
+            doc: Some("Upper bound of samples per ray (added by the composer).".into()),
+            span: Span::DUMMY,
+        });
+    }
+    uniforms
+}
+
+/// The member of the uniform block that holds uniform `name`. The block holds every plain
+/// uniform of the composition, so a missing one is a compiler bug, not a default.
+fn block_member(uniforms: &[Uniform], name: &str, span: Span) -> Result<u32, Diagnostic> {
+    match uniforms.iter().position(|u| u.name == name) {
+        Some(index) => Ok(index as u32),
+        None => Err(lower::internal(span, format!("uniform `{name}` is not in the uniform block"))),
+    }
+}
+
+/// The bindings of a view, numbered in the order they are added (all in group 0).
+#[derive(Default)]
+struct Bindings {
+    list: Vec<BindingInfo>,
+}
+
+impl Bindings {
+    /// The next binding, for `name`'s resource of `kind`.
+    fn next(&mut self, name: &str, kind: BindingKind) -> ResourceBinding {
+        let binding = self.list.len() as u32;
+        self.list.push(BindingInfo { name: name.to_string(), group: 0, binding, kind });
+        ResourceBinding { group: 0, binding }
+    }
+}
+
+/// How the lowered functions reach each uniform of the composition, in its order: a member of
+/// the uniform block `block` (whose members are `uniforms`), or the bindings of a volume
+/// (bricked when `bricked` names its lookup) or a transfer function.
+fn bind_uniforms(
+    b: &mut ModuleBuilder,
+    bindings: &mut Bindings,
+    comp: &Composition,
+    uniforms: &[Uniform],
+    block: Handle<naga::GlobalVariable>,
+    bricked: &[(String, LookupSource<'_>)],
+) -> Result<Vec<UniformAccess>, Diagnostic> {
+    let mut access: Vec<UniformAccess> = Vec::with_capacity(comp.uniforms.len());
+    for u in &comp.uniforms {
+        access.push(match u.ty {
+            Type::Volume if let Some((_, lookup)) = bricked.iter().find(|(name, _)| *name == u.name) => {
+                let kinds = [
+                    BindingKind::BrickPool,
+                    BindingKind::VolumeSampler,
+                    BindingKind::PageTable,
+                    BindingKind::BrickLayout,
+                    BindingKind::BrickRequests,
+                ];
+                let globals = kinds.map(|k| bindings.next(&u.name, k));
+                UniformAccess::Bricked(b.add_bricked_volume(&u.name, globals, u.span, *lookup)?)
+            }
+            Type::Volume => b.add_volume_binding(
+                &u.name,
+                bindings.next(&u.name, BindingKind::VolumeTexture),
+                bindings.next(&u.name, BindingKind::VolumeSampler),
+                u.span,
+            ),
+            Type::Tf => b.add_tf_binding(
+                &u.name,
+                bindings.next(&u.name, BindingKind::TfTexture),
+                bindings.next(&u.name, BindingKind::TfSampler),
+                u.span,
+            ),
+            _ => UniformAccess::Member { block, index: block_member(uniforms, &u.name, u.span)? },
+        });
+    }
+    Ok(access)
+}
+
+/// The metering image and the `State` member it stores, when the composition meters luminance.
+fn add_metering_image(
+    b: &mut ModuleBuilder,
+    bindings: &mut Bindings,
+    comp: &Composition,
+) -> Option<(Handle<naga::GlobalVariable>, u32)> {
+    comp.field(entry::METERED_LUMINANCE).map(|member| {
+        let format = naga::StorageFormat::R32Float;
+        let binding = bindings.next("luminance_image", BindingKind::LuminanceImage);
+        (add_storage_image(b, "luminance_image", format, binding), member as u32)
+    })
+}
+
+/// After the luminance image: the mesh layer's images, for the fields the composition has, each
+/// with its `State` member and that member's component count. Both are `texture_2d<f32>` read
+/// with `textureLoad` (a depth texture cannot be loaded in every back end's compute shaders; the
+/// layer keeps its depth as `r32float` colour).
+fn add_geometry_images(
+    b: &mut ModuleBuilder,
+    bindings: &mut Bindings,
+    comp: &Composition,
+) -> Vec<(Handle<naga::GlobalVariable>, u32, u32)> {
+    let layers =
+        [(entry::GEOMETRY_DEPTH, BindingKind::GeometryDepth), (entry::GEOMETRY_COLOR, BindingKind::GeometryColor)];
+    let class = naga::ImageClass::Sampled { kind: naga::ScalarKind::Float, multi: false };
+    layers
+        .into_iter()
+        .filter_map(|(field, kind)| {
+            let member = comp.field(field)? as u32;
+            let components = comp.fields[member as usize].ty.components() as u32;
+            Some((add_image(b, &format!("{field}_image"), class, bindings.next(field, kind)), member, components))
+        })
+        .collect()
+}
+
+/// What lowering the placed pipeline functions of a step needs.
+struct StepLowering<'a> {
+    program: &'a hir::Program,
+    comp: &'a Composition,
+    state_type: Handle<naga::Type>,
+    access: &'a [UniformAccess],
+}
+
+impl StepLowering<'_> {
+    /// The functions placed in `steps`, lowered in order.
+    fn lower(&self, b: &mut ModuleBuilder, steps: &[Step]) -> Result<Vec<Handle<naga::Function>>, Diagnostic> {
+        let mut out = Vec::new();
+        for placed in steps.iter().flat_map(|&s| self.comp.step(s)) {
+            let pf = &self.program.pipelines[placed.pipeline];
+            let env = PipelineEnv {
+                state_type: self.state_type,
+                state_members: placed.state.iter().map(|m| m.map(|i| i as u32)).collect(),
+                uniforms: placed.uniforms.iter().map(|&u| self.access[u]).collect(),
+            };
+            out.push(b.lower_pipeline_fn(self.program, pf, &placed.name, &env)?);
+        }
+        Ok(out)
+    }
 }
 
 /// The entry point's form of the schedule's gate: its flag and fields as `State` members.

@@ -8,6 +8,7 @@ use std::sync::OnceLock;
 
 use naga::{Expression as E, Handle, ResourceBinding};
 
+use super::lookup_interface::{self, LookupError};
 use super::{ModuleBuilder, emitted_name, internal};
 use crate::diag::{Code, Diagnostic};
 use crate::source::Span;
@@ -38,9 +39,6 @@ pub enum LookupSource<'a> {
     File { text: &'a str, base: u32 },
 }
 
-/// What is wrong with a lookup, and where in its text.
-pub(super) type LookupError = (naga::Span, String);
-
 fn standard_template() -> Result<&'static naga::Module, Diagnostic> {
     static PARSED: OnceLock<Result<naga::Module, String>> = OnceLock::new();
     PARSED
@@ -68,7 +66,7 @@ fn parse_lookup(text: &str) -> Result<naga::Module, LookupError> {
             }
             (span, message)
         })?;
-    super::lookup_interface::check(&module)?;
+    lookup_interface::check(&module)?;
     Ok(module)
 }
 

@@ -36,7 +36,7 @@ pub(super) fn lower_lib_fn(
         };
         let bricked = if p.ty.is_resource() { resources.next().copied().flatten() } else { None };
         params.push(match p.ty {
-            Type::Volume if bricked.is_some() => ParamSlot::Bricked(bricked.expect("tested")),
+            Type::Volume if let Some(fns) = bricked => ParamSlot::Bricked(fns),
             Type::Volume | Type::Tf => {
                 let dim = if p.ty == Type::Volume { naga::ImageDimension::D3 } else { naga::ImageDimension::D2 };
                 let (tex_ty, samp_ty) = (b.texture_type(dim), b.sampler_type());
@@ -820,98 +820,25 @@ impl<'a> FnCtx<'a> {
         result
     }
 
-    /// One arm per built-in function: the table reads best whole, so it stays one function.
+    /// A built-in call: WGSL's math function of the same name, or one of the built-ins that
+    /// lower to other expressions (`select`, `any`/`all`, and the resource built-ins).
     fn builtin(&mut self, builtin: Builtin, args: &[hir::Expr], span: Span, block: &mut naga::Block) -> R<Ex> {
         use Builtin as B;
-        let arity = |n: usize| {
-            if args.len() == n {
-                Ok(())
-            } else {
-                Err(internal(span, format!("`{builtin:?}` with {} arguments", args.len())))
-            }
-        };
-        let math = match builtin {
-            B::Abs => Some((Mf::Abs, 1)),
-            B::Min => Some((Mf::Min, 2)),
-            B::Max => Some((Mf::Max, 2)),
-            B::Clamp => Some((Mf::Clamp, 3)),
-            B::Mix => Some((Mf::Mix, 3)),
-            B::Step => Some((Mf::Step, 2)),
-            B::Smoothstep => Some((Mf::SmoothStep, 3)),
-            B::Sign => Some((Mf::Sign, 1)),
-            B::Floor => Some((Mf::Floor, 1)),
-            B::Ceil => Some((Mf::Ceil, 1)),
-            B::Fract => Some((Mf::Fract, 1)),
-            B::Round => Some((Mf::Round, 1)),
-            B::Trunc => Some((Mf::Trunc, 1)),
-            B::Sqrt => Some((Mf::Sqrt, 1)),
-            B::InverseSqrt => Some((Mf::InverseSqrt, 1)),
-            B::Pow => Some((Mf::Pow, 2)),
-            B::Exp => Some((Mf::Exp, 1)),
-            B::Exp2 => Some((Mf::Exp2, 1)),
-            B::Log => Some((Mf::Log, 1)),
-            B::Log2 => Some((Mf::Log2, 1)),
-            B::Sin => Some((Mf::Sin, 1)),
-            B::Cos => Some((Mf::Cos, 1)),
-            B::Tan => Some((Mf::Tan, 1)),
-            B::Asin => Some((Mf::Asin, 1)),
-            B::Acos => Some((Mf::Acos, 1)),
-            B::Atan => Some((Mf::Atan, 1)),
-            B::Atan2 => Some((Mf::Atan2, 2)),
-            B::Dot => Some((Mf::Dot, 2)),
-            B::Cross => Some((Mf::Cross, 2)),
-            B::Length => Some((Mf::Length, 1)),
-            B::Distance => Some((Mf::Distance, 2)),
-            B::Normalize => Some((Mf::Normalize, 1)),
-            B::Reflect => Some((Mf::Reflect, 2)),
-            B::FaceForward => Some((Mf::FaceForward, 3)),
-            B::Transpose => Some((Mf::Transpose, 1)),
-            B::Determinant => Some((Mf::Determinant, 1)),
-            B::Select | B::Any | B::All | B::Sample | B::Lookup | B::Dims => None,
-        };
-        if let Some((fun, n)) = math {
-            arity(n)?;
-            let mut values = Vec::with_capacity(n);
-            for a in args {
-                values.push(self.expr(a, block)?);
-            }
-            // WGSL's overloads of these take one type T for all (the first two, for `mix`)
-            // arguments; accept a scalar among vectors by splatting it.
-            let same_type = match fun {
-                Mf::Min | Mf::Max | Mf::Clamp | Mf::Step | Mf::SmoothStep | Mf::Pow | Mf::Atan2 => n,
-                Mf::Mix => 2,
-                _ => 0,
-            };
-            let widest = args[..same_type]
-                .iter()
-                .filter_map(|a| match a.ty {
-                    Type::Vector { size, .. } => Some(size),
-                    _ => None,
-                })
-                .max();
-            if let Some(size) = widest {
-                for (v, a) in values.iter_mut().zip(args).take(same_type) {
-                    if matches!(a.ty, Type::Scalar(_)) {
-                        *v = self.splat(*v, size, span)?;
-                    }
-                }
-            }
-            return Ok(self.append(
-                E::Math { fun, arg: values[0], arg1: values.get(1).copied(), arg2: values.get(2).copied(), arg3: None },
-                span,
-            ));
+        if args.len() != builtin.arity() {
+            return Err(internal(span, format!("`{builtin:?}` with {} arguments", args.len())));
+        }
+        if let Some(fun) = math_function(builtin) {
+            return self.math(fun, args, span, block);
         }
         Ok(match builtin {
             // WGSL: select(f, t, cond).
             B::Select => {
-                arity(3)?;
                 let reject = self.expr(&args[0], block)?;
                 let accept = self.expr(&args[1], block)?;
                 let condition = self.expr(&args[2], block)?;
                 self.append(E::Select { condition, accept, reject }, span)
             }
             B::Any | B::All => {
-                arity(1)?;
                 let argument = self.expr(&args[0], block)?;
                 if matches!(args[0].ty, Type::Scalar(_)) {
                     // `any(b)` and `all(b)` of a scalar are `b`.
@@ -922,43 +849,78 @@ impl<'a> FnCtx<'a> {
                     self.append(E::Relational { fun, argument }, span)
                 }
             }
-            B::Sample => {
-                arity(2)?;
-                let volume = self.resource(&args[0])?;
-                let coordinate = self.expr(&args[1], block)?;
-                match volume {
-                    Resource::Texture { texture, sampler } => {
-                        let texel = self.sample(texture, sampler, coordinate, span);
-                        self.append(E::AccessIndex { base: texel, index: 0 }, span)
-                    }
-                    Resource::Bricked(fns) => self.call_value(fns.sample, vec![coordinate], span, block),
+            B::Sample => self.sample_volume(&args[0], &args[1], span, block)?,
+            B::Lookup => self.lookup(&args[0], &args[1], span, block)?,
+            B::Dims => match self.resource(&args[0])? {
+                Resource::Texture { texture: image, .. } => {
+                    self.append(E::ImageQuery { image, query: naga::ImageQuery::Size { level: None } }, span)
                 }
-            }
-            B::Lookup => {
-                arity(2)?;
-                let (image, sampler) = self.texture(&args[0])?;
-                let x = self.expr(&args[1], block)?;
-                let two_d = Type::vec(2, Scalar::F32);
-                let coordinate = if args[1].ty == two_d {
-                    x
-                } else {
-                    let half = self.append(E::Literal(naga::Literal::F32(0.5)), span);
-                    let ty = self.b.ty(two_d, span)?;
-                    self.append(E::Compose { ty, components: vec![x, half] }, span)
-                };
-                self.sample(image, sampler, coordinate, span)
-            }
-            B::Dims => {
-                arity(1)?;
-                match self.resource(&args[0])? {
-                    Resource::Texture { texture: image, .. } => {
-                        self.append(E::ImageQuery { image, query: naga::ImageQuery::Size { level: None } }, span)
-                    }
-                    Resource::Bricked(fns) => self.call_value(fns.dims, Vec::new(), span, block),
-                }
-            }
+                Resource::Bricked(fns) => self.call_value(fns.dims, Vec::new(), span, block),
+            },
             _ => return Err(internal(span, format!("built-in `{builtin:?}` is not lowered"))),
         })
+    }
+
+    /// A call of WGSL math function `fun` with the built-in's arguments.
+    fn math(&mut self, fun: Mf, args: &[hir::Expr], span: Span, block: &mut naga::Block) -> R<Ex> {
+        let mut values = Vec::with_capacity(args.len());
+        for a in args {
+            values.push(self.expr(a, block)?);
+        }
+        // WGSL's overloads of these take one type T for all (the first two, for `mix`)
+        // arguments; accept a scalar among vectors by splatting it.
+        let same_type = match fun {
+            Mf::Min | Mf::Max | Mf::Clamp | Mf::Step | Mf::SmoothStep | Mf::Pow | Mf::Atan2 => args.len(),
+            Mf::Mix => 2,
+            _ => 0,
+        };
+        let widest = args[..same_type]
+            .iter()
+            .filter_map(|a| match a.ty {
+                Type::Vector { size, .. } => Some(size),
+                _ => None,
+            })
+            .max();
+        if let Some(size) = widest {
+            for (v, a) in values.iter_mut().zip(args).take(same_type) {
+                if matches!(a.ty, Type::Scalar(_)) {
+                    *v = self.splat(*v, size, span)?;
+                }
+            }
+        }
+        Ok(self.append(
+            E::Math { fun, arg: values[0], arg1: values.get(1).copied(), arg2: values.get(2).copied(), arg3: None },
+            span,
+        ))
+    }
+
+    /// `sample(v, p)`: the first component of the texel, or the bricked volume's lookup.
+    fn sample_volume(&mut self, volume: &hir::Expr, p: &hir::Expr, span: Span, block: &mut naga::Block) -> R<Ex> {
+        let volume = self.resource(volume)?;
+        let coordinate = self.expr(p, block)?;
+        Ok(match volume {
+            Resource::Texture { texture, sampler } => {
+                let texel = self.sample(texture, sampler, coordinate, span);
+                self.append(E::AccessIndex { base: texel, index: 0 }, span)
+            }
+            Resource::Bricked(fns) => self.call_value(fns.sample, vec![coordinate], span, block),
+        })
+    }
+
+    /// `lookup(t, x)`: the transfer function's texel at `x` (a scalar `x` is read at
+    /// `vec2(x, 0.5)`).
+    fn lookup(&mut self, tf: &hir::Expr, x: &hir::Expr, span: Span, block: &mut naga::Block) -> R<Ex> {
+        let (image, sampler) = self.texture(tf)?;
+        let value = self.expr(x, block)?;
+        let two_d = Type::vec(2, Scalar::F32);
+        let coordinate = if x.ty == two_d {
+            value
+        } else {
+            let half = self.append(E::Literal(naga::Literal::F32(0.5)), span);
+            let ty = self.b.ty(two_d, span)?;
+            self.append(E::Compose { ty, components: vec![value, half] }, span)
+        };
+        Ok(self.sample(image, sampler, coordinate, span))
     }
 
     /// `textureSampleLevel(image, sampler, coordinate, 0.0)`.
@@ -980,6 +942,51 @@ impl<'a> FnCtx<'a> {
     }
 }
 
+/// The WGSL math function a built-in is, if it is one: one arm per built-in, a table that reads
+/// best whole.
+fn math_function(builtin: Builtin) -> Option<Mf> {
+    use Builtin as B;
+    Some(match builtin {
+        B::Abs => Mf::Abs,
+        B::Min => Mf::Min,
+        B::Max => Mf::Max,
+        B::Clamp => Mf::Clamp,
+        B::Mix => Mf::Mix,
+        B::Step => Mf::Step,
+        B::Smoothstep => Mf::SmoothStep,
+        B::Sign => Mf::Sign,
+        B::Floor => Mf::Floor,
+        B::Ceil => Mf::Ceil,
+        B::Fract => Mf::Fract,
+        B::Round => Mf::Round,
+        B::Trunc => Mf::Trunc,
+        B::Sqrt => Mf::Sqrt,
+        B::InverseSqrt => Mf::InverseSqrt,
+        B::Pow => Mf::Pow,
+        B::Exp => Mf::Exp,
+        B::Exp2 => Mf::Exp2,
+        B::Log => Mf::Log,
+        B::Log2 => Mf::Log2,
+        B::Sin => Mf::Sin,
+        B::Cos => Mf::Cos,
+        B::Tan => Mf::Tan,
+        B::Asin => Mf::Asin,
+        B::Acos => Mf::Acos,
+        B::Atan => Mf::Atan,
+        B::Atan2 => Mf::Atan2,
+        B::Dot => Mf::Dot,
+        B::Cross => Mf::Cross,
+        B::Length => Mf::Length,
+        B::Distance => Mf::Distance,
+        B::Normalize => Mf::Normalize,
+        B::Reflect => Mf::Reflect,
+        B::FaceForward => Mf::FaceForward,
+        B::Transpose => Mf::Transpose,
+        B::Determinant => Mf::Determinant,
+        B::Select | B::Any | B::All | B::Sample | B::Lookup | B::Dims => return None,
+    })
+}
+
 /// The element a component access or index of `t` yields.
 fn element_type(t: Type) -> Option<Type> {
     match t {
@@ -991,14 +998,7 @@ fn element_type(t: Type) -> Option<Type> {
 
 /// A non-negative constant index.
 fn const_index(e: &hir::Expr) -> Option<u32> {
-    match &e.kind {
-        ExprKind::Const(c) => match c.components.as_slice() {
-            [ScalarValue::I32(i)] => u32::try_from(*i).ok(),
-            [ScalarValue::U32(u)] => Some(*u),
-            _ => None,
-        },
-        _ => None,
-    }
+    e.const_index().and_then(|i| u32::try_from(i).ok())
 }
 
 fn binary_op(op: AssignOp) -> BinaryOp {

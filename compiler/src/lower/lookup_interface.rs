@@ -5,8 +5,10 @@
 
 use naga::{AddressSpace, ImageClass, ImageDimension, ScalarKind, StorageAccess, TypeInner, VectorSize};
 
-use super::bricked::LookupError;
 use vrs_reflection::BRICK_LAYOUT_BYTES;
+
+/// What is wrong with a lookup, and where in its text.
+pub(super) type LookupError = (naga::Span, String);
 
 /// The resources a lookup binds, in declaration order.
 const RESOURCES: [&str; 5] = [

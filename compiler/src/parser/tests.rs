@@ -699,16 +699,16 @@ fn deep_brackets_do_not_overflow() {
     });
 }
 
+/// A long body parses whole (how long it takes is `benches/frontend.rs`'s
+/// `pipeline_5000_statements`).
 #[test]
-fn long_inputs_parse_in_linear_time() {
+fn long_bodies_parse() {
     let stmt = "state.color = vec4f(state.color.rgb * 0.5 + f(x, y)[1], 1.0);\n";
     let src = format!("pipeline p in start {{\n{}}}", stmt.repeat(5_000));
-    let start = std::time::Instant::now();
     let (m, diags) = parse(&src);
     assert!(diags.is_empty());
     let ItemKind::Pipeline(p) = &m.items[0].kind else { panic!() };
     assert_eq!(p.body.stmts.len(), 5_000);
-    assert!(start.elapsed().as_secs() < 10, "took {:?}", start.elapsed());
 }
 
 // ---- Conformance cases ----
