@@ -38,6 +38,7 @@ pub mod metering;
 pub mod occupancy;
 pub mod probe;
 pub mod reflection;
+pub mod resources;
 #[cfg(feature = "compiler")]
 pub mod scene;
 pub mod shader;
@@ -54,4 +55,5 @@ pub use gpu::{AdapterChoice, Gpu, GpuFault};
 pub use scene::{Applied, ProbeAt, ProbeImage, ProbeSpec, RenderOptions, SceneRenderer, VolumeStatus};
 pub use shader::{PipelineCache, ViewShader};
 pub use uniforms::Value;
-pub use view::{Region, Resources, ViewRenderer};
+pub use resources::Resources;
+pub use view::{Region, ViewRenderer};

@@ -6,10 +6,11 @@
 use crate::error::RuntimeError;
 use crate::geometry::{self, Convention, OrbitCamera, ShaderPlane, SliceAxis, SlicePlane};
 use crate::gpu::Gpu;
+use crate::resources::Resources;
 use crate::shader::{PipelineCache, PipelineStats, ViewShader};
 use crate::textures::{TfTexture, VolumeTexture};
 use crate::tf::TfDomain;
-use crate::view::{Resources, ViewRenderer};
+use crate::view::ViewRenderer;
 use crate::{tf, volume};
 use glam::Mat4;
 use std::path::{Path, PathBuf};
