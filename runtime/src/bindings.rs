@@ -7,7 +7,7 @@
 
 use crate::error::RuntimeError;
 use crate::reflection::{BindingInfo, BindingKind, Reflection};
-use crate::view::Resources;
+use crate::resources::Resources;
 
 /// What a binding of each kind is in the layout.
 fn binding_type(kind: BindingKind) -> wgpu::BindingType {

@@ -36,8 +36,10 @@ pub mod mesh;
 pub mod mesh_layer;
 pub mod metering;
 pub mod occupancy;
+mod pass_bindings;
 pub mod probe;
 pub mod reflection;
+pub mod resources;
 #[cfg(feature = "compiler")]
 pub mod scene;
 pub mod shader;
@@ -50,8 +52,9 @@ pub mod volume;
 pub use error::RuntimeError;
 pub use geometry::{Convention, OrbitCamera, SliceAxis, SlicePlane, slice_edge_labels};
 pub use gpu::{AdapterChoice, Gpu, GpuFault};
+pub use resources::Resources;
 #[cfg(feature = "compiler")]
 pub use scene::{Applied, ProbeAt, ProbeImage, ProbeSpec, RenderOptions, SceneRenderer, VolumeStatus};
 pub use shader::{PipelineCache, ViewShader};
 pub use uniforms::Value;
-pub use view::{Region, Resources, ViewRenderer};
+pub use view::{Region, ViewRenderer};

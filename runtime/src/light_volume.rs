@@ -6,6 +6,7 @@
 
 use crate::error::RuntimeError;
 use crate::gpu::Gpu;
+use crate::pass_bindings::{ComputePass, PassBindings, Slot, ty};
 use crate::textures::{TfTexture, VolumeTexture};
 use glam::{Mat4, Vec3};
 
@@ -16,7 +17,7 @@ pub const MAX_SIDE: u32 = 64;
 /// default `shadow_cutoff`).
 const CUTOFF: f32 = 0.005;
 
-const SHADER: &str = r#"
+pub(crate) const SHADER: &str = r#"
 struct Params {
     // xyz: one step towards the light in normalized volume coordinates; w: its length in mm.
     step: vec4<f32>,
@@ -53,6 +54,19 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
 }
 "#;
 
+/// The bindings of [`SHADER`], in the order [`LightVolumePass::compute`] binds them.
+pub(crate) const BINDINGS: PassBindings = PassBindings {
+    label: "light volume",
+    groups: &[&[
+        Slot::compute(0, ty::UNIFORM),
+        Slot::compute(1, ty::texture(wgpu::TextureViewDimension::D3, true)),
+        Slot::compute(2, ty::SAMPLER),
+        Slot::compute(3, ty::texture(wgpu::TextureViewDimension::D2, true)),
+        Slot::compute(4, ty::SAMPLER),
+        Slot::compute(5, ty::storage_texture(wgpu::TextureFormat::Rgba16Float, wgpu::TextureViewDimension::D3)),
+    ]],
+};
+
 /// What a light volume was computed from: equal keys, same volume.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LightKey {
@@ -65,7 +79,7 @@ pub struct LightKey {
 
 /// The compute pipeline of light volumes (made once per renderer).
 pub struct LightVolumePass {
-    pipeline: wgpu::ComputePipeline,
+    pass: ComputePass,
 }
 
 /// The primary volume a light volume is computed over.
@@ -79,21 +93,8 @@ pub struct Primary<'a> {
 
 impl LightVolumePass {
     pub fn new(gpu: &Gpu) -> Result<LightVolumePass, RuntimeError> {
-        let pipeline = gpu.capture("making the light-volume pass", || {
-            let module = gpu.device.create_shader_module(wgpu::ShaderModuleDescriptor {
-                label: Some("light volume"),
-                source: wgpu::ShaderSource::Wgsl(SHADER.into()),
-            });
-            gpu.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some("light volume"),
-                layout: None,
-                module: &module,
-                entry_point: Some("main"),
-                compilation_options: Default::default(),
-                cache: None,
-            })
-        })?;
-        Ok(LightVolumePass { pipeline })
+        let pass = gpu.capture("making the light-volume pass", || ComputePass::new(gpu, BINDINGS, SHADER))?;
+        Ok(LightVolumePass { pass })
     }
 
     /// The light volume of a light in direction `key.direction` over `primary`, computed and
@@ -125,29 +126,20 @@ impl LightVolumePass {
                     usage: wgpu::BufferUsages::UNIFORM,
                 },
             );
-            let entries = [
-                wgpu::BindGroupEntry { binding: 0, resource: buffer.as_entire_binding() },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: wgpu::BindingResource::TextureView(&primary.texture.view),
-                },
-                wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::Sampler(primary.sampler) },
-                wgpu::BindGroupEntry { binding: 3, resource: wgpu::BindingResource::TextureView(&primary.tf.view) },
-                wgpu::BindGroupEntry { binding: 4, resource: wgpu::BindingResource::Sampler(primary.sampler) },
-                wgpu::BindGroupEntry { binding: 5, resource: wgpu::BindingResource::TextureView(&view) },
-            ];
-            let bind_group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("light volume"),
-                layout: &self.pipeline.get_bind_group_layout(0),
-                entries: &entries,
-            });
+            let bind_group = self.pass.layout.bind_group(
+                gpu,
+                0,
+                &[
+                    buffer.as_entire_binding(),
+                    wgpu::BindingResource::TextureView(&primary.texture.view),
+                    wgpu::BindingResource::Sampler(primary.sampler),
+                    wgpu::BindingResource::TextureView(&primary.tf.view),
+                    wgpu::BindingResource::Sampler(primary.sampler),
+                    wgpu::BindingResource::TextureView(&view),
+                ],
+            );
             let mut encoder = gpu.device.create_command_encoder(&Default::default());
-            {
-                let mut pass = encoder.begin_compute_pass(&Default::default());
-                pass.set_pipeline(&self.pipeline);
-                pass.set_bind_group(0, &bind_group, &[]);
-                pass.dispatch_workgroups(dims[0].div_ceil(4), dims[1].div_ceil(4), dims[2].div_ceil(4));
-            }
+            self.pass.dispatch(&mut encoder, &[&bind_group], dims.map(|d| d.div_ceil(4)));
             gpu.queue.submit([encoder.finish()]);
         })?;
         let grid_to_world = primary.texture.grid_to_world;

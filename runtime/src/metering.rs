@@ -7,6 +7,7 @@
 
 use crate::error::RuntimeError;
 use crate::gpu::Gpu;
+use crate::pass_bindings::{ComputePass, PassBindings, Slot, ty};
 use crate::reflection::{BindingKind, Reflection};
 use crate::textures::Image2d;
 
@@ -16,7 +17,7 @@ pub const SCENE_LUMINANCE: &str = "scene_luminance";
 /// `scene_luminance` before anything was metered: middle grey, so exposure starts neutral.
 const START: f32 = 0.18;
 
-const SHADER: &str = r#"
+pub(crate) const SHADER: &str = r#"
 struct Metered {
     value: f32,
 }
@@ -51,10 +52,18 @@ fn main(@builtin(local_invocation_index) i: u32) {
 }
 "#;
 
+/// The bindings of [`SHADER`]: the luminance image, the result.
+pub(crate) const BINDINGS: PassBindings = PassBindings {
+    label: "metering",
+    groups: &[&[
+        Slot::compute(0, ty::texture(wgpu::TextureViewDimension::D2, false)),
+        Slot::compute(1, ty::STORAGE_READ_WRITE),
+    ]],
+};
+
 /// A metering view's luminance images, its reduction and its result.
 pub struct Metering {
-    pipeline: wgpu::ComputePipeline,
-    layout: wgpu::BindGroupLayout,
+    pass: ComputePass,
     /// 4 bytes: the last log-average luminance.
     result: wgpu::Buffer,
     /// Byte offset of `scene_luminance` in the uniform block.
@@ -75,48 +84,7 @@ impl Metering {
     }
 
     fn new(gpu: &Gpu, offset: u64) -> Metering {
-        let entries = [
-            wgpu::BindGroupLayoutEntry {
-                binding: 0,
-                visibility: wgpu::ShaderStages::COMPUTE,
-                ty: wgpu::BindingType::Texture {
-                    sample_type: wgpu::TextureSampleType::Float { filterable: false },
-                    view_dimension: wgpu::TextureViewDimension::D2,
-                    multisampled: false,
-                },
-                count: None,
-            },
-            wgpu::BindGroupLayoutEntry {
-                binding: 1,
-                visibility: wgpu::ShaderStages::COMPUTE,
-                ty: wgpu::BindingType::Buffer {
-                    ty: wgpu::BufferBindingType::Storage { read_only: false },
-                    has_dynamic_offset: false,
-                    min_binding_size: None,
-                },
-                count: None,
-            },
-        ];
-        let layout = gpu
-            .device
-            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some("metering"), entries: &entries });
-        let pipeline_layout = gpu.device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("metering"),
-            bind_group_layouts: &[Some(&layout)],
-            immediate_size: 0,
-        });
-        let module = gpu.device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("metering"),
-            source: wgpu::ShaderSource::Wgsl(SHADER.into()),
-        });
-        let pipeline = gpu.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some("metering"),
-            layout: Some(&pipeline_layout),
-            module: &module,
-            entry_point: Some("main"),
-            compilation_options: Default::default(),
-            cache: None,
-        });
+        let pass = ComputePass::new(gpu, BINDINGS, SHADER);
         let result = wgpu::util::DeviceExt::create_buffer_init(
             &gpu.device,
             &wgpu::util::BufferInitDescriptor {
@@ -125,7 +93,7 @@ impl Metering {
                 usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
             },
         );
-        Metering { pipeline, layout, result, offset, image: None }
+        Metering { pass, result, offset, image: None }
     }
 
     /// The luminance image for a target of `size` pixels (made anew when the size changes).
@@ -151,20 +119,10 @@ impl Metering {
     pub fn after_pass(&self, gpu: &Gpu, encoder: &mut wgpu::CommandEncoder) -> Result<(), RuntimeError> {
         let Some((_, image)) = &self.image else { return Ok(()) };
         let bind_group = gpu.capture("binding the luminance reduction", || {
-            gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("metering"),
-                layout: &self.layout,
-                entries: &[
-                    wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(image) },
-                    wgpu::BindGroupEntry { binding: 1, resource: self.result.as_entire_binding() },
-                ],
-            })
+            let resources = [wgpu::BindingResource::TextureView(image), self.result.as_entire_binding()];
+            self.pass.layout.bind_group(gpu, 0, &resources)
         })?;
-        let mut pass = encoder
-            .begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("metering"), timestamp_writes: None });
-        pass.set_pipeline(&self.pipeline);
-        pass.set_bind_group(0, &bind_group, &[]);
-        pass.dispatch_workgroups(1, 1, 1);
+        self.pass.dispatch(encoder, &[&bind_group], [1, 1, 1]);
         Ok(())
     }
 }

@@ -6,10 +6,11 @@
 use crate::error::RuntimeError;
 use crate::geometry::{self, Convention, OrbitCamera, ShaderPlane, SliceAxis, SlicePlane};
 use crate::gpu::Gpu;
+use crate::resources::Resources;
 use crate::shader::{PipelineCache, PipelineStats, ViewShader};
 use crate::textures::{TfTexture, VolumeTexture};
 use crate::tf::TfDomain;
-use crate::view::{Resources, ViewRenderer};
+use crate::view::ViewRenderer;
 use crate::{tf, volume};
 use glam::Mat4;
 use std::path::{Path, PathBuf};
@@ -633,7 +634,7 @@ struct Loaded {
     ranges: Option<crate::occupancy::SceneRanges>,
 }
 
-/// Loads and uploads every volume and transfer function of the scene.
+/// Loads and uploads every volume and transfer function of the scene, the primary volume first.
 fn load_volumes(
     gpu: &Gpu,
     scene: &Scene,
@@ -648,33 +649,8 @@ fn load_volumes(
     let primary = scene.primary();
     let ordered = std::iter::once(primary).chain(scene.volumes.iter().filter(|v| v.role.value != Role::Primary));
     for v in ordered {
+        let plan = VolumePlan::of(scene, v)?;
         let name = &v.name.name;
-        let phantom = |p: &str| {
-            volume::phantom::phantom(p, options.phantom_size)
-                .map_err(|e| RuntimeError::Invalid(format!("volume `{name}`: {e}")))
-        };
-        let is_primary = v.role.value == Role::Primary;
-        // Empty-space skipping needs the brick ranges of the primary volume and of the
-        // additional ones (composited over it), taken from the texels as they are uploaded:
-        // every volume file is streamed into its texture without a copy in memory.
-        let ranges = matches!(v.role.value, Role::Primary | Role::Additional) && scene.skips_empty_space();
-        let curve = match &v.tf {
-            Some(TfRef::Preset(p)) => Some(tf::preset_curve(&p.value)?),
-            Some(TfRef::File(file)) => Some(tf::paraview_curve(&file.resolved)?),
-            None => None,
-        };
-        let table = curve.as_ref().map(tf::TfCurve::table);
-        // The scene's window, else the domain of a transfer function in data units (a CT
-        // preset's Hounsfield range, a ParaView colormap's), else percentiles of the data.
-        let fixed = v.window.as_ref().map(|w| w.value).or(match table.as_ref().map(|t| t.domain) {
-            Some(TfDomain::Data(domain)) => Some(domain),
-            _ => None,
-        });
-        let uploaded = |data: volume::Volume| -> Result<_, RuntimeError> {
-            let window = fixed.unwrap_or_else(|| volume::auto_window(&data));
-            let bricks = ranges.then(|| crate::occupancy::BrickRanges::new(&data, Some(window)));
-            Ok((VolumeTexture::upload(gpu, name, &data, Some(window))?, window, bricks))
-        };
         let fed = options.feeds.get(name);
         if v.bricked && fed.is_some() {
             return Err(RuntimeError::Invalid(format!(
@@ -682,97 +658,183 @@ fn load_volumes(
             )));
         }
         if v.bricked {
-            // The source's cache for built levels: its part of this volume's host budget.
-            let cache = crate::bricks::cache_bytes(scene.memory.host / bricked::sharing(scene).max(1));
-            let report = &mut |done, total| progress(name, done, total);
-            let source = match (&v.source, &v.fallback) {
-                (VolumeSource::File(file), Some(fallback)) if !file.resolved.exists() => {
-                    notices.push(format!(
-                        "volume `{name}`: `{}` is absent; using the built-in `{}` phantom instead",
-                        file.resolved.display(),
-                        fallback.value
-                    ));
-                    bricked::open_source(&VolumeSource::Phantom(fallback.clone()), &v.zarr, cache, phantom, report)?
-                }
-                (source, _) => bricked::open_source(source, &v.zarr, cache, phantom, report)?,
-            };
-            let budget = (&scene.memory, bricked::sharing(scene));
-            let (volume, window, histogram) = bricked::load(gpu, name, source, fixed, budget, grids.first())?;
-            grids.push(VolumeGrid {
-                name: name.clone(),
-                dims: volume.levels()[0].dims,
-                grid_to_world: volume.grid_to_world,
-                window,
-                histogram,
-                curve,
-            });
+            let (volume, grid) = load_bricked(gpu, scene, v, plan, grids.first(), options, notices, progress)?;
             resources.bricked.insert(v.binding(), Arc::new(volume));
-            if let Some(table) = table.map(|t| t.over_window(window)) {
-                let binding = if is_primary { "tf".to_string() } else { format!("tf_{name}") };
-                resources.tfs.insert(binding, Arc::new(TfTexture::upload(gpu, &table)?));
-            }
+            insert_tf(gpu, resources, v, grid.curve.as_ref(), grid.window)?;
+            grids.push(grid);
             continue;
         }
-        let (texture, window, bricks) = match (&v.source, &v.fallback) {
-            (source, _) if let Some(feed) = fed => {
-                let path = match source {
-                    VolumeSource::File(file) => file.resolved.clone(),
-                    VolumeSource::Url(u) => PathBuf::from(&u.value),
-                    VolumeSource::Phantom(p) => PathBuf::from(&p.value),
-                };
-                let report = &mut |done, total| progress(name, done, total);
-                VolumeTexture::stream_feed(gpu, name, &path, feed.as_ref(), fixed, ranges, report)?
-            }
-            (VolumeSource::File(file), Some(fallback)) if !file.resolved.exists() => {
-                notices.push(format!(
-                    "volume `{name}`: `{}` is absent; using the built-in `{}` phantom instead",
-                    file.resolved.display(),
-                    fallback.value
-                ));
-                uploaded(phantom(&fallback.value)?)?
-            }
-            (VolumeSource::Url(url), _) => {
-                let store = crate::bricks::zarr::StoreLocation::Url(url.value.clone());
-                uploaded(bricked::zarr_volume(&store, &v.zarr)?)?
-            }
-            (VolumeSource::File(file), _) if vscene::is_zarr(&file.resolved) => {
-                let store = crate::bricks::zarr::StoreLocation::Path(file.resolved.clone());
-                uploaded(bricked::zarr_volume(&store, &v.zarr)?)?
-            }
-            (VolumeSource::File(file), _) => {
-                let report = &mut |done, total| progress(name, done, total);
-                VolumeTexture::stream_file(gpu, name, &file.resolved, fixed, ranges, report)?
-            }
-            (VolumeSource::Phantom(p), _) => uploaded(phantom(&p.value)?)?,
-        };
-        if fixed.is_none() {
-            let [lo, hi] = volume::histogram::AUTO_PERCENTILES;
-            notices.push(format!(
-                "volume `{name}`: automatic window [{:.4}, {:.4}] (the {lo}th to {hi}th percentile of its values); \
-                 `window = [LO, HI]` in its [[volume]] table sets another",
-                window[0], window[1]
-            ));
+        let (texture, window, bricks) = upload_volume(gpu, v, &plan, fed, options, notices, progress)?;
+        if plan.fixed.is_none() {
+            notices.push(automatic_window_notice(name, window));
         }
-        let binding = v.binding();
-        grids.push(VolumeGrid {
+        let grid = VolumeGrid {
             name: name.clone(),
             dims: texture.dims,
             grid_to_world: texture.grid_to_world,
             window,
             histogram: texture.histogram.clone(),
-            curve,
-        });
-        resources.volumes.insert(binding, Arc::new(texture));
-        let table = table.map(|t| t.over_window(window));
-        if let Some(table) = &table {
-            let binding = if is_primary { "tf".to_string() } else { format!("tf_{name}") };
-            resources.tfs.insert(binding, Arc::new(TfTexture::upload(gpu, table)?));
-        }
+            curve: plan.curve,
+        };
+        resources.volumes.insert(v.binding(), Arc::new(texture));
+        let table = insert_tf(gpu, resources, v, grid.curve.as_ref(), window)?;
+        grids.push(grid);
         if let Some(bricks) = bricks {
             add_ranges(&mut scene_ranges, &grids, bricks, table.as_ref().unwrap_or(&default_tf));
         }
     }
     Ok(Loaded { grids, ranges: scene_ranges })
+}
+
+/// What the scene says about one volume before it is read: its transfer function's curve, the
+/// window its texture's [0, 1] stands for when the scene fixes one, and whether the brick
+/// ranges of empty-space skipping are taken from it.
+struct VolumePlan {
+    curve: Option<tf::TfCurve>,
+    /// The scene's window, else the domain of a transfer function in data units (a CT preset's
+    /// Hounsfield range, a ParaView colormap's); `None`: percentiles of the data.
+    fixed: Option<[f32; 2]>,
+    /// Empty-space skipping needs the brick ranges of the primary volume and of the additional
+    /// ones (composited over it), taken from the texels as they are uploaded: every volume file
+    /// is streamed into its texture without a copy in memory.
+    ranges: bool,
+}
+
+impl VolumePlan {
+    fn of(scene: &Scene, v: &vscene::Volume) -> Result<VolumePlan, RuntimeError> {
+        let curve = match &v.tf {
+            Some(TfRef::Preset(p)) => Some(tf::preset_curve(&p.value)?),
+            Some(TfRef::File(file)) => Some(tf::paraview_curve(&file.resolved)?),
+            None => None,
+        };
+        let domain = curve.as_ref().map(|c| c.table().domain);
+        let fixed = v.window.as_ref().map(|w| w.value).or(match domain {
+            Some(TfDomain::Data(domain)) => Some(domain),
+            _ => None,
+        });
+        let ranges = matches!(v.role.value, Role::Primary | Role::Additional) && scene.skips_empty_space();
+        Ok(VolumePlan { curve, fixed, ranges })
+    }
+}
+
+/// The built-in phantom `p` standing in for volume `name`, at the options' size.
+fn phantom_of(name: &str, p: &str, options: &RenderOptions) -> Result<volume::Volume, RuntimeError> {
+    volume::phantom::phantom(p, options.phantom_size)
+        .map_err(|e| RuntimeError::Invalid(format!("volume `{name}`: {e}")))
+}
+
+/// The notice that volume `name`'s file is absent and the phantom `fallback` stands in.
+fn fallback_notice(name: &str, file: &Path, fallback: &str) -> String {
+    format!("volume `{name}`: `{}` is absent; using the built-in `{fallback}` phantom instead", file.display())
+}
+
+/// The notice of a window taken from the data's percentiles.
+fn automatic_window_notice(name: &str, window: [f32; 2]) -> String {
+    let [lo, hi] = volume::histogram::AUTO_PERCENTILES;
+    format!(
+        "volume `{name}`: automatic window [{:.4}, {:.4}] (the {lo}th to {hi}th percentile of its values); \
+         `window = [LO, HI]` in its [[volume]] table sets another",
+        window[0], window[1]
+    )
+}
+
+/// Opens a volume the scene keeps in bricks (`bricks = true`) and uploads what it starts with:
+/// the volume and its grid.
+#[allow(clippy::too_many_arguments)]
+fn load_bricked(
+    gpu: &Gpu,
+    scene: &Scene,
+    v: &vscene::Volume,
+    plan: VolumePlan,
+    primary: Option<&VolumeGrid>,
+    options: &RenderOptions,
+    notices: &mut Vec<String>,
+    progress: Progress,
+) -> Result<(crate::bricks::BrickedVolume, VolumeGrid), RuntimeError> {
+    let name = &v.name.name;
+    // The source's cache for built levels: its part of this volume's host budget.
+    let cache = crate::bricks::cache_bytes(scene.memory.host / bricked::sharing(scene).max(1));
+    let report = &mut |done, total| progress(name, done, total);
+    let phantom = |p: &str| phantom_of(name, p, options);
+    let source = match (&v.source, &v.fallback) {
+        (VolumeSource::File(file), Some(fallback)) if !file.resolved.exists() => {
+            notices.push(fallback_notice(name, &file.resolved, &fallback.value));
+            bricked::open_source(&VolumeSource::Phantom(fallback.clone()), &v.zarr, cache, phantom, report)?
+        }
+        (source, _) => bricked::open_source(source, &v.zarr, cache, phantom, report)?,
+    };
+    let budget = (&scene.memory, bricked::sharing(scene));
+    let (volume, window, histogram) = bricked::load(gpu, name, source, plan.fixed, budget, primary)?;
+    let grid = VolumeGrid {
+        name: name.clone(),
+        dims: volume.levels()[0].dims,
+        grid_to_world: volume.grid_to_world,
+        window,
+        histogram,
+        curve: plan.curve,
+    };
+    Ok((volume, grid))
+}
+
+/// Reads a volume the scene keeps in one texture (fed by the application, from its file or
+/// store, or a phantom) into its texture: the texture, its window and, when `plan.ranges`, the
+/// brick ranges of its texels.
+fn upload_volume(
+    gpu: &Gpu,
+    v: &vscene::Volume,
+    plan: &VolumePlan,
+    fed: Option<&Arc<dyn volume::VolumeFeed>>,
+    options: &RenderOptions,
+    notices: &mut Vec<String>,
+    progress: Progress,
+) -> Result<(VolumeTexture, [f32; 2], Option<crate::occupancy::BrickRanges>), RuntimeError> {
+    let name = &v.name.name;
+    let (fixed, ranges) = (plan.fixed, plan.ranges);
+    let uploaded = |data: volume::Volume| -> Result<_, RuntimeError> {
+        let window = fixed.unwrap_or_else(|| volume::auto_window(&data));
+        let bricks = ranges.then(|| crate::occupancy::BrickRanges::new(&data, Some(window)));
+        Ok((VolumeTexture::upload(gpu, name, &data, Some(window))?, window, bricks))
+    };
+    let report = &mut |done, total| progress(name, done, total);
+    match (&v.source, &v.fallback) {
+        (source, _) if let Some(feed) = fed => {
+            let path = match source {
+                VolumeSource::File(file) => file.resolved.clone(),
+                VolumeSource::Url(u) => PathBuf::from(&u.value),
+                VolumeSource::Phantom(p) => PathBuf::from(&p.value),
+            };
+            VolumeTexture::stream_feed(gpu, name, &path, feed.as_ref(), fixed, ranges, report)
+        }
+        (VolumeSource::File(file), Some(fallback)) if !file.resolved.exists() => {
+            notices.push(fallback_notice(name, &file.resolved, &fallback.value));
+            uploaded(phantom_of(name, &fallback.value, options)?)
+        }
+        (VolumeSource::Url(url), _) => {
+            let store = crate::bricks::zarr::StoreLocation::Url(url.value.clone());
+            uploaded(bricked::zarr_volume(&store, &v.zarr)?)
+        }
+        (VolumeSource::File(file), _) if vscene::is_zarr(&file.resolved) => {
+            let store = crate::bricks::zarr::StoreLocation::Path(file.resolved.clone());
+            uploaded(bricked::zarr_volume(&store, &v.zarr)?)
+        }
+        (VolumeSource::File(file), _) => VolumeTexture::stream_file(gpu, name, &file.resolved, fixed, ranges, report),
+        (VolumeSource::Phantom(p), _) => uploaded(phantom_of(name, &p.value, options)?),
+    }
+}
+
+/// Uploads volume `v`'s transfer function, its curve resampled over `window`, under the
+/// binding its shaders read (`tf` for the primary volume, `tf_NAME` for another): the table.
+fn insert_tf(
+    gpu: &Gpu,
+    resources: &mut Resources,
+    v: &vscene::Volume,
+    curve: Option<&tf::TfCurve>,
+    window: [f32; 2],
+) -> Result<Option<tf::TransferFunction>, RuntimeError> {
+    let Some(table) = curve.map(|c| c.table().over_window(window)) else { return Ok(None) };
+    let binding = if v.role.value == Role::Primary { "tf".to_string() } else { format!("tf_{}", v.name.name) };
+    resources.tfs.insert(binding, Arc::new(TfTexture::upload(gpu, &table)?));
+    Ok(Some(table))
 }
 
 /// Adds the brick ranges of the volume whose grid is the last of `grids` (the primary's when it

@@ -2,49 +2,18 @@
 //! shared volumes and transfer functions it binds by name.
 
 use crate::bindings::{self, DispatchResources};
-use crate::bricks::{BrickView, BrickedVolumes};
+use crate::bricks::BrickView;
 use crate::error::RuntimeError;
 use crate::gpu::Gpu;
-use crate::mesh_layer::{
-    LayerCamera, LayerContent, MeshInstance, MeshLayer, Overlay, PlanePicture, pipelines::MeshPipelines,
-};
+use crate::mesh_layer::{LayerCamera, LayerContent, MeshInstance, MeshLayer, Overlay, PlanePicture};
 use crate::metering::Metering;
 use crate::reflection::BindingKind;
+use crate::resources::Resources;
 use crate::shader::{PipelineCache, ViewPipeline, ViewShader};
-use crate::textures::{Image2d, TfTexture, VolumeTexture, linear_sampler};
+use crate::textures::Image2d;
 use crate::uniforms::{UniformBlock, Value};
 use std::collections::HashMap;
 use std::sync::Arc;
-
-/// Textures shared by the views of a scene, by the uniform name the shaders bind them under
-/// (`volume`, `volume_gm`, `tf`, `tf_gm`).
-pub struct Resources {
-    pub volumes: HashMap<String, Arc<VolumeTexture>>,
-    /// Volumes kept in bricks (`crate::bricks`), by the same names.
-    pub bricked: BrickedVolumes,
-    pub tfs: HashMap<String, Arc<TfTexture>>,
-    pub sampler: wgpu::Sampler,
-    /// The scene's meshes, which views' mesh layers draw (by index).
-    pub meshes: Vec<MeshInstance>,
-    /// Counts changes of `meshes`' surfaces (a layer drawn from an older one is drawn again).
-    pub mesh_generation: u64,
-    /// Made with the first mesh.
-    pub mesh_pipelines: Option<MeshPipelines>,
-}
-
-impl Resources {
-    pub fn new(gpu: &Gpu) -> Resources {
-        Resources {
-            volumes: HashMap::new(),
-            bricked: HashMap::new(),
-            tfs: HashMap::new(),
-            sampler: linear_sampler(gpu),
-            meshes: Vec::new(),
-            mesh_generation: 0,
-            mesh_pipelines: None,
-        }
-    }
-}
 
 /// One view's GPU state. Changing uniforms only rewrites the uniform buffer.
 pub struct ViewRenderer {

@@ -186,18 +186,12 @@ impl DrawBuffer {
             gpu.queue.write_buffer(uniforms, 0, &bytes);
         }
         let group = gpu.capture("binding a mesh layer", || {
-            gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("mesh draws"),
-                layout: &pipelines.layout,
-                entries: &[wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                        buffer: uniforms,
-                        offset: 0,
-                        size: wgpu::BufferSize::new(std::mem::size_of::<DrawUniforms>() as u64),
-                    }),
-                }],
-            })
+            let slot = wgpu::BufferBinding {
+                buffer: uniforms,
+                offset: 0,
+                size: wgpu::BufferSize::new(std::mem::size_of::<DrawUniforms>() as u64),
+            };
+            pipelines.bindings.bind_group(gpu, 0, &[wgpu::BindingResource::Buffer(slot)])
         })?;
         Ok(Some(group))
     }
@@ -263,14 +257,9 @@ pub fn plane_draws(
         let doing = "drawing a slice view on its plane";
         let buffer = vertex_buffer(gpu, doing, bytemuck::cast_slice(&vertices))?;
         let picture = gpu.capture(doing, || {
-            gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("plane picture"),
-                layout: &pipelines.plane_layout,
-                entries: &[
-                    wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(&plane.picture) },
-                    wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::Sampler(sampler) },
-                ],
-            })
+            let resources =
+                [wgpu::BindingResource::TextureView(&plane.picture), wgpu::BindingResource::Sampler(sampler)];
+            pipelines.bindings.bind_group(gpu, 1, &resources)
         })?;
         let identity = Mat4::IDENTITY.to_cols_array_2d();
         out.push(Draw {

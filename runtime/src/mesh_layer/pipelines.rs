@@ -5,6 +5,7 @@
 
 use crate::error::RuntimeError;
 use crate::gpu::Gpu;
+use crate::pass_bindings::{PassBindings, PassLayout, Slot, ty};
 
 /// The depth buffer's format (the depth test).
 pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
@@ -34,7 +35,7 @@ pub struct DrawUniforms {
     pub flat: [f32; 4],
 }
 
-const SHADER: &str = r#"
+pub(crate) const SHADER: &str = r#"
 struct Draw {
     world_to_clip: mat4x4<f32>,
     clip_to_world: mat4x4<f32>,
@@ -125,6 +126,31 @@ fn fs_plane(in: PlaneVaryings) -> Fragment {
 }
 "#;
 
+/// The bindings of [`SHADER`]: group 0, a draw's uniforms (at a dynamic offset, one
+/// [`DRAW_SLOT`] per draw); group 1, a plane's picture and its sampler (`vs_plane`/`fs_plane`).
+pub(crate) const BINDINGS: PassBindings = PassBindings {
+    label: "mesh layer",
+    groups: &[
+        &[Slot {
+            binding: 0,
+            visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
+            ty: wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Uniform,
+                has_dynamic_offset: true,
+                min_binding_size: wgpu::BufferSize::new(std::mem::size_of::<DrawUniforms>() as u64),
+            },
+        }],
+        &[
+            Slot {
+                binding: 0,
+                visibility: wgpu::ShaderStages::FRAGMENT,
+                ty: ty::texture(wgpu::TextureViewDimension::D2, true),
+            },
+            Slot { binding: 1, visibility: wgpu::ShaderStages::FRAGMENT, ty: ty::SAMPLER },
+        ],
+    ],
+};
+
 /// How a pipeline treats faces and depth.
 #[derive(Clone, Copy)]
 enum Kind {
@@ -146,9 +172,9 @@ pub struct PipelineSet {
 
 /// The mesh pipelines and their bind-group layouts.
 pub struct MeshPipelines {
-    pub layout: wgpu::BindGroupLayout,
-    /// A plane's picture and its sampler (group 1 of `plane`).
-    pub plane_layout: wgpu::BindGroupLayout,
+    /// The layouts of [`BINDINGS`]: a draw's uniforms (group 0 of every pipeline), a plane's
+    /// picture and its sampler (group 1 of `plane`).
+    pub(crate) bindings: PassLayout,
     /// Slice views' pictures on their planes, into a mesh layer.
     pub plane: wgpu::RenderPipeline,
     /// Into a mesh layer's colour and depth images.
@@ -164,24 +190,9 @@ impl MeshPipelines {
                 label: Some("mesh layer"),
                 source: wgpu::ShaderSource::Wgsl(SHADER.into()),
             });
-            let layout = gpu.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                label: Some("mesh draw"),
-                entries: &[wgpu::BindGroupLayoutEntry {
-                    binding: 0,
-                    visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
-                    ty: wgpu::BindingType::Buffer {
-                        ty: wgpu::BufferBindingType::Uniform,
-                        has_dynamic_offset: true,
-                        min_binding_size: wgpu::BufferSize::new(std::mem::size_of::<DrawUniforms>() as u64),
-                    },
-                    count: None,
-                }],
-            });
-            let pipeline_layout = gpu.device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some("mesh layer"),
-                bind_group_layouts: &[Some(&layout)],
-                immediate_size: 0,
-            });
+            let bindings = PassLayout::new(gpu, BINDINGS);
+            // The mesh pipelines read group 0; the plane pipeline reads both.
+            let pipeline_layout = bindings.pipeline_layout(gpu, 1);
             let set = |overlay| {
                 let make = |kind| pipeline(gpu, &module, &pipeline_layout, kind, overlay);
                 PipelineSet {
@@ -191,29 +202,8 @@ impl MeshPipelines {
                     translucent_front: make(Kind::TranslucentFront),
                 }
             };
-            let plane_layout = gpu.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                label: Some("plane picture"),
-                entries: &[
-                    wgpu::BindGroupLayoutEntry {
-                        binding: 0,
-                        visibility: wgpu::ShaderStages::FRAGMENT,
-                        ty: wgpu::BindingType::Texture {
-                            sample_type: wgpu::TextureSampleType::Float { filterable: true },
-                            view_dimension: wgpu::TextureViewDimension::D2,
-                            multisampled: false,
-                        },
-                        count: None,
-                    },
-                    wgpu::BindGroupLayoutEntry {
-                        binding: 1,
-                        visibility: wgpu::ShaderStages::FRAGMENT,
-                        ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
-                        count: None,
-                    },
-                ],
-            });
-            let plane = plane_pipeline(gpu, &module, &layout, &plane_layout);
-            MeshPipelines { layer: set(false), overlay: set(true), plane, plane_layout, layout }
+            let plane = plane_pipeline(gpu, &module, &bindings.pipeline_layout(gpu, 2));
+            MeshPipelines { layer: set(false), overlay: set(true), plane, bindings }
         })?;
         Ok(made)
     }
@@ -285,21 +275,11 @@ fn pipeline(
 const PLANE_ATTRIBUTES: [wgpu::VertexAttribute; 2] = wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x2];
 
 /// The pipeline of slice pictures on their planes: opaque, depth written, both sides.
-fn plane_pipeline(
-    gpu: &Gpu,
-    module: &wgpu::ShaderModule,
-    draw: &wgpu::BindGroupLayout,
-    picture: &wgpu::BindGroupLayout,
-) -> wgpu::RenderPipeline {
-    let layout = gpu.device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-        label: Some("plane picture"),
-        bind_group_layouts: &[Some(draw), Some(picture)],
-        immediate_size: 0,
-    });
+fn plane_pipeline(gpu: &Gpu, module: &wgpu::ShaderModule, layout: &wgpu::PipelineLayout) -> wgpu::RenderPipeline {
     let target = |format| Some(wgpu::ColorTargetState { format, blend: None, write_mask: wgpu::ColorWrites::ALL });
     gpu.device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
         label: Some("plane picture"),
-        layout: Some(&layout),
+        layout: Some(layout),
         vertex: wgpu::VertexState {
             module,
             entry_point: Some("vs_plane"),

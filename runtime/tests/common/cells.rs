@@ -203,6 +203,12 @@ impl LightCell {
         cells
     }
 
+    /// Why `build` refuses the cell, for exactly the cells it refuses: shadows (rays or a light
+    /// volume) need shading, and every other combination renders.
+    pub fn refusal(&self) -> Option<&'static str> {
+        (self.shadows != "off" && !self.shading).then_some("shadows without shading")
+    }
+
     pub fn scene(&self) -> String {
         let mut render = vec![format!("compositing = \"{}\"", self.mode), format!("shading = {}", self.shading)];
         if self.mode == "iso" {

@@ -2,6 +2,7 @@
 #![allow(dead_code)]
 
 pub mod cells;
+pub mod difference;
 
 use image::RgbaImage;
 use std::path::{Path, PathBuf};
