@@ -645,7 +645,7 @@ fn load_volumes(
     let mut grids: Vec<VolumeGrid> = Vec::new();
     let mut scene_ranges: Option<crate::occupancy::SceneRanges> = None;
     let default_tf = tf::preset(vscene::DEFAULT_TF)?;
-    let primary = scene.primary();
+    let primary = scene.primary().ok_or_else(|| RuntimeError::Invalid("the scene has no primary volume".into()))?;
     let ordered = std::iter::once(primary).chain(scene.volumes.iter().filter(|v| v.role.value != Role::Primary));
     for v in ordered {
         let name = &v.name.name;
