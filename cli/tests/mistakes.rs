@@ -273,3 +273,25 @@ fn bad_zarr_stores_are_build_errors_or_render_notes() {
     assert!(!stderr.contains("panicked"), "{stderr}");
     assert!(stderr.contains("0.0.0"), "the corrupt chunk is named: {stderr}");
 }
+
+/// A step so small that the derived `max_samples` reaches its cap: `build` warns that the value
+/// is outside `step_size`'s declared range (W0702, exit 0), and `render` notes that the longest
+/// rays stop short instead of cutting them silently.
+#[test]
+fn a_step_too_small_for_the_sample_cap_is_warned_and_noted() {
+    let dir = tempfile::tempdir().expect("a folder");
+    let scene = dir.path().join("scene.toml");
+    let text = "[render]\nstep_size = 0.0025\n\n[[volume]]\nname = \"head\"\nrole = \"primary\"\nphantom = \"head\"\n\n[[view]]\nname = \"3d\"\nsize = [4, 4]\n";
+    std::fs::write(&scene, text).expect("scene written");
+    let (code, diags) = build(&scene);
+    let (id, line, message) = only(&diags);
+    assert_eq!((code, id.as_str(), line), (0, "W0702", 2), "{message}");
+    let out = dir.path().join("out");
+    let output = Command::new(env!("CARGO_BIN_EXE_vrsc"))
+        .args(["render", "--software", &scene.display().to_string(), "-o", &out.display().to_string()])
+        .output()
+        .expect("vrsc runs");
+    let said = String::from_utf8_lossy(&output.stderr);
+    assert!(output.status.success(), "{said}");
+    assert!(said.contains("note: view `3d`: rays need") && said.contains("a larger `step_size`"), "{said}");
+}
