@@ -28,7 +28,7 @@ const GPU_REFUSED_NOTE: &str = "the scene composed, but this GPU refused the wor
 (`--size`) or volume may fit, and if it does not, please report it with the scene";
 
 /// A runtime error of rendering `scene`: about a volume or transfer function of the scene, an
-/// E0702 at the value that names it; about the machine, E0902 or E0903.
+/// E0719 at the value that names it; about the machine, E0902 or E0903.
 pub fn runtime(e: &RuntimeError, scene: &Scene) -> Diagnostic {
     let message = e.to_string();
     match e {
@@ -39,13 +39,13 @@ pub fn runtime(e: &RuntimeError, scene: &Scene) -> Diagnostic {
         RuntimeError::Io { .. } => io(message),
         RuntimeError::Volume(load) => {
             let span = volume_span(scene, &load.path);
-            Diagnostic::new(Code::SceneInvalid, span, message).with_label("this volume")
+            Diagnostic::new(Code::SceneInput, span, message).with_label("this volume")
         }
         RuntimeError::Tf(tf) => {
             let span = tf_span(scene, tf);
-            Diagnostic::new(Code::SceneInvalid, span, message).with_label("this transfer function")
+            Diagnostic::new(Code::SceneInput, span, message).with_label("this transfer function")
         }
-        _ => Diagnostic::new(Code::SceneInvalid, Span::DUMMY, message),
+        _ => Diagnostic::new(Code::SceneInput, Span::DUMMY, message),
     }
 }
 
@@ -96,7 +96,7 @@ mod tests {
         let scene = scene(&dir);
         let load = vrs_runtime::volume::load(&dir.join("v.nii"), &mut |_, _| {}).expect_err("no such file");
         let d = runtime(&RuntimeError::Volume(load), &scene);
-        assert_eq!(d.code, Code::SceneInvalid);
+        assert_eq!(d.code, Code::SceneInput);
         let VolumeSource::File(file) = &scene.volumes[0].source else { panic!("a file volume") };
         assert_eq!(d.span, file.span);
         let tf = vrs_runtime::tf::from_paraview_json(&dir.join("lut.json")).expect_err("no such file");

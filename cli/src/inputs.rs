@@ -19,7 +19,7 @@ use vrsc::diag::{Code, Diagnostic};
 use vrsc::scene::{MeshSource, Scene, TfRef, VolumeSource};
 use vrsc::source::Span;
 
-/// Every input of `scene` that does not exist or does not parse, as E0702 diagnostics at the
+/// Every input of `scene` that does not exist or does not parse, as E0719 diagnostics at the
 /// value that names it.
 pub fn check_scene_inputs(scene: &Scene) -> Vec<Diagnostic> {
     let mut out = Vec::new();
@@ -97,7 +97,7 @@ fn check_mesh(mesh: &vrsc::scene::Mesh) -> Option<Diagnostic> {
 }
 
 fn invalid(span: Span, message: String, label: &str) -> Diagnostic {
-    Diagnostic::new(Code::SceneInvalid, span, message).with_label(label)
+    Diagnostic::new(Code::SceneInput, span, message).with_label(label)
 }
 
 /// Creates `dir` if needed and proves it writable by creating and removing a file in it.

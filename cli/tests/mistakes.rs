@@ -52,7 +52,7 @@ fn only(diags: &[Value]) -> (String, u64, String) {
 fn an_unknown_transfer_function_preset_is_found_by_build() {
     let (code, diags) = build(&fixture("unknown_tf_preset"));
     let (id, line, message) = only(&diags);
-    assert_eq!((code, id.as_str(), line), (1, "E0702", 6), "{message}");
+    assert_eq!((code, id.as_str(), line), (1, "E0719", 6), "{message}");
     assert!(message.contains("did you mean `ct_bone`"), "{message}");
 }
 
@@ -60,11 +60,11 @@ fn an_unknown_transfer_function_preset_is_found_by_build() {
 fn a_missing_volume_and_a_missing_tf_file_exit_the_same() {
     let (volume_code, diags) = build(&fixture("missing_volume"));
     let (id, line, message) = only(&diags);
-    assert_eq!((id.as_str(), line), ("E0702", 5), "{message}");
+    assert_eq!((id.as_str(), line), ("E0719", 5), "{message}");
     assert!(message.starts_with("cannot read volume `t1_missing.nii.gz`"), "{message}");
     let (tf_code, diags) = build(&fixture("missing_tf_file"));
     let (id, line, message) = only(&diags);
-    assert_eq!((id.as_str(), line), ("E0702", 6), "{message}");
+    assert_eq!((id.as_str(), line), ("E0719", 6), "{message}");
     assert_eq!((volume_code, tf_code), (1, 1));
 }
 
@@ -72,7 +72,7 @@ fn a_missing_volume_and_a_missing_tf_file_exit_the_same() {
 fn an_absurd_voxel_spacing_is_found_by_build() {
     let (code, diags) = build(&fixture("absurd_spacing"));
     let (id, line, message) = only(&diags);
-    assert_eq!((code, id.as_str(), line), (1, "E0702", 5), "{message}");
+    assert_eq!((code, id.as_str(), line), (1, "E0719", 5), "{message}");
     assert!(message.contains("voxel spacing 1e20"), "{message}");
 }
 
@@ -177,12 +177,12 @@ fn a_compressed_volume_claiming_a_huge_size_is_a_clean_build_and_render_error() 
     let claim = "header says 2249728000 bytes of data, more than";
     let (code, diags) = build(&scene);
     let (id, line, message) = only(&diags);
-    assert_eq!((code, id.as_str(), line), (1, "E0702", 7), "{message}");
+    assert_eq!((code, id.as_str(), line), (1, "E0719", 7), "{message}");
     assert!(message.contains(claim), "{message}");
     let (code, diags) =
         vrsc_json(&["render", "--software", &scene.display().to_string(), "-o", &out.display().to_string()]);
     let (id, line, message) = only(&diags);
-    assert_eq!((code, id.as_str(), line), (1, "E0702", 7), "{message}");
+    assert_eq!((code, id.as_str(), line), (1, "E0719", 7), "{message}");
     assert!(message.contains(claim), "{message}");
 }
 
@@ -219,12 +219,12 @@ fn bad_mesh_files_are_build_errors_at_their_path() {
         std::fs::write(&scene, text).expect("scene written");
         let (code, diags) = build(&scene);
         let (id, line, message) = only(&diags);
-        assert_eq!((code, id.as_str(), line), (1, "E0702", 8), "{file}: {message}");
+        assert_eq!((code, id.as_str(), line), (1, "E0719", 8), "{file}: {message}");
         assert!(message.contains(expected), "{file}: {message}");
     }
 }
 
-/// Zarr stores that cannot be read: `build` reports E0702 at the path with the reason (a dtype
+/// Zarr stores that cannot be read: `build` reports E0719 at the path with the reason (a dtype
 /// it does not read, metadata that is not JSON), and a store whose chunk is corrupt renders
 /// with that brick shown coarser and a note naming the chunk, never a panic.
 #[test]
@@ -255,7 +255,7 @@ fn bad_zarr_stores_are_build_errors_or_render_notes() {
     {
         let (code, diags) = build(&store(name, &metadata));
         let (id, line, message) = only(&diags);
-        assert_eq!((code, id.as_str(), line), (1, "E0702", 4), "{name}: {message}");
+        assert_eq!((code, id.as_str(), line), (1, "E0719", 4), "{name}: {message}");
         assert!(
             message.starts_with(&format!("cannot read volume `{name}`")) && message.contains(expected),
             "{message}"
@@ -272,4 +272,26 @@ fn bad_zarr_stores_are_build_errors_or_render_notes() {
     let stderr = String::from_utf8_lossy(&rendered.stderr);
     assert!(!stderr.contains("panicked"), "{stderr}");
     assert!(stderr.contains("0.0.0"), "the corrupt chunk is named: {stderr}");
+}
+
+/// A step so small that the derived `max_samples` reaches its cap: `build` warns that the value
+/// is outside `step_size`'s declared range (W0702, exit 0), and `render` notes that the longest
+/// rays stop short instead of cutting them silently.
+#[test]
+fn a_step_too_small_for_the_sample_cap_is_warned_and_noted() {
+    let dir = tempfile::tempdir().expect("a folder");
+    let scene = dir.path().join("scene.toml");
+    let text = "[render]\nstep_size = 0.0025\n\n[[volume]]\nname = \"head\"\nrole = \"primary\"\nphantom = \"head\"\n\n[[view]]\nname = \"3d\"\nsize = [4, 4]\n";
+    std::fs::write(&scene, text).expect("scene written");
+    let (code, diags) = build(&scene);
+    let (id, line, message) = only(&diags);
+    assert_eq!((code, id.as_str(), line), (0, "W0702", 2), "{message}");
+    let out = dir.path().join("out");
+    let output = Command::new(env!("CARGO_BIN_EXE_vrsc"))
+        .args(["render", "--software", &scene.display().to_string(), "-o", &out.display().to_string()])
+        .output()
+        .expect("vrsc runs");
+    let said = String::from_utf8_lossy(&output.stderr);
+    assert!(output.status.success(), "{said}");
+    assert!(said.contains("note: view `3d`: rays need") && said.contains("a larger `step_size`"), "{said}");
 }

@@ -108,6 +108,6 @@ fn unknown_schemes_are_refused_at_build() {
         let (output, _) = render(dir.path(), "scheme", url, 1.0);
         let said = text(&output);
         assert!(!output.status.success(), "{url}: {said}");
-        assert!(said.contains("stores are not supported") && said.contains("E0702"), "{url}: {said}");
+        assert!(said.contains("stores are not supported") && said.contains("E0718"), "{url}: {said}");
     }
 }

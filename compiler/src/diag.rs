@@ -99,8 +99,24 @@ codes! {
     BadLookup = "E0610", Error, "a bricked volume's own lookup (`lookup`) that does not parse, validate or have the lookup's interface";
     // Scenes.
     SceneSyntax = "E0701", Error, "a scene file that is not valid TOML";
-    SceneInvalid = "E0702", Error, "a scene value that is missing, of the wrong type, out of range or in conflict with another";
+    SceneInvalid = "E0702", Error, "a scene value the composed views reject: a uniform no view reads or of another type, more entries than the limits allow";
     SceneUnknownKey = "E0703", Error, "a key the scene format does not know";
+    SceneMissingKey = "E0704", Error, "a key that its table or another key needs is missing";
+    SceneNoTable = "E0705", Error, "a scene without a [[view]] or without a primary volume";
+    SceneConflict = "E0706", Error, "two keys that exclude each other (`path` and `phantom`, `window` and `level`, ...)";
+    SceneSecondPrimary = "E0707", Error, "a second volume with `role = \"primary\"`";
+    SceneOutOfRange = "E0708", Error, "a number outside the range its key allows";
+    SceneMemorySize = "E0709", Error, "a `memory` or `host_memory` that is not a size of at least 64 MiB";
+    SceneEmpty = "E0710", Error, "an empty path, `tf`, `instances` or `channel` list";
+    SceneBadName = "E0711", Error, "a name that is not a name of its kind (a uniform, phantom, view or standard module)";
+    SceneTwice = "E0712", Error, "a view or mesh named twice, or listed twice";
+    SceneNoSuch = "E0713", Error, "a name that names no volume, mesh or view of the scene";
+    ScenePlaneNotSlice = "E0714", Error, "a raycast view in a view's `planes` list";
+    SceneUnknownValue = "E0715", Error, "a value that is not one of its key's choices";
+    SceneWrongType = "E0716", Error, "a value of the wrong type or shape for its key or uniform";
+    SceneTfCount = "E0717", Error, "a list of transfer functions whose length is not the number of channels";
+    SceneUrlScheme = "E0718", Error, "a remote store whose URL is not `http://` or `https://`";
+    SceneInput = "E0719", Error, "a volume, transfer function, phantom or mesh of the scene that cannot be read or made";
     // Probes.
     ProbeUnknownField = "E0801", Error, "a probe of a state field that the view does not declare";
     ProbeUnshowable = "E0802", Error, "a probe of a field whose type an image cannot show (a matrix)";
@@ -119,6 +135,7 @@ codes! {
     ReadBeforeWrite = "W0005", Warning, "a field read before any active function writes it (it sees its default)";
     WrittenNeverRead = "W0006", Warning, "a field written that no active function reads";
     SceneIgnored = "W0701", Warning, "a scene key that has no effect where it is";
+    SceneUniformRange = "W0702", Warning, "a scene value for a uniform outside the range the uniform declares";
 }
 
 /// Whether a diagnostic stops compilation (error) or not (warning, note).

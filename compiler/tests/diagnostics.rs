@@ -28,6 +28,7 @@ fn every_fixture_reports_its_code() {
 /// Codes no fixture can trigger, with the reason.
 const UNTRIGGERABLE: &[(Code, &str)] = [
     (Code::Internal, "a compiler bug by definition; the lowering unit tests feed malformed IR to produce it"),
+    (Code::SceneInput, "the compiler reads no volume, transfer function or mesh; the CLI's tests produce it"),
     (Code::Io, "about the file system, not an input file; the CLI's tests produce it"),
     (Code::Device, "depends on the machine's GPU; the CLI prints it when no adapter opens"),
     (Code::GpuRefused, "depends on the device's limits; the CLI's tests provoke it with an image beyond them"),

@@ -44,7 +44,7 @@ pub enum RuntimeError {
 impl RuntimeError {
     /// The `vrsc` exit code: 2 for I/O outside the scene's inputs and device problems, 1 for bad
     /// input (a volume or transfer function the scene names, missing or unreadable included:
-    /// `vrsc build` reports those as E0702, and a render exits the same).
+    /// `vrsc build` reports those as E0719, and a render exits the same).
     pub fn exit_code(&self) -> u8 {
         match self {
             RuntimeError::Io { .. } | RuntimeError::Gpu(_) | RuntimeError::Device(_) => 2,

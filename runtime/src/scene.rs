@@ -410,6 +410,8 @@ impl SceneRenderer {
     }
 
     fn set_views(&mut self, scene: &Scene, built: &BuiltScene) -> Result<(), RuntimeError> {
+        // The views' notes are made again below (the volumes' stay).
+        self.notices.retain(|n| !n.ends_with(CUT_RAYS));
         let mut views = Vec::new();
         for (view, output) in scene.views.iter().zip(&built.views) {
             let values = scene.view_uniform_values(view);
@@ -427,7 +429,12 @@ impl SceneRenderer {
                     renderer.set_uniform(name, value)?;
                 }
             }
-            self.set_physical_defaults(&mut renderer, &values)?;
+            if let Some(note) = self.set_physical_defaults(&mut renderer, &values)? {
+                let note = format!("view `{}`: {note}", view.name.name);
+                if !self.notices.contains(&note) {
+                    self.notices.push(note);
+                }
+            }
             let (camera, slice) = match view.kind.value {
                 ViewKind::Raycast => (Some(orbit(view.camera)), None),
                 ViewKind::Slice => {
@@ -470,13 +477,15 @@ impl SceneRenderer {
 
     /// Physical sampling where the scene leaves it open: `step_size` half the primary volume's
     /// smallest voxel spacing, `ref_step` (the distance transfer-function opacities are
-    /// defined for) that spacing, and `max_samples` enough steps for the grid's longest chord.
+    /// defined for) that spacing, and `max_samples` enough steps for the grid's longest chord, at
+    /// most [`vscene::MAX_SAMPLES_LIMIT`]. A note when that cap cuts the longest rays short (a
+    /// small step through a large volume), which would otherwise go unnoticed.
     fn set_physical_defaults(
         &self,
         renderer: &mut ViewRenderer,
         values: &std::collections::BTreeMap<String, UniformValue>,
-    ) -> Result<(), RuntimeError> {
-        let Some(primary) = self.grids.first() else { return Ok(()) };
+    ) -> Result<Option<String>, RuntimeError> {
+        let Some(primary) = self.grids.first() else { return Ok(None) };
         let spacing = geometry::smallest_spacing(primary.grid_to_world);
         let spacing = if spacing.is_finite() { spacing } else { 1.0 };
         let step = match values.get("step_size") {
@@ -485,8 +494,20 @@ impl SceneRenderer {
             _ => 0.5 * spacing,
         };
         let chord = geometry::longest_chord(geometry::volume_to_world(primary.dims, primary.grid_to_world));
-        let samples = (chord / step).ceil() + 2.0;
-        let samples = if samples.is_finite() { samples.min(vscene::MAX_SAMPLES_LIMIT as f32) as u32 } else { 1 };
+        let needed = (chord / step).ceil() + 2.0;
+        let limit = vscene::MAX_SAMPLES_LIMIT;
+        let samples = if needed.is_finite() { needed.min(limit as f32) as u32 } else { 1 };
+        let cut = needed.is_finite()
+            && needed > limit as f32
+            && renderer.has_uniform("max_samples")
+            && !values.contains_key("max_samples");
+        let note = cut.then(|| {
+            format!(
+                "rays need {needed} samples of {step} mm to cross the volume ({chord:.0} mm), more than the \
+                 {limit} a ray takes: the longest stop after {:.0} mm; {CUT_RAYS}",
+                step * (limit - 2) as f32
+            )
+        });
         let defaults: [(&str, crate::uniforms::Value); 3] =
             [("step_size", step.into()), ("ref_step", spacing.into()), ("max_samples", samples.into())];
         for (name, value) in defaults {
@@ -494,7 +515,7 @@ impl SceneRenderer {
                 renderer.set_uniform(name, value)?;
             }
         }
-        Ok(())
+        Ok(note)
     }
 }
 
@@ -634,6 +655,9 @@ struct Loaded {
     ranges: Option<crate::occupancy::SceneRanges>,
 }
 
+/// The end of the note that rays are cut short by the cap on samples.
+const CUT_RAYS: &str = "a larger `step_size` reaches the far side";
+
 /// Loads and uploads every volume and transfer function of the scene, the primary volume first.
 fn load_volumes(
     gpu: &Gpu,
@@ -646,7 +670,7 @@ fn load_volumes(
     let mut grids: Vec<VolumeGrid> = Vec::new();
     let mut scene_ranges: Option<crate::occupancy::SceneRanges> = None;
     let default_tf = tf::preset(vscene::DEFAULT_TF)?;
-    let primary = scene.primary();
+    let primary = scene.primary().ok_or_else(|| RuntimeError::Invalid("the scene has no primary volume".into()))?;
     let ordered = std::iter::once(primary).chain(scene.volumes.iter().filter(|v| v.role.value != Role::Primary));
     for v in ordered {
         let plan = VolumePlan::of(scene, v)?;

@@ -3,10 +3,13 @@
 //! that uniform's type and length (E0702 at the value); every `volume` and `tf` uniform a view
 //! reads must be one the runtime binds for this scene (E0608 at its declaration). The runtime
 //! sets values and binds resources by the same rules, so a scene that `build` accepts never
-//! fails there for its uniforms.
+//! fails there for its uniforms. A value outside the range the uniform declares (`in lo .. hi`,
+//! the span its module means and the viewer's slider covers) is used as given, with a warning
+//! (W0702 at the value): `[uniforms]` entries and the `[render]` keys that set uniforms alike.
 
 use super::ir::Composition;
 use crate::diag::{Code, Diagnostic, Diagnostics};
+use crate::hir::{ConstValue, ScalarValue};
 use crate::scene::{Role, Scene, UniformSetting, UniformValue};
 use crate::suggest::did_you_mean;
 use crate::types::{Scalar, Type};
@@ -26,6 +29,66 @@ pub fn check_scene_uniforms(scene: &Scene, views: &[&Composition], all_views: bo
             None if all_views => diags.push(unknown(name, setting, views)),
             None => {}
         }
+    }
+    check_ranges(scene, views, diags);
+}
+
+/// W0702 for every value the scene gives a uniform outside the range a view declares for it
+/// (values of another type are E0702 above, and not compared).
+fn check_ranges(scene: &Scene, views: &[&Composition], diags: &mut Diagnostics) {
+    for (name, value, span) in scene.placed_uniform_values() {
+        let declared = views.iter().flat_map(|c| c.uniforms.iter()).filter(|u| u.name == name);
+        let Some((u, (lo, hi))) = declared.filter_map(|u| Some((u, u.range.as_ref()?))).next() else { continue };
+        if mismatch(u.ty, &value).is_some() {
+            continue;
+        }
+        let (lo_values, hi_values) = (numbers(lo), numbers(hi));
+        let outside = value.flatten().iter().enumerate().any(|(i, &x)| {
+            let at = |list: &[f64]| list.get(i).or(list.first()).copied();
+            at(&lo_values).is_some_and(|lo| x < lo) || at(&hi_values).is_some_and(|hi| x > hi)
+        });
+        if outside {
+            let range = format!("{} .. {}", bound(&lo_values), bound(&hi_values));
+            diags.push(
+                Diagnostic::new(
+                    Code::SceneUniformRange,
+                    span,
+                    format!("`{name} = {}` is outside its declared range {range}", shown(&value.flatten())),
+                )
+                .with_label(format!("outside {range}"))
+                .with_secondary(u.span, "the range is declared here")
+                .with_note("the shader uses the value as given; the range is what the module means it for"),
+            );
+        }
+    }
+}
+
+/// The components of a range bound as numbers.
+fn numbers(value: &ConstValue) -> Vec<f64> {
+    let number = |c: &ScalarValue| match *c {
+        ScalarValue::Bool(b) => f64::from(u8::from(b)),
+        ScalarValue::I32(i) => f64::from(i),
+        ScalarValue::U32(u) => f64::from(u),
+        ScalarValue::F32(x) => f64::from(x),
+    };
+    value.components.iter().map(number).collect()
+}
+
+/// Numbers as a scene writes them (`4.0`, not `4`): one alone, several in brackets.
+fn shown(values: &[f64]) -> String {
+    let each: Vec<String> = values.iter().map(|x| format!("{:?}", *x as f32)).collect();
+    match each.as_slice() {
+        [one] => one.clone(),
+        _ => format!("[{}]", each.join(", ")),
+    }
+}
+
+/// A range's bound: one number when it is the same for every component.
+fn bound(values: &[f64]) -> String {
+    let each: Vec<String> = values.iter().map(|x| format!("{:?}", *x as f32)).collect();
+    match each.as_slice() {
+        [one, rest @ ..] if rest.iter().all(|r| r == one) => one.clone(),
+        _ => format!("[{}]", each.join(", ")),
     }
 }
 

@@ -26,26 +26,17 @@ impl Cx<'_> {
         if let Some(rest) = raw.strip_prefix("unknown variant `") {
             let value = rest.split('`').next().unwrap_or_default();
             let expected = backticked(rest.get(value.len() + 1..).unwrap_or_default());
-            let mut d =
-                Diagnostic::new(Code::SceneInvalid, span, format!("`{value}` is not one of {}", quote_list(&expected)))
-                    .with_label("unknown value");
-            if let Some(s) = did_you_mean(value, expected.iter().map(String::as_str)) {
-                d = d.with_help(format!("did you mean `{s}`?"));
-            }
-            return d;
+            let suggestion = did_you_mean(value, expected.iter().map(String::as_str)).map(String::from);
+            return SceneError::from(UnknownValue::Choice { value: value.to_string(), expected, suggestion }).at(span);
         }
         if let Some(rest) = raw.strip_prefix("missing field `") {
             let key = rest.split('`').next().unwrap_or_default();
             let context = self.table_context(offset, key);
-            return Diagnostic::new(Code::SceneInvalid, span, format!("missing key `{key}` in {context}"))
-                .with_label(format!("this table needs `{key}`"));
+            return SceneError::from(Missing::Key { key: key.to_string(), table: context }).at(span);
         }
         if let Some((found, expected)) = serde_mismatch(raw) {
-            let message = match self.key_before(offset) {
-                Some(key) => format!("`{key}` expects {expected}, found {found}"),
-                None => format!("expected {expected}, found {found}"),
-            };
-            return Diagnostic::new(Code::SceneInvalid, span, message).with_label(format!("expected {expected}"));
+            let key = self.key_before(offset);
+            return SceneError::from(WrongType::Value { key, found, expected }).at(span);
         }
         let (code, label) = (Code::SceneSyntax, "invalid TOML");
         let mut lines = raw.lines().map(str::trim).filter(|l| !l.is_empty());

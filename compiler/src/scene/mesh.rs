@@ -161,26 +161,15 @@ impl Cx<'_> {
             if self.check_name(&name.name, name.span, "mesh")
                 && let Some(earlier) = out.iter().find(|o| o.name.name == name.name)
             {
-                let earlier = earlier.name.span;
-                self.emit(
-                    self.invalid(name.span, format!("two meshes are named `{}`", name.name))
-                        .with_label("second mesh with this name")
-                        .with_secondary(earlier, "first here"),
-                );
+                self.report(name.span, Twice::MeshNamed { name: name.name.clone(), first: earlier.name.span });
             }
             let source = self.mesh_source(&m, &name);
             if let MeshSource::Surface { volume, .. } = &source
                 && !volumes.iter().any(|v| v.name.name == volume.value)
             {
-                let mut d = self
-                    .invalid(volume.span, format!("the scene has no volume `{}`", volume.value))
-                    .with_label("not a [[volume]] name");
-                if let Some(s) =
-                    crate::suggest::did_you_mean(&volume.value, volumes.iter().map(|v| v.name.name.as_str()))
-                {
-                    d = d.with_help(format!("did you mean `{s}`?"));
-                }
-                self.emit(d);
+                let suggestion =
+                    did_you_mean(&volume.value, volumes.iter().map(|v| v.name.name.as_str())).map(String::from);
+                self.report(volume.span, NoSuch::Volume { name: volume.value.clone(), suggestion });
             }
             let color = match &m.color {
                 Some(c) => self.unit_components(c, "color"),
@@ -193,7 +182,7 @@ impl Cx<'_> {
             let transform = m.transform.as_ref().map(|t| {
                 let span = self.span(t);
                 if t.get_ref().iter().flatten().any(|x| !x.is_finite()) {
-                    self.emit(self.invalid(span, "a mesh `transform` must hold finite numbers"));
+                    self.report(span, ViewRange::MeshTransform);
                 }
                 Located { value: *t.get_ref(), span }
             });
@@ -203,10 +192,10 @@ impl Cx<'_> {
     }
 
     /// Each component in [0, 1].
-    fn unit_components<const N: usize>(&mut self, value: &Spanned<[f32; N]>, key: &str) -> [f32; N] {
+    fn unit_components<const N: usize>(&mut self, value: &Spanned<[f32; N]>, key: &'static str) -> [f32; N] {
         let v = *value.get_ref();
         if v.iter().any(|c| !(0.0..=1.0).contains(c)) {
-            self.emit(self.invalid(self.span(value), format!("a mesh `{key}` is between 0 and 1")));
+            self.report(self.span(value), ViewRange::MeshUnit { key });
         }
         v
     }
@@ -226,21 +215,11 @@ impl Cx<'_> {
             }
             (None, Some(shape)) => self.shape(m, shape),
             (Some(path), Some(shape)) => {
-                self.emit(
-                    self.invalid(self.span(shape), "a mesh has either `path` or `shape`, not both")
-                        .with_label("second source")
-                        .with_secondary(self.span(path), "the mesh's file"),
-                );
+                self.report(self.span(shape), Conflict::PathAndShape { path: self.span(path) });
                 MeshSource::File { file: self.file_ref(path, "path"), coordinates: Coordinates::Ras }
             }
             (None, None) => {
-                self.emit(
-                    self.invalid(name.span, format!("the mesh `{}` has no surface", name.name))
-                        .with_label("neither `path` nor `shape`")
-                        .with_help(
-                            "add `path = \"FILE\"` (OBJ, STL or PLY) or `shape = \"needle\"` (needle, cylinder, sphere, box)",
-                        ),
-                );
+                self.report(name.span, Missing::MeshSurface { mesh: name.name.clone() });
                 MeshSource::Box { min: Point::Value([0.0; 3]), max: Point::Value([1.0; 3]) }
             }
         }
@@ -250,16 +229,13 @@ impl Cx<'_> {
     fn surface(&mut self, m: &RawMesh, volume: &Spanned<String>) -> MeshSource {
         for (other, key) in [(&m.path, "path"), (&m.shape, "shape")] {
             if let Some(o) = other {
-                self.emit(
-                    self.invalid(self.span(o), format!("a mesh has one source: `volume` or `{key}`, not both"))
-                        .with_secondary(self.span(volume), "the surface's volume"),
-                );
+                self.report(self.span(o), Conflict::SurfaceAndSource { key, volume: self.span(volume) });
             }
         }
         self.keys_unused(m, &[], "on a surface extracted from a volume");
         let level = match &m.level {
             Some(l) if !l.get_ref().is_finite() => {
-                self.emit(self.invalid(self.span(l), "a surface's `level` must be a number (data units)"));
+                self.report(self.span(l), ViewRange::SurfaceLevel);
                 0.5
             }
             Some(l) => *l.get_ref(),
@@ -297,7 +273,7 @@ impl Cx<'_> {
                 let radius = match &m.radius {
                     Some(_) => self.size(&m.radius, "radius", 1.0),
                     None => {
-                        self.emit(self.invalid(span, "a sphere needs a `radius` (mm)"));
+                        self.report(span, Missing::SphereRadius);
                         1.0
                     }
                 };
@@ -308,13 +284,8 @@ impl Cx<'_> {
                 MeshSource::Box { min: self.point(&m.min, "min", span), max: self.point(&m.max, "max", span) }
             }
             other => {
-                let mut d = self
-                    .invalid(span, format!("`{other}` is not a built-in shape"))
-                    .with_note(format!("the shapes are {}", SHAPES.join(", ")));
-                if let Some(s) = crate::suggest::did_you_mean(other, SHAPES.iter().copied()) {
-                    d = d.with_help(format!("did you mean `{s}`?"));
-                }
-                self.emit(d);
+                let suggestion = did_you_mean(other, SHAPES.iter().copied()).map(String::from);
+                self.report(span, UnknownValue::Shape { shape: other.to_string(), suggestion });
                 MeshSource::Box { min: Point::Value([0.0; 3]), max: Point::Value([1.0; 3]) }
             }
         }
@@ -323,26 +294,20 @@ impl Cx<'_> {
     /// A required point of a shape.
     fn point(&mut self, raw: &Option<Spanned<RawPoint>>, key: &str, shape: Span) -> Point {
         let Some(p) = raw else {
-            self.emit(
-                self.invalid(shape, format!("this shape needs `{key}`"))
-                    .with_help(format!("add `{key} = [x, y, z]` (patient space, mm) or the name of a vec3f uniform")),
-            );
+            self.report(shape, Missing::ShapePoint { key: key.to_string() });
             return Point::Value([0.0; 3]);
         };
         let span = self.span(p);
         match p.get_ref() {
             RawPoint::Value(v) => {
                 if v.iter().any(|x| !x.is_finite()) {
-                    self.emit(self.invalid(span, format!("`{key}` must hold finite numbers")));
+                    self.report(span, ViewRange::PointNotFinite { key: key.to_string() });
                 }
                 Point::Value(*v)
             }
             RawPoint::Uniform(name) => {
                 if !is_identifier(name) {
-                    self.emit(
-                        self.invalid(span, format!("`{name}` is not a uniform name"))
-                            .with_help(format!("give `{key}` as `[x, y, z]` or name a vec3f uniform")),
-                    );
+                    self.report(span, BadName::PointUniform { name: name.clone(), key: key.to_string() });
                 }
                 Point::Uniform(Located { value: name.clone(), span })
             }
@@ -354,7 +319,7 @@ impl Cx<'_> {
         let Some(v) = raw else { return default };
         let x = *v.get_ref();
         if !(x.is_finite() && x > 0.0) {
-            self.emit(self.invalid(self.span(v), format!("a mesh `{key}` must be positive (mm), not {x}")));
+            self.report(self.span(v), ViewRange::MeshSize { key: key.to_string(), x });
             return default;
         }
         x
@@ -392,19 +357,11 @@ impl Cx<'_> {
         for name in list.get_ref() {
             match meshes.iter().position(|m| &m.name.name == name.get_ref()) {
                 Some(i) if !out.contains(&i) => out.push(i),
-                Some(_) => {
-                    self.emit(self.invalid(self.span(name), format!("the mesh `{}` is listed twice", name.get_ref())))
-                }
+                Some(_) => self.report(self.span(name), Twice::MeshListed { name: name.get_ref().clone() }),
                 None => {
-                    let mut d = self
-                        .invalid(self.span(name), format!("the scene has no mesh `{}`", name.get_ref()))
-                        .with_label("not a [[mesh]] name");
-                    if let Some(s) =
-                        crate::suggest::did_you_mean(name.get_ref(), meshes.iter().map(|m| m.name.name.as_str()))
-                    {
-                        d = d.with_help(format!("did you mean `{s}`?"));
-                    }
-                    self.emit(d);
+                    let suggestion =
+                        did_you_mean(name.get_ref(), meshes.iter().map(|m| m.name.name.as_str())).map(String::from);
+                    self.report(self.span(name), NoSuch::Mesh { name: name.get_ref().clone(), suggestion });
                 }
             }
         }
@@ -429,27 +386,17 @@ impl Cx<'_> {
             let span = self.span(name);
             match views.iter().position(|v| &v.name.name == name.get_ref()) {
                 Some(i) if views[i].kind.value != ViewKind::Slice => {
-                    self.emit(
-                        self.invalid(
-                            span,
-                            format!("`{}` is a raycast view; `planes` lists slice views", name.get_ref()),
-                        )
-                        .with_secondary(views[i].kind.span, "its kind"),
-                    );
+                    let name = name.get_ref().clone();
+                    self.report(span, SceneError::PlaneNotSlice { name, kind: views[i].kind.span });
                 }
                 Some(i) if out.contains(&i) => {
-                    self.emit(self.invalid(span, format!("the view `{}` is listed twice", name.get_ref())));
+                    self.report(span, Twice::ViewListed { name: name.get_ref().clone() });
                 }
                 Some(i) => out.push(i),
                 None => {
                     let slices = views.iter().filter(|v| v.kind.value == ViewKind::Slice).map(|v| v.name.name.as_str());
-                    let mut d = self
-                        .invalid(span, format!("the scene has no view `{}`", name.get_ref()))
-                        .with_label("not a [[view]] name");
-                    if let Some(s) = crate::suggest::did_you_mean(name.get_ref(), slices) {
-                        d = d.with_help(format!("did you mean `{s}`?"));
-                    }
-                    self.emit(d);
+                    let suggestion = did_you_mean(name.get_ref(), slices).map(String::from);
+                    self.report(span, NoSuch::View { name: name.get_ref().clone(), suggestion });
                 }
             }
         }

@@ -62,6 +62,7 @@ const RENDER_UNIFORMS: &[&str] = &["iso_value", "step_size", "max_samples", "jit
 
 mod errors;
 mod mesh;
+mod mistake;
 mod model;
 mod raw;
 #[cfg(test)]
@@ -70,6 +71,7 @@ mod validate;
 mod view_render;
 
 pub use mesh::{Coordinates, DEFAULT_MESH_COLOR, Mesh, MeshSource, Point, SHAPES};
+use mistake::*;
 pub use model::*;
 use raw::RawScene;
 use validate::Cx;

@@ -483,9 +483,10 @@ impl Scene {
         self.volumes.iter().filter(|v| v.bricked).map(|v| (v.binding(), v.lookup.as_ref())).collect()
     }
 
-    /// The primary volume (validation guarantees exactly one).
-    pub fn primary(&self) -> &Volume {
-        self.volumes.iter().find(|v| v.role.value == Role::Primary).expect("a validated scene has a primary volume")
+    /// The primary volume: validation guarantees exactly one, but a scene built by hand may
+    /// have none.
+    pub fn primary(&self) -> Option<&Volume> {
+        self.volumes.iter().find(|v| v.role.value == Role::Primary)
     }
 
     /// Names of the volumes with `role`, in file order.
@@ -513,28 +514,45 @@ impl Scene {
     pub(super) fn uniform_values_with(&self, r: &Render) -> BTreeMap<String, UniformValue> {
         let mut out: BTreeMap<String, UniformValue> =
             self.uniforms.iter().map(|(k, v)| (k.clone(), v.value.clone())).collect();
-        let float = |x: f32| UniformValue::Float(f64::from(x));
-        if let Some(v) = &r.iso_value {
-            out.insert("iso_value".into(), float(v.value));
-        }
-        if let Some(v) = &r.step_size {
-            out.insert("step_size".into(), float(v.value));
-        }
-        if let Some(v) = &r.jitter {
-            out.insert("jitter".into(), float(v.value));
-        }
-        if let Some(v) = &r.background {
-            out.insert("background".into(), UniformValue::Array(v.value.iter().map(|&c| float(c)).collect()));
-        }
-        if let Some(m) = &r.max_samples {
-            out.insert("max_samples".into(), UniformValue::Int(i64::from(m.value)));
-        }
-        if let Some(v) = &r.exposure {
-            out.insert("exposure".into(), float(v.value));
-        }
-        if let Some(v) = &r.white_point {
-            out.insert("white_point".into(), float(v.value));
+        out.extend(render_uniform_values(r).into_iter().map(|(name, value, _)| (name.to_string(), value)));
+        out
+    }
+
+    /// Every uniform value the scene gives, each with the span of its value: `[uniforms]`, and
+    /// the values of `[render]` and of each view's own `render` table. A value that a view's
+    /// table takes from `[render]` keeps its span there.
+    pub fn placed_uniform_values(&self) -> Vec<(&str, UniformValue, Span)> {
+        let mut out: Vec<(&str, UniformValue, Span)> =
+            self.uniforms.iter().map(|(k, v)| (k.as_str(), v.value.clone(), v.span)).collect();
+        for r in std::iter::once(&self.render).chain(self.views.iter().map(|v| &v.render)) {
+            for value in render_uniform_values(r) {
+                if !out.contains(&value) {
+                    out.push(value);
+                }
+            }
         }
         out
     }
+}
+
+/// The uniform values that `r` sets (`iso_value`, `step_size`, `jitter`, `background`,
+/// `max_samples`, `exposure` and `white_point` when given), each with the span of its value.
+pub fn render_uniform_values(r: &Render) -> Vec<(&'static str, UniformValue, Span)> {
+    let float = |x: f32| UniformValue::Float(f64::from(x));
+    let floats = [
+        ("iso_value", &r.iso_value),
+        ("step_size", &r.step_size),
+        ("jitter", &r.jitter),
+        ("exposure", &r.exposure),
+        ("white_point", &r.white_point),
+    ];
+    let mut out: Vec<_> =
+        floats.into_iter().filter_map(|(n, v)| v.as_ref().map(|v| (n, float(v.value), v.span))).collect();
+    if let Some(v) = &r.background {
+        out.push(("background", UniformValue::Array(v.value.iter().map(|&c| float(c)).collect()), v.span));
+    }
+    if let Some(m) = &r.max_samples {
+        out.push(("max_samples", UniformValue::Int(i64::from(m.value)), m.span));
+    }
+    out
 }

@@ -82,7 +82,7 @@ fn the_spec_example_parses() {
     assert!(scene.render.shading);
     assert_eq!(scene.render.lights.iter().map(|l| l.name.as_str()).collect::<Vec<_>>(), ["key"]);
     assert_eq!(map.snippet(scene.render.lights[0].span), "\"key\"");
-    let t1 = scene.primary();
+    let t1 = scene.primary().expect("a primary volume");
     assert_eq!(t1.name.name, "t1");
     match &t1.source {
         VolumeSource::File(f) => {
@@ -223,7 +223,7 @@ fn unknown_keys_point_at_the_key() {
 fn a_missing_primary_volume_is_an_error() {
     let errs = errors(&EXAMPLE.replace("role = \"primary\"", "role = \"additional\""));
     assert_eq!(errs.len(), 1, "{errs:?}");
-    assert_eq!((errs[0].0, errs[0].1, errs[0].3.as_str()), ("E0702", 8, "the scene has no primary volume"));
+    assert_eq!((errs[0].0, errs[0].1, errs[0].3.as_str()), ("E0705", 8, "the scene has no primary volume"));
 
     let errs = errors(&format!("{MINIMAL}[[volume]]\nname = \"w\"\nrole = \"primary\"\nphantom = \"sphere\"\n"));
     assert_eq!((errs[0].1, errs[0].3.as_str()), (10, "a scene has exactly one primary volume"));
@@ -236,7 +236,7 @@ fn a_missing_primary_volume_is_an_error() {
 fn duplicate_names_are_errors() {
     let errs = errors(&EXAMPLE.replace("name = \"axial\"", "name = \"3d\""));
     assert_eq!(errs.len(), 1, "{errs:?}");
-    assert_eq!((errs[0].0, errs[0].1, errs[0].2), ("E0702", 27, 8));
+    assert_eq!((errs[0].0, errs[0].1, errs[0].2), ("E0712", 27, 8));
     assert_eq!(errs[0].3, "two views are named `3d`");
     let (_, result) = parse(&EXAMPLE.replace("name = \"axial\"", "name = \"3d\""));
     let d = &result.expect_err("invalid").diagnostics[0];
@@ -253,7 +253,7 @@ fn duplicate_names_are_errors() {
 fn bad_enum_values_point_at_the_value() {
     let errs = errors(&EXAMPLE.replace("compositing = \"dvr\"", "compositing = \"dvrr\""));
     assert_eq!(errs.len(), 1, "{errs:?}");
-    assert_eq!((errs[0].0, errs[0].1, errs[0].2), ("E0702", 2, 15));
+    assert_eq!((errs[0].0, errs[0].1, errs[0].2), ("E0715", 2, 15));
     assert_eq!(errs[0].3, "`dvrr` is not one of `dvr`, `mip`, `iso`, `minip`, `average`");
 
     let errs = errors(&EXAMPLE.replace("axis = \"z\"", "axis = \"w\""));
@@ -266,13 +266,13 @@ fn bad_enum_values_point_at_the_value() {
 #[test]
 fn bad_values_and_syntax() {
     let errs = errors(&EXAMPLE.replace("size = [512, 512]", "size = [512, 0]"));
-    assert_eq!((errs[0].0, errs[0].1, errs[0].2), ("E0702", 22, 8));
+    assert_eq!((errs[0].0, errs[0].1, errs[0].2), ("E0708", 22, 8));
 
     let errs = errors(&EXAMPLE.replace("size = [512, 512]", "size = [512]"));
-    assert_eq!((errs[0].0, errs[0].1), ("E0702", 22));
+    assert_eq!((errs[0].0, errs[0].1), ("E0716", 22));
 
     let errs = errors(&EXAMPLE.replace("shading = true", "shading = \"yes\""));
-    assert_eq!((errs[0].0, errs[0].1), ("E0702", 3));
+    assert_eq!((errs[0].0, errs[0].1), ("E0716", 3));
 
     let errs = errors(&EXAMPLE.replace("[render]", "[render"));
     assert_eq!((errs[0].0, errs[0].1), ("E0701", 1));
@@ -299,10 +299,10 @@ fn bad_values_and_syntax() {
     assert_eq!((errs[0].1, errs[0].3.as_str()), (28, "the slice view `axial` needs an `axis`"));
 
     let errs = errors(&EXAMPLE.replace("clip_plane_gm = [1.0, 0.0, 0.0, -0.5]", "clip_plane_gm = \"x\""));
-    assert_eq!((errs[0].0, errs[0].1), ("E0702", 17));
+    assert_eq!((errs[0].0, errs[0].1), ("E0716", 17));
 
     let errs = errors(&EXAMPLE.replace("clip_plane_gm = [1.0, 0.0, 0.0, -0.5]", "clip_plane_gm = [1.0, [0.0]]"));
-    assert_eq!((errs[0].0, errs[0].1, errs[0].2), ("E0702", 17, 17));
+    assert_eq!((errs[0].0, errs[0].1, errs[0].2), ("E0716", 17, 17));
 
     let errs = errors(&EXAMPLE.replace("compositing = \"dvr\"", "compositing = \"iso\""));
     assert_eq!((errs[0].1, errs[0].3.as_str()), (2, "`compositing = \"iso\"` needs an `iso_value`"));
@@ -355,7 +355,9 @@ fn standard_module_paths_and_tf_files() {
         + "modules = [{ path = \"std::tone\" }]\n";
     let (_, result) = parse(&text);
     let scene = result.unwrap_or_else(|e| panic!("{:?}", e.diagnostics));
-    assert!(matches!(&scene.primary().tf, Some(TfRef::File(f)) if f.resolved == Path::new("scenes/tfs/bone.json")));
+    assert!(
+        matches!(&scene.primary().expect("a primary volume").tf, Some(TfRef::File(f)) if f.resolved == Path::new("scenes/tfs/bone.json"))
+    );
     assert!(matches!(&scene.views[0].modules[0].source, ModuleSource::Std(n) if n.value == "tone"));
     let errs = errors(&(MINIMAL.to_string() + "modules = [{ path = \"std::no such\" }]\n"));
     assert_eq!(errs[0].3, "`std::no such` does not name a standard module");
@@ -366,7 +368,13 @@ fn a_volume_window_is_lo_hi_or_level_width_in_data_units() {
     let with = |keys: &str| MINIMAL.replace("phantom = \"sphere\"", &format!("phantom = \"sphere\"\n{keys}"));
     let window = |keys: &str| {
         let (_, result) = parse(&with(keys));
-        result.unwrap_or_else(|e| panic!("{:?}", e.diagnostics)).primary().window.as_ref().map(|w| w.value)
+        result
+            .unwrap_or_else(|e| panic!("{:?}", e.diagnostics))
+            .primary()
+            .expect("a primary volume")
+            .window
+            .as_ref()
+            .map(|w| w.value)
     };
     assert_eq!(window(""), None);
     assert_eq!(window("window = [-1000, 400.5]"), Some([-1000.0, 400.5]));
@@ -445,7 +453,7 @@ fn zarr_keys_choose_what_a_store_shows() {
     let (_, scene, warnings) = parse_reporting(&store);
     let scene = scene.unwrap_or_else(|| panic!("{warnings:?}"));
     assert!(warnings.is_empty(), "{warnings:?}");
-    let v = scene.primary();
+    let v = scene.primary().expect("a primary volume");
     assert!(matches!(&v.source, VolumeSource::Url(u) if u.value == "https://example.org/cells.ome.zarr"));
     assert!(v.bricked, "a remote store is kept in bricks");
     assert_eq!(v.zarr.multiscale.as_ref().map(|m| &m.value), Some(&Entry::Name("raw".into())));
@@ -454,13 +462,13 @@ fn zarr_keys_choose_what_a_store_shows() {
     // On a volume that is no store they do nothing; a negative index is an error.
     let phantom = MINIMAL.replace("phantom = \"sphere\"\n", "phantom = \"sphere\"\nchannel = 1\n");
     let (_, scene, warnings) = parse_reporting(&phantom);
-    assert!(scene.is_some_and(|s| s.primary().zarr.channel.is_none()));
+    assert!(scene.is_some_and(|s| s.primary().is_some_and(|p| p.zarr.channel.is_none())));
     let w: Vec<_> = warnings.iter().map(|d| (d.code.as_str(), d.message.as_str())).collect();
     assert_eq!(w, [("W0701", "`channel` has no effect on a volume that is not a Zarr store")]);
     let negative = store.replace("time = 0", "time = -1");
     let e = errors(&negative);
     assert_eq!(e.len(), 1, "{e:?}");
-    assert_eq!((e[0].0, e[0].3.as_str()), ("E0702", "`time = -1` is negative"));
+    assert_eq!((e[0].0, e[0].3.as_str()), ("E0708", "`time = -1` is negative"));
 }
 
 #[test]
@@ -469,7 +477,7 @@ fn only_http_urls_name_remote_stores() {
         let text = MINIMAL.replace("phantom = \"sphere\"\n", &format!("path = \"{url}\"\n"));
         let e = errors(&text);
         assert_eq!(e.len(), 1, "{e:?}");
-        assert_eq!((e[0].0, e[0].3.clone()), ("E0702", format!("`{scheme}://` stores are not supported")));
+        assert_eq!((e[0].0, e[0].3.clone()), ("E0718", format!("`{scheme}://` stores are not supported")));
     }
     assert!(is_url("http://host/a.zarr") && !is_url("data/a.zarr") && !is_url("C:\\data\\a.zarr"));
 }
@@ -503,7 +511,7 @@ fn a_channel_list_makes_one_volume_per_channel() {
     );
     // As many transfer functions as channels, or one for all.
     let e = errors(&store.replace(", \"vessel_blue\"]", "]"));
-    assert_eq!((e[0].0, e[0].3.as_str()), ("E0702", "2 transfer functions for 3 channels"));
+    assert_eq!((e[0].0, e[0].3.as_str()), ("E0717", "2 transfer functions for 3 channels"));
     let e = errors(&store.replace("channel = [0, 2, \"DAPI\"]", "channel = 1"));
-    assert_eq!((e[0].0, e[0].3.as_str()), ("E0702", "a list of `tf` needs a list of `channel`"));
+    assert_eq!((e[0].0, e[0].3.as_str()), ("E0704", "a list of `tf` needs a list of `channel`"));
 }

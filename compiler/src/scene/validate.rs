@@ -27,12 +27,14 @@ impl Cx<'_> {
         self.range(s.span())
     }
 
-    pub(super) fn emit(&mut self, d: Diagnostic) {
-        self.errors.push(d);
+    /// Reports the mistake `e` at `span`.
+    pub(super) fn report(&mut self, span: Span, e: impl Into<SceneError>) {
+        self.errors.push(e.into().at(span));
     }
 
-    pub(super) fn invalid(&self, span: Span, message: impl Into<String>) -> Diagnostic {
-        Diagnostic::new(Code::SceneInvalid, span, message)
+    /// `value` with its span.
+    pub(super) fn located<T: Copy>(&self, value: &Option<Spanned<T>>) -> Option<Located<T>> {
+        value.as_ref().map(|v| Located { value: *v.get_ref(), span: self.span(v) })
     }
 
     /// A volume's value window from `window`, or from `level` and `width` (never both).
@@ -48,35 +50,28 @@ impl Cx<'_> {
                 let (level, width) = (*l.get_ref(), *w.get_ref());
                 let span = self.span(w);
                 if width.is_nan() || width <= 0.0 {
-                    self.emit(self.invalid(span, format!("the window `width` must be positive, not {width}")));
+                    self.report(span, RenderRange::WindowWidth { width });
                     return None;
                 }
                 Located { value: [level - width / 2.0, level + width / 2.0], span }
             }
             (None, None, None) => return None,
             (Some(w), _, _) => {
-                let d = self.invalid(self.span(w), "a volume has either `window` or `level` and `width`, not both");
-                self.emit(d);
+                self.report(self.span(w), Conflict::WindowAndLevel);
                 return None;
             }
             (None, Some(l), None) => {
-                self.emit(
-                    self.invalid(self.span(l), "`level` needs `width`").with_help("add `width = W` (data units)"),
-                );
+                self.report(self.span(l), Missing::LevelNeedsWidth);
                 return None;
             }
             (None, None, Some(w)) => {
-                self.emit(
-                    self.invalid(self.span(w), "`width` needs `level`").with_help("add `level = L` (data units)"),
-                );
+                self.report(self.span(w), Missing::WidthNeedsLevel);
                 return None;
             }
         };
         let [lo, hi] = located.value;
         if !(lo.is_finite() && hi.is_finite() && lo < hi) {
-            self.emit(
-                self.invalid(located.span, format!("the window [{lo}, {hi}] must have its low end below its high end")),
-            );
+            self.report(located.span, RenderRange::WindowOrder { lo, hi });
             return None;
         }
         Some(located)
@@ -105,12 +100,7 @@ impl Cx<'_> {
             let Some(value) = value else { continue };
             match parse_bytes(value.get_ref()) {
                 Some(bytes) if bytes >= MIN_MEMORY => *out = bytes,
-                _ => {
-                    let d = self
-                        .invalid(self.span(value), format!("`{key}` must be a size of at least 64 MiB"))
-                        .with_label("like \"512 MiB\" or \"2 GiB\"");
-                    self.emit(d);
-                }
+                _ => self.report(self.span(value), SceneError::Memory { key }),
             }
         }
         memory
@@ -138,92 +128,27 @@ impl Cx<'_> {
         Scene { render, volumes, modules, uniforms, views, meshes, memory, dir: self.dir.to_path_buf() }
     }
 
-    /// `[render]`. One check per key, in the table's order; the checks share only the table,
-    /// so they stay in one function that reads like the table.
+    /// `[render]`: each key, or its default, checked in the table's order.
     pub(super) fn render(&mut self, raw: Option<Spanned<RawRender>>) -> Render {
         let (table, r) = match raw {
             Some(r) => (self.span(&r), r.into_inner()),
             None => (Span::new(self.base, self.base), RawRender::default()),
         };
-        let compositing = match &r.compositing {
-            Some(c) => Located { value: *c.get_ref(), span: self.span(c) },
-            None => Located { value: Compositing::Dvr, span: table },
-        };
-        let iso_value = r.iso_value.as_ref().map(|v| Located { value: *v.get_ref(), span: self.span(v) });
-        match (&iso_value, compositing.value) {
-            (None, Compositing::Iso) => {
-                self.emit(
-                    self.invalid(compositing.span, "`compositing = \"iso\"` needs an `iso_value`")
-                        .with_label("iso-surface compositing")
-                        .with_help("add `iso_value = 0.5` (a normalized data value) to [render]"),
-                );
-            }
-            (Some(_), Compositing::Iso) => {}
-            (Some(_), _) => {
-                self.ignored(r.iso_value.as_ref().expect("some"), "iso_value", "unless compositing is \"iso\"")
-            }
-            (None, _) => {}
-        }
-        let iso_value = iso_value.filter(|_| compositing.value == Compositing::Iso);
-        if let Some(v) = &iso_value
-            && !v.value.is_finite()
-        {
-            self.emit(self.invalid(v.span, "`iso_value` must be a finite number"));
-        }
+        let compositing = self.located(&r.compositing).unwrap_or(Located { value: Compositing::Dvr, span: table });
+        let iso_value = self.iso_value(&r.iso_value, &compositing);
         let shading = r.shading.as_ref().is_some_and(|s| *s.get_ref());
-        let lights = match &r.lights {
-            Some(list) if !shading => {
-                self.ignored(list, "lights", "without `shading = true`");
-                Vec::new()
-            }
-            Some(list) => self.names(list.get_ref(), "light"),
-            None if shading => {
-                let span = r.shading.as_ref().map_or(table, |s| self.span(s));
-                vec![Ident { name: DEFAULT_LIGHT.into(), span }]
-            }
-            None => Vec::new(),
-        };
+        let lights = self.lights(&r, shading, table);
         let boundary = r.boundary.as_ref().is_some_and(|b| *b.get_ref());
         let tone = r.tone.as_ref().is_some_and(|t| *t.get_ref());
-        if tone && !shading {
-            let span = self.span(r.tone.as_ref().expect("tone is set"));
-            self.emit(
-                self.invalid(span, "tone shading needs `shading = true`")
-                    .with_label("tone shading modulates the lighting")
-                    .with_help("add `shading = true` to [render]"),
-            );
-        }
-        let step_size = r.step_size.as_ref().map(|s| Located { value: *s.get_ref(), span: self.span(s) });
-        if let Some(s) = &step_size
-            && !(s.value > 0.0 && s.value.is_finite())
+        if let Some(t) = &r.tone
+            && tone
+            && !shading
         {
-            self.emit(
-                self.invalid(s.span, "`step_size` must be a distance greater than 0")
-                    .with_label("millimetres")
-                    .with_note("without `step_size`, rays step half the primary volume's smallest voxel spacing"),
-            );
+            self.report(self.span(t), Missing::ToneNeedsShading);
         }
-        let max_samples = r.max_samples.as_ref().map(|s| Located { value: *s.get_ref(), span: self.span(s) });
-        if let Some(m) = &max_samples
-            && !(1..=MAX_SAMPLES_LIMIT).contains(&m.value)
-        {
-            self.emit(self.invalid(m.span, format!("`max_samples` must be between 1 and {MAX_SAMPLES_LIMIT}")));
-        }
-        let jitter = r.jitter.as_ref().map(|s| Located { value: *s.get_ref(), span: self.span(s) });
-        if let Some(j) = &jitter
-            && !(0.0..=1.0).contains(&j.value)
-        {
-            self.emit(self.invalid(j.span, "`jitter` must be between 0 (off) and 1 (up to one step)"));
-        }
-        let background = r.background.as_ref().map(|s| Located { value: *s.get_ref(), span: self.span(s) });
-        if let Some(b) = &background
-            && !b.value.iter().all(|c| (0.0..=1.0).contains(c))
-        {
-            self.emit(
-                self.invalid(b.span, "`background` components must be between 0 and 1")
-                    .with_label("premultiplied RGBA"),
-            );
-        }
+        let (step_size, max_samples) = (self.located(&r.step_size), self.located(&r.max_samples));
+        let (jitter, background) = (self.located(&r.jitter), self.located(&r.background));
+        self.check_sampling(&step_size, &max_samples, &jitter, &background);
         let light = self.light_settings(&r, compositing.value, shading, lights.is_empty());
         // On by default wherever skipping is exact; MinIP and average read every sample: they
         // never skip.
@@ -250,57 +175,130 @@ impl Cx<'_> {
         }
     }
 
+    /// `iso_value`: needed by iso-surface compositing, ignored by the others.
+    fn iso_value(&mut self, raw: &Option<Spanned<f32>>, compositing: &Located<Compositing>) -> Option<Located<f32>> {
+        let iso = compositing.value == Compositing::Iso;
+        let Some(value) = raw else {
+            if iso {
+                self.report(compositing.span, Missing::IsoValue);
+            }
+            return None;
+        };
+        if !iso {
+            self.ignored(value, "iso_value", "unless compositing is \"iso\"");
+            return None;
+        }
+        let located = Located { value: *value.get_ref(), span: self.span(value) };
+        if !located.value.is_finite() {
+            self.report(located.span, RenderRange::IsoValue);
+        }
+        Some(located)
+    }
+
+    /// `lights`: the named lights with shading (the key light when none are named), none
+    /// without.
+    fn lights(&mut self, r: &RawRender, shading: bool, table: Span) -> Vec<Ident> {
+        match &r.lights {
+            Some(list) if !shading => {
+                self.ignored(list, "lights", "without `shading = true`");
+                Vec::new()
+            }
+            Some(list) => self.names(list.get_ref(), "light"),
+            None if shading => {
+                let span = r.shading.as_ref().map_or(table, |s| self.span(s));
+                vec![Ident { name: DEFAULT_LIGHT.into(), span }]
+            }
+            None => Vec::new(),
+        }
+    }
+
+    /// The ranges of the sampling keys: `step_size`, `max_samples`, `jitter`, `background`.
+    fn check_sampling(
+        &mut self,
+        step_size: &Option<Located<f32>>,
+        max_samples: &Option<Located<u32>>,
+        jitter: &Option<Located<f32>>,
+        background: &Option<Located<[f32; 4]>>,
+    ) {
+        if let Some(s) = step_size
+            && !(s.value > 0.0 && s.value.is_finite())
+        {
+            self.report(s.span, RenderRange::StepSize);
+        }
+        if let Some(m) = max_samples
+            && !(1..=MAX_SAMPLES_LIMIT).contains(&m.value)
+        {
+            self.report(m.span, RenderRange::MaxSamples);
+        }
+        if let Some(j) = jitter
+            && !(0.0..=1.0).contains(&j.value)
+        {
+            self.report(j.span, RenderRange::Jitter);
+        }
+        if let Some(b) = background
+            && !b.value.iter().all(|c| (0.0..=1.0).contains(c))
+        {
+            self.report(b.span, RenderRange::Background);
+        }
+    }
+
     /// The keys of light transport: tone mapping and its values, pre-integration, shadows.
     fn light_settings(&mut self, r: &RawRender, compositing: Compositing, shading: bool, no_lights: bool) -> Light {
         let tone_mapping = r.tone_mapping.as_ref().map_or(ToneMapping::Off, |t| *t.get_ref());
-        let located =
-            |v: &Option<Spanned<f32>>, cx: &Self| v.as_ref().map(|s| Located { value: *s.get_ref(), span: cx.span(s) });
-        let mut exposure = located(&r.exposure, self);
+        let mut exposure = self.located(&r.exposure);
         if let Some(e) = &exposure {
             if tone_mapping == ToneMapping::Off {
                 self.ignored_at(e.span, "exposure", "without `tone_mapping`");
                 exposure = None;
             } else if !e.value.is_finite() {
-                self.emit(self.invalid(e.span, "`exposure` must be a finite number of stops"));
+                self.report(e.span, RenderRange::Exposure);
             }
         }
-        let mut auto_exposure = r.auto_exposure.as_ref().is_some_and(|a| *a.get_ref());
-        if auto_exposure && tone_mapping == ToneMapping::Off {
-            self.ignored(r.auto_exposure.as_ref().expect("set"), "auto_exposure", "without `tone_mapping`");
-            auto_exposure = false;
+        let mut auto_exposure = false;
+        if let Some(a) = &r.auto_exposure
+            && *a.get_ref()
+        {
+            match tone_mapping {
+                ToneMapping::Off => self.ignored(a, "auto_exposure", "without `tone_mapping`"),
+                _ => auto_exposure = true,
+            }
         }
-        let mut white_point = located(&r.white_point, self);
+        let mut white_point = self.located(&r.white_point);
         if let Some(w) = &white_point {
             if tone_mapping != ToneMapping::Reinhard {
                 self.ignored_at(w.span, "white_point", "unless `tone_mapping = \"reinhard\"`");
                 white_point = None;
             } else if !(w.value > 0.0 && w.value.is_finite()) {
-                self.emit(
-                    self.invalid(w.span, "`white_point` must be a radiance greater than 0")
-                        .with_label("the smallest radiance shown as white"),
-                );
+                self.report(w.span, RenderRange::WhitePoint);
             }
         }
-        let mut preintegration = r.preintegration.as_ref().is_some_and(|p| *p.get_ref());
-        if preintegration && compositing != Compositing::Dvr {
-            self.ignored(r.preintegration.as_ref().expect("set"), "preintegration", "unless compositing is \"dvr\"");
-            preintegration = false;
-        }
-        let mut shadows = r.shadows.as_ref().map_or(Shadows::Off, |s| *s.get_ref());
-        if shadows != Shadows::Off {
-            let span = self.span(r.shadows.as_ref().expect("set"));
-            if !shading {
-                self.emit(
-                    self.invalid(span, "shadows need `shading = true`")
-                        .with_label("shadows attenuate the lights")
-                        .with_help("add `shading = true` to [render]"),
-                );
-            } else if no_lights {
-                self.ignored_at(span, "shadows", "without lights");
-                shadows = Shadows::Off;
+        let mut preintegration = false;
+        if let Some(p) = &r.preintegration
+            && *p.get_ref()
+        {
+            match compositing {
+                Compositing::Dvr => preintegration = true,
+                _ => self.ignored(p, "preintegration", "unless compositing is \"dvr\""),
             }
         }
+        let shadows = self.shadows(&r.shadows, shading, no_lights);
         Light { tone_mapping, exposure, auto_exposure, white_point, preintegration, shadows }
+    }
+
+    /// `shadows`: they need shading, and have no effect without lights.
+    fn shadows(&mut self, raw: &Option<Spanned<Shadows>>, shading: bool, no_lights: bool) -> Shadows {
+        let Some(s) = raw else { return Shadows::Off };
+        let (shadows, span) = (*s.get_ref(), self.span(s));
+        if shadows == Shadows::Off {
+            return shadows;
+        }
+        if !shading {
+            self.report(span, Missing::ShadowsNeedShading);
+        } else if no_lights {
+            self.ignored_at(span, "shadows", "without lights");
+            return Shadows::Off;
+        }
+        shadows
     }
 
     /// Checks a list of instance-like names: identifiers, not keywords, no duplicates.
@@ -313,12 +311,7 @@ impl Cx<'_> {
                 continue;
             }
             if let Some(earlier) = out.iter().find(|i| i.name == name) {
-                let earlier = earlier.span;
-                self.emit(
-                    Diagnostic::new(Code::InvalidInstance, span, format!("the {what} `{name}` is listed twice"))
-                        .with_label("again here")
-                        .with_secondary(earlier, "first here"),
-                );
+                self.report(span, Twice::Listed { what: what.to_string(), name, first: earlier.span });
                 continue;
             }
             out.push(Ident { name, span });
@@ -327,196 +320,168 @@ impl Cx<'_> {
     }
 
     /// Reports a name that is not an identifier or is a keyword; returns whether it is fine.
-    /// Instance names (volumes, lights, module instances) report E0607, other names E0702.
+    /// Instance names (volumes, lights, meshes, module instances) report E0607, uniforms E0711.
     pub(super) fn check_name(&mut self, name: &str, span: Span, what: &str) -> bool {
-        let code = if what == "uniform" { Code::SceneInvalid } else { Code::InvalidInstance };
-        if !is_identifier(name) {
-            self.emit(
-                Diagnostic::new(code, span, format!("the {what} name `{name}` is not an identifier"))
-                    .with_label("not an identifier")
-                    .with_note("names are letters, digits and `_`, and do not start with a digit"),
-            );
+        let (what, name) = (what.to_string(), name.to_string());
+        if !is_identifier(&name) {
+            self.report(span, BadName::NotIdentifier { what, name });
             false
-        } else if crate::lexer::is_keyword(name) {
-            self.emit(
-                Diagnostic::new(code, span, format!("the {what} name `{name}` is a VRS keyword"))
-                    .with_label("a keyword")
-                    .with_help("choose another name"),
-            );
+        } else if crate::lexer::is_keyword(&name) {
+            self.report(span, BadName::Keyword { what, name });
             false
         } else {
             true
         }
     }
 
-    /// `[[volume]]` tables. One check per key, in the table's order, as for [`Self::render`].
+    /// `[[volume]]` tables: each key, or its default, checked in the table's order.
     pub(super) fn volumes(&mut self, raw: Vec<Spanned<RawVolume>>, memory: &Memory) -> Vec<Volume> {
         let mut out: Vec<Volume> = Vec::new();
         for v in raw {
             let span = self.span(&v);
             let v = v.into_inner();
             let name = Ident { name: v.name.get_ref().clone(), span: self.span(&v.name) };
-            let name_ok = self.check_name(&name.name, name.span, "volume");
-            if name_ok && let Some(earlier) = out.iter().find(|o| o.name.name == name.name) {
-                let earlier = earlier.name.span;
-                self.emit(
-                    Diagnostic::new(Code::InvalidInstance, name.span, format!("two volumes are named `{}`", name.name))
-                        .with_label("second volume with this name")
-                        .with_secondary(earlier, "first here"),
-                );
+            if self.check_name(&name.name, name.span, "volume") {
+                self.check_unique_name(&out, &name, "second volume with this name");
             }
-            let role = Located { value: *v.role.get_ref(), span: self.span(&v.role) };
-            if role.value == Role::Primary
-                && let Some(first) = out.iter().find(|o| o.role.value == Role::Primary)
-            {
-                let first = first.role.span;
-                self.emit(
-                    self.invalid(role.span, "a scene has exactly one primary volume")
-                        .with_label("a second primary volume")
-                        .with_secondary(first, "the primary volume")
-                        .with_help("make this one `role = \"additional\"`"),
-                );
-            }
-            let source = match (v.path, v.phantom) {
-                (Some(path), None) => self.volume_path(&path),
-                (None, Some(p)) => {
-                    let span = self.span(&p);
-                    if !is_identifier(p.get_ref()) {
-                        self.emit(
-                            self.invalid(span, format!("the phantom name `{}` is not an identifier", p.get_ref())),
-                        );
-                    }
-                    VolumeSource::Phantom(Located { value: p.into_inner(), span })
-                }
-                (Some(path), Some(p)) => {
-                    let span = self.span(&p);
-                    self.emit(
-                        self.invalid(span, "a volume has either `path` or `phantom`, not both")
-                            .with_label("second source")
-                            .with_secondary(self.span(&path), "the volume's file"),
-                    );
-                    VolumeSource::File(self.file_ref(&path, "path"))
-                }
-                (None, None) => {
-                    self.emit(
-                        self.invalid(name.span, format!("the volume `{}` has no data", name.name))
-                            .with_label("neither `path` nor `phantom`")
-                            .with_help("add `path = \"FILE\"` (relative to the scene) or `phantom = \"NAME\"`"),
-                    );
-                    VolumeSource::Phantom(Located { value: String::new(), span })
-                }
-            };
-            let fallback = match (v.fallback, &source) {
-                (Some(f), VolumeSource::Phantom(_)) => {
-                    self.ignored(&f, "fallback", "on a volume that is a phantom");
-                    None
-                }
-                (Some(f), VolumeSource::Url(_)) => {
-                    self.ignored(&f, "fallback", "on a remote store (an unreachable server is an error)");
-                    None
-                }
-                (Some(f), _) => {
-                    let span = self.span(&f);
-                    if !is_identifier(f.get_ref()) {
-                        self.emit(
-                            self.invalid(span, format!("the phantom name `{}` is not an identifier", f.get_ref())),
-                        );
-                    }
-                    Some(Located { value: f.into_inner(), span })
-                }
-                (None, _) => None,
-            };
-            // One transfer function, or one per channel of a channel list (see `channels`).
-            let (tf_one, tf_list) = match &v.tf {
-                Some(tf) => match tf.get_ref() {
-                    RawTf::One(t) => (Some(Spanned::new(tf.span(), t.clone())), None),
-                    RawTf::Many(list) => {
-                        let span = tf.span();
-                        let first = list.first().map(|t| Spanned::new(span.clone(), t.clone()));
-                        (first, Some((list.clone(), span)))
-                    }
-                },
-                None => (None, None),
-            };
-            let tf = match (&tf_one, role.value) {
-                (Some(tf), Role::Mask) => {
-                    self.ignored(tf, "tf", "on a mask volume");
-                    None
-                }
-                (Some(tf), _) => Some(self.tf_ref(tf)),
-                (None, Role::Mask) => None,
-                (None, Role::Tag) => Some(TfRef::Preset(Located { value: DEFAULT_TAG_TF.into(), span: Span::DUMMY })),
-                (None, _) => Some(TfRef::Preset(Located { value: DEFAULT_TF.into(), span: Span::DUMMY })),
-            };
+            let role = self.role(&v.role, &out);
+            let source = self.volume_source(v.path, v.phantom, &name, span);
+            let fallback = self.fallback(v.fallback, &source);
+            let (tf_one, tf_list) = split_tf(v.tf);
+            let tf = self.volume_tf(tf_one.as_ref(), role.value);
             let window = self.window(&v.window, &v.level, &v.width);
-            let bricks = v.bricks.as_ref().map(|b| Located { value: *b.get_ref(), span: self.span(b) });
+            let bricks = self.located(&v.bricks);
             let bricked = bricks.as_ref().map_or_else(|| outgrows_a_texture(&source, memory), |b| b.value);
-            let lookup = match &v.lookup {
-                Some(path) if !bricked => {
-                    self.ignored(
-                        path,
-                        "lookup",
-                        "on a volume kept in one texture (`bricks = true` keeps it in bricks)",
-                    );
-                    None
-                }
-                Some(path) => Some(self.file_ref(path, "lookup")),
-                None => None,
-            };
-            let (channel, channels) = match v.channel {
-                Some(c) => {
-                    let span = c.span();
-                    match c.into_inner() {
-                        RawChannels::One(e) => (Some(Spanned::new(span, e)), None),
-                        RawChannels::Many(list) => (None, Some((list, span))),
-                    }
-                }
-                None => (None, None),
-            };
+            let lookup = self.lookup(v.lookup.as_ref(), bricked);
+            let (channel, channels) = split_channels(v.channel);
             let zarr = self.zarr_keys(&source, v.multiscale, channel, v.time);
             let volume = Volume { name, role, source, fallback, tf, window, bricks, bricked, lookup, zarr, span };
-            match channels {
-                Some((_, list_span)) if !is_store(&volume.source) => {
-                    let span = self.range(list_span);
-                    self.ignored_at(span, "channel", "on a volume that is not a Zarr store");
-                    out.push(volume);
-                }
-                Some((list, list_span)) => {
-                    for each in self.channels(volume, list, list_span, tf_list) {
-                        self.check_unique_name(&out, &each);
-                        out.push(each);
-                    }
-                }
-                None => {
-                    if let Some((_, tf_span)) = tf_list {
-                        let span = self.range(tf_span);
-                        self.emit(
-                            self.invalid(span, "a list of `tf` needs a list of `channel`")
-                                .with_label("one per channel"),
-                        );
-                    }
-                    out.push(volume);
-                }
-            }
+            self.push_volume(&mut out, volume, channels, tf_list);
         }
         if !out.iter().any(|v| v.role.value == Role::Primary) {
             let span = out.first().map_or(Span::new(self.base, self.base), |v| v.role.span);
-            let mut d = self
-                .invalid(span, "the scene has no primary volume")
-                .with_help("give one [[volume]] `role = \"primary\"`: it defines the coordinates the rays march in");
-            if out.is_empty() {
-                d.label = "no [[volume]] tables".into();
-            }
-            self.emit(d);
+            self.report(span, NoTable::Primary { no_volumes: out.is_empty() });
         }
         out
+    }
+
+    /// A volume's `role`: one volume is primary.
+    fn role(&mut self, raw: &Spanned<Role>, earlier: &[Volume]) -> Located<Role> {
+        let role = Located { value: *raw.get_ref(), span: self.span(raw) };
+        if role.value == Role::Primary
+            && let Some(first) = earlier.iter().find(|o| o.role.value == Role::Primary)
+        {
+            self.report(role.span, SceneError::SecondPrimary { first: first.role.span });
+        }
+        role
+    }
+
+    /// A volume's data: `path` or `phantom`.
+    fn volume_source(
+        &mut self,
+        path: Option<Spanned<String>>,
+        phantom: Option<Spanned<String>>,
+        name: &Ident,
+        table: Span,
+    ) -> VolumeSource {
+        match (path, phantom) {
+            (Some(path), None) => self.volume_path(&path),
+            (None, Some(p)) => VolumeSource::Phantom(self.phantom_name(p)),
+            (Some(path), Some(p)) => {
+                self.report(self.span(&p), Conflict::PathAndPhantom { path: self.span(&path) });
+                VolumeSource::File(self.file_ref(&path, "path"))
+            }
+            (None, None) => {
+                self.report(name.span, Missing::VolumeData { volume: name.name.clone() });
+                VolumeSource::Phantom(Located { value: String::new(), span: table })
+            }
+        }
+    }
+
+    /// A phantom's name (`phantom` or `fallback`): an identifier.
+    fn phantom_name(&mut self, raw: Spanned<String>) -> Located<String> {
+        let span = self.span(&raw);
+        if !is_identifier(raw.get_ref()) {
+            self.report(span, BadName::Phantom { name: raw.get_ref().clone() });
+        }
+        Located { value: raw.into_inner(), span }
+    }
+
+    /// A volume's `fallback` phantom, for a file that is missing.
+    fn fallback(&mut self, raw: Option<Spanned<String>>, source: &VolumeSource) -> Option<Located<String>> {
+        let f = raw?;
+        match source {
+            VolumeSource::Phantom(_) => self.ignored(&f, "fallback", "on a volume that is a phantom"),
+            VolumeSource::Url(_) => {
+                self.ignored(&f, "fallback", "on a remote store (an unreachable server is an error)")
+            }
+            VolumeSource::File(_) => return Some(self.phantom_name(f)),
+        }
+        None
+    }
+
+    /// A volume's transfer function: its own, or the default of its role (none for a mask).
+    fn volume_tf(&mut self, tf: Option<&Spanned<String>>, role: Role) -> Option<TfRef> {
+        match (tf, role) {
+            (Some(tf), Role::Mask) => {
+                self.ignored(tf, "tf", "on a mask volume");
+                None
+            }
+            (Some(tf), _) => Some(self.tf_ref(tf)),
+            (None, Role::Mask) => None,
+            (None, Role::Tag) => Some(TfRef::Preset(Located { value: DEFAULT_TAG_TF.into(), span: Span::DUMMY })),
+            (None, _) => Some(TfRef::Preset(Located { value: DEFAULT_TF.into(), span: Span::DUMMY })),
+        }
+    }
+
+    /// A volume's own `lookup`, for a bricked volume.
+    fn lookup(&mut self, raw: Option<&Spanned<String>>, bricked: bool) -> Option<FileRef> {
+        let path = raw?;
+        if !bricked {
+            self.ignored(path, "lookup", "on a volume kept in one texture (`bricks = true` keeps it in bricks)");
+            return None;
+        }
+        Some(self.file_ref(path, "lookup"))
+    }
+
+    /// Adds `volume` to `out`, or one volume per channel for a channel list.
+    fn push_volume(
+        &mut self,
+        out: &mut Vec<Volume>,
+        volume: Volume,
+        channels: Option<ChannelList>,
+        tfs: Option<TfList>,
+    ) {
+        match channels {
+            Some((_, list_span)) if !is_store(&volume.source) => {
+                let span = self.range(list_span);
+                self.ignored_at(span, "channel", "on a volume that is not a Zarr store");
+                out.push(volume);
+            }
+            Some((list, list_span)) => {
+                for each in self.channels(volume, list, list_span, tfs) {
+                    self.check_unique_name(
+                        out,
+                        &each.name,
+                        "a channel's volume, named after the table and the channel's place",
+                    );
+                    out.push(each);
+                }
+            }
+            None => {
+                if let Some((_, tf_span)) = tfs {
+                    self.report(self.range(tf_span), Missing::TfListNeedsChannels);
+                }
+                out.push(volume);
+            }
+        }
     }
 
     pub(super) fn tf_ref(&mut self, tf: &Spanned<String>) -> TfRef {
         let span = self.span(tf);
         let value = tf.get_ref();
         if value.is_empty() {
-            self.emit(self.invalid(span, "an empty `tf`").with_help("name a preset such as `grayscale`, or a file"));
+            self.report(span, Empty::Tf);
         }
         if is_identifier(value) || value.is_empty() {
             TfRef::Preset(Located { value: value.clone(), span })
@@ -535,11 +500,7 @@ impl Cx<'_> {
         let span = self.span(path);
         let scheme = given.split_once("://").map_or("", |(s, _)| s).to_ascii_lowercase();
         if scheme != "http" && scheme != "https" {
-            self.emit(
-                self.invalid(span, format!("`{scheme}://` stores are not supported"))
-                    .with_label("not an HTTP(S) URL")
-                    .with_help("a remote Zarr store is read over `https://` or `http://` (an S3 or GCS bucket by its HTTPS address)"),
-            );
+            self.report(span, SceneError::UrlScheme { scheme });
         }
         VolumeSource::Url(Located { value: given.clone(), span })
     }
@@ -552,23 +513,19 @@ impl Cx<'_> {
         &mut self,
         volume: Volume,
         list: Vec<RawEntry>,
-        list_span: std::ops::Range<usize>,
-        tfs: Option<(Vec<String>, std::ops::Range<usize>)>,
+        list_span: Range<usize>,
+        tfs: Option<TfList>,
     ) -> Vec<Volume> {
         let span = self.range(list_span.clone());
         if list.is_empty() {
-            self.emit(self.invalid(span, "an empty `channel` list").with_label("name at least one channel"));
+            self.report(span, Empty::Channels);
             return vec![volume];
         }
         if let Some((tfs, tf_span)) = &tfs
             && tfs.len() != list.len()
         {
             let tf_span = self.range(tf_span.clone());
-            self.emit(
-                self.invalid(tf_span, format!("{} transfer functions for {} channels", tfs.len(), list.len()))
-                    .with_label("one per channel")
-                    .with_secondary(span, "the channels"),
-            );
+            self.report(tf_span, SceneError::TfCount { tfs: tfs.len(), channels: list.len(), list: span });
         }
         let mut out = Vec::with_capacity(list.len());
         for (i, entry) in list.into_iter().enumerate() {
@@ -592,19 +549,10 @@ impl Cx<'_> {
         out
     }
 
-    /// E0702 when a volume made from a channel list takes the name of an earlier one.
-    fn check_unique_name(&mut self, earlier: &[Volume], volume: &Volume) {
-        if let Some(first) = earlier.iter().find(|o| o.name.name == volume.name.name) {
-            let first = first.name.span;
-            self.emit(
-                Diagnostic::new(
-                    Code::InvalidInstance,
-                    volume.name.span,
-                    format!("two volumes are named `{}`", volume.name.name),
-                )
-                .with_label("a channel's volume, named after the table and the channel's place")
-                .with_secondary(first, "first here"),
-            );
+    /// E0607 when a volume takes the name of an earlier one (`label` says how it got it).
+    fn check_unique_name(&mut self, earlier: &[Volume], name: &Ident, label: &'static str) {
+        if let Some(first) = earlier.iter().find(|o| o.name.name == name.name) {
+            self.report(name.span, Twice::VolumeNamed { name: name.name.clone(), first: first.name.span, label });
         }
     }
 
@@ -626,7 +574,7 @@ impl Cx<'_> {
             }
             match value.into_inner() {
                 RawEntry::Index(i) if i < 0 => {
-                    cx.emit(cx.invalid(span, format!("`{key} = {i}` is negative")).with_label("an index from 0"));
+                    cx.report(span, RenderRange::NegativeIndex { key: key.to_string(), index: i });
                     None
                 }
                 RawEntry::Index(i) => Some(Located { value: Entry::Index(i as u64), span }),
@@ -647,7 +595,7 @@ impl Cx<'_> {
         let span = self.span(path);
         let given = path.get_ref().clone();
         if given.trim().is_empty() {
-            self.emit(self.invalid(span, format!("an empty `{key}`")).with_label("a path is needed here"));
+            self.report(span, Empty::Path { key: key.to_string() });
         }
         let resolved = self.dir.join(&given);
         FileRef { given, resolved, span }
@@ -660,10 +608,7 @@ impl Cx<'_> {
         let source = match m.path.get_ref().strip_prefix("std::") {
             Some(name) => {
                 if !is_identifier(name) {
-                    self.emit(
-                        self.invalid(path_span, format!("`std::{name}` does not name a standard module"))
-                            .with_note("standard modules are `std::NAME`, NAME an identifier (see stdlib/README.md)"),
-                    );
+                    self.report(path_span, BadName::StdModule { name: name.to_string() });
                 }
                 ModuleSource::Std(Located { value: name.to_string(), span: path_span })
             }
@@ -671,11 +616,7 @@ impl Cx<'_> {
         };
         let instances = m.instances.map(|list| {
             if list.get_ref().is_empty() {
-                self.emit(
-                    self.invalid(self.span(&list), "an empty `instances` list")
-                        .with_label("instantiates nothing")
-                        .with_help("list instance names, or leave `instances` out for a plain module"),
-                );
+                self.report(self.span(&list), Empty::Instances);
             }
             self.names(list.get_ref(), "instance")
         });
@@ -706,18 +647,13 @@ impl Cx<'_> {
                     _ => render.background.as_ref().map(|v| v.span),
                 };
                 if let Some(earlier) = set_in_render {
-                    self.emit(
-                        self.invalid(name_span, format!("`{name}` is set both in [render] and in [uniforms]"))
-                            .with_label("set again here")
-                            .with_secondary(earlier, "set in [render]")
-                            .with_help("keep one of them"),
-                    );
+                    self.report(name_span, Conflict::RenderAndUniforms { name, render: earlier });
                     continue;
                 }
             }
             let value = value.into_inner();
             if let Some(problem) = value.problem(0) {
-                self.emit(self.invalid(span, format!("invalid value for the uniform `{name}`: {problem}")));
+                self.report(span, WrongType::Uniform { name, problem });
                 continue;
             }
             out.insert(name, UniformSetting { value, name_span, span });
@@ -725,7 +661,8 @@ impl Cx<'_> {
         out
     }
 
-    /// `[[view]]` tables. One check per key, in the table's order, as for [`Self::render`].
+    /// `[[view]]` tables: each key, or its default, checked in the table's order; `planes` last,
+    /// as they name other views.
     pub(super) fn views(
         &mut self,
         raw: Vec<Spanned<RawView>>,
@@ -734,141 +671,45 @@ impl Cx<'_> {
         meshes: &[Mesh],
     ) -> Vec<View> {
         if raw.is_empty() {
-            self.emit(
-                self.invalid(Span::new(self.base, self.base), "the scene has no [[view]]")
-                    .with_label("nothing to render")
-                    .with_help("add a view: `[[view]]`, `name = \"3d\"`, `kind = \"raycast\"`"),
-            );
+            self.report(Span::new(self.base, self.base), NoTable::View);
         }
         let mut out: Vec<View> = Vec::new();
         let mut planes = Vec::new();
         for v in raw {
             let span = self.span(&v);
             let v = v.into_inner();
-            let name = Ident { name: v.name.get_ref().clone(), span: self.span(&v.name) };
-            let name_ok = is_view_name(&name.name);
-            if !name_ok {
-                self.emit(
-                    self.invalid(name.span, format!("the view name `{}` is not a plain file name", name.name))
-                        .with_label("letters, digits, `_` and `-` only")
-                        .with_note("a view's name names its output files (`NAME.wgsl`, `NAME.png`)"),
-                );
-            }
-            if name_ok && let Some(earlier) = out.iter().find(|o| o.name.name == name.name) {
-                let earlier = earlier.name.span;
-                self.emit(
-                    self.invalid(name.span, format!("two views are named `{}`", name.name))
-                        .with_label("second view with this name")
-                        .with_secondary(earlier, "first here")
-                        .with_note("a view's name names its output files (`NAME.wgsl`, `NAME.png`)"),
-                );
-            }
-            let kind = match &v.kind {
-                Some(k) => Located { value: *k.get_ref(), span: self.span(k) },
-                None => Located { value: ViewKind::Raycast, span: name.span },
-            };
-            let size = match &v.size {
-                Some(s) => {
-                    let [w, h] = *s.get_ref();
-                    if !(1..=MAX_VIEW_SIZE).contains(&w) || !(1..=MAX_VIEW_SIZE).contains(&h) {
-                        self.emit(
-                            self.invalid(
-                                self.span(s),
-                                format!("a view's width and height must be 1 to {MAX_VIEW_SIZE}"),
-                            )
-                            .with_label(format!("{w} x {h} pixels")),
-                        );
-                    }
-                    [w, h]
-                }
-                None => DEFAULT_VIEW_SIZE,
-            };
-            let mut camera = DEFAULT_CAMERA;
-            let mut axis = None;
-            let mut position = DEFAULT_SLICE_POSITION;
-            let mut slab = 0.0;
-            let mut convention = Convention::default();
-            match kind.value {
-                ViewKind::Raycast => {
-                    if let Some(c) = &v.camera {
-                        camera = self.camera(c.get_ref());
-                    }
-                    let slice_keys = [
-                        (v.axis.as_ref().map(|a| a.span()), "axis"),
-                        (v.position.as_ref().map(|p| p.span()), "position"),
-                        (v.slab.as_ref().map(|s| s.span()), "slab"),
-                        (v.convention.as_ref().map(|c| c.span()), "convention"),
-                    ];
-                    for (range, key) in slice_keys {
-                        if let Some(r) = range {
-                            let span = self.range(r);
-                            self.ignored_at(span, key, "on a raycast view");
-                        }
-                    }
-                }
-                ViewKind::Slice => {
-                    if let Some(c) = &v.camera {
-                        self.ignored(c, "camera", "on a slice view");
-                    }
-                    match &v.axis {
-                        Some(a) => axis = Some(Located { value: *a.get_ref(), span: self.span(a) }),
-                        None => {
-                            self.emit(
-                                self.invalid(kind.span, format!("the slice view `{}` needs an `axis`", name.name))
-                                    .with_label("a slice view")
-                                    .with_help("add `axis = \"axial\"` (axial, coronal or sagittal: the plane's orientation in the patient)"),
-                            );
-                        }
-                    }
-                    if let Some(p) = &v.position {
-                        position = *p.get_ref();
-                        if !(0.0..=1.0).contains(&position) {
-                            self.emit(
-                                self.invalid(self.span(p), "a slice `position` must be between 0 and 1")
-                                    .with_label("normalized along the axis"),
-                            );
-                        }
-                    }
-                    if let Some(s) = &v.slab {
-                        slab = *s.get_ref();
-                        if !(slab >= 0.0 && slab.is_finite()) {
-                            self.emit(
-                                self.invalid(self.span(s), "a `slab` thickness must be 0 or more")
-                                    .with_label("millimetres"),
-                            );
-                        }
-                    }
-                    if let Some(c) = &v.convention {
-                        convention = *c.get_ref();
-                    }
-                }
-            }
-            let modules = v.modules.into_iter().map(|m| self.module(m)).collect();
-            let render = match &v.render {
-                Some(own) => self.view_render(shared, own),
-                None => render.clone(),
-            };
-            let overlay = match &v.overlay {
-                Some(list) => self.view_meshes(Some(list), meshes),
-                None => Vec::new(),
-            };
-            let meshes = self.view_meshes(v.meshes.as_ref(), meshes);
-            out.push(View {
+            let name = self.view_name(&v.name, &out);
+            let kind = self.located(&v.kind).unwrap_or(Located { value: ViewKind::Raycast, span: name.span });
+            let size = self.view_size(&v.size);
+            let mut view = View {
                 name,
                 kind,
                 size,
-                camera,
-                axis,
-                position,
-                slab,
-                convention,
-                render,
-                modules,
-                meshes,
-                overlay,
+                camera: DEFAULT_CAMERA,
+                axis: None,
+                position: DEFAULT_SLICE_POSITION,
+                slab: 0.0,
+                convention: Convention::default(),
+                render: match &v.render {
+                    Some(own) => self.view_render(shared, own),
+                    None => render.clone(),
+                },
+                modules: Vec::new(),
+                meshes: Vec::new(),
+                overlay: Vec::new(),
                 planes: Vec::new(),
                 span,
-            });
+            };
+            match view.kind.value {
+                ViewKind::Raycast => self.raycast_keys(&v, &mut view),
+                ViewKind::Slice => self.slice_keys(&v, &mut view),
+            }
+            if let Some(list) = &v.overlay {
+                view.overlay = self.view_meshes(Some(list), meshes);
+            }
+            view.meshes = self.view_meshes(v.meshes.as_ref(), meshes);
+            view.modules = v.modules.into_iter().map(|m| self.module(m)).collect();
+            out.push(view);
             planes.push(v.planes);
         }
         for (i, list) in planes.into_iter().enumerate() {
@@ -878,6 +719,73 @@ impl Cx<'_> {
             }
         }
         out
+    }
+
+    /// A view's `name`: a plain file name, given to one view only.
+    fn view_name(&mut self, raw: &Spanned<String>, earlier: &[View]) -> Ident {
+        let name = Ident { name: raw.get_ref().clone(), span: self.span(raw) };
+        if !is_view_name(&name.name) {
+            self.report(name.span, BadName::View { name: name.name.clone() });
+        } else if let Some(first) = earlier.iter().find(|o| o.name.name == name.name) {
+            self.report(name.span, Twice::ViewNamed { name: name.name.clone(), first: first.name.span });
+        }
+        name
+    }
+
+    /// A view's `size`, within what every device holds.
+    fn view_size(&mut self, raw: &Option<Spanned<[u32; 2]>>) -> [u32; 2] {
+        let Some(s) = raw else { return DEFAULT_VIEW_SIZE };
+        let [width, height] = *s.get_ref();
+        if !(1..=MAX_VIEW_SIZE).contains(&width) || !(1..=MAX_VIEW_SIZE).contains(&height) {
+            self.report(self.span(s), ViewRange::ViewSize { width, height });
+        }
+        [width, height]
+    }
+
+    /// A raycast view's `camera`; the keys of slice views have no effect on it.
+    fn raycast_keys(&mut self, v: &RawView, view: &mut View) {
+        if let Some(c) = &v.camera {
+            view.camera = self.camera(c.get_ref());
+        }
+        let slice_keys = [
+            (v.axis.as_ref().map(Spanned::span), "axis"),
+            (v.position.as_ref().map(Spanned::span), "position"),
+            (v.slab.as_ref().map(Spanned::span), "slab"),
+            (v.convention.as_ref().map(Spanned::span), "convention"),
+        ];
+        for (range, key) in slice_keys {
+            if let Some(r) = range {
+                let span = self.range(r);
+                self.ignored_at(span, key, "on a raycast view");
+            }
+        }
+    }
+
+    /// A slice view's `axis` (needed), `position`, `slab` and `convention`; a `camera` has no
+    /// effect on it.
+    fn slice_keys(&mut self, v: &RawView, view: &mut View) {
+        if let Some(c) = &v.camera {
+            self.ignored(c, "camera", "on a slice view");
+        }
+        view.axis = self.located(&v.axis);
+        if view.axis.is_none() {
+            self.report(view.kind.span, Missing::SliceAxis { view: view.name.name.clone() });
+        }
+        if let Some(p) = &v.position {
+            view.position = *p.get_ref();
+            if !(0.0..=1.0).contains(&view.position) {
+                self.report(self.span(p), ViewRange::SlicePosition);
+            }
+        }
+        if let Some(s) = &v.slab {
+            view.slab = *s.get_ref();
+            if !(view.slab >= 0.0 && view.slab.is_finite()) {
+                self.report(self.span(s), ViewRange::Slab);
+            }
+        }
+        if let Some(c) = &v.convention {
+            view.convention = *c.get_ref();
+        }
     }
 
     pub(super) fn camera(&mut self, c: &RawCamera) -> Camera {
@@ -892,13 +800,13 @@ impl Cx<'_> {
             let x = *value.get_ref();
             *slot = x;
             let problem = match key {
-                "distance" if !(x > 0.0 && x.is_finite()) => Some("the camera `distance` must be greater than 0"),
-                "fov" if !(x > 0.0 && x < 180.0) => Some("the camera `fov` must be between 0 and 180 degrees"),
-                _ if !x.is_finite() => Some("camera angles must be finite numbers"),
+                "distance" if !(x > 0.0 && x.is_finite()) => Some(ViewRange::CameraDistance { x }),
+                "fov" if !(x > 0.0 && x < 180.0) => Some(ViewRange::CameraFov { x }),
+                _ if !x.is_finite() => Some(ViewRange::CameraAngle { key, x }),
                 _ => None,
             };
             if let Some(problem) = problem {
-                self.emit(self.invalid(self.span(value), problem).with_label(format!("{key} = {x}")));
+                self.report(self.span(value), problem);
             }
         }
         out
@@ -962,4 +870,32 @@ fn outgrows_a_texture(source: &VolumeSource, memory: &Memory) -> bool {
         VolumeSource::Phantom(_) => return false,
     };
     is_zarr(&file.resolved) || std::fs::metadata(&file.resolved).is_ok_and(|m| m.is_file() && m.len() > memory.gpu / 4)
+}
+
+/// A channel list and its span.
+type ChannelList = (Vec<RawEntry>, Range<usize>);
+/// A list of transfer functions and its span.
+type TfList = (Vec<String>, Range<usize>);
+
+/// A volume's `tf`: one transfer function (the first of a list too), and the list, if it is one.
+fn split_tf(tf: Option<Spanned<RawTf>>) -> (Option<Spanned<String>>, Option<TfList>) {
+    let Some(tf) = tf else { return (None, None) };
+    let span = tf.span();
+    match tf.into_inner() {
+        RawTf::One(t) => (Some(Spanned::new(span, t)), None),
+        RawTf::Many(list) => {
+            let first = list.first().map(|t| Spanned::new(span.clone(), t.clone()));
+            (first, Some((list, span)))
+        }
+    }
+}
+
+/// A volume's `channel`: one entry, or a list of them.
+fn split_channels(channel: Option<Spanned<RawChannels>>) -> (Option<Spanned<RawEntry>>, Option<ChannelList>) {
+    let Some(c) = channel else { return (None, None) };
+    let span = c.span();
+    match c.into_inner() {
+        RawChannels::One(e) => (Some(Spanned::new(span, e)), None),
+        RawChannels::Many(list) => (None, Some((list, span))),
+    }
 }
