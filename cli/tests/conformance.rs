@@ -159,6 +159,7 @@ const NOT_CASES: &[(&str, &str)] = &[
     ("E0610", "a bricked volume's own WGSL lookup: a Zarr store or `bricks = true` and a WGSL file"),
     ("E0801", "probes are asked for on `vrsc render`'s command line, which needs a GPU"),
     ("E0802", "probes are asked for on `vrsc render`'s command line, which needs a GPU"),
+    ("E0719", "a volume, TF or mesh file the renderer cannot read: `vrsc build` reads no inputs"),
     ("E0901", "a compiler bug by definition"),
     ("E0902", "a file of the command line or an output, not the input's content"),
     ("E0903", "the machine's GPU"),
