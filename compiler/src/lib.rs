@@ -6,7 +6,7 @@
 //!
 //! # Public API, by what callers do
 //!
-//! **Build a scene into shaders** (the command line, the runtime, the viewer, the Python
+//! **Build a scene into shaders** (the command line, the runtime, the live session, the Python
 //! bindings):
 //! - [`compose::build::build_scene`] reads a scene file and composes every view (or one) into a
 //!   [`compose::build::BuiltScene`]: per view its [`compose::build::ViewOutput`] (WGSL text and
@@ -15,8 +15,8 @@
 //!   module ([`compose::build::Keep`]); [`compose::build::read_scene`] and
 //!   [`compose::build::compose_scene_with`] split reading from composing (the language server
 //!   composes with unsaved buffers).
-//! - [`compose::cache::CompositionCache`] reuses compositions of structurally equal scenes (live
-//!   reloading).
+//! - [`compose::cache::CompositionCache`] hands back the earlier shaders when a rebuilt scene
+//!   only changed what does not shape them (uniform values, camera, data files).
 //! - [`compose::backends::translate`] writes a view's shader for another target
 //!   ([`compose::backends::Target`]: SPIR-V, GLSL, MSL, HLSL).
 //! - [`compose::explain::explain`] and `render_pipeline_map` describe a composed view for people;
@@ -32,15 +32,15 @@
 //!   [`steps::Step`] the fixed pipeline steps; [`types::Type`] the types; [`stdlib`] the standard
 //!   modules' names and sources.
 //!
-//! **Read scenes** (the runtime, the viewer): [`scene`] parses and validates scene files
+//! **Read scenes** (the runtime, the live session): [`scene`] parses and validates scene files
 //! ([`scene::parse_scene`], [`scene::parse_scene_text`]) into a [`scene::Scene`].
 //!
 //! **Report problems**: [`diag`] holds [`diag::Diagnostic`], [`diag::Diagnostics`] and the codes
 //! ([`diag::Code`]); [`diag::render_plain`] renders them against the [`source::SourceMap`] that
 //! every [`source::Span`] points into.
 //!
-//! **Test the compiler**: [`progen`] generates random well-formed programs (the fuzz targets and
-//! property tests).
+//! **Test the compiler**: [`progen`] generates well-typed modules from a seed or a fuzzer's bytes
+//! (the fuzz target and the property tests).
 
 pub mod ast;
 pub mod check;
