@@ -35,7 +35,7 @@ pub struct Program {
 /// A checked library function.
 #[derive(Clone, Debug)]
 pub struct LibFn {
-    /// The name it is declared and called by (library functions are never templates).
+    /// The name it is declared and called by.
     pub name: String,
     /// Index of the module (in the loader's graph) that defines it.
     pub module: usize,
@@ -188,7 +188,7 @@ pub struct ConstValue {
 impl ConstValue {
     /// The value as an index, when it is one integer (`i32` or `u32`); whether it is in range is
     /// the caller's question.
-    pub fn as_index(&self) -> Option<i64> {
+    pub(crate) fn as_index(&self) -> Option<i64> {
         match self.components.as_slice() {
             [ScalarValue::I32(i)] => Some(i64::from(*i)),
             [ScalarValue::U32(u)] => Some(i64::from(*u)),
@@ -342,7 +342,7 @@ pub struct Expr {
 
 impl Expr {
     /// The value of a constant integer index, if the expression is one.
-    pub fn const_index(&self) -> Option<i64> {
+    pub(crate) fn const_index(&self) -> Option<i64> {
         match &self.kind {
             ExprKind::Const(v) => v.as_index(),
             _ => None,
@@ -548,7 +548,7 @@ builtins! {
 }
 
 /// A constant as VRS source: `1.0`, `vec3f(0.5, 0.5, 0.5)`.
-pub fn show_const(v: &ConstValue) -> String {
+pub(crate) fn show_const(v: &ConstValue) -> String {
     let parts: Vec<String> = v
         .components
         .iter()
