@@ -1,4 +1,4 @@
-//! The fixed, ordered list of pipeline steps (section 6 of the language spec).
+//! The fixed, ordered list of pipeline steps (`docs/language.md`, "Steps and placement").
 //!
 //! Public face: [`Step`] (every step in execution order, with its dotted name and group) and
 //! [`Step::lookup`], which says what a dotted path names ([`StepLookup`]); the checker, the

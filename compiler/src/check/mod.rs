@@ -1,16 +1,16 @@
 //! The checker: names, types, declarations and function rules; builds the [`crate::hir`].
 //!
 //! [`check_program`] runs these passes over every module of the graph:
-//! 1. [`scope`]: collect the items of each module and build its item scope (its own consts and
+//! 1. `scope`: collect the items of each module and build its item scope (its own consts and
 //!    lib fns plus those of the modules it imports directly); duplicates are reported here.
-//! 2. [`func`]: resolve lib-fn signatures, then check every lib fn and pipeline function body
-//!    ([`expr`], [`call`] and [`stmt`]; constants through [`consts`]; pipeline headers and
-//!    placements through [`decls`]).
-//! 3. [`decls`]: conflicts between the declarations of different pipeline functions.
-//! 4. [`callgraph`]: recursion, then the [`hir::Program`] in callee-before-caller order, holding
+//! 2. `func`: resolve lib-fn signatures, then check every lib fn and pipeline function body
+//!    (`expr`, `call` and `stmt`; constants through `consts`; pipeline headers and placements
+//!    through `decls`).
+//! 3. `decls`: conflicts between the declarations of different pipeline functions.
+//! 4. `callgraph`: recursion, then the [`hir::Program`] in callee-before-caller order, holding
 //!    only functions that checked cleanly (and whose callees did).
 //!
-//! Every error inside a function marks that function failed ([`scope::FnCx::failed`]); an
+//! Every error inside a function marks that function failed (`scope::FnCx::failed`); an
 //! expression that failed has [`Type::Error`], which every later rule accepts silently, so one
 //! mistake gives one diagnostic.
 
@@ -46,7 +46,7 @@ use std_cache::StdReuse;
 /// errors are left out, so lowering only ever sees valid HIR).
 ///
 /// The graph's standard modules are not checked again: their checked functions come from the
-/// standard library checked once per process ([`std_cache`]).
+/// standard library checked once per process (`std_cache`).
 pub fn check_program(graph: &ModuleGraph, sources: &SourceMap, diags: &mut Diagnostics) -> hir::Program {
     check_graph(graph, sources, diags, std_cache::std_checked())
 }

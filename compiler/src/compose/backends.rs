@@ -17,6 +17,7 @@ pub enum Target {
 }
 
 impl Target {
+    /// Every target, in the order `--emit` lists them.
     pub const ALL: [Target; 4] = [Target::Spirv, Target::Glsl, Target::Msl, Target::Hlsl];
 
     /// The name users write (`--emit spirv`).

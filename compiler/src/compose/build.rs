@@ -21,7 +21,10 @@ use std::sync::{Mutex, OnceLock};
 
 /// One composed view.
 pub struct ViewOutput {
+    /// The view's name in the scene file.
     pub name: String,
+    /// Where every pipeline function of the view was placed, and the composed state and
+    /// uniforms (there also when composing the view reported errors).
     pub composition: Composition,
     /// `None` when composing the view reported errors.
     pub shader: Option<ViewShader>,
@@ -32,13 +35,18 @@ pub struct ViewOutput {
 
 /// The shader of a view: WGSL text and reflection.
 pub struct ViewShader {
+    /// The whole WGSL module: the view's entry point and everything it calls.
     pub wgsl: String,
+    /// What a runtime needs to drive the shader: its entry point, bindings, uniform layout and
+    /// hashes (the `.json` written next to the `.wgsl`).
     pub reflection: Reflection,
 }
 
 /// A view's intermediate forms, for tools that look inside it: the checked program (for the
 /// pipeline map) and the validated naga module (`explain`, naga's other back ends).
 pub struct ViewIr {
+    /// The checked program of the view's modules (the composition's placements index its
+    /// pipeline functions).
     pub program: crate::hir::Program,
     /// `None` when the view did not compose.
     pub module: Option<ValidModule>,
@@ -46,7 +54,9 @@ pub struct ViewIr {
 
 /// A naga module and what validating it found out.
 pub struct ValidModule {
+    /// The module lowering built (the view's shader before it is written as WGSL).
     pub module: naga::Module,
+    /// naga's validation result for it, which naga's back ends need alongside the module.
     pub info: naga::valid::ModuleInfo,
 }
 
@@ -63,10 +73,13 @@ pub enum Keep {
 
 /// The result of composing a scene.
 pub struct BuiltScene {
+    /// Every file read: the scene file and each module, for rendering the diagnostics.
     pub sources: SourceMap,
+    /// Everything the scene file, its modules and its views reported.
     pub diags: Diagnostics,
     /// `None` when the scene file itself is invalid.
     pub scene: Option<Scene>,
+    /// One per composed view, in the scene's order (only `only_view` when given).
     pub views: Vec<ViewOutput>,
 }
 
@@ -83,6 +96,7 @@ pub fn build_scene_keeping(path: &Path, only_view: Option<&str>, keep: Keep) -> 
 
 /// A scene file read into a new source map and parsed.
 pub struct ParsedScene {
+    /// Holds the scene file (modules are added as the scene is composed).
     pub sources: SourceMap,
     /// `None` when the scene file itself is invalid.
     pub scene: Option<Scene>,
@@ -118,6 +132,7 @@ pub fn compose_scene(parsed: ParsedScene, only_view: Option<&str>, keep: Keep) -
 pub struct GeneratedModule {
     /// The name diagnostics show for it.
     pub name: String,
+    /// Its VRS source.
     pub text: String,
 }
 

@@ -23,7 +23,9 @@ pub struct CompositionCache {
 /// How often [`CompositionCache::build`] reused a composition.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct CacheStats {
+    /// Builds answered from the cache.
     pub hits: u64,
+    /// Builds that composed the scene (and stored it).
     pub misses: u64,
 }
 

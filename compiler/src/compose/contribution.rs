@@ -62,7 +62,7 @@ pub enum Gate {
 }
 
 /// What the entry point keeps of a selected sample for running the waiting functions after the
-/// loop (field indices into [`Composition::fields`]).
+/// loop (field indices into the composition's `fields`).
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct Replay {
     /// Saved at each selected sample and put back before the waiting functions run: the fields

@@ -1,8 +1,9 @@
-//! The composer: instantiates templates (section 7 of the language spec), places every pipeline
-//! function and `remove` of the composed modules into the steps (section 6), merges the state and
-//! uniform declarations of the placed functions, and checks the data flow of the linear pipeline.
+//! The composer: instantiates templates (`docs/language.md`, "Instances (`$`)"), places every
+//! pipeline function and `remove` of the composed modules into the steps ("Steps and
+//! placement"), merges the state and uniform declarations of the placed functions, and checks the
+//! data flow of the linear pipeline.
 //!
-//! Choices where the specification is silent (also in `docs/reference.md`):
+//! Choices `docs/language.md` leaves open (also in `docs/reference.md`):
 //! - Only the pipeline functions and removes of the modules given to [`compose`] are placed; an
 //!   `import` brings library functions and constants, never placements.
 //! - A template is instantiated instance by instance: every item of the module for the first
@@ -24,9 +25,9 @@
 //!   and never for the fields the entry point requires.
 
 //!
-//! [`compose`] runs the passes in order: [`instantiate`] (templates to units), [`place`] (units
-//! into steps), [`merge`] (declarations into the composed state and uniforms, data flow). Their
-//! result, the [`ir::Composition`], is what emission ([`view`], [`entry`]) builds the shader from.
+//! [`compose`] runs the passes in order: `instantiate` (templates to units), `place` (units into
+//! steps), `merge` (declarations into the composed state and uniforms, data flow). Their result,
+//! the `ir::Composition`, is what emission (`view`, `entry`) builds the shader from.
 
 use crate::diag::Diagnostics;
 use crate::hir;
@@ -41,8 +42,8 @@ pub(crate) mod entry;
 pub mod explain;
 mod instantiate;
 pub(crate) mod ir;
-pub mod layer_check;
-pub mod limits;
+pub(crate) mod layer_check;
+pub(crate) mod limits;
 mod merge;
 pub(crate) mod place;
 pub mod probe;

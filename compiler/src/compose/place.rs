@@ -1,4 +1,4 @@
-//! Placement: every unit into the steps, in order (section 6 of the language spec).
+//! Placement: every unit into the steps, in order (`docs/language.md`, "Steps and placement").
 
 use super::instantiate::{Source, Unit, instance_note};
 use crate::ast::PlacementKind;

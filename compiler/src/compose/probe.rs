@@ -84,7 +84,9 @@ impl ProbeAt {
 /// emitted struct or left out because nothing reads it).
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct DeclaredField {
+    /// The field's name, instantiated (`color_gm`, not `color_$`).
     pub name: String,
+    /// The field's declared type.
     pub ty: Type,
     /// `@ray`: lives for the whole ray.
     pub ray: bool,
@@ -116,7 +118,9 @@ pub fn declared_fields(program: &hir::Program, comp: &Composition) -> Vec<Declar
 /// How a probe's value leaves the shader.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ProbeLayout {
+    /// The probed view.
     pub view: String,
+    /// The probed state field.
     pub field: DeclaredField,
     /// 32-bit words per pixel: the field's component count (1 to 4).
     pub words: u32,
@@ -134,7 +138,9 @@ fn pass_count(words: u32) -> u32 {
 
 /// The probe variant of one view.
 pub struct ProbeVariant {
+    /// How the probed value is packed into the output and how many renders read it.
     pub layout: ProbeLayout,
+    /// The view's shader with the probe module placed in it.
     pub shader: ViewShader,
     /// The generated VRS module.
     pub source: String,
@@ -142,6 +148,7 @@ pub struct ProbeVariant {
 
 /// What composing a probe gave.
 pub struct ProbeBuild {
+    /// Every file read, the generated probe module included, for rendering the diagnostics.
     pub sources: SourceMap,
     /// The scene's and the view's diagnostics, then the probe's own (E0801, E0802).
     pub diags: Diagnostics,
