@@ -46,7 +46,7 @@ pub fn volume_to_world(dims: [u32; 3], grid_to_world: Mat4) -> Mat4 {
 /// part (the shader's `gradient_to_world`). A gradient is a covector: where a grid is stretched
 /// along an axis, its values change more slowly per millimetre along it, and a flipped axis
 /// flips the gradient's component with it.
-pub fn gradient_to_world(volume_to_world: Mat4) -> glam::Mat3 {
+pub(crate) fn gradient_to_world(volume_to_world: Mat4) -> glam::Mat3 {
     glam::Mat3::from_mat4(volume_to_world).inverse().transpose()
 }
 
@@ -78,14 +78,14 @@ impl PatientBox {
     }
 
     /// Box coordinates ([0,1]^3 over the box, axes R, A, S) to world.
-    pub fn to_world(&self) -> Mat4 {
+    pub(crate) fn to_world(&self) -> Mat4 {
         Mat4::from_translation(self.min) * Mat4::from_scale(self.size().max(Vec3::splat(f32::MIN_POSITIVE)))
     }
 }
 
 /// The length (mm) of the longest line through a volume's grid box: its longest body diagonal.
 /// Rays never take more steps than this over the step size.
-pub fn longest_chord(volume_to_world: Mat4) -> f32 {
+pub(crate) fn longest_chord(volume_to_world: Mat4) -> f32 {
     let diagonal = |from: Vec3| {
         let to = Vec3::ONE - from;
         (volume_to_world.transform_point3(to) - volume_to_world.transform_point3(from)).length()
@@ -94,7 +94,7 @@ pub fn longest_chord(volume_to_world: Mat4) -> f32 {
 }
 
 /// The smallest voxel spacing of a grid (mm), from the lengths of its voxel axes.
-pub fn smallest_spacing(grid_to_world: Mat4) -> f32 {
+pub(crate) fn smallest_spacing(grid_to_world: Mat4) -> f32 {
     let lengths = [grid_to_world.x_axis, grid_to_world.y_axis, grid_to_world.z_axis].map(|a| a.truncate().length());
     lengths.into_iter().filter(|l| l.is_finite() && *l > 0.0).fold(f32::INFINITY, f32::min)
 }
@@ -174,7 +174,7 @@ impl SlicePlane {
 
     /// The plane as `convention` shows it: the neurological convention mirrors an image whose
     /// horizontal runs along the patient's right-left axis; every other plane is unchanged.
-    pub fn oriented(self, convention: Convention) -> SlicePlane {
+    pub(crate) fn oriented(self, convention: Convention) -> SlicePlane {
         let runs_right_left = self.u.x.abs() >= self.u.y.abs().max(self.u.z.abs());
         if convention == Convention::Neurological && runs_right_left {
             SlicePlane { origin: self.origin + self.u, u: -self.u, ..self }
@@ -186,7 +186,7 @@ impl SlicePlane {
     /// The patient directions at the image's edges, `[left, right, top, bottom]`, one letter
     /// each (R, L, A, P, S, I: the direction of the dominant patient axis across that edge), for
     /// a viewer to draw. An axial plane in the radiological convention gives `["R", "L", "A", "P"]`.
-    pub fn edge_labels(&self) -> [&'static str; 4] {
+    pub(crate) fn edge_labels(&self) -> [&'static str; 4] {
         [direction_letter(-self.u), direction_letter(self.u), direction_letter(-self.v), direction_letter(self.v)]
     }
 }
@@ -216,7 +216,7 @@ fn direction_letter(d: Vec3) -> &'static str {
 /// plane's normal in patient space (`slice_normal`: its direction is where rays go, its length
 /// how far 1 mm is).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ShaderPlane {
+pub(crate) struct ShaderPlane {
     pub origin: Vec3,
     pub u: Vec3,
     pub v: Vec3,
@@ -226,7 +226,7 @@ pub struct ShaderPlane {
 impl ShaderPlane {
     /// `plane` (box coordinates of the volume with `volume_to_world`) fitted to an image of
     /// `aspect` = width / height with square pixels, in normalized volume coordinates.
-    pub fn new(plane: SlicePlane, volume_to_world: Mat4, aspect: f32) -> ShaderPlane {
+    pub(crate) fn new(plane: SlicePlane, volume_to_world: Mat4, aspect: f32) -> ShaderPlane {
         let to_world = PatientBox::of(volume_to_world).to_world();
         let (mut origin, mut u, mut v) = (
             to_world.transform_point3(plane.origin),
@@ -264,7 +264,7 @@ fn normalized_to_index(dims: [u32; 3]) -> Mat4 {
 /// The primary volume's normalized coordinates to another volume's (`primary_to_NAME`),
 /// through both grids' grid-to-world transforms: co-registered volumes line up whatever their
 /// grids.
-pub fn primary_to(primary: (&[u32; 3], Mat4), other: (&[u32; 3], Mat4)) -> Mat4 {
+pub(crate) fn primary_to(primary: (&[u32; 3], Mat4), other: (&[u32; 3], Mat4)) -> Mat4 {
     let to_world = volume_to_world(*primary.0, primary.1);
     let from_world = volume_to_world(*other.0, other.1).inverse();
     from_world * to_world

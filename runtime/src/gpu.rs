@@ -145,7 +145,7 @@ impl Gpu {
 
     /// Wraps an application's own device and queue; errors nobody captures are kept for
     /// [`Gpu::take_fault`] from now on, instead of wgpu's panic.
-    pub fn from_device(device: wgpu::Device, queue: wgpu::Queue) -> Gpu {
+    pub(crate) fn from_device(device: wgpu::Device, queue: wgpu::Queue) -> Gpu {
         let uncaptured: Arc<Mutex<Vec<GpuFault>>> = Arc::default();
         let kept = uncaptured.clone();
         device.on_uncaptured_error(Arc::new(move |error: wgpu::Error| {

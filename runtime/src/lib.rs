@@ -26,24 +26,24 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
-pub mod bindings;
+pub(crate) mod bindings;
 pub mod bricks;
-pub mod error;
+pub(crate) mod error;
 pub mod geometry;
 pub mod gpu;
-pub mod light_volume;
+pub(crate) mod light_volume;
 pub mod mesh;
 pub mod mesh_layer;
-pub mod metering;
-pub mod occupancy;
+pub(crate) mod metering;
+pub(crate) mod occupancy;
 mod pass_bindings;
 pub mod probe;
 pub mod reflection;
-pub mod resources;
+pub(crate) mod resources;
 #[cfg(feature = "compiler")]
 pub mod scene;
-pub mod shader;
-pub mod textures;
+pub(crate) mod shader;
+pub(crate) mod textures;
 pub mod tf;
 pub mod uniforms;
 pub mod view;
@@ -52,9 +52,8 @@ pub mod volume;
 pub use error::RuntimeError;
 pub use geometry::{Convention, OrbitCamera, SliceAxis, SlicePlane, slice_edge_labels};
 pub use gpu::{AdapterChoice, Gpu, GpuFault};
-pub use resources::Resources;
 #[cfg(feature = "compiler")]
 pub use scene::{Applied, ProbeAt, ProbeImage, ProbeSpec, RenderOptions, SceneRenderer, VolumeStatus};
-pub use shader::{PipelineCache, ViewShader};
+pub use shader::{PipelineCache, PipelineStats, ViewPipeline, ViewShader};
 pub use uniforms::Value;
 pub use view::{Region, ViewRenderer};

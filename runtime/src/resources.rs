@@ -11,22 +11,22 @@ use std::sync::Arc;
 
 /// Textures shared by the views of a scene, by the uniform name the shaders bind them under
 /// (`volume`, `volume_gm`, `tf`, `tf_gm`).
-pub struct Resources {
-    pub volumes: HashMap<String, Arc<VolumeTexture>>,
+pub(crate) struct Resources {
+    pub(crate) volumes: HashMap<String, Arc<VolumeTexture>>,
     /// Volumes kept in bricks (`crate::bricks`), by the same names.
-    pub bricked: BrickedVolumes,
-    pub tfs: HashMap<String, Arc<TfTexture>>,
-    pub sampler: wgpu::Sampler,
+    pub(crate) bricked: BrickedVolumes,
+    pub(crate) tfs: HashMap<String, Arc<TfTexture>>,
+    pub(crate) sampler: wgpu::Sampler,
     /// The scene's meshes, which views' mesh layers draw (by index).
-    pub meshes: Vec<MeshInstance>,
+    pub(crate) meshes: Vec<MeshInstance>,
     /// Counts changes of `meshes`' surfaces (a layer drawn from an older one is drawn again).
-    pub mesh_generation: u64,
+    mesh_generation: u64,
     /// Made with the first mesh.
-    pub mesh_pipelines: Option<MeshPipelines>,
+    pub(crate) mesh_pipelines: Option<MeshPipelines>,
 }
 
 impl Resources {
-    pub fn new(gpu: &Gpu) -> Resources {
+    pub(crate) fn new(gpu: &Gpu) -> Resources {
         Resources {
             volumes: HashMap::new(),
             bricked: HashMap::new(),
@@ -36,5 +36,16 @@ impl Resources {
             mesh_generation: 0,
             mesh_pipelines: None,
         }
+    }
+
+    /// How many times `meshes`' surfaces have changed: a mesh layer drawn at an older generation
+    /// is drawn again.
+    pub(crate) fn mesh_generation(&self) -> u64 {
+        self.mesh_generation
+    }
+
+    /// Records that `meshes`' surfaces changed (every mesh layer is drawn again).
+    pub(crate) fn meshes_changed(&mut self) {
+        self.mesh_generation += 1;
     }
 }

@@ -83,7 +83,8 @@ pub struct SceneRenderer {
     skipping: Option<crate::occupancy::SceneRanges>,
     /// What the loaded volumes were loaded from ([`volumes_key`]).
     volumes_key: String,
-    pub views: Vec<SceneView>,
+    /// One per view of the scene, in its order (what the mesh and plane indices refer to).
+    views: Vec<SceneView>,
     /// Things the user should know that are not errors (a volume replaced by its fallback
     /// phantom because its file is absent).
     pub notices: Vec<String>,
@@ -122,7 +123,7 @@ struct VolumeGrid {
 }
 
 /// Progress of loading a volume: (volume name, bytes done, bytes in all).
-pub type Progress<'a> = &'a mut dyn FnMut(&str, u64, u64);
+pub(crate) type Progress<'a> = &'a mut dyn FnMut(&str, u64, u64);
 
 impl SceneRenderer {
     /// Composes and loads the scene at `path`. Composition errors come back rendered as text in
@@ -191,6 +192,18 @@ impl SceneRenderer {
         Ok(())
     }
 
+    /// The scene's views, in its order (`render_view`'s and the other methods' `index`).
+    pub fn views(&self) -> &[SceneView] {
+        &self.views
+    }
+
+    /// The scene's views, to move their cameras and planes or resize them (not to add or remove
+    /// any: the scene's indices refer to them).
+    pub fn views_mut(&mut self) -> &mut [SceneView] {
+        &mut self.views
+    }
+
+    /// The device the scene renders on.
     pub fn gpu(&self) -> &Gpu {
         &self.gpu
     }
@@ -200,7 +213,7 @@ impl SceneRenderer {
         self.pipelines.stats()
     }
 
-    pub fn view_mut(&mut self, name: &str) -> Option<&mut SceneView> {
+    pub(crate) fn view_mut(&mut self, name: &str) -> Option<&mut SceneView> {
         self.views.iter_mut().find(|v| v.name == name)
     }
 
@@ -321,7 +334,7 @@ impl SceneRenderer {
     /// the primary volume's occupancy grid is rebuilt from the brick ranges kept at load (the
     /// volume is not read again). This is what a viewer calls when only a transfer function
     /// changed.
-    pub fn set_transfer_function(
+    pub(crate) fn set_transfer_function(
         &mut self,
         volume: &str,
         tf: &crate::tf::TransferFunction,
@@ -399,7 +412,7 @@ impl SceneRenderer {
     }
 
     /// The number of voxels along each axis of the primary volume.
-    pub fn primary_dims(&self) -> Option<[u32; 3]> {
+    pub(crate) fn primary_dims(&self) -> Option<[u32; 3]> {
         self.grids.first().map(|g| g.dims)
     }
 

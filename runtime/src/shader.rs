@@ -80,7 +80,7 @@ impl PipelineCache {
         PipelineCache::default()
     }
 
-    pub fn stats(&self) -> PipelineStats {
+    pub(crate) fn stats(&self) -> PipelineStats {
         self.stats
     }
 

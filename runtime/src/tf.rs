@@ -23,11 +23,11 @@ use std::path::{Path, PathBuf};
 use serde_json::Value;
 
 mod curve;
-pub mod preintegrate;
+pub(crate) mod preintegrate;
 pub use curve::TfCurve;
 
 /// Entries in a transfer function table.
-pub const TF_WIDTH: u32 = 1024;
+pub(crate) const TF_WIDTH: u32 = 1024;
 
 /// What the first and last entries of a transfer function's table stand for.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -39,7 +39,7 @@ pub enum TfDomain {
 }
 
 /// The Hounsfield range the CT presets are defined over: the 12-bit range scanners store.
-pub const CT_DOMAIN: [f32; 2] = [-1024.0, 3071.0];
+pub(crate) const CT_DOMAIN: [f32; 2] = [-1024.0, 3071.0];
 
 /// A transfer function table.
 #[derive(Clone, Debug, PartialEq)]
@@ -79,10 +79,10 @@ impl TransferFunction {
 }
 
 /// A colour control point: normalized value, then r, g, b in [0, 1].
-pub type ColorPoint = (f32, [f32; 3]);
+pub(crate) type ColorPoint = (f32, [f32; 3]);
 
 /// An opacity control point: normalized value, then opacity in [0, 1].
-pub type OpacityPoint = (f32, f32);
+pub(crate) type OpacityPoint = (f32, f32);
 
 /// The built-in transfer functions: the window-relative ones, then the CT presets in
 /// Hounsfield units.
@@ -318,7 +318,7 @@ fn labels() -> TfCurve {
 }
 
 /// A transfer function over data values `domain` from control points in data units.
-pub fn from_data_points(
+pub(crate) fn from_data_points(
     name: &str,
     color: &[ColorPoint],
     opacity: &[OpacityPoint],
@@ -336,7 +336,7 @@ pub fn from_data_points(
 /// two points at the same x make a step (the later one applies from x on). Without colour points
 /// the colour is white; without opacity points the opacity is a linear ramp from 0 to 1.
 /// Values are clamped to [0, 1].
-pub fn from_points(name: &str, color: &[ColorPoint], opacity: &[OpacityPoint]) -> TransferFunction {
+pub(crate) fn from_points(name: &str, color: &[ColorPoint], opacity: &[OpacityPoint]) -> TransferFunction {
     let opacity: Vec<(f32, [f32; 1])> = opacity.iter().map(|&(x, o)| (x, [o])).collect();
     let colors = Table::new(color);
     let alphas = Table::new(&opacity);
@@ -390,7 +390,7 @@ pub fn from_paraview_json(path: &Path) -> Result<TransferFunction, TfError> {
 }
 
 /// The control points of a ParaView colormap file (see [`from_paraview_json`]).
-pub fn paraview_curve(path: &Path) -> Result<TfCurve, TfError> {
+pub(crate) fn paraview_curve(path: &Path) -> Result<TfCurve, TfError> {
     let text = std::fs::read_to_string(path).map_err(|error| TfError::Io { path: path.to_path_buf(), error })?;
     let stem = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
     parse_paraview(&text, &stem).map_err(|message| TfError::Invalid { path: path.to_path_buf(), message })

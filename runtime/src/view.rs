@@ -72,7 +72,7 @@ const ROW_ALIGNMENT: u32 = wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
 
 impl ViewRenderer {
     /// A renderer of `shader` at `size` pixels; the pipeline comes from `cache`.
-    pub fn new(
+    pub(crate) fn new(
         gpu: &Gpu,
         cache: &mut PipelineCache,
         shader: ViewShader,
@@ -147,7 +147,7 @@ impl ViewRenderer {
     /// How the mesh layer and the overlay look at the meshes, and which each draws (indices
     /// into `Resources::meshes`); without it the layer is empty (depth 1, no colour) and
     /// nothing is drawn over the picture.
-    pub fn set_mesh_layer(&mut self, camera: LayerCamera, meshes: Vec<usize>, overlay: Vec<usize>) {
+    pub(crate) fn set_mesh_layer(&mut self, camera: LayerCamera, meshes: Vec<usize>, overlay: Vec<usize>) {
         self.layer_camera = Some(camera);
         self.layer_meshes = meshes;
         self.overlay_meshes = overlay;
@@ -155,19 +155,19 @@ impl ViewRenderer {
 
     /// The slice pictures the mesh layer shows on their planes, just rendered (their views
     /// render first): the layer is drawn again with them.
-    pub fn set_planes(&mut self, planes: Vec<PlanePicture>) {
+    pub(crate) fn set_planes(&mut self, planes: Vec<PlanePicture>) {
         self.layer_planes = planes;
         self.planes_generation += 1;
     }
 
     /// How the view looks at its bricked volumes (set with its camera or plane every frame).
-    pub fn set_brick_view(&mut self, view: BrickView) {
+    pub(crate) fn set_brick_view(&mut self, view: BrickView) {
         self.brick_view = Some(view);
     }
 
     /// The finest level of bricked volumes the view samples: 0 (all detail) unless the caller
     /// holds detail back, as a viewer may while the user drags.
-    pub fn set_brick_finest(&mut self, level: u32) {
+    pub(crate) fn set_brick_finest(&mut self, level: u32) {
         self.brick_finest = level;
     }
 
@@ -206,7 +206,7 @@ impl ViewRenderer {
     }
 
     /// The slice pictures the mesh layer shows on their planes.
-    pub fn planes(&self) -> &[PlanePicture] {
+    pub(crate) fn planes(&self) -> &[PlanePicture] {
         &self.layer_planes
     }
 
@@ -235,7 +235,7 @@ impl ViewRenderer {
             camera: &camera,
             meshes: &meshes,
             planes,
-            generation: resources.mesh_generation,
+            generation: resources.mesh_generation(),
             planes_generation: self.planes_generation,
         };
         layer.encode(gpu, (resources.mesh_pipelines.as_ref(), &resources.sampler), encoder, &content)
@@ -262,7 +262,7 @@ impl ViewRenderer {
 
     /// Swaps in another shader of the same view (a structural change), keeping the size. Uniform
     /// values start again from the new reflection.
-    pub fn set_shader(&mut self, gpu: &Gpu, cache: &mut PipelineCache, shader: ViewShader) -> Result<(), RuntimeError> {
+    pub(crate) fn set_shader(&mut self, gpu: &Gpu, cache: &mut PipelineCache, shader: ViewShader) -> Result<(), RuntimeError> {
         *self = ViewRenderer::new(gpu, cache, shader, self.size)?;
         Ok(())
     }
@@ -284,7 +284,7 @@ impl ViewRenderer {
     }
 
     /// Records the view's compute pass into `encoder`: the whole image, into [`Self::output`].
-    pub fn encode(
+    pub(crate) fn encode(
         &mut self,
         gpu: &Gpu,
         resources: &Resources,
@@ -299,7 +299,7 @@ impl ViewRenderer {
     /// by [`create_output`] (of any size: the pixel positions the pipeline sees are relative to
     /// the target's size). Several regions may be recorded into one encoder: render a large view
     /// in tiles, or at a lower resolution into a smaller target, with the same uniforms.
-    pub fn encode_into(
+    pub(crate) fn encode_into(
         &mut self,
         gpu: &Gpu,
         resources: &Resources,
@@ -378,7 +378,7 @@ impl ViewRenderer {
     /// Renders and reads the image back (straight alpha RGBA8).
     /// A view that meters its exposure renders twice: the first pass meters the picture the
     /// second one is exposed for.
-    pub fn render(&mut self, gpu: &Gpu, resources: &Resources) -> Result<image::RgbaImage, RuntimeError> {
+    pub(crate) fn render(&mut self, gpu: &Gpu, resources: &Resources) -> Result<image::RgbaImage, RuntimeError> {
         let mut encoder = gpu.device.create_command_encoder(&Default::default());
         if self.metering.is_some() {
             self.encode(gpu, resources, &mut encoder)?;

@@ -30,14 +30,14 @@ const NEEDED: u32 = 1;
 const USED: u32 = 2;
 
 /// Levels the layout has room for (`BrickLayout`'s arrays).
-pub const MAX_LEVELS: usize = 16;
+pub(crate) const MAX_LEVELS: usize = 16;
 
 /// Bricks staged for the pool before they are submitted (so that the staging memory of many
 /// arrivals is not held at once: 16 bricks are 9 MiB).
 const UPLOADS_PER_SUBMIT: usize = 16;
 
 /// Bytes of one slot of the pool (half floats).
-pub const SLOT_BYTES: u64 = (STORED as u64).pow(3) * 2;
+pub(crate) const SLOT_BYTES: u64 = (STORED as u64).pow(3) * 2;
 
 /// How a view looks at its bricked volumes this frame: what picks the level of a sample.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -120,7 +120,7 @@ impl BrickedVolume {
     /// [0, 1] by `window`; the coarsest level is loaded before it returns. `budgets.1` is the
     /// volume's host budget, of which the source's cache for built levels takes
     /// [`super::cache_bytes`] and the loader's cache of normalized bricks the rest.
-    pub fn new(
+    pub(crate) fn new(
         gpu: &Gpu,
         name: &str,
         source: Arc<dyn BrickSource>,
@@ -212,23 +212,23 @@ impl BrickedVolume {
     }
 
     /// The source the bricks are read from.
-    pub fn source(&self) -> &Arc<dyn BrickSource> {
+    pub(crate) fn source(&self) -> &Arc<dyn BrickSource> {
         self.loader.source()
     }
 
     /// The levels, finest first.
-    pub fn levels(&self) -> &[Level] {
+    pub(crate) fn levels(&self) -> &[Level] {
         &self.levels
     }
 
     /// Counts of the residency now.
-    pub fn residency(&self) -> Residency {
+    pub(crate) fn residency(&self) -> Residency {
         let state = self.lock();
         Residency { pending: state.pending.len() as u32, floor: self.floor.load(Ordering::Relaxed), ..state.stats }
     }
 
     /// Errors of bricks that could not be read (each brick once), and the source's warnings.
-    pub fn messages(&self) -> Vec<String> {
+    pub(crate) fn messages(&self) -> Vec<String> {
         let mut out = self.loader.warnings();
         out.extend(self.lock().errors.iter().cloned());
         out
@@ -248,7 +248,7 @@ impl BrickedVolume {
 
     /// The `BrickLayout` uniform for a view looking as `view` into a target `height` pixels
     /// high, finest level `finest` (0 unless detail is held back, as while the user drags).
-    pub fn layout_bytes(&self, view: BrickView, height: u32, finest: u32) -> Vec<u8> {
+    pub(crate) fn layout_bytes(&self, view: BrickView, height: u32, finest: u32) -> Vec<u8> {
         let dims = Vec3::from_array(self.levels[0].dims.map(|n| n as f32));
         let to_voxels = Mat4::from_scale(dims) * self.primary_to;
         let height = height.max(1) as f32;
@@ -275,7 +275,7 @@ impl BrickedVolume {
     /// Starts reading back the requests rays wrote since the last read (a copy after the work
     /// submitted so far, then a map), and clears them for the next frames. Does nothing while
     /// the last read is still under way; returns whether it started one.
-    pub fn start_collect(&self, gpu: &Gpu) -> bool {
+    pub(crate) fn start_collect(&self, gpu: &Gpu) -> bool {
         let mut mapping = lock(&self.mapping);
         if mapping.is_some() {
             return false;
@@ -294,7 +294,7 @@ impl BrickedVolume {
     /// Finishes the read [`Self::start_collect`] started, waiting for it when `wait` (else only
     /// when it is done): marks the bricks rays used and asks the loader for those they needed,
     /// coarse levels first. Returns how many were asked for, `None` while the read is under way.
-    pub fn finish_collect(&self, gpu: &Gpu, wait: bool) -> Result<Option<usize>, RuntimeError> {
+    pub(crate) fn finish_collect(&self, gpu: &Gpu, wait: bool) -> Result<Option<usize>, RuntimeError> {
         let Some(done) = lock(&self.mapping).clone() else { return Ok(Some(0)) };
         if wait {
             gpu.wait();
@@ -364,7 +364,7 @@ impl BrickedVolume {
 
     /// Places the bricks that arrived (all pending ones when `wait`) in the pool and uploads
     /// the page table if it changed. Returns how many arrived.
-    pub fn receive(&self, gpu: &Gpu, wait: bool) -> Result<usize, RuntimeError> {
+    pub(crate) fn receive(&self, gpu: &Gpu, wait: bool) -> Result<usize, RuntimeError> {
         let mut arrived = 0;
         let mut uploads = 0usize;
         loop {

@@ -14,12 +14,12 @@ pub struct Level {
 }
 
 impl Level {
-    pub fn new(dims: [u32; 3]) -> Level {
+    pub(crate) fn new(dims: [u32; 3]) -> Level {
         Level { dims, bricks: dims.map(|n| n.div_ceil(BRICK).max(1)) }
     }
 
     /// Bricks in the level.
-    pub fn brick_count(&self) -> u64 {
+    pub(crate) fn brick_count(&self) -> u64 {
         self.bricks.iter().map(|&n| n as u64).product()
     }
 }
@@ -52,7 +52,7 @@ pub enum BrickData {
 
 impl BrickData {
     /// Values of a [`BrickData::Voxels`] brick.
-    pub const LEN: usize = (STORED * STORED * STORED) as usize;
+    pub(crate) const LEN: usize = (STORED * STORED * STORED) as usize;
 
     /// The voxel at `[x, y, z]` of the stored brick (apron included: 0 is the apron before the
     /// brick's first voxel).
@@ -64,7 +64,7 @@ impl BrickData {
     }
 
     /// A brick whose voxels all have one value becomes [`BrickData::Constant`].
-    pub fn collapse(self) -> BrickData {
+    pub(crate) fn collapse(self) -> BrickData {
         match self {
             BrickData::Voxels(v)
                 if v.first().is_some_and(|&a| v.iter().all(|&b| b == a || (a.is_nan() && b.is_nan()))) =>
@@ -113,7 +113,7 @@ pub trait BrickSource: Send + Sync {
 
 /// The first voxel (apron included) a stored brick starts at, per axis: `brick * BRICK - APRON`
 /// (negative before the volume's start).
-pub fn stored_origin(brick: [u32; 3]) -> [i64; 3] {
+pub(crate) fn stored_origin(brick: [u32; 3]) -> [i64; 3] {
     brick.map(|b| b as i64 * BRICK as i64 - APRON as i64)
 }
 

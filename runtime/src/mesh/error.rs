@@ -29,12 +29,12 @@ impl MeshError {
     }
 
     /// What is wrong, without the file name.
-    pub fn message(&self) -> &str {
+    pub(crate) fn message(&self) -> &str {
         &self.message
     }
 
     /// The file concerned; `None` for a built-in shape.
-    pub fn path(&self) -> Option<&Path> {
+    pub(crate) fn path(&self) -> Option<&Path> {
         match &self.source {
             Source::File(path) => Some(path),
             Source::Shape(_) => None,

@@ -12,31 +12,31 @@
 //! plane, as opaque outlines on the plane ([`outline`]).
 
 mod draws;
-pub mod outline;
+pub(crate) mod outline;
 mod overlay;
-pub mod pipelines;
+pub(crate) mod pipelines;
 
 use crate::error::RuntimeError;
 use crate::gpu::Gpu;
 use crate::mesh::Mesh;
 use crate::textures::Image2d;
-pub use draws::PlanePicture;
+pub(crate) use draws::PlanePicture;
 use draws::{DrawBuffer, Target};
 use glam::Mat4;
 use outline::SliceFrame;
-pub use overlay::Overlay;
+pub(crate) use overlay::Overlay;
 use pipelines::{COLOR_FORMAT, DEPTH_FORMAT, DEPTH_IMAGE_FORMAT, MeshPipelines};
 use std::sync::Arc;
 
 /// A mesh on the GPU: interleaved positions and normals, and triangle indices.
-pub struct GpuMesh {
+pub(crate) struct GpuMesh {
     vertices: wgpu::Buffer,
     indices: wgpu::Buffer,
     index_count: u32,
 }
 
 impl GpuMesh {
-    pub fn upload(gpu: &Gpu, name: &str, mesh: &Mesh) -> Result<GpuMesh, RuntimeError> {
+    pub(crate) fn upload(gpu: &Gpu, name: &str, mesh: &Mesh) -> Result<GpuMesh, RuntimeError> {
         let interleaved: Vec<f32> =
             mesh.positions.iter().zip(&mesh.normals).flat_map(|(p, n)| [p[0], p[1], p[2], n[0], n[1], n[2]]).collect();
         let doing = format!("uploading mesh `{name}`");
@@ -66,7 +66,7 @@ pub struct MeshInstance {
 }
 
 /// What a mesh layer draws: meshes and slice views' pictures on their planes, seen by a camera.
-pub struct LayerContent<'a> {
+pub(crate) struct LayerContent<'a> {
     pub camera: &'a LayerCamera,
     pub meshes: &'a [&'a MeshInstance],
     pub planes: &'a [PlanePicture],
@@ -77,7 +77,7 @@ pub struct LayerContent<'a> {
 
 /// How a view's mesh layer looks at the meshes.
 #[derive(Clone, Copy, Debug)]
-pub enum LayerCamera {
+pub(crate) enum LayerCamera {
     /// A raycast view: its projection of patient space (RAS mm) to clip space.
     Projection { world_to_clip: Mat4 },
     /// A slice view: its plane; meshes show as outlines where they cross it.
@@ -85,7 +85,7 @@ pub enum LayerCamera {
 }
 
 /// The clip-space depth of the slice plane in a slice view's mesh layer.
-pub const SLICE_PLANE_DEPTH: f32 = 0.5;
+pub(crate) const SLICE_PLANE_DEPTH: f32 = 0.5;
 
 /// One view's mesh layer: its two images and what they were drawn from.
 pub struct MeshLayer {
@@ -102,7 +102,7 @@ pub struct MeshLayer {
 
 impl MeshLayer {
     /// An empty layer (depth 1, no colour) of `size` pixels.
-    pub fn new(gpu: &Gpu, size: [u32; 2]) -> Result<MeshLayer, RuntimeError> {
+    pub(crate) fn new(gpu: &Gpu, size: [u32; 2]) -> Result<MeshLayer, RuntimeError> {
         let usage = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING;
         let doing = format!("creating a {}x{} mesh layer", size[0], size[1]);
         let image = |label, format| Image2d { label, size, format, usage }.create(gpu, &doing);
@@ -124,13 +124,13 @@ impl MeshLayer {
     }
 
     /// The depth image (`r32float`) and the colour image the volume layer binds.
-    pub fn views(&self) -> (&wgpu::TextureView, &wgpu::TextureView) {
+    pub(crate) fn views(&self) -> (&wgpu::TextureView, &wgpu::TextureView) {
         (&self.depth_view, &self.color_view)
     }
 
     /// Records the drawing of `content` into the layer's images, unless they already hold
     /// exactly that picture (the tiles of one frame draw it once). `sampler` reads the pictures.
-    pub fn encode(
+    pub(crate) fn encode(
         &mut self,
         gpu: &Gpu,
         (pipelines, sampler): (Option<&MeshPipelines>, &wgpu::Sampler),

@@ -56,7 +56,7 @@ impl SceneRenderer {
             self.resources.mesh_pipelines = Some(MeshPipelines::new(&self.gpu)?);
         }
         self.resources.meshes = instances;
-        self.resources.mesh_generation += 1;
+        self.resources.meshes_changed();
         self.meshes = SceneMeshes { tables: scene.meshes.clone(), followed, key };
         Ok(())
     }
@@ -80,7 +80,7 @@ impl SceneRenderer {
             (instance.color, instance.opacity, instance.model) = (now.color, now.opacity, now.model);
             self.resources.meshes[i] = instance;
             self.meshes.followed[i] = points;
-            self.resources.mesh_generation += 1;
+            self.resources.meshes_changed();
         }
         Ok(())
     }

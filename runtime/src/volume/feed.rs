@@ -43,7 +43,7 @@ pub fn stream_feed(feed: &dyn VolumeFeed, sink: &mut dyn SampleSink) -> Result<V
 pub struct Feeds(BTreeMap<String, Arc<dyn VolumeFeed>>);
 
 impl Feeds {
-    pub fn new() -> Feeds {
+    pub(crate) fn new() -> Feeds {
         Feeds::default()
     }
 
@@ -52,11 +52,11 @@ impl Feeds {
         self.0.insert(name.into(), feed);
     }
 
-    pub fn get(&self, name: &str) -> Option<&Arc<dyn VolumeFeed>> {
+    pub(crate) fn get(&self, name: &str) -> Option<&Arc<dyn VolumeFeed>> {
         self.0.get(name)
     }
 
-    pub fn is_empty(&self) -> bool {
+    pub(crate) fn is_empty(&self) -> bool {
         self.0.is_empty()
     }
 }

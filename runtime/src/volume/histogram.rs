@@ -4,7 +4,7 @@
 use super::{LoadErrorKind, SampleSink, Samples, Scaling, Volume, VolumeInfo};
 
 /// The percentiles the automatic window spans.
-pub const AUTO_PERCENTILES: [f64; 2] = [0.5, 99.5];
+pub(crate) const AUTO_PERCENTILES: [f64; 2] = [0.5, 99.5];
 
 /// Bins of the histogram over the value range: fine enough for a window within 0.025% of the
 /// range.
@@ -20,12 +20,12 @@ pub struct Histogram {
 
 impl Histogram {
     /// An empty histogram over `range` (data units) of samples stored with `scaling`.
-    pub fn new(range: [f32; 2], scaling: Scaling) -> Histogram {
+    pub(crate) fn new(range: [f32; 2], scaling: Scaling) -> Histogram {
         Histogram { range, scaling, bins: vec![0; BINS] }
     }
 
     /// Counts one stored sample (non-finite ones are not counted).
-    pub fn add(&mut self, stored: f32) {
+    pub(crate) fn add(&mut self, stored: f32) {
         let value = self.scaling.apply(stored);
         if !value.is_finite() {
             return;
@@ -38,7 +38,7 @@ impl Histogram {
 
     /// The value below which `percent` of the counted values lie (interpolated in its bin); the
     /// range's low end for an empty histogram.
-    pub fn percentile(&self, percent: f64) -> f32 {
+    pub(crate) fn percentile(&self, percent: f64) -> f32 {
         let total: u64 = self.bins.iter().sum();
         let [lo, hi] = self.range;
         if total == 0 {

@@ -12,7 +12,7 @@
 mod dicom;
 mod feed;
 mod header;
-pub mod histogram;
+pub(crate) mod histogram;
 mod mhd;
 mod nifti;
 mod nrrd;
@@ -40,14 +40,14 @@ pub use samples::{Samples, Scaling};
 /// Streams a volume's finite value range: the sink of a first pass over a file when the volume
 /// is not kept.
 #[derive(Debug, Default)]
-pub struct RangeSink {
+pub(crate) struct RangeSink {
     scaling: Option<Scaling>,
     stored: Option<[f32; 2]>,
 }
 
 impl RangeSink {
     /// The finite range in data units (`[0, 0]` without finite samples), as [`Volume::range`].
-    pub fn range(&self) -> [f32; 2] {
+    pub(crate) fn range(&self) -> [f32; 2] {
         self.scaling.unwrap_or(Scaling::IDENTITY).range(self.stored)
     }
 }
@@ -69,7 +69,7 @@ impl SampleSink for RangeSink {
 
 /// The most voxels a volume may have: 2^31 (4 GiB as 16-bit samples, 4 GiB on the GPU as half
 /// floats).
-pub const MAX_VOXELS: u64 = 1 << 31;
+pub(crate) const MAX_VOXELS: u64 = 1 << 31;
 
 /// A scalar volume in memory: the samples as the file stores them, and how they map to data
 /// units (the file's value scaling).
@@ -101,13 +101,13 @@ impl Volume {
     }
 
     /// Builds a volume from stored samples and their scaling to data units.
-    pub fn from_samples(dims: [u32; 3], grid_to_world: Mat4, samples: Samples, scaling: Scaling) -> Volume {
+    pub(crate) fn from_samples(dims: [u32; 3], grid_to_world: Mat4, samples: Samples, scaling: Scaling) -> Volume {
         let range = scaling.range(samples.finite_range());
         Volume { dims, spacing: spacing_of(&grid_to_world), grid_to_world, samples, scaling, range }
     }
 
     /// The data value of voxel `index` (x fastest); `None` beyond the end.
-    pub fn value(&self, index: usize) -> Option<f32> {
+    pub(crate) fn value(&self, index: usize) -> Option<f32> {
         self.samples.get(index).map(|s| self.scaling.apply(s))
     }
 
@@ -124,7 +124,7 @@ impl Volume {
     ///
     /// This is what the GPU samples: the transfer function's table spans the same window. A
     /// window with `hi <= lo` is a threshold: values above `lo` become 1.
-    pub fn normalized(&self, window: Option<[f32; 2]>) -> Vec<f32> {
+    pub(crate) fn normalized(&self, window: Option<[f32; 2]>) -> Vec<f32> {
         let mut out = Vec::with_capacity(self.samples.len());
         self.for_each_normalized(window, 0..self.samples.len(), |t| out.push(t));
         out
@@ -140,7 +140,7 @@ impl Volume {
 
     /// Appends the normalized values of the voxels in `voxels` to `out` as IEEE half floats, for
     /// an `R16Float` texture upload (half the memory of `f32`, and filterable on every backend).
-    pub fn normalized_f16_into(&self, window: Option<[f32; 2]>, voxels: Range<usize>, out: &mut Vec<half::f16>) {
+    pub(crate) fn normalized_f16_into(&self, window: Option<[f32; 2]>, voxels: Range<usize>, out: &mut Vec<half::f16>) {
         out.reserve(voxels.len());
         self.for_each_normalized(window, voxels, |t| out.push(half::f16::from_f32(t)));
     }
@@ -151,7 +151,7 @@ impl Volume {
     }
 
     /// Bytes the volume takes on the GPU at 2 bytes per voxel (see [`Volume::normalized_f16_into`]).
-    pub fn gpu_bytes(&self) -> u64 {
+    pub(crate) fn gpu_bytes(&self) -> u64 {
         self.voxel_count() * 2
     }
 }
@@ -177,7 +177,7 @@ impl fmt::Debug for Volume {
 /// multiply-add: `(stored * slope + intercept - lo) / (hi - lo)`, clamped to [0, 1], NaN -> 0
 /// (see [`Volume::normalized`]).
 #[derive(Clone, Copy, Debug)]
-pub struct Window {
+pub(crate) struct Window {
     /// `slope / (hi - lo)` and `(intercept - lo) / (hi - lo)`; `None` for a degenerate window
     /// (a threshold at `lo`).
     linear: Option<(f32, f32)>,
@@ -187,7 +187,7 @@ pub struct Window {
 
 impl Window {
     /// The window `[lo, hi]` (data units) over samples stored with `scaling`.
-    pub fn new([lo, hi]: [f32; 2], scaling: Scaling) -> Window {
+    pub(crate) fn new([lo, hi]: [f32; 2], scaling: Scaling) -> Window {
         let linear = (hi > lo).then(|| {
             let scale = 1.0 / (hi - lo);
             (scaling.slope * scale, (scaling.intercept - lo) * scale)
@@ -196,7 +196,7 @@ impl Window {
     }
 
     /// The normalized value of a stored sample.
-    pub fn apply(self, stored: f32) -> f32 {
+    pub(crate) fn apply(self, stored: f32) -> f32 {
         let t = match self.linear {
             Some((a, b)) => stored * a + b,
             None if self.scaling.apply(stored) > self.lo => 1.0,
@@ -245,7 +245,7 @@ pub struct LoadError {
 impl LoadError {
     /// True for a file that is missing or unreadable, false for a file whose content is wrong
     /// or unsupported.
-    pub fn is_io(&self) -> bool {
+    pub(crate) fn is_io(&self) -> bool {
         matches!(self.kind, LoadErrorKind::Io { .. })
     }
 }
@@ -336,7 +336,7 @@ pub fn load(path: &Path, progress: &mut dyn FnMut(u64, u64)) -> Result<Volume, L
 /// Reads a volume like [`load`], but hands its samples to `sink` a chunk at a time instead of
 /// keeping them: a caller that only needs them once (a GPU upload, a histogram) holds no copy
 /// of the volume. Returns the volume's shape, placement and scaling.
-pub fn stream(
+pub(crate) fn stream(
     path: &Path,
     progress: &mut dyn FnMut(u64, u64),
     sink: &mut dyn SampleSink,
@@ -363,7 +363,7 @@ pub fn stream(
 /// memory-mapped brick source) instead of loaded: the header validated as a load would, and
 /// the file checked to hold exactly the samples it claims.
 #[derive(Clone, Debug, PartialEq)]
-pub struct RawData {
+pub(crate) struct RawData {
     /// The file holding the samples: the volume file, or the data file its header names.
     pub file: PathBuf,
     /// The byte of `file` where the first sample starts (x fastest, then y, then z).
@@ -378,7 +378,7 @@ pub struct RawData {
 
 impl RawData {
     /// Bytes of the samples in `file`.
-    pub fn bytes(&self) -> u64 {
+    pub(crate) fn bytes(&self) -> u64 {
         self.info.dims.iter().map(|&d| u64::from(d)).product::<u64>() * self.sample.size()
     }
 }
@@ -387,7 +387,7 @@ impl RawData {
 /// `encoding: raw`, MetaImage without `CompressedData`, `.nii`): `None` for compressed data and
 /// DICOM series, which must be loaded. Errors are a load's: a header it refuses, or a data
 /// section shorter or longer than the header claims.
-pub fn raw_layout(path: &Path) -> Result<Option<RawData>, LoadError> {
+pub(crate) fn raw_layout(path: &Path) -> Result<Option<RawData>, LoadError> {
     let name = path.file_name().map(|n| n.to_string_lossy().to_ascii_lowercase()).unwrap_or_default();
     let located = if path.is_dir() || name.ends_with(".nii.gz") {
         Ok(None)
@@ -470,7 +470,7 @@ impl SampleSink for Collect {
 
 /// The sample types the loaders accept; `f64` is kept as `f32`, the others as they are.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum ScalarType {
+pub(crate) enum ScalarType {
     U8,
     I8,
     U16,
@@ -483,7 +483,7 @@ pub enum ScalarType {
 
 impl ScalarType {
     /// Bytes per sample.
-    pub fn size(self) -> u64 {
+    pub(crate) fn size(self) -> u64 {
         match self {
             ScalarType::U8 | ScalarType::I8 => 1,
             ScalarType::U16 | ScalarType::I16 => 2,

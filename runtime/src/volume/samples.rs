@@ -47,16 +47,16 @@ sample!(u8, i8, u16, i16, u32, i32, f32);
 
 impl Samples {
     /// The number of samples.
-    pub fn len(&self) -> usize {
+    pub(crate) fn len(&self) -> usize {
         with_samples!(self, v => v.len())
     }
 
-    pub fn is_empty(&self) -> bool {
+    pub(crate) fn is_empty(&self) -> bool {
         self.len() == 0
     }
 
     /// Bytes per sample in memory.
-    pub fn sample_bytes(&self) -> usize {
+    pub(crate) fn sample_bytes(&self) -> usize {
         match self {
             Samples::U8(_) | Samples::I8(_) => 1,
             Samples::U16(_) | Samples::I16(_) => 2,
@@ -65,25 +65,25 @@ impl Samples {
     }
 
     /// Stored sample `i` as `f32`; `None` beyond the end.
-    pub fn get(&self, i: usize) -> Option<f32> {
+    pub(crate) fn get(&self, i: usize) -> Option<f32> {
         with_samples!(self, v => v.get(i).map(|&s| s.to_f32()))
     }
 
     /// Calls `f` with each stored sample of `range` as `f32`, in order (one type dispatch per
     /// call, not per sample).
-    pub fn for_each(&self, range: Range<usize>, mut f: impl FnMut(f32)) {
+    pub(crate) fn for_each(&self, range: Range<usize>, mut f: impl FnMut(f32)) {
         with_samples!(self, v => v[range].iter().for_each(|&s| f(s.to_f32())))
     }
 
     /// Every stored sample as `f32` (a full copy: for tests and small volumes).
-    pub fn to_f32(&self) -> Vec<f32> {
+    pub(crate) fn to_f32(&self) -> Vec<f32> {
         let mut out = Vec::with_capacity(self.len());
         self.for_each(0..self.len(), |s| out.push(s));
         out
     }
 
     /// Minimum and maximum of the finite stored samples, `None` when there are none.
-    pub fn finite_range(&self) -> Option<[f32; 2]> {
+    pub(crate) fn finite_range(&self) -> Option<[f32; 2]> {
         let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
         self.for_each(0..self.len(), |s| {
             if s.is_finite() {
@@ -108,13 +108,13 @@ impl Scaling {
     pub const IDENTITY: Scaling = Scaling { slope: 1.0, intercept: 0.0 };
 
     /// The data value of a stored sample.
-    pub fn apply(self, stored: f32) -> f32 {
+    pub(crate) fn apply(self, stored: f32) -> f32 {
         stored * self.slope + self.intercept
     }
 
     /// The data range of samples whose stored range is `stored` (`[0, 0]` without finite
     /// samples, or when scaling overflows).
-    pub fn range(self, stored: Option<[f32; 2]>) -> [f32; 2] {
+    pub(crate) fn range(self, stored: Option<[f32; 2]>) -> [f32; 2] {
         match stored {
             Some([lo, hi]) => {
                 let (a, b) = (self.apply(lo), self.apply(hi));

@@ -48,7 +48,7 @@ use ome::{Axis, AxisKind, Multiscale, Transform};
 use plan::{LevelPlan, Placement};
 use store::{Listing, Root};
 
-pub use super::MAX_BRICKS;
+pub(crate) use super::MAX_BRICKS;
 pub use store::StoreLocation;
 pub use testdata::write_test_zarr;
 
@@ -107,7 +107,7 @@ enum Region {
 impl ZarrSource {
     /// Opens the Zarr array or OME-Zarr image in the directory `path`, as it is (first
     /// multiscale, no time or channel chosen), with a 256 MiB cache for built levels.
-    pub fn open(path: &Path) -> Result<ZarrSource, BrickError> {
+    pub(crate) fn open(path: &Path) -> Result<ZarrSource, BrickError> {
         Self::open_at(&StoreLocation::Path(path.to_path_buf()), &ZarrSelection::default(), 256 << 20)
     }
 
