@@ -13,6 +13,7 @@ use crate::volume::Volume;
 /// Voxels per brick edge.
 pub(crate) const BRICK: u32 = 8;
 
+#[cfg(test)]
 /// The occupancy grid of the primary volume under `tf`, with its values normalized by `window`
 /// as they are uploaded ([`Volume::normalized`]). Reads the volume a row at a time: no copy of
 /// its values is made.
@@ -38,6 +39,7 @@ impl BrickRanges {
         builder.finish()
     }
 
+    #[cfg(test)]
     /// `std::skip`'s grid: 1 where `tf` gives some value in the brick's range a non-zero
     /// opacity, else 0.
     pub(crate) fn occupancy(&self, tf: &TransferFunction) -> Volume {

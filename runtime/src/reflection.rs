@@ -3,4 +3,4 @@
 //! once, in `vrs-reflection`, for the compiler and the runtime alike.
 
 pub use vrs_reflection::{FunctionInfo, FunctionStatus, Reflection, UniformBlock, UniformInfo, content_hash};
-pub(crate) use vrs_reflection::{BindingInfo, BindingKind, FORMAT_VERSION, FieldInfo, Lifetime, StateInfo, StepInfo};
+pub(crate) use vrs_reflection::{BindingInfo, BindingKind};

@@ -213,10 +213,6 @@ impl SceneRenderer {
         self.pipelines.stats()
     }
 
-    pub(crate) fn view_mut(&mut self, name: &str) -> Option<&mut SceneView> {
-        self.views.iter_mut().find(|v| v.name == name)
-    }
-
     /// Sets a uniform in every view whose shader reads it; an error if none does.
     pub fn set_uniform(&mut self, name: &str, value: impl Into<crate::uniforms::Value>) -> Result<(), RuntimeError> {
         let value = value.into();
@@ -409,11 +405,6 @@ impl SceneRenderer {
         let view = self.views.get_mut(index).ok_or_else(|| RuntimeError::Invalid(format!("no view {index}")))?;
         apply_view_uniforms(view, &self.grids)?;
         view.renderer.encode_into(&self.gpu, &self.resources, encoder, target, region)
-    }
-
-    /// The number of voxels along each axis of the primary volume.
-    pub(crate) fn primary_dims(&self) -> Option<[u32; 3]> {
-        self.grids.first().map(|g| g.dims)
     }
 
     /// The primary volume's grid: its voxel counts and its grid-to-world transform (voxel

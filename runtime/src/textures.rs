@@ -12,6 +12,8 @@ use glam::Mat4;
 
 /// A volume as a 3D `R16Float` texture of values normalized to [0, 1], uploaded a slab at a time.
 pub(crate) struct VolumeTexture {
+    /// The texture `view` shows, held with it.
+    #[allow(dead_code, reason = "held for its lifetime; the shaders bind `view`")]
     pub texture: wgpu::Texture,
     pub view: wgpu::TextureView,
     pub dims: [u32; 3],

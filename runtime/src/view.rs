@@ -165,12 +165,6 @@ impl ViewRenderer {
         self.brick_view = Some(view);
     }
 
-    /// The finest level of bricked volumes the view samples: 0 (all detail) unless the caller
-    /// holds detail back, as a viewer may while the user drags.
-    pub(crate) fn set_brick_finest(&mut self, level: u32) {
-        self.brick_finest = level;
-    }
-
     /// Writes the `BrickLayout` of every bricked volume the view reads, for a target `height`
     /// pixels high.
     fn write_brick_layouts(&mut self, gpu: &Gpu, resources: &Resources, height: u32) -> Result<(), RuntimeError> {

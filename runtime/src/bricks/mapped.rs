@@ -16,6 +16,7 @@
 
 use std::fs::File;
 use std::ops::Range;
+#[cfg(test)]
 use std::path::Path;
 
 use memmap2::{Mmap, MmapOptions};
@@ -39,6 +40,7 @@ pub(crate) struct MappedSource {
 }
 
 impl MappedSource {
+    #[cfg(test)]
     /// Maps the samples of the volume file at `path` when they are stored uncompressed;
     /// `None` when they are not (or `path` is a DICOM folder): such a file must be loaded.
     pub(crate) fn open(path: &Path) -> Result<Option<MappedSource>, BrickError> {

@@ -50,11 +50,6 @@ impl PyramidSource {
         PyramidSource { volume, levels, coarse }
     }
 
-    /// The volume level 0 reads from.
-    pub(crate) fn volume(&self) -> &Volume {
-        &self.volume
-    }
-
     /// Data value of voxel `index` (x fastest) of `level`.
     fn value(&self, level: usize, index: usize) -> f32 {
         match level {

@@ -28,11 +28,7 @@ impl MeshError {
         MeshError { source: Source::Shape(shape), message: message.into() }
     }
 
-    /// What is wrong, without the file name.
-    pub(crate) fn message(&self) -> &str {
-        &self.message
-    }
-
+    #[cfg(test)]
     /// The file concerned; `None` for a built-in shape.
     pub(crate) fn path(&self) -> Option<&Path> {
         match &self.source {

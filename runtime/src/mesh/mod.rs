@@ -26,7 +26,9 @@ use std::fs::File;
 use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::path::Path;
 
-use glam::{Mat3, Mat4, Vec3};
+use glam::Vec3;
+#[cfg(test)]
+use glam::{Mat3, Mat4};
 
 pub use error::MeshError;
 
@@ -43,6 +45,7 @@ pub struct Mesh {
 }
 
 impl Mesh {
+    #[cfg(test)]
     /// The number of triangles.
     pub(crate) fn triangle_count(&self) -> usize {
         self.indices.len() / 3
@@ -86,6 +89,7 @@ impl Mesh {
         !edges.is_empty() && volume > 0.0 && edges.iter().all(|(&(a, b), &n)| n == 1 && edges.get(&(b, a)) == Some(&1))
     }
 
+    #[cfg(test)]
     /// The mesh moved by the affine transform `m`: positions by `m`, normals by the inverse
     /// transpose of its linear part, renormalised. A mirroring `m` (negative determinant) flips
     /// the winding, so triangles stay counter-clockwise seen from outside. A singular `m` leaves
@@ -172,6 +176,7 @@ pub(crate) enum Coordinates {
     Lps,
 }
 
+#[cfg(test)]
 /// Loads a mesh file whose coordinates are RAS millimetres; the format is chosen by extension.
 pub(crate) fn load(path: &Path, limits: &Limits) -> Result<Mesh, MeshError> {
     load_with(path, Coordinates::Ras, limits)

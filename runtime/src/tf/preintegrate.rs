@@ -46,6 +46,7 @@ pub(crate) const MAX_OPACITY: f64 = 1.0 - 1e-6;
 /// are taken (8 × 1023 for a full table: the cost stays linear in the table's width).
 pub(crate) const SUBSTEPS: usize = 8;
 
+#[cfg(test)]
 /// The length (in normalized values) below which [`segment`] point-samples a segment at its
 /// middle rather than dividing by the length: the table's diagonal is point-sampled, and its
 /// other entries are at least one entry (`1 / size`) long.
@@ -108,6 +109,7 @@ impl PreintegratedTable {
         PreintegratedTable { size, rgba }
     }
 
+    #[cfg(test)]
     /// The entry for the front value's column `front` and the back value's row `back`.
     pub(crate) fn entry(&self, front: u32, back: u32) -> [f32; 4] {
         self.rgba[(back * self.size + front) as usize]
@@ -121,6 +123,7 @@ impl PreintegratedTable {
     }
 }
 
+#[cfg(test)]
 /// What the shader does with a table entry `[r, g, b, tau]` for a step of `steps_ratio =
 /// dt / ref_step` reference steps: `alpha = 1 - exp(-tau * steps_ratio)` and the premultiplied
 /// `[r * alpha, g * alpha, b * alpha, alpha]`.
@@ -129,6 +132,7 @@ pub(crate) fn premultiplied([r, g, b, tau]: [f32; 4], steps_ratio: f32) -> [f32;
     [r * alpha, g * alpha, b * alpha, alpha]
 }
 
+#[cfg(test)]
 /// The premultiplied rgba of one segment from the front value `sf` to the back value `sb`
 /// (normalized, clamped to [0, 1]) of `steps_ratio = dt / ref_step` reference steps, by the
 /// table's formula at these exact values: a table's entry off the diagonal is `segment` at its

@@ -56,9 +56,6 @@ impl Feeds {
         self.0.get(name)
     }
 
-    pub(crate) fn is_empty(&self) -> bool {
-        self.0.is_empty()
-    }
 }
 
 /// Names and versions, not samples.

@@ -119,6 +119,7 @@ impl Volume {
         out
     }
 
+    #[cfg(test)]
     /// Values mapped to [0, 1] by `window` (lo, hi, data units), or by `range` when `None`;
     /// clamped; NaN -> 0.
     ///
@@ -138,6 +139,7 @@ impl Volume {
         self.samples.for_each(voxels, |s| f(window.apply(s)));
     }
 
+    #[cfg(test)]
     /// Appends the normalized values of the voxels in `voxels` to `out` as IEEE half floats, for
     /// an `R16Float` texture upload (half the memory of `f32`, and filterable on every backend).
     pub(crate) fn normalized_f16_into(&self, window: Option<[f32; 2]>, voxels: Range<usize>, out: &mut Vec<half::f16>) {
@@ -150,6 +152,7 @@ impl Volume {
         self.dims.iter().map(|&d| u64::from(d)).product()
     }
 
+    #[cfg(test)]
     /// Bytes the volume takes on the GPU at 2 bytes per voxel (see [`Volume::normalized_f16_into`]).
     pub(crate) fn gpu_bytes(&self) -> u64 {
         self.voxel_count() * 2
@@ -243,6 +246,7 @@ pub struct LoadError {
 }
 
 impl LoadError {
+    #[cfg(test)]
     /// True for a file that is missing or unreadable, false for a file whose content is wrong
     /// or unsupported.
     pub(crate) fn is_io(&self) -> bool {

@@ -51,10 +51,6 @@ impl Samples {
         with_samples!(self, v => v.len())
     }
 
-    pub(crate) fn is_empty(&self) -> bool {
-        self.len() == 0
-    }
-
     /// Bytes per sample in memory.
     pub(crate) fn sample_bytes(&self) -> usize {
         match self {
@@ -75,6 +71,7 @@ impl Samples {
         with_samples!(self, v => v[range].iter().for_each(|&s| f(s.to_f32())))
     }
 
+    #[cfg(test)]
     /// Every stored sample as `f32` (a full copy: for tests and small volumes).
     pub(crate) fn to_f32(&self) -> Vec<f32> {
         let mut out = Vec::with_capacity(self.len());

@@ -31,6 +31,7 @@ mod store;
 mod testdata;
 
 use std::ops::Range;
+#[cfg(test)]
 use std::path::Path;
 use std::sync::{Arc, Mutex, OnceLock};
 
@@ -105,6 +106,7 @@ enum Region {
 }
 
 impl ZarrSource {
+    #[cfg(test)]
     /// Opens the Zarr array or OME-Zarr image in the directory `path`, as it is (first
     /// multiscale, no time or channel chosen), with a 256 MiB cache for built levels.
     pub(crate) fn open(path: &Path) -> Result<ZarrSource, BrickError> {
