@@ -57,7 +57,7 @@ pub struct PatientBox {
     /// The corner towards the patient's left, posterior and inferior (smallest RAS).
     pub min: Vec3,
     /// The corner towards the patient's right, anterior and superior (largest RAS).
-    pub max: Vec3,
+    pub(crate) max: Vec3,
 }
 
 impl PatientBox {

@@ -16,7 +16,7 @@ pub struct Gpu {
     /// The adapter's name and backend, for logs and benchmark reports.
     pub adapter: String,
     /// Whether it is a CPU (software) adapter such as lavapipe.
-    pub software: bool,
+    pub(crate) software: bool,
     /// Errors no error scope captured, oldest first.
     uncaptured: Arc<Mutex<Vec<GpuFault>>>,
 }
@@ -26,7 +26,7 @@ pub struct Gpu {
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct GpuFault {
     /// What the runtime was doing: "creating the output image of view `3d`".
-    pub doing: String,
+    pub(crate) doing: String,
     pub kind: GpuFaultKind,
     /// wgpu's own report, its causes included.
     pub message: String,

@@ -41,7 +41,7 @@ impl ComponentKind {
 /// What a probed field holds: the kind and number (1 to 4) of its components.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct ProbeFormat {
-    pub kind: ComponentKind,
+    pub(crate) kind: ComponentKind,
     pub components: u32,
 }
 

@@ -24,7 +24,7 @@ mod derived;
 mod meshes;
 mod probe;
 mod tf_edit;
-pub use bricked::{BrickProgress, open_store, selection, store_location};
+pub use bricked::{BrickProgress, selection};
 pub use meshes::{MeshHandle, mesh_surface};
 pub use probe::{ProbeAt, ProbeImage, ProbeSpec};
 pub use tf_edit::VolumeStatus;
@@ -58,13 +58,13 @@ pub struct SceneView {
     /// Slice views: the plane and the slab thickness (mm).
     pub slice: Option<(SlicePlane, f32)>,
     /// Slice views: how the image puts the patient's sides (the scene's `convention`).
-    pub convention: Convention,
+    pub(crate) convention: Convention,
     /// The meshes its mesh layer draws and those its overlay draws (indices into the scene's
     /// meshes).
-    pub meshes: Vec<usize>,
-    pub overlay: Vec<usize>,
+    pub(crate) meshes: Vec<usize>,
+    pub(crate) overlay: Vec<usize>,
     /// The slice views it shows on their planes (indices into the scene's views).
-    pub planes: Vec<usize>,
+    pub(crate) planes: Vec<usize>,
 }
 
 /// A loaded scene, ready to render every frame.

@@ -55,15 +55,15 @@ impl ViewShader {
 /// How often [`PipelineCache`] reused a pipeline.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct PipelineStats {
-    pub hits: u64,
+    pub(crate) hits: u64,
     pub misses: u64,
 }
 
 /// A view's compute pipeline and the bind-group layouts it was made with, one per group, both
 /// from the shader's reflection ([`crate::bindings`]).
 pub struct ViewPipeline {
-    pub pipeline: wgpu::ComputePipeline,
-    pub groups: Vec<wgpu::BindGroupLayout>,
+    pub(crate) pipeline: wgpu::ComputePipeline,
+    pub(crate) groups: Vec<wgpu::BindGroupLayout>,
 }
 
 /// Compute pipelines by structural hash: a configuration seen before reuses its pipeline, and a

@@ -67,7 +67,7 @@ impl VolumeTexture {
 
     /// [`VolumeTexture::stream_file`] for a volume the application holds in memory: read where
     /// it lies, a chunk at a time, in as many passes as a file. `path` names it in errors.
-    pub fn stream_feed(
+    pub(crate) fn stream_feed(
         gpu: &Gpu,
         name: &str,
         path: &std::path::Path,

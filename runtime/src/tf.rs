@@ -45,7 +45,7 @@ pub(crate) const CT_DOMAIN: [f32; 2] = [-1024.0, 3071.0];
 #[derive(Clone, Debug, PartialEq)]
 pub struct TransferFunction {
     /// The preset's name, the colormap's `Name`, or the file stem.
-    pub name: String,
+    pub(crate) name: String,
     /// [`TF_WIDTH`] entries evenly over `domain`: r, g, b and straight alpha, each in [0, 1].
     pub rgba: Vec<[f32; 4]>,
     /// What the first and last entries stand for.

@@ -16,8 +16,10 @@ pub(crate) mod source;
 pub mod zarr;
 
 pub(crate) use lazy_levels::cache_bytes;
-pub use residency::{BrickView, BrickedVolume, BrickedVolumes, Residency};
-pub use source::{BrickData, BrickError, BrickSource, Level, levels_for};
+pub use residency::Residency;
+pub(crate) use residency::{BrickView, BrickedVolume, BrickedVolumes};
+pub use source::{BrickData, BrickError, BrickSource, Level};
+pub(crate) use source::levels_for;
 
 /// Voxels along each edge of a brick, without its apron.
 pub(crate) const BRICK: u32 = 64;

@@ -41,7 +41,7 @@ pub(crate) const SLOT_BYTES: u64 = (STORED as u64).pow(3) * 2;
 
 /// How a view looks at its bricked volumes this frame: what picks the level of a sample.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub enum BrickView {
+pub(crate) enum BrickView {
     /// A perspective camera at `eye` (the primary volume's normalized coordinates) whose image
     /// spans `fov` radians vertically.
     Perspective { eye: Vec3, fov: f32 },
@@ -92,7 +92,7 @@ struct State {
 }
 
 /// A bricked volume's GPU objects and residency.
-pub struct BrickedVolume {
+pub(crate) struct BrickedVolume {
     pub name: String,
     levels: Vec<Level>,
     slots: [u32; 3],
@@ -548,7 +548,7 @@ fn pool_slots(budget: u64, wanted: u64, max_3d: u32) -> Option<[u32; 3]> {
 }
 
 /// Which pages each bricked volume of a view's shader binds, by binding name.
-pub type BrickedVolumes = HashMap<String, Arc<BrickedVolume>>;
+pub(crate) type BrickedVolumes = HashMap<String, Arc<BrickedVolume>>;
 
 #[cfg(test)]
 mod tests {

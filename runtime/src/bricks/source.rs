@@ -27,7 +27,7 @@ impl Level {
 /// The levels of a pyramid over a level-0 grid of `dims`: each halves the last (rounding up)
 /// until every axis fits in one brick. Level `l`'s voxel `i` covers level 0's voxels
 /// `[i * 2^l, (i + 1) * 2^l)`.
-pub fn levels_for(dims: [u32; 3]) -> Vec<Level> {
+pub(crate) fn levels_for(dims: [u32; 3]) -> Vec<Level> {
     let mut levels = vec![Level::new(dims)];
     let mut scale = 1u32;
     while levels.last().is_some_and(|l| l.bricks.iter().any(|&b| b > 1)) {

@@ -39,7 +39,7 @@ pub struct Mesh {
     pub positions: Vec<[f32; 3]>,
     /// Unit normals, one per vertex (same length as `positions`): from the file when it has finite
     /// ones for every vertex, otherwise computed area-weighted from the faces.
-    pub normals: Vec<[f32; 3]>,
+    pub(crate) normals: Vec<[f32; 3]>,
     /// Triangles, three indices into `positions` each, counter-clockwise seen from outside.
     pub indices: Vec<u32>,
 }

@@ -54,7 +54,7 @@ impl GpuMesh {
 pub struct MeshInstance {
     pub name: String,
     pub mesh: Arc<Mesh>,
-    pub gpu: Arc<GpuMesh>,
+    pub(crate) gpu: Arc<GpuMesh>,
     /// sRGB display colour.
     pub color: [f32; 3],
     pub opacity: f32,
@@ -62,7 +62,7 @@ pub struct MeshInstance {
     pub model: Mat4,
     /// The surface is closed and wound outward ([`Mesh::is_closed_outward`]): opaque, its back
     /// faces are culled.
-    pub closed: bool,
+    pub(crate) closed: bool,
 }
 
 /// What a mesh layer draws: meshes and slice views' pictures on their planes, seen by a camera.

@@ -13,7 +13,7 @@ pub struct TfCurve {
     pub name: String,
     pub color: Vec<ColorPoint>,
     pub opacity: Vec<OpacityPoint>,
-    pub domain: TfDomain,
+    pub(crate) domain: TfDomain,
 }
 
 impl TfCurve {

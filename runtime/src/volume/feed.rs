@@ -25,7 +25,7 @@ pub trait VolumeFeed: Send + Sync {
 }
 
 /// Streams `feed` into `sink` after the checks every file's header passes.
-pub fn stream_feed(feed: &dyn VolumeFeed, sink: &mut dyn SampleSink) -> Result<VolumeInfo, LoadErrorKind> {
+pub(crate) fn stream_feed(feed: &dyn VolumeFeed, sink: &mut dyn SampleSink) -> Result<VolumeInfo, LoadErrorKind> {
     let info = feed.info();
     let voxels: u64 = info.dims.iter().map(|&d| u64::from(d)).product();
     if voxels > super::MAX_VOXELS {

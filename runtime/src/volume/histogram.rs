@@ -12,7 +12,7 @@ const BINS: usize = 4096;
 
 /// A histogram of data values over a known range, filled from stored samples.
 #[derive(Clone, Debug)]
-pub struct Histogram {
+pub(crate) struct Histogram {
     range: [f32; 2],
     scaling: Scaling,
     bins: Vec<u64>,
@@ -59,7 +59,7 @@ impl Histogram {
 
     /// The window from [`AUTO_PERCENTILES`]; the whole range when they coincide (a volume of
     /// one or two values).
-    pub fn auto_window(&self) -> [f32; 2] {
+    pub(crate) fn auto_window(&self) -> [f32; 2] {
         let [a, b] = AUTO_PERCENTILES.map(|p| self.percentile(p));
         if b > a { [a, b] } else { self.range }
     }

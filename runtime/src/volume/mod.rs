@@ -31,10 +31,12 @@ use std::path::{Path, PathBuf};
 
 use glam::{Mat4, Vec3, Vec4};
 
-pub use feed::{Feeds, VolumeFeed, stream_feed};
-pub use header::{MAX_ANISOTROPY, MAX_SPACING, MIN_SPACING, header};
-pub use histogram::{Histogram, auto_window};
-pub use phantom::{PHANTOMS, UnknownPhantom, phantom};
+pub use feed::{Feeds, VolumeFeed};
+pub(crate) use feed::stream_feed;
+pub use header::header;
+pub use histogram::auto_window;
+pub(crate) use histogram::Histogram;
+pub use phantom::{UnknownPhantom, phantom};
 pub use samples::{Samples, Scaling};
 
 /// Streams a volume's finite value range: the sink of a first pass over a file when the volume
@@ -86,9 +88,9 @@ pub struct Volume {
     /// Voxel index (i, j, k) of a voxel centre -> world position (mm, RAS+), from the header.
     pub grid_to_world: Mat4,
     /// The stored samples, `dims[0] * dims[1] * dims[2]` of them, x fastest, then y, then z.
-    pub samples: Samples,
+    pub(crate) samples: Samples,
     /// Stored samples to data units (NIfTI `scl_slope`/`scl_inter`, DICOM rescale).
-    pub scaling: Scaling,
+    pub(crate) scaling: Scaling,
     /// Minimum and maximum of the finite samples in data units (`[0, 0]` when there are none).
     pub range: [f32; 2],
 }

@@ -17,7 +17,7 @@ use super::Volume;
 pub(crate) const AIR: f32 = -1000.0;
 
 /// The phantoms [`phantom`] knows.
-pub const PHANTOMS: &[&str] = &["head", "abdomen"];
+pub(crate) const PHANTOMS: &[&str] = &["head", "abdomen"];
 
 /// Each axis of a generated phantom is clamped to this many voxels (2^30 voxels in all, 4 GiB as
 /// `f32`), so a typo in a size cannot exhaust memory.
@@ -26,7 +26,7 @@ pub(crate) const MAX_PHANTOM_DIM: u32 = 1024;
 /// A phantom name that is not one of [`PHANTOMS`].
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct UnknownPhantom {
-    pub name: String,
+    pub(crate) name: String,
 }
 
 impl fmt::Display for UnknownPhantom {

@@ -96,8 +96,8 @@ impl Samples {
 /// `scl_inter`, DICOM Rescale Slope and Intercept).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Scaling {
-    pub slope: f32,
-    pub intercept: f32,
+    pub(crate) slope: f32,
+    pub(crate) intercept: f32,
 }
 
 impl Scaling {

@@ -75,7 +75,7 @@ pub enum Choice {
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct ZarrSelection {
     /// The OME multiscale, by index or name (the first when `None`).
-    pub multiscale: Option<Choice>,
+    pub(crate) multiscale: Option<Choice>,
     /// The channel, by index or `omero` label.
     pub channel: Option<Choice>,
     /// The time point.
