@@ -131,8 +131,11 @@ impl OrbitCamera {
 /// ([`SlicePlane::oriented`]) when it renders.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SlicePlane {
+    /// The image's top-left corner.
     pub origin: Vec3,
+    /// The image's top edge, left to right.
     pub u: Vec3,
+    /// The image's left edge, top to bottom.
     pub v: Vec3,
 }
 
@@ -154,8 +157,10 @@ pub enum SliceAxis {
 /// images are the same in both.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Convention {
+    /// The patient's right on the image's left (the default).
     #[default]
     Radiological,
+    /// The patient's right on the image's right.
     Neurological,
 }
 

@@ -11,7 +11,9 @@ use std::sync::{Arc, Mutex};
 /// always reaches the user as a value.
 #[derive(Clone)]
 pub struct Gpu {
+    /// The wgpu device everything is made on.
     pub device: wgpu::Device,
+    /// The device's queue, where every submission goes.
     pub queue: wgpu::Queue,
     /// The adapter's name and backend, for logs and benchmark reports.
     pub adapter: String,
@@ -27,15 +29,20 @@ pub struct Gpu {
 pub struct GpuFault {
     /// What the runtime was doing: "creating the output image of view `3d`".
     pub(crate) doing: String,
+    /// Which kind of wgpu error it was.
     pub kind: GpuFaultKind,
     /// wgpu's own report, its causes included.
     pub message: String,
 }
 
+/// The kinds of wgpu error (wgpu's error filters).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum GpuFaultKind {
+    /// What was asked does not fit the device's limits or wgpu's rules.
     Validation,
+    /// The device (or host) ran out of memory.
     OutOfMemory,
+    /// The driver or wgpu failed on its own.
     Internal,
 }
 

@@ -42,6 +42,7 @@ impl ComponentKind {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct ProbeFormat {
     pub(crate) kind: ComponentKind,
+    /// How many components each value has: 1 (a scalar) to 4.
     pub components: u32,
 }
 
@@ -66,9 +67,14 @@ pub(crate) enum Mapping {
 /// The decoded values of a probe: per pixel, row by row, the components or `None`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ProbeValues {
+    /// Pixels per row.
     pub width: u32,
+    /// Rows.
     pub height: u32,
+    /// What each value holds.
     pub format: ProbeFormat,
+    /// Row by row, top first: the components (the first `format.components` used), or `None`
+    /// where the field was not written (a ray that missed the volume).
     pub pixels: Vec<Option<[f64; 4]>>,
 }
 

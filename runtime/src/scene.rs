@@ -51,7 +51,9 @@ impl Default for RenderOptions {
 
 /// A view of the scene and how it looks at the volume.
 pub struct SceneView {
+    /// The view's name in the scene file.
     pub name: String,
+    /// Its shader, uniforms and output image.
     pub renderer: ViewRenderer,
     /// Raycast views: the orbit camera.
     pub camera: Option<OrbitCamera>,

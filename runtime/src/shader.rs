@@ -12,7 +12,9 @@ use std::sync::Arc;
 /// A view's WGSL and reflection, checked to belong together.
 #[derive(Clone, Debug)]
 pub struct ViewShader {
+    /// The compute shader's source.
     pub wgsl: Arc<str>,
+    /// Its bindings, uniforms and state fields, as the compiler described them.
     pub reflection: Arc<Reflection>,
 }
 
@@ -56,6 +58,7 @@ impl ViewShader {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct PipelineStats {
     pub(crate) hits: u64,
+    /// Pipelines compiled because none with that structural hash was cached.
     pub misses: u64,
 }
 
@@ -76,6 +79,7 @@ pub struct PipelineCache {
 }
 
 impl PipelineCache {
+    /// An empty cache.
     pub fn new() -> PipelineCache {
         PipelineCache::default()
     }

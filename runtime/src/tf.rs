@@ -110,11 +110,24 @@ pub const PRESETS: &[&str] = &[
 #[non_exhaustive]
 pub enum TfError {
     /// The name is not one of [`PRESETS`].
-    UnknownPreset { name: String },
+    UnknownPreset {
+        /// The name asked for.
+        name: String,
+    },
     /// A colormap file could not be read.
-    Io { path: PathBuf, error: std::io::Error },
+    Io {
+        /// The colormap file.
+        path: PathBuf,
+        /// What the operating system said.
+        error: std::io::Error,
+    },
     /// A colormap file is not a ParaView colormap; `message` says what is wrong.
-    Invalid { path: PathBuf, message: String },
+    Invalid {
+        /// The colormap file.
+        path: PathBuf,
+        /// What is wrong with it.
+        message: String,
+    },
 }
 
 impl fmt::Display for TfError {

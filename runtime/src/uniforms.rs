@@ -9,9 +9,13 @@ use std::fmt;
 /// column), so one shape serves every VRS type.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Value {
+    /// `f32` components (a scalar, vector or matrix, column by column).
     Float(Vec<f32>),
+    /// `i32` components.
     Int(Vec<i32>),
+    /// `u32` components.
     Uint(Vec<u32>),
+    /// `bool` components.
     Bool(Vec<bool>),
 }
 
@@ -119,11 +123,26 @@ impl Shape {
 #[derive(Clone, Debug, PartialEq)]
 pub enum UniformError {
     /// No uniform of that name in the view's shader.
-    Unknown { name: String, known: Vec<String> },
+    Unknown {
+        /// The name asked for.
+        name: String,
+        /// The uniforms the shader has, for a suggestion.
+        known: Vec<String>,
+    },
     /// The value's type does not match the uniform's.
-    WrongType { name: String, expected: String, got: String },
+    WrongType {
+        /// The uniform.
+        name: String,
+        /// Its WGSL type.
+        expected: String,
+        /// The value's type.
+        got: String,
+    },
     /// `volume` and `tf` uniforms are bound resources, not values.
-    Resource { name: String },
+    Resource {
+        /// The uniform.
+        name: String,
+    },
 }
 
 impl fmt::Display for UniformError {

@@ -112,10 +112,12 @@ impl ViewRenderer {
         })
     }
 
+    /// The WGSL and reflection the view renders with.
     pub fn shader(&self) -> &ViewShader {
         &self.shader
     }
 
+    /// Width and height of the output image in pixels.
     pub fn size(&self) -> [u32; 2] {
         self.size
     }
@@ -131,6 +133,7 @@ impl ViewRenderer {
         self.uniforms.has(name)
     }
 
+    /// The uniform values as they are now (what the next frame uploads).
     pub fn uniforms(&self) -> &UniformBlock {
         &self.uniforms
     }
@@ -425,9 +428,13 @@ impl ViewRenderer {
 /// Pixels `x0..x1` by `y0..y1` of a view's image (end exclusive).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Region {
+    /// First column.
     pub x0: u32,
+    /// First row.
     pub y0: u32,
+    /// One past the last column.
     pub x1: u32,
+    /// One past the last row.
     pub y1: u32,
 }
 

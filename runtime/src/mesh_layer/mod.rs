@@ -52,11 +52,14 @@ impl GpuMesh {
 /// A mesh as a scene shows it: its surface (kept on the CPU too, for slice outlines), its
 /// colour, opacity and placement.
 pub struct MeshInstance {
+    /// The mesh's name in the scene.
     pub name: String,
+    /// The surface, in the mesh's own coordinates (`model` places it).
     pub mesh: Arc<Mesh>,
     pub(crate) gpu: Arc<GpuMesh>,
     /// sRGB display colour.
     pub color: [f32; 3],
+    /// 0 (invisible) to 1 (opaque).
     pub opacity: f32,
     /// The mesh's vertices to patient space (RAS mm).
     pub model: Mat4,
@@ -119,6 +122,7 @@ impl MeshLayer {
         })
     }
 
+    /// Width and height of the layer's images in pixels (the view's image size).
     pub fn size(&self) -> [u32; 2] {
         [self.color.width(), self.color.height()]
     }

@@ -215,6 +215,7 @@ pub(super) fn brick_view(
 /// The scene's bricked volumes' residency, summed.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct BrickProgress {
+    /// Bricks resident, pending, refused, and so on, over every bricked volume.
     pub residency: Residency,
     /// Bricks that arrived in this call.
     pub arrived: usize,

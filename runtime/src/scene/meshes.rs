@@ -258,6 +258,7 @@ fn slice_frame(view: &SceneView, primary: &VolumeGrid) -> Option<(SliceFrame, Ma
 /// A point of a mesh that follows a uniform: what a viewer lets the user drag.
 #[derive(Clone, Debug, PartialEq)]
 pub struct MeshHandle {
+    /// The name of the mesh in the scene.
     pub mesh: String,
     /// The `vec3f` uniform the point follows (patient space, mm).
     pub uniform: String,

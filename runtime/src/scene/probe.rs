@@ -17,7 +17,9 @@ use vrsc::types::{Scalar, Type};
 /// at `ray.finish`, a sample field at accumulated opacity 0.5).
 #[derive(Clone, Debug, PartialEq)]
 pub struct ProbeSpec {
+    /// The state field's name.
     pub field: String,
+    /// Where along the ray to read it (`None`: the field's default, above).
     pub at: Option<ProbeAt>,
 }
 

@@ -277,22 +277,47 @@ impl std::error::Error for LoadError {
 pub enum LoadErrorKind {
     /// A file could not be opened or read: the volume file itself (`file: None`) or the data file
     /// its header names.
-    Io { file: Option<PathBuf>, error: io::Error },
+    Io {
+        /// The data file, or `None` for the volume file itself.
+        file: Option<PathBuf>,
+        /// What the operating system said.
+        error: io::Error,
+    },
     /// The file name does not end in one of the supported extensions.
     UnknownFormat,
     /// A header field is missing, malformed or unsupported; the message names the field.
     Header(String),
     /// The header declares more than [`MAX_VOXELS`] voxels.
-    TooLarge { dims: Vec<u64>, voxels: u128 },
+    TooLarge {
+        /// The declared size along each axis.
+        dims: Vec<u64>,
+        /// Their product.
+        voxels: u128,
+    },
     /// The data section's length disagrees with what the header declares.
-    SizeMismatch { expected: u64, found: u64, compressed: bool },
+    SizeMismatch {
+        /// Bytes the header declares.
+        expected: u64,
+        /// Bytes there are.
+        found: u64,
+        /// Whether the data were compressed (the count is of decompressed bytes).
+        compressed: bool,
+    },
     /// Compressed data could not be decompressed.
     Corrupt(String),
     /// The samples do not fit in memory.
-    OutOfMemory { bytes: u64 },
+    OutOfMemory {
+        /// The bytes that could not be allocated.
+        bytes: u64,
+    },
     /// A DICOM series is unusable: a file of it (`file`) or the series as a whole (`None`: several
     /// series in one folder, missing slices, unequal spacing).
-    Dicom { file: Option<PathBuf>, message: String },
+    Dicom {
+        /// The file at fault, or `None` for the series as a whole.
+        file: Option<PathBuf>,
+        /// What is wrong.
+        message: String,
+    },
 }
 
 impl fmt::Display for LoadErrorKind {

@@ -11,12 +11,19 @@ use super::ScalarType;
 /// half floats; `f32` keeps every value a half float can tell apart).
 #[derive(Clone, PartialEq)]
 pub enum Samples {
+    /// Unsigned 8-bit samples.
     U8(Vec<u8>),
+    /// Signed 8-bit samples.
     I8(Vec<i8>),
+    /// Unsigned 16-bit samples.
     U16(Vec<u16>),
+    /// Signed 16-bit samples.
     I16(Vec<i16>),
+    /// Unsigned 32-bit samples.
     U32(Vec<u32>),
+    /// Signed 32-bit samples.
     I32(Vec<i32>),
+    /// Float samples (`f32`, or `f64` narrowed).
     F32(Vec<f32>),
 }
 

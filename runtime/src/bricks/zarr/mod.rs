@@ -67,7 +67,9 @@ const MAX_NOTES: usize = 32;
 /// An entry of a store's list (a multiscale or a channel): its index or its name.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum Choice {
+    /// The entry at this position of the list.
     Index(u64),
+    /// The entry of this name.
     Name(String),
 }
 
