@@ -3,7 +3,7 @@
 //!
 //! World space is patient space: RAS+ millimetres (x towards the patient's right, y anterior,
 //! z superior), as every volume loader delivers it. Shaders work in the primary volume's
-//! normalized coordinates, [0,1]^3 over its voxel grid with voxel centres at (i + 0.5) / size;
+//! normalized coordinates, `[0, 1]³` over its voxel grid with voxel centres at (i + 0.5) / size;
 //! the runtime turns cameras and planes, which live in patient space, into those coordinates
 //! through the primary volume's full grid-to-world transform (rotations, flips, shears), so an
 //! oblique or flipped grid shows the same anatomy the same way up as an axis-aligned one.
@@ -61,7 +61,7 @@ pub struct PatientBox {
 }
 
 impl PatientBox {
-    /// The box around the grid box [0,1]^3 that `volume_to_world` maps into patient space.
+    /// The box around the grid box `[0, 1]³` that `volume_to_world` maps into patient space.
     pub fn of(volume_to_world: Mat4) -> PatientBox {
         let corners = (0..8).map(|i| {
             let c = Vec3::new((i & 1) as f32, ((i >> 1) & 1) as f32, ((i >> 2) & 1) as f32);
@@ -77,8 +77,8 @@ impl PatientBox {
         self.max - self.min
     }
 
-    /// Box coordinates ([0,1]^3 over the box, axes R, A, S) to world.
-    pub(crate) fn to_world(&self) -> Mat4 {
+    /// Box coordinates (`[0, 1]³` over the box, axes R, A, S) to world.
+    pub(crate) fn to_world(self) -> Mat4 {
         Mat4::from_translation(self.min) * Mat4::from_scale(self.size().max(Vec3::splat(f32::MIN_POSITIVE)))
     }
 }
@@ -125,10 +125,10 @@ impl OrbitCamera {
 }
 
 /// The plane of a slice view in patient space: `origin` is the image's top-left corner, `u` and
-/// `v` its full edges (left to right, top to bottom), in box coordinates: [0,1]^3 over the
+/// `v` its full edges (left to right, top to bottom), in box coordinates: `[0, 1]³` over the
 /// primary volume's [`PatientBox`], axes R, A, S. The runtime fits the plane to the image's
 /// aspect ratio (square pixels, the plane centred) and mirrors it for the display convention
-/// ([`SlicePlane::oriented`]) when it renders.
+/// (`SlicePlane::oriented`) when it renders.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SlicePlane {
     /// The image's top-left corner.
@@ -197,7 +197,7 @@ impl SlicePlane {
 }
 
 /// The edge labels `[left, right, top, bottom]` of a slice view normal to `axis` shown in
-/// `convention` (see [`SlicePlane::edge_labels`]).
+/// `convention` (see `SlicePlane::edge_labels`).
 pub fn slice_edge_labels(axis: SliceAxis, convention: Convention) -> [&'static str; 4] {
     SlicePlane::new(axis, 0.5).oriented(convention).edge_labels()
 }

@@ -153,7 +153,12 @@ impl ComputePass {
     }
 
     /// Records one dispatch of `workgroups` with `bind_groups` (group `i` the `i`-th).
-    pub(crate) fn dispatch(&self, encoder: &mut wgpu::CommandEncoder, bind_groups: &[&wgpu::BindGroup], workgroups: [u32; 3]) {
+    pub(crate) fn dispatch(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        bind_groups: &[&wgpu::BindGroup],
+        workgroups: [u32; 3],
+    ) {
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some(self.layout.label),
             timestamp_writes: None,

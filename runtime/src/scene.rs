@@ -388,7 +388,7 @@ impl SceneRenderer {
         view.renderer.encode(&self.gpu, &self.resources, encoder)
     }
 
-    /// Records `region` of view `index` into `target` (see [`ViewRenderer::encode_into`]), with
+    /// Records `region` of view `index` into `target` (see `ViewRenderer::encode_into`), with
     /// the view's camera or slice plane applied.
     pub fn encode_view_into(
         &mut self,
@@ -468,7 +468,7 @@ impl SceneRenderer {
 
 impl SceneRenderer {
     /// The patient directions at the edges of slice view `index` as it is shown now,
-    /// `[left, right, top, bottom]` (see [`SlicePlane::edge_labels`]); `None` for a raycast view.
+    /// `[left, right, top, bottom]` (see `SlicePlane::edge_labels`); `None` for a raycast view.
     pub fn slice_edge_labels(&self, index: usize) -> Option<[&'static str; 4]> {
         let view = self.views.get(index)?;
         view.slice.map(|(plane, _)| plane.oriented(view.convention).edge_labels())

@@ -63,7 +63,7 @@ pub struct PipelineStats {
 }
 
 /// A view's compute pipeline and the bind-group layouts it was made with, one per group, both
-/// from the shader's reflection ([`crate::bindings`]).
+/// from the shader's reflection (`crate::bindings`).
 pub struct ViewPipeline {
     pub(crate) pipeline: wgpu::ComputePipeline,
     pub(crate) groups: Vec<wgpu::BindGroupLayout>,

@@ -365,7 +365,12 @@ impl TfTexture {
     /// A 2D table of float RGBA entries (`Rgba16Float`, filterable everywhere) bound like a
     /// transfer function: the pre-integration table of `std::preintegrate`, whose alpha is an
     /// extinction that may exceed 1.
-    pub(crate) fn upload_table(gpu: &Gpu, name: &str, size: [u32; 2], rgba16f: &[u8]) -> Result<TfTexture, RuntimeError> {
+    pub(crate) fn upload_table(
+        gpu: &Gpu,
+        name: &str,
+        size: [u32; 2],
+        rgba16f: &[u8],
+    ) -> Result<TfTexture, RuntimeError> {
         let [w, h] = size;
         let image = Image2d { label: name, size, format: wgpu::TextureFormat::Rgba16Float, usage: TABLE };
         let texture = image.create(gpu, &format!("creating the {w}x{h} table `{name}`"))?;

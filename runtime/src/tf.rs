@@ -1,6 +1,6 @@
 //! Transfer functions: a colour and an opacity for each sample value.
 //!
-//! A transfer function is a table of [`TF_WIDTH`] RGBA entries with straight (not premultiplied)
+//! A transfer function is a table of `TF_WIDTH` RGBA entries with straight (not premultiplied)
 //! alpha, uploaded as a 1D texture, and the [`TfDomain`] its entries stand for: data values
 //! (Hounsfield units for the CT presets, the file's values for a ParaView colormap), or the
 //! window of the volume it classifies (the MR and generic presets). Before upload the table is
@@ -13,7 +13,7 @@
 //! fills a region should have a small opacity (a few hundredths) to stay see-through, and only
 //! surfaces meant to look solid should approach 1.
 //!
-//! CT presets (`ct_*`) are defined in Hounsfield units over [`CT_DOMAIN`], whatever the window;
+//! CT presets (`ct_*`) are defined in Hounsfield units over `CT_DOMAIN`, whatever the window;
 //! the others over the window, so they fit any volume (an MR, a probability map) once its
 //! window picks the interesting values.
 
@@ -46,7 +46,7 @@ pub(crate) const CT_DOMAIN: [f32; 2] = [-1024.0, 3071.0];
 pub struct TransferFunction {
     /// The preset's name, the colormap's `Name`, or the file stem.
     pub(crate) name: String,
-    /// [`TF_WIDTH`] entries evenly over `domain`: r, g, b and straight alpha, each in [0, 1].
+    /// `TF_WIDTH` entries evenly over `domain`: r, g, b and straight alpha, each in [0, 1].
     pub rgba: Vec<[f32; 4]>,
     /// What the first and last entries stand for.
     pub domain: TfDomain,

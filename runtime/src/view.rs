@@ -259,12 +259,17 @@ impl ViewRenderer {
 
     /// Swaps in another shader of the same view (a structural change), keeping the size. Uniform
     /// values start again from the new reflection.
-    pub(crate) fn set_shader(&mut self, gpu: &Gpu, cache: &mut PipelineCache, shader: ViewShader) -> Result<(), RuntimeError> {
+    pub(crate) fn set_shader(
+        &mut self,
+        gpu: &Gpu,
+        cache: &mut PipelineCache,
+        shader: ViewShader,
+    ) -> Result<(), RuntimeError> {
         *self = ViewRenderer::new(gpu, cache, shader, self.size)?;
         Ok(())
     }
 
-    /// The texture every [`ViewRenderer::encode`] renders into: `Rgba8Unorm` with premultiplied
+    /// The texture every `ViewRenderer::encode` renders into: `Rgba8Unorm` with premultiplied
     /// alpha, usable as a sampled texture, so an application can draw it without reading it back.
     pub fn output(&self) -> &wgpu::Texture {
         &self.output
@@ -450,7 +455,7 @@ impl Region {
     }
 }
 
-/// A texture a view can render into (see [`ViewRenderer::encode_into`]): `Rgba8Unorm`, written
+/// A texture a view can render into (see `ViewRenderer::encode_into`): `Rgba8Unorm`, written
 /// as storage (and as a render attachment by the overlay), sampled by an application, copied
 /// out for read-back. A size beyond the device's
 /// limits (or its memory) is an error.

@@ -1,5 +1,5 @@
 //! Bricked volumes: volumes larger than a texture or than memory, split into bricks of
-//! [`BRICK`]^3 voxels (each stored with an [`APRON`] of one voxel on every side, so trilinear
+//! `BRICK`^3 voxels (each stored with an `APRON` of one voxel on every side, so trilinear
 //! filtering is seamless across bricks) in a mip pyramid, read on demand from a [`BrickSource`]
 //! and kept on the GPU in a brick pool that a page table indexes (`residency`).
 //!
@@ -18,8 +18,8 @@ pub mod zarr;
 pub(crate) use lazy_levels::cache_bytes;
 pub use residency::Residency;
 pub(crate) use residency::{BrickView, BrickedVolume, BrickedVolumes};
-pub use source::{BrickData, BrickError, BrickSource, Level};
 pub(crate) use source::levels_for;
+pub use source::{BrickData, BrickError, BrickSource, Level};
 
 /// Voxels along each edge of a brick, without its apron.
 pub(crate) const BRICK: u32 = 64;

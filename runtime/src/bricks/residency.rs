@@ -1,9 +1,10 @@
 //! A bricked volume on the GPU: a brick pool (one `r16float` 3D texture of slots), a page table
 //! (a storage buffer of one word per brick of every level, level after level) and the requests
-//! buffer rays write, a word per page-table word (`stdlib/bricks.wgsl`). After a frame the runtime reads the requests back
-//! ([`BrickedVolume::collect`]), loads what rays asked for on loader threads (from the host
-//! cache when it is there), and places arrived bricks in free or least recently used slots
-//! ([`BrickedVolume::receive`]). The coarsest level is loaded first and never evicted, so every
+//! buffer rays write, a word per page-table word (`stdlib/bricks.wgsl`). After a frame the
+//! runtime reads the requests back (`BrickedVolume::start_collect`, then `finish_collect`), loads
+//! what rays asked for on loader threads (from the host cache when it is there), and places
+//! arrived bricks in free or least recently used slots
+//! (`BrickedVolume::receive`). The coarsest level is loaded first and never evicted, so every
 //! ray finds an answer.
 
 use std::collections::{HashMap, HashSet};

@@ -44,7 +44,7 @@ pub enum BrickData {
     /// uploaded, its value kept in the page table. Missing chunks of a Zarr store (the fill
     /// value) come as one without being read.
     Constant(f32),
-    /// [`STORED`]^3 values in data units, x fastest: the brick's voxels and its apron (voxels of
+    /// `STORED`^3 values in data units, x fastest: the brick's voxels and its apron (voxels of
     /// the neighbouring bricks; at the volume's edges the edge voxel repeated, as a texture
     /// sampler clamps).
     Voxels(Vec<f32>),

@@ -2,14 +2,14 @@
 //! layer under it, the view's meshes and slice views' pictures on their planes rasterized at
 //! its camera into a depth image and a premultiplied colour image, which the volume layer reads
 //! into `geometry_depth` and `geometry_color` (`BindingKind::GeometryDepth`, `GeometryColor`);
-//! and the [`Overlay`] over the finished picture.
+//! and the `Overlay` over the finished picture.
 //!
 //! Rules the mesh layer keeps (the reference's "Meshes and layers"): colour is premultiplied;
 //! depth is the WebGPU window depth of the view's own projection (0 near, 1 far, cleared to 1),
 //! so `std::meshes` turns it into a ray parameter with the same matrix (`geometry_inv_proj`);
 //! opaque meshes write depth, translucent ones are blended over them (back faces, then front
 //! faces, in scene order) without writing it. A slice view draws where each mesh crosses its
-//! plane, as opaque outlines on the plane ([`outline`]).
+//! plane, as opaque outlines on the plane (`outline`).
 
 mod draws;
 pub(crate) mod outline;

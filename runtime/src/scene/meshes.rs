@@ -166,7 +166,7 @@ fn no_surface_volume() -> RuntimeError {
     RuntimeError::Invalid("a surface's volume is not in the scene".into())
 }
 
-/// The surface of a mesh table: its file loaded (within [`mesh::Limits::default`]), its shape
+/// The surface of a mesh table: its file loaded (within `mesh::Limits::default`), its shape
 /// made with `points` the values of the uniforms it follows (in the order of
 /// [`vscene::Mesh::followed_uniforms`]; zero where missing), or the surface of the volume
 /// `volume(NAME)` gives at its level.

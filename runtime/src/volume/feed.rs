@@ -55,7 +55,6 @@ impl Feeds {
     pub(crate) fn get(&self, name: &str) -> Option<&Arc<dyn VolumeFeed>> {
         self.0.get(name)
     }
-
 }
 
 /// Names and versions, not samples.

@@ -65,7 +65,7 @@ impl Histogram {
     }
 }
 
-/// The automatic window of a volume in memory ([`Histogram::auto_window`]).
+/// The automatic window of a volume in memory (`Histogram::auto_window`).
 pub fn auto_window(volume: &Volume) -> [f32; 2] {
     let mut histogram = Histogram::new(volume.range, volume.scaling);
     volume.samples.for_each(0..volume.samples.len(), |s| histogram.add(s));

@@ -31,11 +31,11 @@ use std::path::{Path, PathBuf};
 
 use glam::{Mat4, Vec3, Vec4};
 
-pub use feed::{Feeds, VolumeFeed};
 pub(crate) use feed::stream_feed;
+pub use feed::{Feeds, VolumeFeed};
 pub use header::header;
-pub use histogram::auto_window;
 pub(crate) use histogram::Histogram;
+pub use histogram::auto_window;
 pub use phantom::{UnknownPhantom, phantom};
 pub use samples::{Samples, Scaling};
 
@@ -133,7 +133,7 @@ impl Volume {
         out
     }
 
-    /// Calls `f` with the normalized value ([`Volume::normalized`]) of each voxel in `voxels`,
+    /// Calls `f` with the normalized value (`Volume::normalized`) of each voxel in `voxels`,
     /// in order, without a copy of the volume.
     pub fn for_each_normalized(&self, window: Option<[f32; 2]>, voxels: Range<usize>, f: impl FnMut(f32)) {
         let window = Window::new(window.unwrap_or(self.range), self.scaling);
@@ -287,7 +287,7 @@ pub enum LoadErrorKind {
     UnknownFormat,
     /// A header field is missing, malformed or unsupported; the message names the field.
     Header(String),
-    /// The header declares more than [`MAX_VOXELS`] voxels.
+    /// The header declares more than `MAX_VOXELS` voxels.
     TooLarge {
         /// The declared size along each axis.
         dims: Vec<u64>,
@@ -449,7 +449,7 @@ pub struct VolumeInfo {
     pub scaling: Scaling,
 }
 
-/// Receives a volume's stored samples as a loader reads them ([`stream`]).
+/// Receives a volume's stored samples as a loader reads them (`stream`).
 pub trait SampleSink {
     /// Called once, after the header is validated and before any sample.
     fn begin(&mut self, info: &VolumeInfo) -> Result<(), LoadErrorKind>;

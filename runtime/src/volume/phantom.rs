@@ -23,7 +23,7 @@ pub(crate) const PHANTOMS: &[&str] = &["head", "abdomen"];
 /// `f32`), so a typo in a size cannot exhaust memory.
 pub(crate) const MAX_PHANTOM_DIM: u32 = 1024;
 
-/// A phantom name that is not one of [`PHANTOMS`].
+/// A phantom name that is not one of `PHANTOMS`.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct UnknownPhantom {
     pub(crate) name: String,
@@ -41,8 +41,8 @@ impl fmt::Display for UnknownPhantom {
 
 impl std::error::Error for UnknownPhantom {}
 
-/// Generates the phantom `name` (one of [`PHANTOMS`]) with `dims` voxels of 1 mm, centred at the
-/// world origin. Each axis is clamped to 1..=[`MAX_PHANTOM_DIM`]. Deterministic.
+/// Generates the phantom `name` (one of `PHANTOMS`) with `dims` voxels of 1 mm, centred at the
+/// world origin. Each axis is clamped to 1..=`MAX_PHANTOM_DIM`. Deterministic.
 ///
 /// - `head`: the 3D Shepp-Logan phantom (Kak & Slaney's ellipsoids) with CT values: skull
 ///   1000 HU, brain 35, ventricles 5, a few hyperdense small lesions (75-90).

@@ -6,7 +6,7 @@
 //!   names, the last three as z, y, x after channel (4 axes) or time and channel (5). A time or
 //!   channel axis is read at the index the [`ZarrSelection`] names (index 0 when it has one
 //!   entry; more without a choice is an error that says how to choose).
-//! - Levels: the pyramid is [`levels_for`] level 0; each dataset is placed by its coordinate
+//! - Levels: the pyramid is `levels_for` level 0; each dataset is placed by its coordinate
 //!   transformations, and answers the levels it can (`plan.rs`: any power-of-two factors per
 //!   axis, ome-zarr-py's x-y pyramids, odd sizes halved either way, translations). Levels no
 //!   dataset answers are built from the level below on demand (`lazy_levels`), through a cache
