@@ -7,8 +7,10 @@
 //!   [`SceneRenderer::reload`] (or [`compose`](SceneRenderer::compose) then
 //!   [`apply`](SceneRenderer::apply)) follows edits of the scene file.
 //! - **Precompiled views**: [`ViewShader::load`] reads `VIEW.wgsl` + `VIEW.json` written by
-//!   `vrsc build` (no compiler needed); [`SceneRenderer::replace_shader`] renders one in place of
-//!   a view's composed shader.
+//!   `vrsc build` (no compiler needed); bind volumes and transfer functions in [`Resources`]
+//!   ([`Resources::bind_volume`], [`Resources::bind_tf`]), set uniforms by name and render with
+//!   [`ViewRenderer::new`] and [`ViewRenderer::render`]. With the compiler,
+//!   [`SceneRenderer::replace_shader`] also renders one in place of a view's composed shader.
 //! - **Probes** (feature `compiler`): [`SceneRenderer::render_probe`] shows one state field of a
 //!   view as an image (the view's probe variant, composed by the compiler), with its exact values
 //!   and a legend; [`probe`] holds the decoded values.
@@ -62,6 +64,10 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
+// Without scenes, the machinery only they drive (brick streaming, meshes, derived volumes) has no
+// caller: the precompiled-view API above is what such a build offers.
+#![cfg_attr(not(feature = "compiler"), allow(dead_code, unused_imports))]
+
 pub(crate) mod bindings;
 pub mod bricks;
 pub(crate) mod error;
@@ -88,6 +94,7 @@ pub mod volume;
 pub use error::RuntimeError;
 pub use geometry::{Convention, OrbitCamera, SliceAxis, SlicePlane, slice_edge_labels};
 pub use gpu::{AdapterChoice, Gpu, GpuFault};
+pub use resources::Resources;
 #[cfg(feature = "compiler")]
 pub use scene::{Applied, ProbeAt, ProbeImage, ProbeSpec, RenderOptions, SceneRenderer, VolumeStatus};
 pub use shader::{PipelineCache, PipelineStats, ViewPipeline, ViewShader};

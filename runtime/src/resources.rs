@@ -3,15 +3,18 @@
 //! and not on each other.
 
 use crate::bricks::BrickedVolumes;
+use crate::error::RuntimeError;
 use crate::gpu::Gpu;
 use crate::mesh_layer::{MeshInstance, pipelines::MeshPipelines};
 use crate::textures::{TfTexture, VolumeTexture, linear_sampler};
+use crate::tf::TransferFunction;
+use crate::volume::Volume;
 use std::collections::HashMap;
 use std::sync::Arc;
 
 /// Textures shared by the views of a scene, by the uniform name the shaders bind them under
 /// (`volume`, `volume_gm`, `tf`, `tf_gm`).
-pub(crate) struct Resources {
+pub struct Resources {
     pub(crate) volumes: HashMap<String, Arc<VolumeTexture>>,
     /// Volumes kept in bricks (`crate::bricks`), by the same names.
     pub(crate) bricked: BrickedVolumes,
@@ -26,7 +29,8 @@ pub(crate) struct Resources {
 }
 
 impl Resources {
-    pub(crate) fn new(gpu: &Gpu) -> Resources {
+    /// No textures or meshes yet, and the linear sampler every view binds.
+    pub fn new(gpu: &Gpu) -> Resources {
         Resources {
             volumes: HashMap::new(),
             bricked: HashMap::new(),
@@ -36,6 +40,26 @@ impl Resources {
             mesh_generation: 0,
             mesh_pipelines: None,
         }
+    }
+
+    /// Uploads `volume` as the 3D texture views bind as `binding` (`volume`, `volume_gm`, ...),
+    /// mapping `window` (data units; without one, the volume's value range) to [0, 1].
+    pub fn bind_volume(
+        &mut self,
+        gpu: &Gpu,
+        binding: &str,
+        volume: &Volume,
+        window: Option<[f32; 2]>,
+    ) -> Result<(), RuntimeError> {
+        let texture = VolumeTexture::upload(gpu, binding, volume, window)?;
+        self.volumes.insert(binding.to_string(), Arc::new(texture));
+        Ok(())
+    }
+
+    /// Uploads `tf` as the transfer function views bind as `binding` (`tf`, `tf_gm`, ...).
+    pub fn bind_tf(&mut self, gpu: &Gpu, binding: &str, tf: &TransferFunction) -> Result<(), RuntimeError> {
+        self.tfs.insert(binding.to_string(), Arc::new(TfTexture::upload(gpu, tf)?));
+        Ok(())
     }
 
     /// How many times `meshes`' surfaces have changed: a mesh layer drawn at an older generation

@@ -72,7 +72,7 @@ const ROW_ALIGNMENT: u32 = wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
 
 impl ViewRenderer {
     /// A renderer of `shader` at `size` pixels; the pipeline comes from `cache`.
-    pub(crate) fn new(
+    pub fn new(
         gpu: &Gpu,
         cache: &mut PipelineCache,
         shader: ViewShader,
@@ -380,7 +380,7 @@ impl ViewRenderer {
     /// Renders and reads the image back (straight alpha RGBA8).
     /// A view that meters its exposure renders twice: the first pass meters the picture the
     /// second one is exposed for.
-    pub(crate) fn render(&mut self, gpu: &Gpu, resources: &Resources) -> Result<image::RgbaImage, RuntimeError> {
+    pub fn render(&mut self, gpu: &Gpu, resources: &Resources) -> Result<image::RgbaImage, RuntimeError> {
         let mut encoder = gpu.device.create_command_encoder(&Default::default());
         if self.metering.is_some() {
             self.encode(gpu, resources, &mut encoder)?;
