@@ -200,12 +200,12 @@ impl LiveScene {
 
     /// The names of the views, in scene order.
     pub fn view_names(&self) -> Vec<String> {
-        self.renderer.views.iter().map(|v| v.name.clone()).collect()
+        self.renderer.views().iter().map(|v| v.name.clone()).collect()
     }
 
     /// A counter that changes whenever view `index`'s image would change.
     pub fn generation(&self, index: usize) -> u64 {
-        self.renderer.views.get(index).and_then(|v| self.generations.get(&v.name)).copied().unwrap_or(0)
+        self.renderer.views().get(index).and_then(|v| self.generations.get(&v.name)).copied().unwrap_or(0)
     }
 
     /// Recomposes from the files as they are now. On success the new pipelines, volumes and
@@ -274,7 +274,7 @@ impl LiveScene {
         self.user.uniforms.remove(name);
         // In each view, the scene file's value as of the last good rebuild (a reflection from
         // the composition cache may carry an older value), else the declaration's default.
-        for view in &mut self.renderer.views {
+        for view in self.renderer.views_mut() {
             let Some(info) = view.renderer.shader().reflection.uniform(name) else { continue };
             let scene_value = self.scene_values.get(&view.name).and_then(|values| values.get(name));
             let json = scene_value.map(UniformValue::to_json).or_else(|| info.default.clone());
@@ -288,7 +288,7 @@ impl LiveScene {
 
     /// The current value of uniform `name` (in the first view that reads it).
     pub fn uniform(&self, name: &str) -> Option<Value> {
-        self.renderer.views.iter().find_map(|v| v.renderer.uniforms().get(name))
+        self.renderer.views().iter().find_map(|v| v.renderer.uniforms().get(name))
     }
 
     /// Whether the user changed uniform `name` (a reset or a save that the file then carries
@@ -307,7 +307,7 @@ impl LiveScene {
             .iter()
             .filter_map(|(name, (value, _))| {
                 let ty =
-                    self.renderer.views.iter().find_map(|v| v.renderer.shader().reflection.uniform(name))?.ty.clone();
+                    self.renderer.views().iter().find_map(|v| v.renderer.shader().reflection.uniform(name))?.ty.clone();
                 Some(SavedUniform { name: name.clone(), ty, value: value.clone() })
             })
             .collect();
@@ -419,7 +419,7 @@ impl LiveScene {
     /// View `index`'s composed WGSL with each function annotated by its origin, as
     /// `vrsc explain` prints it (composes the view again, keeping its IR: a few milliseconds).
     pub fn explain(&self, index: usize) -> Result<String, String> {
-        let name = self.renderer.views.get(index).map(|v| v.name.clone()).ok_or("no such view")?;
+        let name = self.renderer.views().get(index).map(|v| v.name.clone()).ok_or("no such view")?;
         let built = build::build_scene_keeping(self.renderer.path(), Some(&name), Keep::Ir)
             .map_err(|e| format!("`{}`: {e}", self.renderer.path().display()))?;
         if built.diags.has_errors() {
@@ -444,12 +444,12 @@ impl LiveScene {
 
     /// The camera of raycast view `index`.
     pub fn camera(&self, index: usize) -> Option<OrbitCamera> {
-        self.renderer.views.get(index)?.camera
+        self.renderer.views().get(index)?.camera
     }
 
     /// Moves the camera of raycast view `index` (kept across reloads).
     pub fn set_camera(&mut self, index: usize, camera: OrbitCamera) {
-        let Some(view) = self.renderer.views.get_mut(index) else { return };
+        let Some(view) = self.renderer.views_mut().get_mut(index) else { return };
         if view.camera.is_none() {
             return;
         }
@@ -462,12 +462,12 @@ impl LiveScene {
 
     /// The slice plane of slice view `index`.
     pub fn slice(&self, index: usize) -> Option<SlicePlane> {
-        self.renderer.views.get(index)?.slice.map(|(plane, _)| plane)
+        self.renderer.views().get(index)?.slice.map(|(plane, _)| plane)
     }
 
     /// Moves the plane of slice view `index` (kept across reloads).
     pub fn set_slice(&mut self, index: usize, plane: SlicePlane) {
-        let Some(view) = self.renderer.views.get_mut(index) else { return };
+        let Some(view) = self.renderer.views_mut().get_mut(index) else { return };
         let Some((_, slab)) = view.slice else { return };
         view.slice = Some((plane, slab));
         let name = view.name.clone();
@@ -478,7 +478,7 @@ impl LiveScene {
 
     /// Puts view `index`'s camera or plane back where the scene file has it.
     pub fn reset_view(&mut self, index: usize) {
-        let Some(view) = self.renderer.views.get_mut(index) else { return };
+        let Some(view) = self.renderer.views_mut().get_mut(index) else { return };
         let name = view.name.clone();
         if view.camera.is_some() {
             view.camera = self.scene_cameras.get(&name).copied();
@@ -493,7 +493,7 @@ impl LiveScene {
 
     /// The image size of view `index`.
     pub fn size(&self, index: usize) -> Option<[u32; 2]> {
-        Some(self.renderer.views.get(index)?.renderer.size())
+        Some(self.renderer.views().get(index)?.renderer.size())
     }
 
     /// Renders view `index` at `size` from now on (kept across reloads). A size the device
@@ -504,7 +504,7 @@ impl LiveScene {
             return Ok(());
         }
         let gpu = self.renderer.gpu().clone();
-        let Some(view) = self.renderer.views.get_mut(index) else { return Ok(()) };
+        let Some(view) = self.renderer.views_mut().get_mut(index) else { return Ok(()) };
         view.renderer.resize(&gpu, size)?;
         let name = view.name.clone();
         self.user.sizes.insert(name.clone(), size);
@@ -567,7 +567,7 @@ impl LiveScene {
 
     /// The output texture of view `index`: where its full-resolution image is rendered.
     pub fn output(&self, index: usize) -> Option<&wgpu::Texture> {
-        Some(self.renderer.views.get(index)?.renderer.output())
+        Some(self.renderer.views().get(index)?.renderer.output())
     }
 
     /// The scene file's value of uniform `name` in view `view` (`None` when it leaves it to
@@ -580,7 +580,7 @@ impl LiveScene {
     fn note_scene_state(&mut self) {
         self.scene_cameras.clear();
         self.scene_slices.clear();
-        for view in &self.renderer.views {
+        for view in self.renderer.views() {
             if let Some(camera) = view.camera {
                 self.scene_cameras.insert(view.name.clone(), camera);
             }
@@ -624,7 +624,7 @@ impl LiveScene {
         let uniforms = std::mem::take(&mut self.user.uniforms);
         for (name, (value, then)) in uniforms {
             let mut applies = false;
-            for view in &mut self.renderer.views {
+            for view in self.renderer.views_mut() {
                 let now = self.scene_values.get(&view.name).and_then(|values| values.get(&name)).cloned();
                 let unchanged = then.get(&view.name).is_none_or(|then| *then == now);
                 if unchanged
@@ -639,7 +639,7 @@ impl LiveScene {
             }
         }
         let gpu = self.renderer.gpu().clone();
-        for view in &mut self.renderer.views {
+        for view in self.renderer.views_mut() {
             if let (Some(_), Some((camera, then))) = (view.camera, self.user.cameras.get(&view.name))
                 && self.scene_cameras.get(&view.name) == Some(then)
             {

@@ -30,7 +30,7 @@ fn open(dir: &Path) -> LiveScene {
 }
 
 fn uniform(live: &LiveScene, name: &str) -> Option<Value> {
-    let view = live.renderer().views.first()?;
+    let view = live.renderer().views().first()?;
     view.renderer.uniforms().get(name)
 }
 
@@ -65,14 +65,14 @@ fn a_uniform_edit_recompiles_nothing_and_a_structural_edit_swaps_the_pipeline() 
 fn a_broken_edit_keeps_the_last_good_pipeline_and_a_fix_resumes() {
     let dir = tempfile::tempdir().unwrap();
     let mut live = open(dir.path());
-    let before = live.renderer().views[0].renderer.shader().reflection.structural_hash.clone();
+    let before = live.renderer().views()[0].renderer.shader().reflection.structural_hash.clone();
     std::fs::write(dir.path().join("dim.vrs"), MODULE.replace("* k;", "* kk;")).unwrap();
     let rebuild = live.rebuild();
     assert!(matches!(rebuild.outcome, Err(Failure::Compose)));
     let text = rebuild.error_text().unwrap();
     assert!(text.contains("E0502") && text.contains("dim.vrs:4"), "diagnostics with file:line: {text}");
     assert_eq!(live.last_error(), Some(text.as_str()));
-    assert_eq!(live.renderer().views[0].renderer.shader().reflection.structural_hash, before);
+    assert_eq!(live.renderer().views()[0].renderer.shader().reflection.structural_hash, before);
     let image = live.render_all().expect("the last good pipeline still renders");
     assert_eq!(image.len(), 1);
 
@@ -179,7 +179,7 @@ fn an_edited_transfer_function_saves_as_a_colormap_that_loads_back_to_the_same_t
 
 /// `step_size` of view `index`.
 fn step_size(live: &LiveScene, index: usize) -> Option<Value> {
-    live.renderer().views.get(index)?.renderer.uniforms().get("step_size")
+    live.renderer().views().get(index)?.renderer.uniforms().get("step_size")
 }
 
 /// A view's own `render` table is that view's scene value: changing it in the file beats the
@@ -220,8 +220,8 @@ fn a_change_to_one_views_own_render_table_rebuilds_that_view() {
     std::fs::write(&path, two_views("step_size = 1.0, shading = true")).unwrap();
     let applied = live.rebuild().outcome.expect("a good edit applies");
     assert_eq!(applied.recompiled, ["side"], "{applied:?}");
-    assert!(live.renderer().views[1].renderer.has_uniform("gradient_to_world"));
-    assert!(!live.renderer().views[0].renderer.has_uniform("gradient_to_world"));
+    assert!(live.renderer().views()[1].renderer.has_uniform("gradient_to_world"));
+    assert!(!live.renderer().views()[0].renderer.has_uniform("gradient_to_world"));
 }
 
 /// A size the GPU refuses (beyond its 2D texture limit) is an error of `set_size`: the view

@@ -122,7 +122,7 @@ impl SceneHandle {
             Ok(SceneRenderer::from_built(gpu, &path, &scene, &cached.built, options, &mut |_, _, _| {})?)
         });
         let renderer = opened.map_err(|f| f.into_py(py))?;
-        let sizes = renderer.views.iter().map(|v| (v.name.clone(), v.renderer.size())).collect();
+        let sizes = renderer.views().iter().map(|v| (v.name.clone(), v.renderer.size())).collect();
         let state = State { renderer, feeds, set: BTreeMap::new(), sizes, warnings };
         Ok(SceneHandle { state: Mutex::new(state) })
     }
@@ -138,7 +138,7 @@ impl SceneHandle {
                 return Err(Failure::Compile(diagnostics));
             }
             state.renderer.apply(&cached)?;
-            state.sizes = state.renderer.views.iter().map(|v| (v.name.clone(), v.renderer.size())).collect();
+            state.sizes = state.renderer.views().iter().map(|v| (v.name.clone(), v.renderer.size())).collect();
             state.warnings = diagnostics;
             reapply_uniforms(state)
         })
@@ -157,7 +157,7 @@ impl SceneHandle {
 
     /// The views' names, in scene order.
     fn views(&self, py: Python<'_>) -> PyResult<Vec<String>> {
-        self.with_state(py, |state| Ok(state.renderer.views.iter().map(|v| v.name.clone()).collect()))
+        self.with_state(py, |state| Ok(state.renderer.views().iter().map(|v| v.name.clone()).collect()))
     }
 
     /// The warnings of the last composition.
@@ -245,7 +245,7 @@ impl SceneHandle {
         let listed = self.with_state(py, |state| {
             let mut seen: BTreeMap<String, (vrs_reflection_info::Info, Vec<String>)> = BTreeMap::new();
             let mut order = Vec::new();
-            for view in &state.renderer.views {
+            for view in state.renderer.views() {
                 for u in &view.renderer.shader().reflection.uniforms {
                     let Some(value) = view.renderer.uniforms().get(&u.name) else { continue };
                     let entry = seen.entry(u.name.clone()).or_insert_with(|| {
@@ -308,7 +308,7 @@ impl SceneHandle {
     fn camera<'py>(&self, py: Python<'py>, view: Option<String>) -> PyResult<Bound<'py, PyDict>> {
         let camera = self.with_state(py, |state| {
             let index = view_index(state, view.as_deref())?;
-            let v = &state.renderer.views[index];
+            let v = &state.renderer.views()[index];
             v.camera.ok_or_else(|| Failure::Scene(format!("view `{}` is a slice view: it has no camera", v.name)))
         })?;
         let dict = PyDict::new(py);
@@ -343,7 +343,7 @@ impl SceneHandle {
         }
         self.with_state(py, |state| {
             let index = view_index(state, view.as_deref())?;
-            let v = &mut state.renderer.views[index];
+            let v = &mut state.renderer.views_mut()[index];
             let name = v.name.clone();
             let camera = v
                 .camera
@@ -363,7 +363,7 @@ impl SceneHandle {
     fn explain(&self, py: Python<'_>, view: Option<String>) -> PyResult<String> {
         let (path, name) = self.with_state(py, |state| {
             let index = view_index(state, view.as_deref())?;
-            Ok((state.renderer.path().to_path_buf(), state.renderer.views[index].name.clone()))
+            Ok((state.renderer.path().to_path_buf(), state.renderer.views()[index].name.clone()))
         })?;
         let explained = on_big_stack(py, "explaining a view", || explain_view(&path, &name))?;
         explained.map_err(|f| f.into_py(py))
@@ -375,7 +375,7 @@ impl SceneHandle {
     fn pipeline(&self, py: Python<'_>, view: Option<String>) -> PyResult<String> {
         let (path, name) = self.with_state(py, |state| {
             let index = view_index(state, view.as_deref())?;
-            Ok((state.renderer.path().to_path_buf(), state.renderer.views[index].name.clone()))
+            Ok((state.renderer.path().to_path_buf(), state.renderer.views()[index].name.clone()))
         })?;
         let mapped = on_big_stack(py, "mapping a pipeline", || pipeline_map(&path, &name))?;
         mapped.map_err(|f| f.into_py(py))
@@ -390,7 +390,7 @@ impl PyDiagnostic {
 
 /// The index of view `name` (the first view for `None`).
 fn view_index(state: &State, name: Option<&str>) -> Outcome<usize> {
-    let views = &state.renderer.views;
+    let views = state.renderer.views();
     match name {
         None if views.is_empty() => Err(Failure::Scene("the scene has no views".into())),
         None => Ok(0),
@@ -422,7 +422,7 @@ fn unknown<'a>(what: &str, name: &str, known: impl Iterator<Item = &'a String>) 
 
 /// Gives view `index` the size asked for, or its scene size back.
 fn resize(state: &mut State, index: usize, size: Option<(u32, u32)>) -> Outcome<()> {
-    let view = &mut state.renderer.views[index];
+    let view = &mut state.renderer.views_mut()[index];
     let wanted = match size {
         Some((w, h)) => [w, h],
         None => state.sizes.get(&view.name).copied().unwrap_or(view.renderer.size()),
@@ -435,14 +435,14 @@ fn resize(state: &mut State, index: usize, size: Option<(u32, u32)>) -> Outcome<
     }
     if view.renderer.size() != wanted {
         let gpu = state.renderer.gpu().clone();
-        state.renderer.views[index].renderer.resize(&gpu, wanted)?;
+        state.renderer.views_mut()[index].renderer.resize(&gpu, wanted)?;
     }
     Ok(())
 }
 
 /// The type and current value of uniform `name` in the first view that reads it.
 fn current(state: &State, name: &str) -> Outcome<(String, Value)> {
-    for view in &state.renderer.views {
+    for view in state.renderer.views() {
         let reflection = &view.renderer.shader().reflection;
         if let (Some(u), Some(value)) =
             (reflection.uniforms.iter().find(|u| u.name == name), view.renderer.uniforms().get(name))
@@ -452,7 +452,7 @@ fn current(state: &State, name: &str) -> Outcome<(String, Value)> {
     }
     let names: Vec<String> = state
         .renderer
-        .views
+        .views()
         .iter()
         .flat_map(|v| {
             v.renderer.shader().reflection.uniforms.iter().filter(|u| u.offset.is_some()).map(|u| u.name.clone())
@@ -467,7 +467,7 @@ fn current(state: &State, name: &str) -> Outcome<(String, Value)> {
 fn reapply_uniforms(state: &mut State) -> Outcome<()> {
     for (name, value) in &state.set {
         // A uniform a module no longer declares is dropped, not an error.
-        let declared = state.renderer.views.iter().any(|v| v.renderer.has_uniform(name));
+        let declared = state.renderer.views().iter().any(|v| v.renderer.has_uniform(name));
         if declared {
             state.renderer.set_uniform(name, value.clone())?;
         }

@@ -68,7 +68,7 @@ fn scene(volume: &str, size: u32, mesh: &str, shading: bool) -> String {
 fn frame_times(scene: &mut SceneRenderer, frames: usize, turn: f32) -> Vec<f64> {
     let mut times = Vec::with_capacity(frames);
     for i in 0..=frames {
-        if let Some(camera) = scene.views[0].camera.as_mut() {
+        if let Some(camera) = scene.views_mut()[0].camera.as_mut() {
             camera.azimuth += turn;
         }
         let mut encoder = scene.gpu().device.create_command_encoder(&Default::default());

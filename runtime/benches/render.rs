@@ -51,7 +51,7 @@ fn compare(scene: &mut SceneRenderer, shaders: &[ViewShader], ert_threshold: f32
     for _ in 0..config.rounds {
         for (shader, times) in shaders.iter().zip(&mut times) {
             scene.replace_shader(0, shader.clone()).expect("pipeline");
-            scene.views[0].renderer.set_uniform("ert_threshold", ert_threshold).expect("ert uniform");
+            scene.views_mut()[0].renderer.set_uniform("ert_threshold", ert_threshold).expect("ert uniform");
             times.extend(frame_times(scene, config.frames));
         }
     }
@@ -60,7 +60,7 @@ fn compare(scene: &mut SceneRenderer, shaders: &[ViewShader], ert_threshold: f32
 
 /// Samples of every ray without early termination: ceil((exit - entry) / step) per pixel.
 fn samples_per_frame(scene: &SceneRenderer, size: u32) -> f64 {
-    let view = &scene.views[0];
+    let view = &scene.views()[0];
     let camera = view.camera.expect("a raycast view");
     // Steps of `step_size` mm through `volume_to_world`, as `std::raycast` takes them (the
     // uniforms as the last encoded frame left them).
@@ -116,7 +116,7 @@ fn main() {
     std::fs::write(&plain_path, text).expect("temp scene");
     let options = RenderOptions { size: Some([size, size]), ..RenderOptions::default() };
     let mut scene = SceneRenderer::open(gpu, &plain_path, options, &mut |_, _, _| {}).expect("scene");
-    let composed = scene.views[0].renderer.shader().clone();
+    let composed = scene.views()[0].renderer.shader().clone();
     let shaders = [composed.clone(), handwritten(&composed)];
     let labels = ["composed", "hand-written"];
 
@@ -152,7 +152,7 @@ fn main() {
     let options = RenderOptions { size: Some([size, size]), ..RenderOptions::default() };
     let gpu = scene.gpu().clone();
     let mut skipping = SceneRenderer::open(gpu, &scene_path, options, &mut |_, _, _| {}).expect("skipping scene");
-    let skipping_shader = [skipping.views[0].renderer.shader().clone()];
+    let skipping_shader = [skipping.views()[0].renderer.shader().clone()];
     let skip_ert = compare(&mut skipping, &skipping_shader, 0.99, &config)[0];
     let skip_no_ert = compare(&mut skipping, &skipping_shader, 2.0, &config)[0];
     println!(
@@ -209,7 +209,7 @@ fn gradient_floor(
     let path = dir.join("one_fetch.toml");
     std::fs::write(&path, text).expect("scene");
     let one = SceneRenderer::open(scene.gpu().clone(), &path, options, &mut |_, _, _| {}).expect("one-fetch scene");
-    let shaders = [composed.clone(), one.views[0].renderer.shader().clone()];
+    let shaders = [composed.clone(), one.views()[0].renderer.shader().clone()];
     let times = compare(scene, &shaders, 0.99, config);
     println!(
         "gradient: six fetches {:7.1} ms/frame, one fetch (the floor of a gradient texture) {:7.1} ms ({:.2}x)",

@@ -25,6 +25,7 @@ pub fn frame_times(scene: &mut SceneRenderer, frames: usize) -> Vec<f64> {
     frame_times_of(scene, 0, frames)
 }
 
+/// The middle of `times` (the upper one of an even count).
 pub fn median(mut times: Vec<f64>) -> f64 {
     times.sort_by(f64::total_cmp);
     times[times.len() / 2]

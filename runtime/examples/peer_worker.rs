@@ -118,7 +118,7 @@ impl Worker {
         let scene = &mut open.renderer;
         // A new shader starts from its reflection's defaults: the scene's values again.
         if let Some(uniforms) = request["uniforms"].as_object() {
-            let renderer = &mut scene.views[0].renderer;
+            let renderer = &mut scene.views_mut()[0].renderer;
             for (name, value) in uniforms {
                 if !renderer.has_uniform(name) {
                     continue;

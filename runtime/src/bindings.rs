@@ -67,12 +67,12 @@ fn in_group(reflection: &Reflection, group: u32) -> impl Iterator<Item = &Bindin
 
 /// The groups the reflection uses, 0 to the highest (wgpu numbers pipeline layouts' groups by
 /// position, so a gap is an empty group).
-pub fn group_count(reflection: &Reflection) -> u32 {
+pub(crate) fn group_count(reflection: &Reflection) -> u32 {
     reflection.bindings.iter().map(|b| b.group + 1).max().unwrap_or(0)
 }
 
 /// The layout of group `group` of a view, from its reflection.
-pub fn layout_entries(reflection: &Reflection, group: u32) -> Vec<wgpu::BindGroupLayoutEntry> {
+pub(crate) fn layout_entries(reflection: &Reflection, group: u32) -> Vec<wgpu::BindGroupLayoutEntry> {
     in_group(reflection, group)
         .map(|b| wgpu::BindGroupLayoutEntry {
             binding: b.binding,
@@ -84,7 +84,7 @@ pub fn layout_entries(reflection: &Reflection, group: u32) -> Vec<wgpu::BindGrou
 }
 
 /// What one dispatch binds besides the shared resources.
-pub struct DispatchResources<'a> {
+pub(crate) struct DispatchResources<'a> {
     pub uniforms: &'a wgpu::Buffer,
     pub region: &'a wgpu::Buffer,
     pub output: &'a wgpu::TextureView,
@@ -99,7 +99,7 @@ pub struct DispatchResources<'a> {
 /// The entries of group `group` for one dispatch: the same bindings, in the same order, as
 /// [`layout_entries`]. A volume or transfer function the view reads but the scene did not load
 /// is an error naming it.
-pub fn group_entries<'a>(
+pub(crate) fn group_entries<'a>(
     reflection: &'a Reflection,
     group: u32,
     shared: &'a Resources,

@@ -3,18 +3,23 @@
 use std::fmt;
 use std::path::PathBuf;
 
+/// Why the runtime could not do what it was asked; its `Display` is a sentence for users.
 #[derive(Debug)]
 pub enum RuntimeError {
     /// No adapter or device.
     Gpu(crate::gpu::GpuError),
     /// A file could not be read or written.
     Io {
+        /// The file.
         path: PathBuf,
+        /// What the operating system said.
         error: std::io::Error,
     },
     /// A `.wgsl` + `.json` pair that does not belong together, or malformed reflection.
     Shader {
+        /// The `.json` (or the file that named the pair).
         path: PathBuf,
+        /// What does not match.
         message: String,
     },
     /// wgpu refused or could not make a resource, a bind group or a submission (validation,
@@ -22,13 +27,20 @@ pub enum RuntimeError {
     Device(crate::gpu::GpuFault),
     /// wgpu refused the shader or pipeline (a bug in the composer if it validated).
     Pipeline {
+        /// The view whose shader it is.
         view: String,
+        /// wgpu's report.
         message: String,
     },
+    /// A volume could not be loaded.
     Volume(crate::volume::LoadError),
+    /// A transfer function could not be made (an unknown preset, an unreadable colormap).
     Tf(crate::tf::TfError),
+    /// A uniform could not be set.
     Uniform {
+        /// The view whose uniform it is.
         view: String,
+        /// Why not.
         error: crate::uniforms::UniformError,
     },
     /// Input that is valid on its own but cannot be used here: a missing binding, a volume
@@ -37,6 +49,7 @@ pub enum RuntimeError {
     /// A scene did not compose; the diagnostics were rendered into the message.
     #[cfg(feature = "compiler")]
     Compose {
+        /// The diagnostics, rendered with their source lines.
         rendered: String,
     },
 }

@@ -3,7 +3,7 @@
 //!
 //! World space is patient space: RAS+ millimetres (x towards the patient's right, y anterior,
 //! z superior), as every volume loader delivers it. Shaders work in the primary volume's
-//! normalized coordinates, [0,1]^3 over its voxel grid with voxel centres at (i + 0.5) / size;
+//! normalized coordinates, `[0, 1]³` over its voxel grid with voxel centres at (i + 0.5) / size;
 //! the runtime turns cameras and planes, which live in patient space, into those coordinates
 //! through the primary volume's full grid-to-world transform (rotations, flips, shears), so an
 //! oblique or flipped grid shows the same anatomy the same way up as an axis-aligned one.
@@ -46,7 +46,7 @@ pub fn volume_to_world(dims: [u32; 3], grid_to_world: Mat4) -> Mat4 {
 /// part (the shader's `gradient_to_world`). A gradient is a covector: where a grid is stretched
 /// along an axis, its values change more slowly per millimetre along it, and a flipped axis
 /// flips the gradient's component with it.
-pub fn gradient_to_world(volume_to_world: Mat4) -> glam::Mat3 {
+pub(crate) fn gradient_to_world(volume_to_world: Mat4) -> glam::Mat3 {
     glam::Mat3::from_mat4(volume_to_world).inverse().transpose()
 }
 
@@ -57,11 +57,11 @@ pub struct PatientBox {
     /// The corner towards the patient's left, posterior and inferior (smallest RAS).
     pub min: Vec3,
     /// The corner towards the patient's right, anterior and superior (largest RAS).
-    pub max: Vec3,
+    pub(crate) max: Vec3,
 }
 
 impl PatientBox {
-    /// The box around the grid box [0,1]^3 that `volume_to_world` maps into patient space.
+    /// The box around the grid box `[0, 1]³` that `volume_to_world` maps into patient space.
     pub fn of(volume_to_world: Mat4) -> PatientBox {
         let corners = (0..8).map(|i| {
             let c = Vec3::new((i & 1) as f32, ((i >> 1) & 1) as f32, ((i >> 2) & 1) as f32);
@@ -77,15 +77,15 @@ impl PatientBox {
         self.max - self.min
     }
 
-    /// Box coordinates ([0,1]^3 over the box, axes R, A, S) to world.
-    pub fn to_world(&self) -> Mat4 {
+    /// Box coordinates (`[0, 1]³` over the box, axes R, A, S) to world.
+    pub(crate) fn to_world(self) -> Mat4 {
         Mat4::from_translation(self.min) * Mat4::from_scale(self.size().max(Vec3::splat(f32::MIN_POSITIVE)))
     }
 }
 
 /// The length (mm) of the longest line through a volume's grid box: its longest body diagonal.
 /// Rays never take more steps than this over the step size.
-pub fn longest_chord(volume_to_world: Mat4) -> f32 {
+pub(crate) fn longest_chord(volume_to_world: Mat4) -> f32 {
     let diagonal = |from: Vec3| {
         let to = Vec3::ONE - from;
         (volume_to_world.transform_point3(to) - volume_to_world.transform_point3(from)).length()
@@ -94,7 +94,7 @@ pub fn longest_chord(volume_to_world: Mat4) -> f32 {
 }
 
 /// The smallest voxel spacing of a grid (mm), from the lengths of its voxel axes.
-pub fn smallest_spacing(grid_to_world: Mat4) -> f32 {
+pub(crate) fn smallest_spacing(grid_to_world: Mat4) -> f32 {
     let lengths = [grid_to_world.x_axis, grid_to_world.y_axis, grid_to_world.z_axis].map(|a| a.truncate().length());
     lengths.into_iter().filter(|l| l.is_finite() && *l > 0.0).fold(f32::INFINITY, f32::min)
 }
@@ -125,14 +125,17 @@ impl OrbitCamera {
 }
 
 /// The plane of a slice view in patient space: `origin` is the image's top-left corner, `u` and
-/// `v` its full edges (left to right, top to bottom), in box coordinates: [0,1]^3 over the
+/// `v` its full edges (left to right, top to bottom), in box coordinates: `[0, 1]³` over the
 /// primary volume's [`PatientBox`], axes R, A, S. The runtime fits the plane to the image's
 /// aspect ratio (square pixels, the plane centred) and mirrors it for the display convention
-/// ([`SlicePlane::oriented`]) when it renders.
+/// (`SlicePlane::oriented`) when it renders.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SlicePlane {
+    /// The image's top-left corner.
     pub origin: Vec3,
+    /// The image's top edge, left to right.
     pub u: Vec3,
+    /// The image's left edge, top to bottom.
     pub v: Vec3,
 }
 
@@ -154,8 +157,10 @@ pub enum SliceAxis {
 /// images are the same in both.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Convention {
+    /// The patient's right on the image's left (the default).
     #[default]
     Radiological,
+    /// The patient's right on the image's right.
     Neurological,
 }
 
@@ -174,7 +179,7 @@ impl SlicePlane {
 
     /// The plane as `convention` shows it: the neurological convention mirrors an image whose
     /// horizontal runs along the patient's right-left axis; every other plane is unchanged.
-    pub fn oriented(self, convention: Convention) -> SlicePlane {
+    pub(crate) fn oriented(self, convention: Convention) -> SlicePlane {
         let runs_right_left = self.u.x.abs() >= self.u.y.abs().max(self.u.z.abs());
         if convention == Convention::Neurological && runs_right_left {
             SlicePlane { origin: self.origin + self.u, u: -self.u, ..self }
@@ -186,13 +191,13 @@ impl SlicePlane {
     /// The patient directions at the image's edges, `[left, right, top, bottom]`, one letter
     /// each (R, L, A, P, S, I: the direction of the dominant patient axis across that edge), for
     /// a viewer to draw. An axial plane in the radiological convention gives `["R", "L", "A", "P"]`.
-    pub fn edge_labels(&self) -> [&'static str; 4] {
+    pub(crate) fn edge_labels(&self) -> [&'static str; 4] {
         [direction_letter(-self.u), direction_letter(self.u), direction_letter(-self.v), direction_letter(self.v)]
     }
 }
 
 /// The edge labels `[left, right, top, bottom]` of a slice view normal to `axis` shown in
-/// `convention` (see [`SlicePlane::edge_labels`]).
+/// `convention` (see `SlicePlane::edge_labels`).
 pub fn slice_edge_labels(axis: SliceAxis, convention: Convention) -> [&'static str; 4] {
     SlicePlane::new(axis, 0.5).oriented(convention).edge_labels()
 }
@@ -216,7 +221,7 @@ fn direction_letter(d: Vec3) -> &'static str {
 /// plane's normal in patient space (`slice_normal`: its direction is where rays go, its length
 /// how far 1 mm is).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ShaderPlane {
+pub(crate) struct ShaderPlane {
     pub origin: Vec3,
     pub u: Vec3,
     pub v: Vec3,
@@ -226,7 +231,7 @@ pub struct ShaderPlane {
 impl ShaderPlane {
     /// `plane` (box coordinates of the volume with `volume_to_world`) fitted to an image of
     /// `aspect` = width / height with square pixels, in normalized volume coordinates.
-    pub fn new(plane: SlicePlane, volume_to_world: Mat4, aspect: f32) -> ShaderPlane {
+    pub(crate) fn new(plane: SlicePlane, volume_to_world: Mat4, aspect: f32) -> ShaderPlane {
         let to_world = PatientBox::of(volume_to_world).to_world();
         let (mut origin, mut u, mut v) = (
             to_world.transform_point3(plane.origin),
@@ -264,7 +269,7 @@ fn normalized_to_index(dims: [u32; 3]) -> Mat4 {
 /// The primary volume's normalized coordinates to another volume's (`primary_to_NAME`),
 /// through both grids' grid-to-world transforms: co-registered volumes line up whatever their
 /// grids.
-pub fn primary_to(primary: (&[u32; 3], Mat4), other: (&[u32; 3], Mat4)) -> Mat4 {
+pub(crate) fn primary_to(primary: (&[u32; 3], Mat4), other: (&[u32; 3], Mat4)) -> Mat4 {
     let to_world = volume_to_world(*primary.0, primary.1);
     let from_world = volume_to_world(*other.0, other.1).inverse();
     from_world * to_world

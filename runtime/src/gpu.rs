@@ -11,12 +11,14 @@ use std::sync::{Arc, Mutex};
 /// always reaches the user as a value.
 #[derive(Clone)]
 pub struct Gpu {
+    /// The wgpu device everything is made on.
     pub device: wgpu::Device,
+    /// The device's queue, where every submission goes.
     pub queue: wgpu::Queue,
     /// The adapter's name and backend, for logs and benchmark reports.
     pub adapter: String,
     /// Whether it is a CPU (software) adapter such as lavapipe.
-    pub software: bool,
+    pub(crate) software: bool,
     /// Errors no error scope captured, oldest first.
     uncaptured: Arc<Mutex<Vec<GpuFault>>>,
 }
@@ -26,16 +28,21 @@ pub struct Gpu {
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct GpuFault {
     /// What the runtime was doing: "creating the output image of view `3d`".
-    pub doing: String,
+    pub(crate) doing: String,
+    /// Which kind of wgpu error it was.
     pub kind: GpuFaultKind,
     /// wgpu's own report, its causes included.
     pub message: String,
 }
 
+/// The kinds of wgpu error (wgpu's error filters).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum GpuFaultKind {
+    /// What was asked does not fit the device's limits or wgpu's rules.
     Validation,
+    /// The device (or host) ran out of memory.
     OutOfMemory,
+    /// The driver or wgpu failed on its own.
     Internal,
 }
 
@@ -145,7 +152,7 @@ impl Gpu {
 
     /// Wraps an application's own device and queue; errors nobody captures are kept for
     /// [`Gpu::take_fault`] from now on, instead of wgpu's panic.
-    pub fn from_device(device: wgpu::Device, queue: wgpu::Queue) -> Gpu {
+    pub(crate) fn from_device(device: wgpu::Device, queue: wgpu::Queue) -> Gpu {
         let uncaptured: Arc<Mutex<Vec<GpuFault>>> = Arc::default();
         let kept = uncaptured.clone();
         device.on_uncaptured_error(Arc::new(move |error: wgpu::Error| {

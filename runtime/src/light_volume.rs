@@ -11,7 +11,7 @@ use crate::textures::{TfTexture, VolumeTexture};
 use glam::{Mat4, Vec3};
 
 /// The largest side of a light volume, in texels.
-pub const MAX_SIDE: u32 = 64;
+pub(crate) const MAX_SIDE: u32 = 64;
 
 /// A light march ends once less than this share of the light is left (`std::shadow_ray`'s
 /// default `shadow_cutoff`).
@@ -69,7 +69,7 @@ pub(crate) const BINDINGS: PassBindings = PassBindings {
 
 /// What a light volume was computed from: equal keys, same volume.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct LightKey {
+pub(crate) struct LightKey {
     /// Towards the light in patient space (RAS), not normalized; zero for a headlight.
     pub direction: Vec3,
     pub ref_step: f32,
@@ -78,12 +78,12 @@ pub struct LightKey {
 }
 
 /// The compute pipeline of light volumes (made once per renderer).
-pub struct LightVolumePass {
+pub(crate) struct LightVolumePass {
     pass: ComputePass,
 }
 
 /// The primary volume a light volume is computed over.
-pub struct Primary<'a> {
+pub(crate) struct Primary<'a> {
     pub texture: &'a VolumeTexture,
     pub tf: &'a TfTexture,
     pub sampler: &'a wgpu::Sampler,
@@ -92,7 +92,7 @@ pub struct Primary<'a> {
 }
 
 impl LightVolumePass {
-    pub fn new(gpu: &Gpu) -> Result<LightVolumePass, RuntimeError> {
+    pub(crate) fn new(gpu: &Gpu) -> Result<LightVolumePass, RuntimeError> {
         let pass = gpu.capture("making the light-volume pass", || ComputePass::new(gpu, BINDINGS, SHADER))?;
         Ok(LightVolumePass { pass })
     }
@@ -100,7 +100,7 @@ impl LightVolumePass {
     /// The light volume of a light in direction `key.direction` over `primary`, computed and
     /// submitted (the caller's next submission sees it). A headlight (zero direction) gets a
     /// volume of 1: it moves with the camera, so it casts no volume shadows.
-    pub fn compute(&self, gpu: &Gpu, primary: &Primary, key: &LightKey) -> Result<VolumeTexture, RuntimeError> {
+    pub(crate) fn compute(&self, gpu: &Gpu, primary: &Primary, key: &LightKey) -> Result<VolumeTexture, RuntimeError> {
         let dims = primary.texture.dims.map(|d| d.clamp(1, MAX_SIDE));
         let doing = "computing a light volume";
         let texture = gpu.capture(doing, || {

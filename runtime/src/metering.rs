@@ -12,7 +12,7 @@ use crate::reflection::{BindingKind, Reflection};
 use crate::textures::Image2d;
 
 /// The uniform the reduction's result is copied into.
-pub const SCENE_LUMINANCE: &str = "scene_luminance";
+pub(crate) const SCENE_LUMINANCE: &str = "scene_luminance";
 
 /// `scene_luminance` before anything was metered: middle grey, so exposure starts neutral.
 const START: f32 = 0.18;
@@ -62,7 +62,7 @@ pub(crate) const BINDINGS: PassBindings = PassBindings {
 };
 
 /// A metering view's luminance images, its reduction and its result.
-pub struct Metering {
+pub(crate) struct Metering {
     pass: ComputePass,
     /// 4 bytes: the last log-average luminance.
     result: wgpu::Buffer,
@@ -75,7 +75,7 @@ pub struct Metering {
 impl Metering {
     /// The metering of a view whose reflection has a luminance image and `scene_luminance`;
     /// `None` for every other view.
-    pub fn of(gpu: &Gpu, reflection: &Reflection) -> Option<Result<Metering, RuntimeError>> {
+    pub(crate) fn of(gpu: &Gpu, reflection: &Reflection) -> Option<Result<Metering, RuntimeError>> {
         reflection.bindings.iter().find(|b| b.kind == BindingKind::LuminanceImage)?;
         let offset = reflection.uniforms.iter().find(|u| u.name == SCENE_LUMINANCE)?.offset?;
         Some(
@@ -97,7 +97,7 @@ impl Metering {
     }
 
     /// The luminance image for a target of `size` pixels (made anew when the size changes).
-    pub fn image(&mut self, gpu: &Gpu, size: [u32; 2]) -> Result<&wgpu::TextureView, RuntimeError> {
+    pub(crate) fn image(&mut self, gpu: &Gpu, size: [u32; 2]) -> Result<&wgpu::TextureView, RuntimeError> {
         if self.image.as_ref().is_none_or(|(made, _)| *made != size) {
             let [w, h] = size;
             let usage = wgpu::TextureUsages::STORAGE_BINDING | wgpu::TextureUsages::TEXTURE_BINDING;
@@ -111,12 +111,12 @@ impl Metering {
 
     /// Before the view's pass: the last metered value into the uniform block (after the
     /// block's own write, which queue writes come before).
-    pub fn before_pass(&self, encoder: &mut wgpu::CommandEncoder, uniforms: &wgpu::Buffer) {
+    pub(crate) fn before_pass(&self, encoder: &mut wgpu::CommandEncoder, uniforms: &wgpu::Buffer) {
         encoder.copy_buffer_to_buffer(&self.result, 0, uniforms, self.offset, 4);
     }
 
     /// After the view's pass: the reduction of the luminance image into the result.
-    pub fn after_pass(&self, gpu: &Gpu, encoder: &mut wgpu::CommandEncoder) -> Result<(), RuntimeError> {
+    pub(crate) fn after_pass(&self, gpu: &Gpu, encoder: &mut wgpu::CommandEncoder) -> Result<(), RuntimeError> {
         let Some((_, image)) = &self.image else { return Ok(()) };
         let bind_group = gpu.capture("binding the luminance reduction", || {
             let resources = [wgpu::BindingResource::TextureView(image), self.result.as_entire_binding()];

@@ -11,12 +11,13 @@ use crate::tf::TransferFunction;
 use crate::volume::Volume;
 
 /// Voxels per brick edge.
-pub const BRICK: u32 = 8;
+pub(crate) const BRICK: u32 = 8;
 
+#[cfg(test)]
 /// The occupancy grid of the primary volume under `tf`, with its values normalized by `window`
 /// as they are uploaded ([`Volume::normalized`]). Reads the volume a row at a time: no copy of
 /// its values is made.
-pub fn occupancy(volume: &Volume, window: Option<[f32; 2]>, tf: &TransferFunction) -> Volume {
+pub(crate) fn occupancy(volume: &Volume, window: Option<[f32; 2]>, tf: &TransferFunction) -> Volume {
     BrickRanges::new(volume, window).occupancy(tf)
 }
 
@@ -24,7 +25,7 @@ pub fn occupancy(volume: &Volume, window: Option<[f32; 2]>, tf: &TransferFunctio
 /// empty-space skipping are made from. It depends on the samples and the window only, so a new
 /// transfer function rebuilds the occupancy from it without reading the volume again.
 #[derive(Clone, Debug)]
-pub struct BrickRanges {
+pub(crate) struct BrickRanges {
     pub bricks: [u32; 3],
     /// Min and max per brick, x fastest, over the voxels a sample inside the brick can read.
     ranges: Vec<(f32, f32)>,
@@ -32,15 +33,16 @@ pub struct BrickRanges {
 
 impl BrickRanges {
     /// Reads the volume once, a row at a time.
-    pub fn new(volume: &Volume, window: Option<[f32; 2]>) -> BrickRanges {
+    pub(crate) fn new(volume: &Volume, window: Option<[f32; 2]>) -> BrickRanges {
         let mut builder = RangeBuilder::new(volume.dims);
         volume.for_each_normalized(window, 0..volume.samples.len(), |t| builder.push(t));
         builder.finish()
     }
 
+    #[cfg(test)]
     /// `std::skip`'s grid: 1 where `tf` gives some value in the brick's range a non-zero
     /// opacity, else 0.
-    pub fn occupancy(&self, tf: &TransferFunction) -> Volume {
+    pub(crate) fn occupancy(&self, tf: &TransferFunction) -> Volume {
         let visible = VisibleRanges::new(tf);
         let data = self.ranges.iter().map(|&(lo, hi)| if visible.any(lo, hi) { 1.0 } else { 0.0 }).collect();
         Volume::new(self.bricks, glam::Mat4::IDENTITY, data)
@@ -50,7 +52,7 @@ impl BrickRanges {
     /// no sample inside it exceeds. The shaders read it at texel centres (`walk_bricks`), where
     /// linear filtering returns the texel itself, so a ray may leave a brick whose texel is at
     /// most a level knowing that no sample in it exceeds that level.
-    pub fn max_grid(&self) -> Volume {
+    pub(crate) fn max_grid(&self) -> Volume {
         let data = self.ranges.iter().map(|&(lo, hi)| sample_bound(lo, hi)).collect();
         Volume::new(self.bricks, glam::Mat4::IDENTITY, data)
     }
@@ -78,7 +80,7 @@ fn sample_bound(lo: f32, hi: f32) -> f32 {
 /// additional volume's occupied brick (its box taken into the primary's normalized coordinates
 /// and bounded there, so oblique and coarser grids are covered too).
 #[derive(Clone, Debug)]
-pub struct SceneRanges {
+pub(crate) struct SceneRanges {
     primary: (BrickRanges, VisibleRanges),
     additional: Vec<AdditionalRanges>,
 }
@@ -95,25 +97,25 @@ struct AdditionalRanges {
 
 impl SceneRanges {
     /// The primary volume's ranges and its transfer function (resampled over its window).
-    pub fn new(primary: BrickRanges, tf: &TransferFunction) -> SceneRanges {
+    pub(crate) fn new(primary: BrickRanges, tf: &TransferFunction) -> SceneRanges {
         SceneRanges { primary: (primary, VisibleRanges::new(tf)), additional: Vec::new() }
     }
 
     /// Adds additional volume `name`: its ranges, its normalized coordinates to the primary's,
     /// and its transfer function over its window.
-    pub fn add(&mut self, name: &str, ranges: BrickRanges, to_primary: glam::Mat4, tf: &TransferFunction) {
+    pub(crate) fn add(&mut self, name: &str, ranges: BrickRanges, to_primary: glam::Mat4, tf: &TransferFunction) {
         let visible = VisibleRanges::new(tf);
         self.additional.push(AdditionalRanges { name: name.to_string(), ranges, to_primary, visible });
     }
 
     /// The primary volume's ranges (what `std::skip_mip` and `std::skip_iso` bound).
-    pub fn primary(&self) -> &BrickRanges {
+    pub(crate) fn primary(&self) -> &BrickRanges {
         &self.primary.0
     }
 
     /// Takes a new transfer function (over its window) for volume `name`, the primary when
     /// `primary`; false when the volume takes no part in the grid.
-    pub fn set_tf(&mut self, name: &str, primary: bool, tf: &TransferFunction) -> bool {
+    pub(crate) fn set_tf(&mut self, name: &str, primary: bool, tf: &TransferFunction) -> bool {
         if primary {
             self.primary.1 = VisibleRanges::new(tf);
             return true;
@@ -128,7 +130,7 @@ impl SceneRanges {
     }
 
     /// `std::skip`'s grid over the primary's bricks: 1 where some volume may be visible.
-    pub fn occupancy(&self) -> Volume {
+    pub(crate) fn occupancy(&self) -> Volume {
         let (primary, visible) = &self.primary;
         let mut occupied: Vec<bool> = primary.ranges.iter().map(|&(lo, hi)| visible.any(lo, hi)).collect();
         for a in &self.additional {
@@ -221,7 +223,7 @@ fn texel_voxels(voxels: u32, texels: u32) -> Vec<std::ops::RangeInclusive<u32>> 
 /// fastest, then y, then z): a loader's stream or a texture upload can take the ranges on the
 /// way, and only one z slice of row ranges is held, never the volume. The ranges are separable:
 /// each row's along x, each slice's along y as the slice completes, along z at the end.
-pub struct RangeBuilder {
+pub(crate) struct RangeBuilder {
     dims: [usize; 3],
     bricks: [u32; 3],
     /// Per brick along each axis, the voxels its samples may read ([`texel_voxels`]).
@@ -246,7 +248,7 @@ fn merge(a: (f32, f32), b: (f32, f32)) -> (f32, f32) {
 
 impl RangeBuilder {
     /// A builder for a volume of `dims` voxels.
-    pub fn new(dims: [u32; 3]) -> RangeBuilder {
+    pub(crate) fn new(dims: [u32; 3]) -> RangeBuilder {
         let bricks = dims.map(|d| d.div_ceil(BRICK).max(1));
         let spans = [0, 1, 2].map(|axis| texel_voxels(dims[axis], bricks[axis]));
         let [nx, ny, nz] = dims.map(|d| d as usize);
@@ -264,7 +266,7 @@ impl RangeBuilder {
     }
 
     /// The next voxel's normalized value; values past the last voxel are ignored.
-    pub fn push(&mut self, t: f32) {
+    pub(crate) fn push(&mut self, t: f32) {
         if self.z >= self.dims[2] {
             return;
         }
@@ -300,7 +302,7 @@ impl RangeBuilder {
     }
 
     /// The ranges of every brick (slices that never arrived count as empty).
-    pub fn finish(self) -> BrickRanges {
+    pub(crate) fn finish(self) -> BrickRanges {
         let [bx, by, bz] = self.bricks.map(|b| b as usize);
         let mut ranges = vec![EMPTY; bx * by * bz];
         for (k, span) in self.spans[2].iter().enumerate() {

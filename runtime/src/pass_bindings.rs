@@ -18,7 +18,7 @@ pub(crate) struct Slot {
 
 impl Slot {
     /// A binding seen by compute shaders.
-    pub const fn compute(binding: u32, ty: wgpu::BindingType) -> Slot {
+    pub(crate) const fn compute(binding: u32, ty: wgpu::BindingType) -> Slot {
         Slot { binding, visibility: wgpu::ShaderStages::COMPUTE, ty }
     }
 }
@@ -33,22 +33,22 @@ pub(crate) struct PassBindings {
 /// The usual binding types, for declarations.
 pub(crate) mod ty {
     /// A uniform buffer (`var<uniform>`).
-    pub const UNIFORM: wgpu::BindingType = wgpu::BindingType::Buffer {
+    pub(crate) const UNIFORM: wgpu::BindingType = wgpu::BindingType::Buffer {
         ty: wgpu::BufferBindingType::Uniform,
         has_dynamic_offset: false,
         min_binding_size: None,
     };
     /// A read-write storage buffer (`var<storage, read_write>`).
-    pub const STORAGE_READ_WRITE: wgpu::BindingType = wgpu::BindingType::Buffer {
+    pub(crate) const STORAGE_READ_WRITE: wgpu::BindingType = wgpu::BindingType::Buffer {
         ty: wgpu::BufferBindingType::Storage { read_only: false },
         has_dynamic_offset: false,
         min_binding_size: None,
     };
     /// A filtering sampler.
-    pub const SAMPLER: wgpu::BindingType = wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering);
+    pub(crate) const SAMPLER: wgpu::BindingType = wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering);
 
     /// A sampled float texture of `view_dimension`.
-    pub const fn texture(view_dimension: wgpu::TextureViewDimension, filterable: bool) -> wgpu::BindingType {
+    pub(crate) const fn texture(view_dimension: wgpu::TextureViewDimension, filterable: bool) -> wgpu::BindingType {
         wgpu::BindingType::Texture {
             sample_type: wgpu::TextureSampleType::Float { filterable },
             view_dimension,
@@ -57,7 +57,7 @@ pub(crate) mod ty {
     }
 
     /// A write-only storage texture.
-    pub const fn storage_texture(
+    pub(crate) const fn storage_texture(
         format: wgpu::TextureFormat,
         view_dimension: wgpu::TextureViewDimension,
     ) -> wgpu::BindingType {
@@ -74,7 +74,7 @@ pub(crate) struct PassLayout {
 
 impl PassLayout {
     /// The declaration's bind-group layouts (wgpu's errors go to the caller's capture).
-    pub fn new(gpu: &Gpu, declared: PassBindings) -> PassLayout {
+    pub(crate) fn new(gpu: &Gpu, declared: PassBindings) -> PassLayout {
         let groups = declared
             .groups
             .iter()
@@ -98,7 +98,7 @@ impl PassLayout {
     }
 
     /// The pipeline layout of the first `count` groups (a pipeline that reads only those).
-    pub fn pipeline_layout(&self, gpu: &Gpu, count: usize) -> wgpu::PipelineLayout {
+    pub(crate) fn pipeline_layout(&self, gpu: &Gpu, count: usize) -> wgpu::PipelineLayout {
         let groups: Vec<Option<&wgpu::BindGroupLayout>> = self.groups.iter().take(count).map(Some).collect();
         gpu.device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some(self.label),
@@ -110,7 +110,7 @@ impl PassLayout {
     /// A bind group of group `group`: `resources` in the declaration's order, each numbered as
     /// declared. Too few or too many resources are wgpu validation errors (the caller's capture
     /// reports them).
-    pub fn bind_group(&self, gpu: &Gpu, group: usize, resources: &[wgpu::BindingResource]) -> wgpu::BindGroup {
+    pub(crate) fn bind_group(&self, gpu: &Gpu, group: usize, resources: &[wgpu::BindingResource]) -> wgpu::BindGroup {
         let slots = self.declared.groups.get(group).copied().unwrap_or(&[]);
         let entries: Vec<wgpu::BindGroupEntry> = resources
             .iter()
@@ -134,7 +134,7 @@ pub(crate) struct ComputePass {
 impl ComputePass {
     /// Compiles `wgsl` with the declared layout (entry point `main`); wgpu's errors go to the
     /// caller's capture.
-    pub fn new(gpu: &Gpu, declared: PassBindings, wgsl: &str) -> ComputePass {
+    pub(crate) fn new(gpu: &Gpu, declared: PassBindings, wgsl: &str) -> ComputePass {
         let layout = PassLayout::new(gpu, declared);
         let module = gpu.device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some(declared.label),
@@ -153,7 +153,12 @@ impl ComputePass {
     }
 
     /// Records one dispatch of `workgroups` with `bind_groups` (group `i` the `i`-th).
-    pub fn dispatch(&self, encoder: &mut wgpu::CommandEncoder, bind_groups: &[&wgpu::BindGroup], workgroups: [u32; 3]) {
+    pub(crate) fn dispatch(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        bind_groups: &[&wgpu::BindGroup],
+        workgroups: [u32; 3],
+    ) {
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some(self.layout.label),
             timestamp_writes: None,

@@ -19,7 +19,7 @@ use std::fmt::Write as _;
 
 /// The scalar kind of a probed value's components.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum ComponentKind {
+pub(crate) enum ComponentKind {
     Float,
     Int,
     Uint,
@@ -41,20 +41,21 @@ impl ComponentKind {
 /// What a probed field holds: the kind and number (1 to 4) of its components.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct ProbeFormat {
-    pub kind: ComponentKind,
+    pub(crate) kind: ComponentKind,
+    /// How many components each value has: 1 (a scalar) to 4.
     pub components: u32,
 }
 
 impl ProbeFormat {
     /// Renders that carry every word: one per word, then one per three words' low bytes.
-    pub fn passes(self) -> u32 {
+    pub(crate) fn passes(self) -> u32 {
         self.components + self.components.div_ceil(3)
     }
 }
 
 /// How a probe image shows its values.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Mapping {
+pub(crate) enum Mapping {
     /// A scalar through viridis, `lo` dark purple to `hi` yellow.
     Colormap { lo: f64, hi: f64 },
     /// A vector's x, y, z as R, G, B, each from `lo` (0) to `hi` (255).
@@ -66,15 +67,20 @@ pub enum Mapping {
 /// The decoded values of a probe: per pixel, row by row, the components or `None`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ProbeValues {
+    /// Pixels per row.
     pub width: u32,
+    /// Rows.
     pub height: u32,
+    /// What each value holds.
     pub format: ProbeFormat,
+    /// Row by row, top first: the components (the first `format.components` used), or `None`
+    /// where the field was not written (a ray that missed the volume).
     pub pixels: Vec<Option<[f64; 4]>>,
 }
 
 impl ProbeValues {
     /// Decodes the passes of a probe (all of one size, `format.passes()` of them).
-    pub fn decode(format: ProbeFormat, passes: &[RgbaImage]) -> Result<ProbeValues, String> {
+    pub(crate) fn decode(format: ProbeFormat, passes: &[RgbaImage]) -> Result<ProbeValues, String> {
         let n = format.components as usize;
         if !(1..=4).contains(&n) || passes.len() != format.passes() as usize {
             return Err(format!("a probe of {n} components needs {} passes, got {}", format.passes(), passes.len()));
@@ -130,13 +136,13 @@ impl ProbeValues {
     }
 
     /// Smallest and largest finite value of component `c` over the pixels with a value.
-    pub fn component_range(&self, c: usize) -> Option<(f64, f64)> {
+    pub(crate) fn component_range(&self, c: usize) -> Option<(f64, f64)> {
         finite_range(self.pixels.iter().flatten().map(|p| p[c]))
     }
 
     /// The mapping the image uses (see the module documentation); `None` when no pixel has a
     /// finite value.
-    pub fn mapping(&self) -> Option<Mapping> {
+    pub(crate) fn mapping(&self) -> Option<Mapping> {
         if self.format.kind == ComponentKind::Bool {
             return Some(Mapping::Boolean);
         }
@@ -150,7 +156,7 @@ impl ProbeValues {
     }
 
     /// The image: every pixel coloured by [`ProbeValues::mapping`].
-    pub fn to_image(&self) -> RgbaImage {
+    pub(crate) fn to_image(&self) -> RgbaImage {
         let mapping = self.mapping();
         let drawn = self.drawn();
         let mut image = RgbaImage::new(self.width, self.height);
@@ -184,7 +190,7 @@ impl ProbeValues {
 
     /// One line that says how to read the image: the pixels with a value, the range and the
     /// mapping (and a vec4's w range, which the image does not draw).
-    pub fn legend(&self) -> String {
+    pub(crate) fn legend(&self) -> String {
         let total = self.pixels.len();
         let mut out = format!("{} of {total} pixels have a value", self.count());
         let non_finite = self.pixels.iter().flatten().filter(|v| v[..self.drawn()].iter().any(|c| !c.is_finite()));
@@ -253,7 +259,7 @@ fn byte(x: f64) -> u8 {
 const VIRIDIS_STOPS: [[u8; 3]; 5] = [[68, 1, 84], [59, 82, 139], [33, 145, 140], [94, 201, 98], [253, 231, 37]];
 
 /// The colour of `x` in [0, 1] on viridis.
-pub fn viridis(x: f64) -> Rgba<u8> {
+pub(crate) fn viridis(x: f64) -> Rgba<u8> {
     let scaled = x.clamp(0.0, 1.0) * (VIRIDIS_STOPS.len() - 1) as f64;
     let i = (scaled.floor() as usize).min(VIRIDIS_STOPS.len() - 2);
     let f = scaled - i as f64;

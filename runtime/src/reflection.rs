@@ -2,7 +2,5 @@
 //! what the runtime needs to bind resources and fill the uniform block. The types are defined
 //! once, in `vrs-reflection`, for the compiler and the runtime alike.
 
-pub use vrs_reflection::{
-    BindingInfo, BindingKind, FORMAT_VERSION, FieldInfo, FunctionInfo, FunctionStatus, Lifetime, Reflection, StateInfo,
-    StepInfo, UniformBlock, UniformInfo, content_hash,
-};
+pub(crate) use vrs_reflection::{BindingInfo, BindingKind};
+pub use vrs_reflection::{FunctionInfo, FunctionStatus, Reflection, UniformInfo, content_hash};

@@ -3,29 +3,33 @@
 //! and not on each other.
 
 use crate::bricks::BrickedVolumes;
+use crate::error::RuntimeError;
 use crate::gpu::Gpu;
 use crate::mesh_layer::{MeshInstance, pipelines::MeshPipelines};
 use crate::textures::{TfTexture, VolumeTexture, linear_sampler};
+use crate::tf::TransferFunction;
+use crate::volume::Volume;
 use std::collections::HashMap;
 use std::sync::Arc;
 
 /// Textures shared by the views of a scene, by the uniform name the shaders bind them under
 /// (`volume`, `volume_gm`, `tf`, `tf_gm`).
 pub struct Resources {
-    pub volumes: HashMap<String, Arc<VolumeTexture>>,
+    pub(crate) volumes: HashMap<String, Arc<VolumeTexture>>,
     /// Volumes kept in bricks (`crate::bricks`), by the same names.
-    pub bricked: BrickedVolumes,
-    pub tfs: HashMap<String, Arc<TfTexture>>,
-    pub sampler: wgpu::Sampler,
+    pub(crate) bricked: BrickedVolumes,
+    pub(crate) tfs: HashMap<String, Arc<TfTexture>>,
+    pub(crate) sampler: wgpu::Sampler,
     /// The scene's meshes, which views' mesh layers draw (by index).
-    pub meshes: Vec<MeshInstance>,
+    pub(crate) meshes: Vec<MeshInstance>,
     /// Counts changes of `meshes`' surfaces (a layer drawn from an older one is drawn again).
-    pub mesh_generation: u64,
+    mesh_generation: u64,
     /// Made with the first mesh.
-    pub mesh_pipelines: Option<MeshPipelines>,
+    pub(crate) mesh_pipelines: Option<MeshPipelines>,
 }
 
 impl Resources {
+    /// No textures or meshes yet, and the linear sampler every view binds.
     pub fn new(gpu: &Gpu) -> Resources {
         Resources {
             volumes: HashMap::new(),
@@ -36,5 +40,36 @@ impl Resources {
             mesh_generation: 0,
             mesh_pipelines: None,
         }
+    }
+
+    /// Uploads `volume` as the 3D texture views bind as `binding` (`volume`, `volume_gm`, ...),
+    /// mapping `window` (data units; without one, the volume's value range) to [0, 1].
+    pub fn bind_volume(
+        &mut self,
+        gpu: &Gpu,
+        binding: &str,
+        volume: &Volume,
+        window: Option<[f32; 2]>,
+    ) -> Result<(), RuntimeError> {
+        let texture = VolumeTexture::upload(gpu, binding, volume, window)?;
+        self.volumes.insert(binding.to_string(), Arc::new(texture));
+        Ok(())
+    }
+
+    /// Uploads `tf` as the transfer function views bind as `binding` (`tf`, `tf_gm`, ...).
+    pub fn bind_tf(&mut self, gpu: &Gpu, binding: &str, tf: &TransferFunction) -> Result<(), RuntimeError> {
+        self.tfs.insert(binding.to_string(), Arc::new(TfTexture::upload(gpu, tf)?));
+        Ok(())
+    }
+
+    /// How many times `meshes`' surfaces have changed: a mesh layer drawn at an older generation
+    /// is drawn again.
+    pub(crate) fn mesh_generation(&self) -> u64 {
+        self.mesh_generation
+    }
+
+    /// Records that `meshes`' surfaces changed (every mesh layer is drawn again).
+    pub(crate) fn meshes_changed(&mut self) {
+        self.mesh_generation += 1;
     }
 }

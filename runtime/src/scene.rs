@@ -24,7 +24,7 @@ mod derived;
 mod meshes;
 mod probe;
 mod tf_edit;
-pub use bricked::{BrickProgress, open_store, selection, store_location};
+pub use bricked::{BrickProgress, selection};
 pub use meshes::{MeshHandle, mesh_surface};
 pub use probe::{ProbeAt, ProbeImage, ProbeSpec};
 pub use tf_edit::VolumeStatus;
@@ -51,20 +51,22 @@ impl Default for RenderOptions {
 
 /// A view of the scene and how it looks at the volume.
 pub struct SceneView {
+    /// The view's name in the scene file.
     pub name: String,
+    /// Its shader, uniforms and output image.
     pub renderer: ViewRenderer,
     /// Raycast views: the orbit camera.
     pub camera: Option<OrbitCamera>,
     /// Slice views: the plane and the slab thickness (mm).
     pub slice: Option<(SlicePlane, f32)>,
     /// Slice views: how the image puts the patient's sides (the scene's `convention`).
-    pub convention: Convention,
+    pub(crate) convention: Convention,
     /// The meshes its mesh layer draws and those its overlay draws (indices into the scene's
     /// meshes).
-    pub meshes: Vec<usize>,
-    pub overlay: Vec<usize>,
+    pub(crate) meshes: Vec<usize>,
+    pub(crate) overlay: Vec<usize>,
     /// The slice views it shows on their planes (indices into the scene's views).
-    pub planes: Vec<usize>,
+    pub(crate) planes: Vec<usize>,
 }
 
 /// A loaded scene, ready to render every frame.
@@ -83,7 +85,8 @@ pub struct SceneRenderer {
     skipping: Option<crate::occupancy::SceneRanges>,
     /// What the loaded volumes were loaded from ([`volumes_key`]).
     volumes_key: String,
-    pub views: Vec<SceneView>,
+    /// One per view of the scene, in its order (what the mesh and plane indices refer to).
+    views: Vec<SceneView>,
     /// Things the user should know that are not errors (a volume replaced by its fallback
     /// phantom because its file is absent).
     pub notices: Vec<String>,
@@ -122,7 +125,7 @@ struct VolumeGrid {
 }
 
 /// Progress of loading a volume: (volume name, bytes done, bytes in all).
-pub type Progress<'a> = &'a mut dyn FnMut(&str, u64, u64);
+pub(crate) type Progress<'a> = &'a mut dyn FnMut(&str, u64, u64);
 
 impl SceneRenderer {
     /// Composes and loads the scene at `path`. Composition errors come back rendered as text in
@@ -191,6 +194,18 @@ impl SceneRenderer {
         Ok(())
     }
 
+    /// The scene's views, in its order (`render_view`'s and the other methods' `index`).
+    pub fn views(&self) -> &[SceneView] {
+        &self.views
+    }
+
+    /// The scene's views, to move their cameras and planes or resize them (not to add or remove
+    /// any: the scene's indices refer to them).
+    pub fn views_mut(&mut self) -> &mut [SceneView] {
+        &mut self.views
+    }
+
+    /// The device the scene renders on.
     pub fn gpu(&self) -> &Gpu {
         &self.gpu
     }
@@ -198,10 +213,6 @@ impl SceneRenderer {
     /// Pipeline cache hits and misses since the scene was opened.
     pub fn pipeline_stats(&self) -> PipelineStats {
         self.pipelines.stats()
-    }
-
-    pub fn view_mut(&mut self, name: &str) -> Option<&mut SceneView> {
-        self.views.iter_mut().find(|v| v.name == name)
     }
 
     /// Sets a uniform in every view whose shader reads it; an error if none does.
@@ -321,7 +332,7 @@ impl SceneRenderer {
     /// the primary volume's occupancy grid is rebuilt from the brick ranges kept at load (the
     /// volume is not read again). This is what a viewer calls when only a transfer function
     /// changed.
-    pub fn set_transfer_function(
+    pub(crate) fn set_transfer_function(
         &mut self,
         volume: &str,
         tf: &crate::tf::TransferFunction,
@@ -377,7 +388,7 @@ impl SceneRenderer {
         view.renderer.encode(&self.gpu, &self.resources, encoder)
     }
 
-    /// Records `region` of view `index` into `target` (see [`ViewRenderer::encode_into`]), with
+    /// Records `region` of view `index` into `target` (see `ViewRenderer::encode_into`), with
     /// the view's camera or slice plane applied.
     pub fn encode_view_into(
         &mut self,
@@ -396,11 +407,6 @@ impl SceneRenderer {
         let view = self.views.get_mut(index).ok_or_else(|| RuntimeError::Invalid(format!("no view {index}")))?;
         apply_view_uniforms(view, &self.grids)?;
         view.renderer.encode_into(&self.gpu, &self.resources, encoder, target, region)
-    }
-
-    /// The number of voxels along each axis of the primary volume.
-    pub fn primary_dims(&self) -> Option<[u32; 3]> {
-        self.grids.first().map(|g| g.dims)
     }
 
     /// The primary volume's grid: its voxel counts and its grid-to-world transform (voxel
@@ -469,7 +475,7 @@ impl SceneRenderer {
 
 impl SceneRenderer {
     /// The patient directions at the edges of slice view `index` as it is shown now,
-    /// `[left, right, top, bottom]` (see [`SlicePlane::edge_labels`]); `None` for a raycast view.
+    /// `[left, right, top, bottom]` (see `SlicePlane::edge_labels`); `None` for a raycast view.
     pub fn slice_edge_labels(&self, index: usize) -> Option<[&'static str; 4]> {
         let view = self.views.get(index)?;
         view.slice.map(|(plane, _)| plane.oriented(view.convention).edge_labels())

@@ -12,7 +12,9 @@ use std::sync::Arc;
 /// A view's WGSL and reflection, checked to belong together.
 #[derive(Clone, Debug)]
 pub struct ViewShader {
+    /// The compute shader's source.
     pub wgsl: Arc<str>,
+    /// Its bindings, uniforms and state fields, as the compiler described them.
     pub reflection: Arc<Reflection>,
 }
 
@@ -55,15 +57,16 @@ impl ViewShader {
 /// How often [`PipelineCache`] reused a pipeline.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct PipelineStats {
-    pub hits: u64,
+    pub(crate) hits: u64,
+    /// Pipelines compiled because none with that structural hash was cached.
     pub misses: u64,
 }
 
 /// A view's compute pipeline and the bind-group layouts it was made with, one per group, both
-/// from the shader's reflection ([`crate::bindings`]).
+/// from the shader's reflection (`crate::bindings`).
 pub struct ViewPipeline {
-    pub pipeline: wgpu::ComputePipeline,
-    pub groups: Vec<wgpu::BindGroupLayout>,
+    pub(crate) pipeline: wgpu::ComputePipeline,
+    pub(crate) groups: Vec<wgpu::BindGroupLayout>,
 }
 
 /// Compute pipelines by structural hash: a configuration seen before reuses its pipeline, and a
@@ -76,11 +79,12 @@ pub struct PipelineCache {
 }
 
 impl PipelineCache {
+    /// An empty cache.
     pub fn new() -> PipelineCache {
         PipelineCache::default()
     }
 
-    pub fn stats(&self) -> PipelineStats {
+    pub(crate) fn stats(&self) -> PipelineStats {
         self.stats
     }
 

@@ -11,7 +11,9 @@ use crate::volume::{
 use glam::Mat4;
 
 /// A volume as a 3D `R16Float` texture of values normalized to [0, 1], uploaded a slab at a time.
-pub struct VolumeTexture {
+pub(crate) struct VolumeTexture {
+    /// The texture `view` shows, held with it.
+    #[allow(dead_code, reason = "held for its lifetime; the shaders bind `view`")]
     pub texture: wgpu::Texture,
     pub view: wgpu::TextureView,
     pub dims: [u32; 3],
@@ -24,12 +26,12 @@ pub struct VolumeTexture {
 }
 
 /// Bins of a [`VolumeTexture`]'s histogram.
-pub const HISTOGRAM_BINS: usize = 256;
+pub(crate) const HISTOGRAM_BINS: usize = 256;
 
 impl VolumeTexture {
     /// Uploads `volume`, mapping `window` (or its value range) to [0, 1]. Refuses grids beyond
     /// the device's 3D texture limit.
-    pub fn upload(
+    pub(crate) fn upload(
         gpu: &Gpu,
         name: &str,
         volume: &Volume,
@@ -49,7 +51,7 @@ impl VolumeTexture {
     /// and the window it was normalized by, and with `ranges` the value range of every brick
     /// of empty-space skipping, taken from the texels on the way (so skipping needs no copy of
     /// the volume either).
-    pub fn stream_file(
+    pub(crate) fn stream_file(
         gpu: &Gpu,
         name: &str,
         path: &std::path::Path,
@@ -65,7 +67,7 @@ impl VolumeTexture {
 
     /// [`VolumeTexture::stream_file`] for a volume the application holds in memory: read where
     /// it lies, a chunk at a time, in as many passes as a file. `path` names it in errors.
-    pub fn stream_feed(
+    pub(crate) fn stream_feed(
         gpu: &Gpu,
         name: &str,
         path: &std::path::Path,
@@ -175,7 +177,7 @@ const FLUSH_BYTES: usize = 8 << 20;
 
 /// Fills a volume texture from stored samples in voxel order, converting and writing whole z
 /// slices a slab at a time: the upload never holds more than a slab besides the texture.
-pub struct TextureWriter<'g> {
+pub(crate) struct TextureWriter<'g> {
     gpu: &'g Gpu,
     name: String,
     texture: wgpu::Texture,
@@ -195,7 +197,7 @@ pub struct TextureWriter<'g> {
 impl<'g> TextureWriter<'g> {
     /// An empty texture for a volume of `info`'s shape whose values `window` (data units) maps
     /// to [0, 1]. Refuses grids beyond the device's 3D texture limit.
-    pub fn new(
+    pub(crate) fn new(
         gpu: &'g Gpu,
         name: &str,
         info: &VolumeInfo,
@@ -238,12 +240,12 @@ impl<'g> TextureWriter<'g> {
 
     /// Also takes the value range of every brick of empty-space skipping from the normalized
     /// texels as they are written ([`TextureWriter::finish_with_ranges`]).
-    pub fn with_ranges(self) -> TextureWriter<'g> {
+    pub(crate) fn with_ranges(self) -> TextureWriter<'g> {
         TextureWriter { ranges: Some(RangeBuilder::new(self.info.dims)), ..self }
     }
 
     /// The next stored sample.
-    pub fn push(&mut self, stored: f32) {
+    pub(crate) fn push(&mut self, stored: f32) {
         let normalized = self.window.apply(stored);
         self.histogram[((normalized * HISTOGRAM_BINS as f32) as usize).min(HISTOGRAM_BINS - 1)] += 1;
         if let Some(ranges) = &mut self.ranges {
@@ -290,12 +292,12 @@ impl<'g> TextureWriter<'g> {
 
     /// Writes what is left and returns the texture; an error when fewer samples came than the
     /// grid has (more are ignored: the loaders check the count).
-    pub fn finish(self) -> Result<VolumeTexture, RuntimeError> {
+    pub(crate) fn finish(self) -> Result<VolumeTexture, RuntimeError> {
         Ok(self.finish_with_ranges()?.0)
     }
 
     /// [`TextureWriter::finish`], with the brick ranges when the writer took them.
-    pub fn finish_with_ranges(mut self) -> Result<(VolumeTexture, Option<BrickRanges>), RuntimeError> {
+    pub(crate) fn finish_with_ranges(mut self) -> Result<(VolumeTexture, Option<BrickRanges>), RuntimeError> {
         self.write();
         if self.z < self.info.dims[2] {
             return Err(RuntimeError::Invalid(format!(
@@ -333,13 +335,13 @@ impl SampleSink for TextureWriter<'_> {
 }
 
 /// A transfer function as a `TF_WIDTH` x 1 `Rgba8Unorm` texture (straight alpha).
-pub struct TfTexture {
+pub(crate) struct TfTexture {
     pub texture: wgpu::Texture,
     pub view: wgpu::TextureView,
 }
 
 impl TfTexture {
-    pub fn upload(gpu: &Gpu, tf: &TransferFunction) -> Result<TfTexture, RuntimeError> {
+    pub(crate) fn upload(gpu: &Gpu, tf: &TransferFunction) -> Result<TfTexture, RuntimeError> {
         let image =
             Image2d { label: &tf.name, size: [TF_WIDTH, 1], format: wgpu::TextureFormat::Rgba8Unorm, usage: TABLE };
         let texture = image.create(gpu, &format!("creating the texture of transfer function `{}`", tf.name))?;
@@ -349,7 +351,7 @@ impl TfTexture {
     }
 
     /// Replaces the table (a transfer-function edit: no new texture, no new pipeline).
-    pub fn write(&self, gpu: &Gpu, tf: &TransferFunction) {
+    pub(crate) fn write(&self, gpu: &Gpu, tf: &TransferFunction) {
         gpu.queue.write_texture(
             self.texture.as_image_copy(),
             &tf.to_rgba8(),
@@ -363,7 +365,12 @@ impl TfTexture {
     /// A 2D table of float RGBA entries (`Rgba16Float`, filterable everywhere) bound like a
     /// transfer function: the pre-integration table of `std::preintegrate`, whose alpha is an
     /// extinction that may exceed 1.
-    pub fn upload_table(gpu: &Gpu, name: &str, size: [u32; 2], rgba16f: &[u8]) -> Result<TfTexture, RuntimeError> {
+    pub(crate) fn upload_table(
+        gpu: &Gpu,
+        name: &str,
+        size: [u32; 2],
+        rgba16f: &[u8],
+    ) -> Result<TfTexture, RuntimeError> {
         let [w, h] = size;
         let image = Image2d { label: name, size, format: wgpu::TextureFormat::Rgba16Float, usage: TABLE };
         let texture = image.create(gpu, &format!("creating the {w}x{h} table `{name}`"))?;
@@ -373,7 +380,7 @@ impl TfTexture {
     }
 
     /// Replaces the entries of a table made by [`TfTexture::upload_table`] (same size).
-    pub fn write_table(&self, gpu: &Gpu, rgba16f: &[u8]) {
+    pub(crate) fn write_table(&self, gpu: &Gpu, rgba16f: &[u8]) {
         let size = self.texture.size();
         gpu.queue.write_texture(
             self.texture.as_image_copy(),
@@ -401,7 +408,7 @@ pub(crate) struct Image2d<'a> {
 
 impl Image2d<'_> {
     /// Creates it, its errors captured as those of `doing`; a zero side is one texel.
-    pub fn create(&self, gpu: &Gpu, doing: &str) -> Result<wgpu::Texture, RuntimeError> {
+    pub(crate) fn create(&self, gpu: &Gpu, doing: &str) -> Result<wgpu::Texture, RuntimeError> {
         let [w, h] = self.size;
         let texture = gpu.capture(doing, || {
             gpu.device.create_texture(&wgpu::TextureDescriptor {
@@ -420,7 +427,7 @@ impl Image2d<'_> {
 }
 
 /// Trilinear filtering, clamped at the edges: how every volume and transfer function is read.
-pub fn linear_sampler(gpu: &Gpu) -> wgpu::Sampler {
+pub(crate) fn linear_sampler(gpu: &Gpu) -> wgpu::Sampler {
     gpu.device.create_sampler(&wgpu::SamplerDescriptor {
         label: Some("linear clamp"),
         address_mode_u: wgpu::AddressMode::ClampToEdge,

@@ -1,6 +1,6 @@
 //! Transfer functions: a colour and an opacity for each sample value.
 //!
-//! A transfer function is a table of [`TF_WIDTH`] RGBA entries with straight (not premultiplied)
+//! A transfer function is a table of `TF_WIDTH` RGBA entries with straight (not premultiplied)
 //! alpha, uploaded as a 1D texture, and the [`TfDomain`] its entries stand for: data values
 //! (Hounsfield units for the CT presets, the file's values for a ParaView colormap), or the
 //! window of the volume it classifies (the MR and generic presets). Before upload the table is
@@ -13,7 +13,7 @@
 //! fills a region should have a small opacity (a few hundredths) to stay see-through, and only
 //! surfaces meant to look solid should approach 1.
 //!
-//! CT presets (`ct_*`) are defined in Hounsfield units over [`CT_DOMAIN`], whatever the window;
+//! CT presets (`ct_*`) are defined in Hounsfield units over `CT_DOMAIN`, whatever the window;
 //! the others over the window, so they fit any volume (an MR, a probability map) once its
 //! window picks the interesting values.
 
@@ -23,11 +23,11 @@ use std::path::{Path, PathBuf};
 use serde_json::Value;
 
 mod curve;
-pub mod preintegrate;
+pub(crate) mod preintegrate;
 pub use curve::TfCurve;
 
 /// Entries in a transfer function table.
-pub const TF_WIDTH: u32 = 1024;
+pub(crate) const TF_WIDTH: u32 = 1024;
 
 /// What the first and last entries of a transfer function's table stand for.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -39,14 +39,14 @@ pub enum TfDomain {
 }
 
 /// The Hounsfield range the CT presets are defined over: the 12-bit range scanners store.
-pub const CT_DOMAIN: [f32; 2] = [-1024.0, 3071.0];
+pub(crate) const CT_DOMAIN: [f32; 2] = [-1024.0, 3071.0];
 
 /// A transfer function table.
 #[derive(Clone, Debug, PartialEq)]
 pub struct TransferFunction {
     /// The preset's name, the colormap's `Name`, or the file stem.
-    pub name: String,
-    /// [`TF_WIDTH`] entries evenly over `domain`: r, g, b and straight alpha, each in [0, 1].
+    pub(crate) name: String,
+    /// `TF_WIDTH` entries evenly over `domain`: r, g, b and straight alpha, each in [0, 1].
     pub rgba: Vec<[f32; 4]>,
     /// What the first and last entries stand for.
     pub domain: TfDomain,
@@ -79,10 +79,10 @@ impl TransferFunction {
 }
 
 /// A colour control point: normalized value, then r, g, b in [0, 1].
-pub type ColorPoint = (f32, [f32; 3]);
+pub(crate) type ColorPoint = (f32, [f32; 3]);
 
 /// An opacity control point: normalized value, then opacity in [0, 1].
-pub type OpacityPoint = (f32, f32);
+pub(crate) type OpacityPoint = (f32, f32);
 
 /// The built-in transfer functions: the window-relative ones, then the CT presets in
 /// Hounsfield units.
@@ -110,11 +110,24 @@ pub const PRESETS: &[&str] = &[
 #[non_exhaustive]
 pub enum TfError {
     /// The name is not one of [`PRESETS`].
-    UnknownPreset { name: String },
+    UnknownPreset {
+        /// The name asked for.
+        name: String,
+    },
     /// A colormap file could not be read.
-    Io { path: PathBuf, error: std::io::Error },
+    Io {
+        /// The colormap file.
+        path: PathBuf,
+        /// What the operating system said.
+        error: std::io::Error,
+    },
     /// A colormap file is not a ParaView colormap; `message` says what is wrong.
-    Invalid { path: PathBuf, message: String },
+    Invalid {
+        /// The colormap file.
+        path: PathBuf,
+        /// What is wrong with it.
+        message: String,
+    },
 }
 
 impl fmt::Display for TfError {
@@ -318,7 +331,7 @@ fn labels() -> TfCurve {
 }
 
 /// A transfer function over data values `domain` from control points in data units.
-pub fn from_data_points(
+pub(crate) fn from_data_points(
     name: &str,
     color: &[ColorPoint],
     opacity: &[OpacityPoint],
@@ -336,7 +349,7 @@ pub fn from_data_points(
 /// two points at the same x make a step (the later one applies from x on). Without colour points
 /// the colour is white; without opacity points the opacity is a linear ramp from 0 to 1.
 /// Values are clamped to [0, 1].
-pub fn from_points(name: &str, color: &[ColorPoint], opacity: &[OpacityPoint]) -> TransferFunction {
+pub(crate) fn from_points(name: &str, color: &[ColorPoint], opacity: &[OpacityPoint]) -> TransferFunction {
     let opacity: Vec<(f32, [f32; 1])> = opacity.iter().map(|&(x, o)| (x, [o])).collect();
     let colors = Table::new(color);
     let alphas = Table::new(&opacity);
@@ -390,7 +403,7 @@ pub fn from_paraview_json(path: &Path) -> Result<TransferFunction, TfError> {
 }
 
 /// The control points of a ParaView colormap file (see [`from_paraview_json`]).
-pub fn paraview_curve(path: &Path) -> Result<TfCurve, TfError> {
+pub(crate) fn paraview_curve(path: &Path) -> Result<TfCurve, TfError> {
     let text = std::fs::read_to_string(path).map_err(|error| TfError::Io { path: path.to_path_buf(), error })?;
     let stem = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
     parse_paraview(&text, &stem).map_err(|message| TfError::Invalid { path: path.to_path_buf(), message })

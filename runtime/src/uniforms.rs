@@ -9,9 +9,13 @@ use std::fmt;
 /// column), so one shape serves every VRS type.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Value {
+    /// `f32` components (a scalar, vector or matrix, column by column).
     Float(Vec<f32>),
+    /// `i32` components.
     Int(Vec<i32>),
+    /// `u32` components.
     Uint(Vec<u32>),
+    /// `bool` components.
     Bool(Vec<bool>),
 }
 
@@ -119,11 +123,26 @@ impl Shape {
 #[derive(Clone, Debug, PartialEq)]
 pub enum UniformError {
     /// No uniform of that name in the view's shader.
-    Unknown { name: String, known: Vec<String> },
+    Unknown {
+        /// The name asked for.
+        name: String,
+        /// The uniforms the shader has, for a suggestion.
+        known: Vec<String>,
+    },
     /// The value's type does not match the uniform's.
-    WrongType { name: String, expected: String, got: String },
+    WrongType {
+        /// The uniform.
+        name: String,
+        /// Its WGSL type.
+        expected: String,
+        /// The value's type.
+        got: String,
+    },
     /// `volume` and `tf` uniforms are bound resources, not values.
-    Resource { name: String },
+    Resource {
+        /// The uniform.
+        name: String,
+    },
 }
 
 impl fmt::Display for UniformError {
@@ -175,7 +194,7 @@ struct Member {
 
 impl UniformBlock {
     /// A block with every uniform at its reflected default (then the scene's value, if any).
-    pub fn new(reflection: &Reflection) -> UniformBlock {
+    pub(crate) fn new(reflection: &Reflection) -> UniformBlock {
         let size = reflection.uniform_block.size.max(16) as usize;
         let members = reflection
             .uniforms
@@ -220,7 +239,7 @@ impl UniformBlock {
     }
 
     /// Sets uniform `name`; the value's kind and component count must match its type.
-    pub fn set(&mut self, name: &str, value: impl Into<Value>) -> Result<(), UniformError> {
+    pub(crate) fn set(&mut self, name: &str, value: impl Into<Value>) -> Result<(), UniformError> {
         let value = value.into();
         let Some(member) = self.members.iter().find(|m| m.name == name) else {
             let known = self.members.iter().map(|m| m.name.clone()).collect();
@@ -277,16 +296,16 @@ impl UniformBlock {
     }
 
     /// Whether uniform `name` exists (as a value in the block).
-    pub fn has(&self, name: &str) -> bool {
+    pub(crate) fn has(&self, name: &str) -> bool {
         self.members.iter().any(|m| m.name == name && m.shape.is_some())
     }
 
-    pub fn bytes(&self) -> &[u8] {
+    pub(crate) fn bytes(&self) -> &[u8] {
         &self.bytes
     }
 
     /// The bytes, if they changed since the last call (so unchanged blocks are not uploaded).
-    pub fn take_changes(&mut self) -> Option<&[u8]> {
+    pub(crate) fn take_changes(&mut self) -> Option<&[u8]> {
         std::mem::take(&mut self.dirty).then_some(&self.bytes[..])
     }
 }

@@ -112,10 +112,12 @@ impl ViewRenderer {
         })
     }
 
+    /// The WGSL and reflection the view renders with.
     pub fn shader(&self) -> &ViewShader {
         &self.shader
     }
 
+    /// Width and height of the output image in pixels.
     pub fn size(&self) -> [u32; 2] {
         self.size
     }
@@ -131,6 +133,7 @@ impl ViewRenderer {
         self.uniforms.has(name)
     }
 
+    /// The uniform values as they are now (what the next frame uploads).
     pub fn uniforms(&self) -> &UniformBlock {
         &self.uniforms
     }
@@ -147,7 +150,7 @@ impl ViewRenderer {
     /// How the mesh layer and the overlay look at the meshes, and which each draws (indices
     /// into `Resources::meshes`); without it the layer is empty (depth 1, no colour) and
     /// nothing is drawn over the picture.
-    pub fn set_mesh_layer(&mut self, camera: LayerCamera, meshes: Vec<usize>, overlay: Vec<usize>) {
+    pub(crate) fn set_mesh_layer(&mut self, camera: LayerCamera, meshes: Vec<usize>, overlay: Vec<usize>) {
         self.layer_camera = Some(camera);
         self.layer_meshes = meshes;
         self.overlay_meshes = overlay;
@@ -155,20 +158,14 @@ impl ViewRenderer {
 
     /// The slice pictures the mesh layer shows on their planes, just rendered (their views
     /// render first): the layer is drawn again with them.
-    pub fn set_planes(&mut self, planes: Vec<PlanePicture>) {
+    pub(crate) fn set_planes(&mut self, planes: Vec<PlanePicture>) {
         self.layer_planes = planes;
         self.planes_generation += 1;
     }
 
     /// How the view looks at its bricked volumes (set with its camera or plane every frame).
-    pub fn set_brick_view(&mut self, view: BrickView) {
+    pub(crate) fn set_brick_view(&mut self, view: BrickView) {
         self.brick_view = Some(view);
-    }
-
-    /// The finest level of bricked volumes the view samples: 0 (all detail) unless the caller
-    /// holds detail back, as a viewer may while the user drags.
-    pub fn set_brick_finest(&mut self, level: u32) {
-        self.brick_finest = level;
     }
 
     /// Writes the `BrickLayout` of every bricked volume the view reads, for a target `height`
@@ -206,7 +203,7 @@ impl ViewRenderer {
     }
 
     /// The slice pictures the mesh layer shows on their planes.
-    pub fn planes(&self) -> &[PlanePicture] {
+    pub(crate) fn planes(&self) -> &[PlanePicture] {
         &self.layer_planes
     }
 
@@ -235,7 +232,7 @@ impl ViewRenderer {
             camera: &camera,
             meshes: &meshes,
             planes,
-            generation: resources.mesh_generation,
+            generation: resources.mesh_generation(),
             planes_generation: self.planes_generation,
         };
         layer.encode(gpu, (resources.mesh_pipelines.as_ref(), &resources.sampler), encoder, &content)
@@ -262,12 +259,17 @@ impl ViewRenderer {
 
     /// Swaps in another shader of the same view (a structural change), keeping the size. Uniform
     /// values start again from the new reflection.
-    pub fn set_shader(&mut self, gpu: &Gpu, cache: &mut PipelineCache, shader: ViewShader) -> Result<(), RuntimeError> {
+    pub(crate) fn set_shader(
+        &mut self,
+        gpu: &Gpu,
+        cache: &mut PipelineCache,
+        shader: ViewShader,
+    ) -> Result<(), RuntimeError> {
         *self = ViewRenderer::new(gpu, cache, shader, self.size)?;
         Ok(())
     }
 
-    /// The texture every [`ViewRenderer::encode`] renders into: `Rgba8Unorm` with premultiplied
+    /// The texture every `ViewRenderer::encode` renders into: `Rgba8Unorm` with premultiplied
     /// alpha, usable as a sampled texture, so an application can draw it without reading it back.
     pub fn output(&self) -> &wgpu::Texture {
         &self.output
@@ -284,7 +286,7 @@ impl ViewRenderer {
     }
 
     /// Records the view's compute pass into `encoder`: the whole image, into [`Self::output`].
-    pub fn encode(
+    pub(crate) fn encode(
         &mut self,
         gpu: &Gpu,
         resources: &Resources,
@@ -299,7 +301,7 @@ impl ViewRenderer {
     /// by [`create_output`] (of any size: the pixel positions the pipeline sees are relative to
     /// the target's size). Several regions may be recorded into one encoder: render a large view
     /// in tiles, or at a lower resolution into a smaller target, with the same uniforms.
-    pub fn encode_into(
+    pub(crate) fn encode_into(
         &mut self,
         gpu: &Gpu,
         resources: &Resources,
@@ -431,9 +433,13 @@ impl ViewRenderer {
 /// Pixels `x0..x1` by `y0..y1` of a view's image (end exclusive).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Region {
+    /// First column.
     pub x0: u32,
+    /// First row.
     pub y0: u32,
+    /// One past the last column.
     pub x1: u32,
+    /// One past the last row.
     pub y1: u32,
 }
 
@@ -449,7 +455,7 @@ impl Region {
     }
 }
 
-/// A texture a view can render into (see [`ViewRenderer::encode_into`]): `Rgba8Unorm`, written
+/// A texture a view can render into (see `ViewRenderer::encode_into`): `Rgba8Unorm`, written
 /// as storage (and as a render attachment by the overlay), sampled by an application, copied
 /// out for read-back. A size beyond the device's
 /// limits (or its memory) is an error.

@@ -201,7 +201,7 @@ fn every_mesh_option_renders() {
             let probe = renderer.render_probe(0, &ProbeSpec::of("out_color")).unwrap_or_else(|e| panic!("{what}: {e}"));
             let values = (0..16 * 16).filter_map(|i| probe.values.at(i % 16, i / 16));
             assert!(values.flatten().all(|c| c.is_finite()), "{what}: a colour is not finite");
-            let reads_layer = renderer.views[0].renderer.reads_mesh_layer();
+            let reads_layer = renderer.views()[0].renderer.reads_mesh_layer();
             assert_eq!(reads_layer, cell.meshes != "none", "{what}: a mesh layer exactly when there are meshes");
             if reads_layer {
                 let depth = renderer.render_probe(0, &ProbeSpec::of("geometry_depth")).expect("depth probes");
@@ -248,7 +248,7 @@ fn run_cell(renderer: &mut SceneRenderer, cell: &Cell, tally: &mut Tally) -> Opt
     if let Some(fault) = renderer.gpu().take_fault() {
         panic!("{what}: a wgpu error escaped: {fault}");
     }
-    Some(renderer.views[0].renderer.shader().reflection.structural_hash.clone())
+    Some(renderer.views()[0].renderer.shader().reflection.structural_hash.clone())
 }
 
 /// A cell without its placement and probe: cells equal but for these compose the same view.

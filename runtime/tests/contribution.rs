@@ -34,7 +34,7 @@ fn render_variant(scene: &Path, module: Option<&str>, tag: &str) -> Vec<(String,
     let mut renderer = opened.unwrap_or_else(|e| panic!("{}: {e}", scene.display()));
     let flags = ["state.contributes", "state.selected"];
     let guarded: Vec<bool> =
-        renderer.views.iter().map(|v| flags.iter().any(|f| v.renderer.shader().wgsl.contains(f))).collect();
+        renderer.views().iter().map(|v| flags.iter().any(|f| v.renderer.shader().wgsl.contains(f))).collect();
     let images = renderer.render_all().unwrap_or_else(|e| panic!("{}: {e}", scene.display()));
     images.into_iter().zip(guarded).map(|((view, image), g)| (view, image, g)).collect()
 }

@@ -104,8 +104,8 @@ fn the_clip_plane_cuts_the_clipped_volume_and_spares_the_excluded_one() {
 
     // Scene (c): the grey matter is gone and `when active` left its clip function out.
     let without = open(&dir.path().join("without_gm.toml"));
-    assert!(!without.views[0].renderer.has_uniform("clip_plane_gm"));
-    assert!(without.views[0].renderer.has_uniform("clip_plane_wm"));
+    assert!(!without.views()[0].renderer.has_uniform("clip_plane_gm"));
+    assert!(without.views()[0].renderer.has_uniform("clip_plane_wm"));
 }
 
 /// The pixel of view `index` (a slice view of `size` pixels) where patient-space point `p` (mm)

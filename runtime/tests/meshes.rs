@@ -113,7 +113,7 @@ fn rays_end_at_an_opaque_box_with_the_opacity_of_their_path() {
     let image = scene.render_all().expect("render").remove(0).1;
     let (dims, grid_to_world) = scene.primary_grid().expect("a primary volume");
     let to_world = vrs_runtime::geometry::volume_to_world(dims, grid_to_world);
-    let camera = scene.views[0].camera.expect("a raycast view");
+    let camera = scene.views()[0].camera.expect("a raycast view");
     let clip_to_world = to_world * camera.inv_view_proj(to_world, 1.0);
     let (mut checked, mut behind_box, mut worst) = (0, 0, 0.0f64);
     for (px, py, pixel) in image.enumerate_pixels() {
@@ -191,7 +191,7 @@ fn a_smaller_target_reads_a_mesh_layer_of_its_own_size() {
     scene.encode_view_into(0, &mut encoder, &view, vrs_runtime::Region::whole([32, 32])).expect("encoded");
     gpu.queue.submit([encoder.finish()]);
     gpu.wait();
-    let layer = scene.views[0].renderer.mesh_layer().expect("the view reads a mesh layer");
+    let layer = scene.views()[0].renderer.mesh_layer().expect("the view reads a mesh layer");
     assert_eq!(layer.size(), [32, 32]);
     assert_eq!(full.dimensions(), (64, 64));
 }
@@ -236,7 +236,7 @@ fn a_slice_view_shows_on_its_plane_in_the_3d_view() {
     let plain = open(dir.path(), &without).render_all().expect("render").remove(0).1;
     let mut scene = open(dir.path(), &with);
     let shown = scene.render_all().expect("render").remove(0).1;
-    assert!(scene.views[0].renderer.reads_mesh_layer(), "the plane makes a mesh layer");
+    assert!(scene.views()[0].renderer.reads_mesh_layer(), "the plane makes a mesh layer");
     let brighter = shown.pixels().zip(plain.pixels()).filter(|(a, b)| a[0] > b[0].saturating_add(20)).count();
     let darker = shown.pixels().zip(plain.pixels()).filter(|(a, b)| a[0].saturating_add(2) < b[0]).count();
     assert!(brighter > 500, "the plane shows ({brighter} pixels brighter)");
@@ -285,7 +285,7 @@ fn a_user_function_fades_the_volume_near_the_surface() {
     assert_eq!(brighter, 0, "nothing gets brighter");
     let (dims, grid_to_world) = faded_renderer.primary_grid().expect("a primary volume");
     let to_world = vrs_runtime::geometry::volume_to_world(dims, grid_to_world);
-    let camera = faded_renderer.views[0].camera.expect("a raycast view");
+    let camera = faded_renderer.views()[0].camera.expect("a raycast view");
     let clip_to_world = to_world * camera.inv_view_proj(to_world, 1.0);
     let mut away = 0;
     for (px, py, f) in faded.enumerate_pixels() {

@@ -18,7 +18,7 @@ fn open(scene: &str) -> SceneRenderer {
 }
 
 fn view_index(renderer: &SceneRenderer, name: &str) -> usize {
-    renderer.views.iter().position(|v| v.name == name).expect("view")
+    renderer.views().iter().position(|v| v.name == name).expect("view")
 }
 
 #[test]

@@ -273,3 +273,31 @@ fn a_wgpu_error_outside_any_capture_is_kept_not_a_panic() {
     let captured = vrs_runtime::view::create_output(&gpu, [too_wide, 1]).expect_err("refused");
     assert!(matches!(captured, vrs_runtime::RuntimeError::Device(_)), "{captured}");
 }
+
+#[test]
+fn a_precompiled_view_renders_with_its_own_resources() {
+    use vrs_runtime::{Resources, ViewRenderer};
+    let gpu = common::software_gpu();
+    let dir = tempfile::tempdir().unwrap();
+    // Without empty-space skipping the view reads only the volume and its transfer function.
+    let text =
+        SCENE.replace("AMBIENT", "0.3").replace("shading = true", "shading = true\nempty_space_skipping = false");
+    let path = temp_scene(dir.path(), &text);
+    let scene = SceneRenderer::open(gpu.clone(), &path, small(), &mut |_, _, _| {}).unwrap();
+    let composed = &scene.views()[0].renderer;
+
+    let mut resources = Resources::new(&gpu);
+    let head = vrs_runtime::volume::phantom("head", [24, 24, 24]).unwrap();
+    resources.bind_volume(&gpu, "volume", &head, None).unwrap();
+    resources.bind_tf(&gpu, "tf", &vrs_runtime::tf::preset("ct_bone").unwrap()).unwrap();
+    let mut cache = PipelineCache::new();
+    let mut view = ViewRenderer::new(&gpu, &mut cache, composed.shader().clone(), composed.size()).unwrap();
+    for uniform in &composed.shader().reflection.uniforms {
+        if let Some(value) = composed.uniforms().get(&uniform.name) {
+            view.set_uniform(&uniform.name, value).unwrap();
+        }
+    }
+    let image = view.render(&gpu, &resources).unwrap();
+    assert_eq!([image.width(), image.height()], composed.size());
+    assert!(image.pixels().any(|p| p[3] > 0), "the head is drawn");
+}

@@ -1251,7 +1251,7 @@ impl Case {
         if images.len() != scene.views.len() {
             return Err(format!("{} views, {} images", scene.views.len(), images.len()));
         }
-        let probed = self.probe && !renderer.views.is_empty();
+        let probed = self.probe && !renderer.views().is_empty();
         if probed {
             let probe = renderer
                 .render_probe(0, &ProbeSpec::of("out_color"))

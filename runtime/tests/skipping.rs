@@ -60,7 +60,7 @@ fn render(mode: &str, skip: Option<bool>, count: bool) -> (image::RgbaImage, boo
     std::fs::write(&path, text).expect("scene");
     let options = RenderOptions { phantom_size: [64, 64, 64], ..RenderOptions::default() };
     let mut scene = SceneRenderer::open(common::software_gpu(), &path, options, &mut |_, _, _| {}).expect("scene");
-    let wgsl = scene.views[0].renderer.shader().wgsl.clone();
+    let wgsl = scene.views()[0].renderer.shader().wgsl.clone();
     let skips = ["skip_empty(", "skip_below_max(", "skip_below_surface("].iter().any(|f| wgsl.contains(f));
     (scene.render_all().expect("render").remove(0).1, skips)
 }
@@ -155,7 +155,7 @@ fn dvr_skipping_never_skips_an_additional_volume() {
         let options = RenderOptions { phantom_size: [64, 64, 64], ..RenderOptions::default() };
         let mut scene = SceneRenderer::open(common::software_gpu(), &path, options, &mut |_, _, _| {})
             .unwrap_or_else(|e| panic!("{e}"));
-        assert_eq!(scene.views[0].renderer.shader().wgsl.contains("skip_empty("), skip);
+        assert_eq!(scene.views()[0].renderer.shader().wgsl.contains("skip_empty("), skip);
         scene.render_all().expect("render").remove(0).1
     };
     let (with, without) = (render(true), render(false));

@@ -336,7 +336,7 @@ fn drag_handle(
 
 /// The field menu of a view: the picture, or any state field as a probe.
 fn probe_menu(ui: &mut egui::Ui, live: &LiveScene, slot: &mut ViewSlot, index: usize) {
-    let Some(view) = live.renderer().views.get(index) else { return };
+    let Some(view) = live.renderer().views().get(index) else { return };
     let fields = &view.renderer.shader().reflection.state.fields;
     let current = slot.probe.as_ref().map_or("picture", |p| p.field.as_str()).to_string();
     egui::ComboBox::from_id_salt(("probe", index)).selected_text(format!("show: {current}")).show_ui(ui, |ui| {

@@ -107,7 +107,7 @@ impl SidePanel {
                     ui.selectable_value(&mut self.inspected, i, name);
                 }
             });
-        let Some(view) = live.renderer().views.get(self.inspected) else { return };
+        let Some(view) = live.renderer().views().get(self.inspected) else { return };
         let reflection = view.renderer.shader().reflection.clone();
         let mut sources =
             LiveSources { live, index: self.inspected, reflection: &reflection, cache: &mut self.explained };
@@ -118,7 +118,7 @@ impl SidePanel {
 /// Every view's uniforms in groups, with their current values.
 fn parameter_groups(live: &LiveScene) -> Vec<params::Group> {
     let reflections: Vec<&Reflection> =
-        live.renderer().views.iter().map(|v| &*v.renderer.shader().reflection).collect();
+        live.renderer().views().iter().map(|v| &*v.renderer.shader().reflection).collect();
     params::groups(&reflections, |name| live.uniform(name), |name| live.is_user_uniform(name))
 }
 

@@ -15,7 +15,7 @@ use super::{BRICK, BrickData, BrickError, Level, STORED};
 /// Bytes of finer-level bricks kept to build the coarse levels a source does not store, out of
 /// a volume's host budget of `host` bytes: a quarter, at most 256 MiB (the rest holds the
 /// loader's normalized bricks, `loader.rs`).
-pub fn cache_bytes(host: u64) -> u64 {
+pub(crate) fn cache_bytes(host: u64) -> u64 {
     (host / 4).min(256 << 20)
 }
 

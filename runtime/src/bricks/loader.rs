@@ -11,7 +11,7 @@ use crate::volume::{Scaling, Window};
 
 /// A brick ready for the pool: its value mapped to [0, 1] by the volume's window.
 #[derive(Clone, Debug)]
-pub enum Normalized {
+pub(crate) enum Normalized {
     Constant(f32),
     Voxels(Arc<Vec<half::f16>>),
 }
@@ -26,10 +26,10 @@ impl Normalized {
 }
 
 /// A loaded brick or why it could not be: (page-table entry, result).
-pub type Arrival = (u32, Result<Normalized, BrickError>);
+pub(crate) type Arrival = (u32, Result<Normalized, BrickError>);
 
 /// Loader threads reading bricks of one source.
-pub struct Loader {
+pub(crate) struct Loader {
     source: Arc<dyn BrickSource>,
     queue: Arc<Queue>,
     /// In a mutex so that a volume can be shared between threads (`Receiver` is not `Sync`).
@@ -53,7 +53,7 @@ struct Queue {
 const THREADS: usize = 2;
 
 impl Loader {
-    pub fn new(source: Arc<dyn BrickSource>, window: [f32; 2], host_budget: u64) -> Loader {
+    pub(crate) fn new(source: Arc<dyn BrickSource>, window: [f32; 2], host_budget: u64) -> Loader {
         let queue = Arc::new(Queue { jobs: Mutex::new(Some(VecDeque::new())), ready: Condvar::new() });
         let (sender, arrivals) = channel();
         let cache = Arc::new(Mutex::new(HostCache::new(host_budget)));
@@ -76,7 +76,7 @@ impl Loader {
     }
 
     /// Asks for brick `brick` of level `level` (page-table entry `entry`).
-    pub fn ask(&self, entry: u32, level: usize, brick: [u32; 3]) {
+    pub(crate) fn ask(&self, entry: u32, level: usize, brick: [u32; 3]) {
         if let Some(hit) = lock(&self.cache).get(entry) {
             let _ = self.sender.send((entry, Ok(hit)));
             return;
@@ -88,21 +88,21 @@ impl Loader {
     }
 
     /// A brick that arrived, if any.
-    pub fn try_next(&self) -> Option<Arrival> {
+    pub(crate) fn try_next(&self) -> Option<Arrival> {
         lock(&self.arrivals).try_recv().ok()
     }
 
     /// The next brick to arrive, waiting for it.
-    pub fn wait(&self) -> Option<Arrival> {
+    pub(crate) fn wait(&self) -> Option<Arrival> {
         lock(&self.arrivals).recv().ok()
     }
 
     /// The source bricks are read from.
-    pub fn source(&self) -> &Arc<dyn BrickSource> {
+    pub(crate) fn source(&self) -> &Arc<dyn BrickSource> {
         &self.source
     }
 
-    pub fn warnings(&self) -> Vec<String> {
+    pub(crate) fn warnings(&self) -> Vec<String> {
         self.source.warnings()
     }
 }

@@ -16,6 +16,7 @@
 
 use std::fs::File;
 use std::ops::Range;
+#[cfg(test)]
 use std::path::Path;
 
 use memmap2::{Mmap, MmapOptions};
@@ -27,7 +28,7 @@ use super::{BrickData, BrickError, BrickSource, levels_for};
 use crate::volume::{RawData, ScalarType, Scaling};
 
 /// An uncompressed volume file, memory-mapped and read a brick at a time.
-pub struct MappedSource {
+pub(crate) struct MappedSource {
     /// The data file's name (for messages), the pyramid and the world placement; levels 1..
     /// are built from level 0.
     grid: SourceGrid,
@@ -39,16 +40,17 @@ pub struct MappedSource {
 }
 
 impl MappedSource {
+    #[cfg(test)]
     /// Maps the samples of the volume file at `path` when they are stored uncompressed;
     /// `None` when they are not (or `path` is a DICOM folder): such a file must be loaded.
-    pub fn open(path: &Path) -> Result<Option<MappedSource>, BrickError> {
+    pub(crate) fn open(path: &Path) -> Result<Option<MappedSource>, BrickError> {
         let raw = crate::volume::raw_layout(path).map_err(|e| BrickError(e.to_string()))?;
         raw.map(|raw| MappedSource::new(&raw, 256 << 20)).transpose()
     }
 
     /// Maps the samples `raw` places, checking first that the file still holds them, and reads a
     /// few bricks for the value range; coarse levels are built through a cache of `cache_bytes`.
-    pub fn new(raw: &RawData, cache_bytes: u64) -> Result<MappedSource, BrickError> {
+    pub(crate) fn new(raw: &RawData, cache_bytes: u64) -> Result<MappedSource, BrickError> {
         let name = raw.file.file_name().map_or_else(|| raw.file.display().to_string(), |n| n.to_string_lossy().into());
         let map = map_samples(raw).map_err(|m| BrickError(format!("{name}: {m}")))?;
         let mut source = MappedSource {

@@ -1,5 +1,5 @@
 //! Bricked volumes: volumes larger than a texture or than memory, split into bricks of
-//! [`BRICK`]^3 voxels (each stored with an [`APRON`] of one voxel on every side, so trilinear
+//! `BRICK`^3 voxels (each stored with an `APRON` of one voxel on every side, so trilinear
 //! filtering is seamless across bricks) in a mip pyramid, read on demand from a [`BrickSource`]
 //! and kept on the GPU in a brick pool that a page table indexes (`residency`).
 //!
@@ -8,34 +8,36 @@
 
 mod grid;
 mod lazy_levels;
-pub mod loader;
-pub mod mapped;
-pub mod pyramid;
-pub mod residency;
-pub mod source;
+pub(crate) mod loader;
+pub(crate) mod mapped;
+pub(crate) mod pyramid;
+pub(crate) mod residency;
+pub(crate) mod source;
 pub mod zarr;
 
-pub use lazy_levels::cache_bytes;
-pub use residency::{BrickView, BrickedVolume, BrickedVolumes, Residency};
-pub use source::{BrickData, BrickError, BrickSource, Level, levels_for};
+pub(crate) use lazy_levels::cache_bytes;
+pub use residency::Residency;
+pub(crate) use residency::{BrickView, BrickedVolume, BrickedVolumes};
+pub(crate) use source::levels_for;
+pub use source::{BrickData, BrickError, BrickSource, Level};
 
 /// Voxels along each edge of a brick, without its apron.
-pub const BRICK: u32 = 64;
+pub(crate) const BRICK: u32 = 64;
 
 /// Voxels of neighbouring data (or repeated edge voxels) stored on each side of a brick.
-pub const APRON: u32 = 1;
+pub(crate) const APRON: u32 = 1;
 
 /// Voxels along each edge of a brick as stored: the brick and its apron on both sides.
-pub const STORED: u32 = BRICK + 2 * APRON;
+pub(crate) const STORED: u32 = BRICK + 2 * APRON;
 
 /// The most page-table entries a volume may have (2^24, 64 MiB of page table; see
 /// [`table_entries`]): larger grids are refused when they are opened, before anything is
 /// allocated for them.
-pub const MAX_BRICKS: u64 = 1 << 24;
+pub(crate) const MAX_BRICKS: u64 = 1 << 24;
 
 /// Page-table entries of a pyramid: a block of level 0's brick count per level (each level is
 /// indexed in level 0's strides, so the lookup needs no per-level table).
-pub fn table_entries(levels: &[Level]) -> u64 {
+pub(crate) fn table_entries(levels: &[Level]) -> u64 {
     levels.first().map_or(0, Level::brick_count) * levels.len() as u64
 }
 

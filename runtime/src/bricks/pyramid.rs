@@ -16,7 +16,7 @@ use super::{BrickData, BrickError, BrickSource, Level, STORED, levels_for};
 use crate::volume::Volume;
 
 /// A volume in memory, read a brick at a time, with a box-averaged mip pyramid.
-pub struct PyramidSource {
+pub(crate) struct PyramidSource {
     volume: Arc<Volume>,
     levels: Vec<Level>,
     /// Levels 1.. in data units, x fastest (`coarse[l - 1]` is level `l`).
@@ -26,12 +26,12 @@ pub struct PyramidSource {
 impl PyramidSource {
     /// The pyramid over `volume`. Its samples are cloned in their stored type (no `f32` copy of
     /// level 0); use [`PyramidSource::from_shared`] to share them instead.
-    pub fn from_volume(volume: &Volume) -> PyramidSource {
+    pub(crate) fn from_volume(volume: &Volume) -> PyramidSource {
         PyramidSource::from_shared(Arc::new(volume.clone()))
     }
 
     /// The pyramid over a shared volume, without copying its samples.
-    pub fn from_shared(volume: Arc<Volume>) -> PyramidSource {
+    pub(crate) fn from_shared(volume: Arc<Volume>) -> PyramidSource {
         let levels = levels_for(volume.dims);
         let mut coarse: Vec<Vec<f32>> = Vec::with_capacity(levels.len().saturating_sub(1));
         for pair in levels.windows(2) {
@@ -48,11 +48,6 @@ impl PyramidSource {
             coarse.push(level);
         }
         PyramidSource { volume, levels, coarse }
-    }
-
-    /// The volume level 0 reads from.
-    pub fn volume(&self) -> &Volume {
-        &self.volume
     }
 
     /// Data value of voxel `index` (x fastest) of `level`.

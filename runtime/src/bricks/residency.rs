@@ -1,9 +1,10 @@
 //! A bricked volume on the GPU: a brick pool (one `r16float` 3D texture of slots), a page table
 //! (a storage buffer of one word per brick of every level, level after level) and the requests
-//! buffer rays write, a word per page-table word (`stdlib/bricks.wgsl`). After a frame the runtime reads the requests back
-//! ([`BrickedVolume::collect`]), loads what rays asked for on loader threads (from the host
-//! cache when it is there), and places arrived bricks in free or least recently used slots
-//! ([`BrickedVolume::receive`]). The coarsest level is loaded first and never evicted, so every
+//! buffer rays write, a word per page-table word (`stdlib/bricks.wgsl`). After a frame the
+//! runtime reads the requests back (`BrickedVolume::start_collect`, then `finish_collect`), loads
+//! what rays asked for on loader threads (from the host cache when it is there), and places
+//! arrived bricks in free or least recently used slots
+//! (`BrickedVolume::receive`). The coarsest level is loaded first and never evicted, so every
 //! ray finds an answer.
 
 use std::collections::{HashMap, HashSet};
@@ -30,18 +31,18 @@ const NEEDED: u32 = 1;
 const USED: u32 = 2;
 
 /// Levels the layout has room for (`BrickLayout`'s arrays).
-pub const MAX_LEVELS: usize = 16;
+pub(crate) const MAX_LEVELS: usize = 16;
 
 /// Bricks staged for the pool before they are submitted (so that the staging memory of many
 /// arrivals is not held at once: 16 bricks are 9 MiB).
 const UPLOADS_PER_SUBMIT: usize = 16;
 
 /// Bytes of one slot of the pool (half floats).
-pub const SLOT_BYTES: u64 = (STORED as u64).pow(3) * 2;
+pub(crate) const SLOT_BYTES: u64 = (STORED as u64).pow(3) * 2;
 
 /// How a view looks at its bricked volumes this frame: what picks the level of a sample.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub enum BrickView {
+pub(crate) enum BrickView {
     /// A perspective camera at `eye` (the primary volume's normalized coordinates) whose image
     /// spans `fov` radians vertically.
     Perspective { eye: Vec3, fov: f32 },
@@ -92,7 +93,7 @@ struct State {
 }
 
 /// A bricked volume's GPU objects and residency.
-pub struct BrickedVolume {
+pub(crate) struct BrickedVolume {
     pub name: String,
     levels: Vec<Level>,
     slots: [u32; 3],
@@ -120,7 +121,7 @@ impl BrickedVolume {
     /// [0, 1] by `window`; the coarsest level is loaded before it returns. `budgets.1` is the
     /// volume's host budget, of which the source's cache for built levels takes
     /// [`super::cache_bytes`] and the loader's cache of normalized bricks the rest.
-    pub fn new(
+    pub(crate) fn new(
         gpu: &Gpu,
         name: &str,
         source: Arc<dyn BrickSource>,
@@ -212,23 +213,23 @@ impl BrickedVolume {
     }
 
     /// The source the bricks are read from.
-    pub fn source(&self) -> &Arc<dyn BrickSource> {
+    pub(crate) fn source(&self) -> &Arc<dyn BrickSource> {
         self.loader.source()
     }
 
     /// The levels, finest first.
-    pub fn levels(&self) -> &[Level] {
+    pub(crate) fn levels(&self) -> &[Level] {
         &self.levels
     }
 
     /// Counts of the residency now.
-    pub fn residency(&self) -> Residency {
+    pub(crate) fn residency(&self) -> Residency {
         let state = self.lock();
         Residency { pending: state.pending.len() as u32, floor: self.floor.load(Ordering::Relaxed), ..state.stats }
     }
 
     /// Errors of bricks that could not be read (each brick once), and the source's warnings.
-    pub fn messages(&self) -> Vec<String> {
+    pub(crate) fn messages(&self) -> Vec<String> {
         let mut out = self.loader.warnings();
         out.extend(self.lock().errors.iter().cloned());
         out
@@ -248,7 +249,7 @@ impl BrickedVolume {
 
     /// The `BrickLayout` uniform for a view looking as `view` into a target `height` pixels
     /// high, finest level `finest` (0 unless detail is held back, as while the user drags).
-    pub fn layout_bytes(&self, view: BrickView, height: u32, finest: u32) -> Vec<u8> {
+    pub(crate) fn layout_bytes(&self, view: BrickView, height: u32, finest: u32) -> Vec<u8> {
         let dims = Vec3::from_array(self.levels[0].dims.map(|n| n as f32));
         let to_voxels = Mat4::from_scale(dims) * self.primary_to;
         let height = height.max(1) as f32;
@@ -275,7 +276,7 @@ impl BrickedVolume {
     /// Starts reading back the requests rays wrote since the last read (a copy after the work
     /// submitted so far, then a map), and clears them for the next frames. Does nothing while
     /// the last read is still under way; returns whether it started one.
-    pub fn start_collect(&self, gpu: &Gpu) -> bool {
+    pub(crate) fn start_collect(&self, gpu: &Gpu) -> bool {
         let mut mapping = lock(&self.mapping);
         if mapping.is_some() {
             return false;
@@ -294,7 +295,7 @@ impl BrickedVolume {
     /// Finishes the read [`Self::start_collect`] started, waiting for it when `wait` (else only
     /// when it is done): marks the bricks rays used and asks the loader for those they needed,
     /// coarse levels first. Returns how many were asked for, `None` while the read is under way.
-    pub fn finish_collect(&self, gpu: &Gpu, wait: bool) -> Result<Option<usize>, RuntimeError> {
+    pub(crate) fn finish_collect(&self, gpu: &Gpu, wait: bool) -> Result<Option<usize>, RuntimeError> {
         let Some(done) = lock(&self.mapping).clone() else { return Ok(Some(0)) };
         if wait {
             gpu.wait();
@@ -364,7 +365,7 @@ impl BrickedVolume {
 
     /// Places the bricks that arrived (all pending ones when `wait`) in the pool and uploads
     /// the page table if it changed. Returns how many arrived.
-    pub fn receive(&self, gpu: &Gpu, wait: bool) -> Result<usize, RuntimeError> {
+    pub(crate) fn receive(&self, gpu: &Gpu, wait: bool) -> Result<usize, RuntimeError> {
         let mut arrived = 0;
         let mut uploads = 0usize;
         loop {
@@ -548,7 +549,7 @@ fn pool_slots(budget: u64, wanted: u64, max_3d: u32) -> Option<[u32; 3]> {
 }
 
 /// Which pages each bricked volume of a view's shader binds, by binding name.
-pub type BrickedVolumes = HashMap<String, Arc<BrickedVolume>>;
+pub(crate) type BrickedVolumes = HashMap<String, Arc<BrickedVolume>>;
 
 #[cfg(test)]
 mod tests {

@@ -14,12 +14,12 @@ pub struct Level {
 }
 
 impl Level {
-    pub fn new(dims: [u32; 3]) -> Level {
+    pub(crate) fn new(dims: [u32; 3]) -> Level {
         Level { dims, bricks: dims.map(|n| n.div_ceil(BRICK).max(1)) }
     }
 
     /// Bricks in the level.
-    pub fn brick_count(&self) -> u64 {
+    pub(crate) fn brick_count(&self) -> u64 {
         self.bricks.iter().map(|&n| n as u64).product()
     }
 }
@@ -27,7 +27,7 @@ impl Level {
 /// The levels of a pyramid over a level-0 grid of `dims`: each halves the last (rounding up)
 /// until every axis fits in one brick. Level `l`'s voxel `i` covers level 0's voxels
 /// `[i * 2^l, (i + 1) * 2^l)`.
-pub fn levels_for(dims: [u32; 3]) -> Vec<Level> {
+pub(crate) fn levels_for(dims: [u32; 3]) -> Vec<Level> {
     let mut levels = vec![Level::new(dims)];
     let mut scale = 1u32;
     while levels.last().is_some_and(|l| l.bricks.iter().any(|&b| b > 1)) {
@@ -44,7 +44,7 @@ pub enum BrickData {
     /// uploaded, its value kept in the page table. Missing chunks of a Zarr store (the fill
     /// value) come as one without being read.
     Constant(f32),
-    /// [`STORED`]^3 values in data units, x fastest: the brick's voxels and its apron (voxels of
+    /// `STORED`^3 values in data units, x fastest: the brick's voxels and its apron (voxels of
     /// the neighbouring bricks; at the volume's edges the edge voxel repeated, as a texture
     /// sampler clamps).
     Voxels(Vec<f32>),
@@ -52,7 +52,7 @@ pub enum BrickData {
 
 impl BrickData {
     /// Values of a [`BrickData::Voxels`] brick.
-    pub const LEN: usize = (STORED * STORED * STORED) as usize;
+    pub(crate) const LEN: usize = (STORED * STORED * STORED) as usize;
 
     /// The voxel at `[x, y, z]` of the stored brick (apron included: 0 is the apron before the
     /// brick's first voxel).
@@ -64,7 +64,7 @@ impl BrickData {
     }
 
     /// A brick whose voxels all have one value becomes [`BrickData::Constant`].
-    pub fn collapse(self) -> BrickData {
+    pub(crate) fn collapse(self) -> BrickData {
         match self {
             BrickData::Voxels(v)
                 if v.first().is_some_and(|&a| v.iter().all(|&b| b == a || (a.is_nan() && b.is_nan()))) =>
@@ -113,7 +113,7 @@ pub trait BrickSource: Send + Sync {
 
 /// The first voxel (apron included) a stored brick starts at, per axis: `brick * BRICK - APRON`
 /// (negative before the volume's start).
-pub fn stored_origin(brick: [u32; 3]) -> [i64; 3] {
+pub(crate) fn stored_origin(brick: [u32; 3]) -> [i64; 3] {
     brick.map(|b| b as i64 * BRICK as i64 - APRON as i64)
 }
 

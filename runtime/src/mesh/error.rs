@@ -28,13 +28,9 @@ impl MeshError {
         MeshError { source: Source::Shape(shape), message: message.into() }
     }
 
-    /// What is wrong, without the file name.
-    pub fn message(&self) -> &str {
-        &self.message
-    }
-
+    #[cfg(test)]
     /// The file concerned; `None` for a built-in shape.
-    pub fn path(&self) -> Option<&Path> {
+    pub(crate) fn path(&self) -> Option<&Path> {
         match &self.source {
             Source::File(path) => Some(path),
             Source::Shape(_) => None,

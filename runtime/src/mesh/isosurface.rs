@@ -59,7 +59,7 @@ const MAX_CASE_TRIANGLES: usize = 5;
 /// singular or non-finite `grid_to_world`, a level that is not finite or not above the minimum
 /// and at most the maximum of the values (no surface), or a surface of more than
 /// `limits.max_triangles` triangles (refused before they are made).
-pub fn extract(volume: &Volume, level: f32, limits: &Limits) -> Result<Mesh, MeshError> {
+pub(crate) fn extract(volume: &Volume, level: f32, limits: &Limits) -> Result<Mesh, MeshError> {
     let transform = check(volume, level)?;
     let grid = Grid::new(volume);
     let mut builder = Builder::new(&grid, level, transform);

@@ -12,7 +12,7 @@
 //! computed area-weighted from the faces.
 
 mod error;
-pub mod isosurface;
+pub(crate) mod isosurface;
 mod normals;
 mod obj;
 mod ply;
@@ -26,7 +26,9 @@ use std::fs::File;
 use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::path::Path;
 
-use glam::{Mat3, Mat4, Vec3};
+use glam::Vec3;
+#[cfg(test)]
+use glam::{Mat3, Mat4};
 
 pub use error::MeshError;
 
@@ -37,14 +39,15 @@ pub struct Mesh {
     pub positions: Vec<[f32; 3]>,
     /// Unit normals, one per vertex (same length as `positions`): from the file when it has finite
     /// ones for every vertex, otherwise computed area-weighted from the faces.
-    pub normals: Vec<[f32; 3]>,
+    pub(crate) normals: Vec<[f32; 3]>,
     /// Triangles, three indices into `positions` each, counter-clockwise seen from outside.
     pub indices: Vec<u32>,
 }
 
 impl Mesh {
+    #[cfg(test)]
     /// The number of triangles.
-    pub fn triangle_count(&self) -> usize {
+    pub(crate) fn triangle_count(&self) -> usize {
         self.indices.len() / 3
     }
 
@@ -61,7 +64,7 @@ impl Mesh {
     /// Whether the surface is closed and wound counter-clockwise seen from outside: every edge
     /// (between vertices welded by position) is run once in each direction by two triangles,
     /// and the enclosed volume is positive. A renderer may cull such a surface's back faces.
-    pub fn is_closed_outward(&self) -> bool {
+    pub(crate) fn is_closed_outward(&self) -> bool {
         let mut welded: std::collections::HashMap<[u32; 3], u32> = std::collections::HashMap::new();
         let ids: Vec<u32> = self
             .positions
@@ -86,11 +89,12 @@ impl Mesh {
         !edges.is_empty() && volume > 0.0 && edges.iter().all(|(&(a, b), &n)| n == 1 && edges.get(&(b, a)) == Some(&1))
     }
 
+    #[cfg(test)]
     /// The mesh moved by the affine transform `m`: positions by `m`, normals by the inverse
     /// transpose of its linear part, renormalised. A mirroring `m` (negative determinant) flips
     /// the winding, so triangles stay counter-clockwise seen from outside. A singular `m` leaves
     /// normals undefined, so they are recomputed from the transformed faces.
-    pub fn transformed(mut self, m: Mat4) -> Mesh {
+    pub(crate) fn transformed(mut self, m: Mat4) -> Mesh {
         for p in &mut self.positions {
             *p = m.transform_point3(Vec3::from(*p)).into();
         }
@@ -116,7 +120,7 @@ impl Mesh {
 
 /// The file formats [`load`] reads.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum MeshFormat {
+pub(crate) enum MeshFormat {
     /// Wavefront OBJ (`.obj`).
     Obj,
     /// STL, ASCII or binary (`.stl`).
@@ -127,7 +131,7 @@ pub enum MeshFormat {
 
 impl MeshFormat {
     /// The format named by the file's extension (case-insensitive); `None` for any other.
-    pub fn from_path(path: &Path) -> Option<MeshFormat> {
+    pub(crate) fn from_path(path: &Path) -> Option<MeshFormat> {
         let extension = path.extension()?.to_str()?.to_ascii_lowercase();
         match extension.as_str() {
             "obj" => Some(MeshFormat::Obj),
@@ -148,7 +152,7 @@ impl MeshFormat {
 
 /// Bounds on what a file may make [`load`] read and allocate.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Limits {
+pub(crate) struct Limits {
     /// The most triangles a mesh may have (after polygons are fanned). Default 20 000 000.
     pub max_triangles: usize,
     /// The largest file read, checked before reading. Default 2 GiB.
@@ -164,7 +168,7 @@ impl Default for Limits {
 /// Axis convention of a file's coordinates: RAS (as written) or LPS (3D Slicer's and ITK's
 /// files: x and y negated on load).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub enum Coordinates {
+pub(crate) enum Coordinates {
     /// Right, anterior, superior: the file's coordinates are used as written.
     #[default]
     Ras,
@@ -172,13 +176,14 @@ pub enum Coordinates {
     Lps,
 }
 
+#[cfg(test)]
 /// Loads a mesh file whose coordinates are RAS millimetres; the format is chosen by extension.
-pub fn load(path: &Path, limits: &Limits) -> Result<Mesh, MeshError> {
+pub(crate) fn load(path: &Path, limits: &Limits) -> Result<Mesh, MeshError> {
     load_with(path, Coordinates::Ras, limits)
 }
 
 /// Loads a mesh file whose coordinates follow `coordinates`, into RAS millimetres.
-pub fn load_with(path: &Path, coordinates: Coordinates, limits: &Limits) -> Result<Mesh, MeshError> {
+pub(crate) fn load_with(path: &Path, coordinates: Coordinates, limits: &Limits) -> Result<Mesh, MeshError> {
     let format = MeshFormat::from_path(path)
         .ok_or_else(|| MeshError::file(path, "unknown mesh format: the file name must end in .obj, .stl or .ply"))?;
     let size = checked_size(path, limits)?;

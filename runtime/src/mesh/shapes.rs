@@ -12,12 +12,12 @@ use glam::{Vec2, Vec3};
 use super::{Mesh, MeshError};
 
 /// The most segments (around) or rings (from pole to pole) a shape may have.
-pub const MAX_SEGMENTS: u32 = 4096;
+pub(crate) const MAX_SEGMENTS: u32 = 4096;
 /// A needle's cone is this many radii long (or the whole needle, if that is shorter).
 const CONE_RADII: f32 = 3.0;
 
 /// A closed cylinder from `base` to `tip`, with flat caps.
-pub fn cylinder(base: Vec3, tip: Vec3, radius: f32, segments: u32) -> Result<Mesh, MeshError> {
+pub(crate) fn cylinder(base: Vec3, tip: Vec3, radius: f32, segments: u32) -> Result<Mesh, MeshError> {
     const SHAPE: &str = "cylinder";
     let (axis, length) = axis_between(SHAPE, base, tip)?;
     positive(SHAPE, "radius", radius)?;
@@ -36,7 +36,7 @@ pub fn cylinder(base: Vec3, tip: Vec3, radius: f32, segments: u32) -> Result<Mes
 /// A needle: a cylindrical shaft of `radius` ending in a cone whose apex is exactly at `tip`.
 /// `direction` points from the tip towards the handle; the needle is `length` long, and its cone
 /// `3 × radius` (at most `length`). The handle end is closed by a flat cap.
-pub fn needle(tip: Vec3, direction: Vec3, length: f32, radius: f32, segments: u32) -> Result<Mesh, MeshError> {
+pub(crate) fn needle(tip: Vec3, direction: Vec3, length: f32, radius: f32, segments: u32) -> Result<Mesh, MeshError> {
     const SHAPE: &str = "needle";
     finite_point(SHAPE, "tip", tip)?;
     let axis = unit_direction(SHAPE, direction)?;
@@ -78,7 +78,7 @@ pub fn sphere(centre: Vec3, radius: f32, rings: u32, segments: u32) -> Result<Me
 
 /// An axis-aligned box from `min` to `max`: 12 triangles on 24 vertices, so each face has its own
 /// flat normal.
-pub fn cuboid(min: Vec3, max: Vec3) -> Result<Mesh, MeshError> {
+pub(crate) fn cuboid(min: Vec3, max: Vec3) -> Result<Mesh, MeshError> {
     const SHAPE: &str = "cuboid";
     finite_point(SHAPE, "min", min)?;
     finite_point(SHAPE, "max", max)?;

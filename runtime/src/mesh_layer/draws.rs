@@ -15,7 +15,7 @@ const SLICE_OVERLAY_REACH: f32 = 1000.0;
 
 /// What the draws are for.
 #[derive(Clone, Copy, PartialEq, Eq)]
-pub enum Target {
+pub(crate) enum Target {
     /// A mesh layer under the volume: a slice view draws its plane's crossings.
     Layer,
     /// An overlay over the picture: a slice view draws the meshes seen along its normal.
@@ -72,7 +72,7 @@ impl DrawUniforms {
 
 /// The draws of a frame, in order: opaque meshes, then each translucent mesh's back and front
 /// faces; in a slice view's layer, every mesh's outline on the plane.
-pub fn frame_draws(
+pub(crate) fn frame_draws(
     gpu: &Gpu,
     camera: &LayerCamera,
     meshes: &[&MeshInstance],
@@ -148,13 +148,13 @@ fn outlines(
 
 /// The uniform buffer of a layer's draws, kept while it is large enough.
 #[derive(Default)]
-pub struct DrawBuffer {
+pub(crate) struct DrawBuffer {
     uniforms: Option<wgpu::Buffer>,
 }
 
 impl DrawBuffer {
     /// Writes the draws' uniforms and binds them (`None` without pipelines: nothing to draw).
-    pub fn bind(
+    pub(crate) fn bind(
         &mut self,
         gpu: &Gpu,
         pipelines: Option<&MeshPipelines>,
@@ -198,7 +198,7 @@ impl DrawBuffer {
 }
 
 /// Records `draws` into `pass` with the pipelines of `set` (and `plane` for planes).
-pub fn record(
+pub(crate) fn record(
     pass: &mut wgpu::RenderPass<'_>,
     (set, plane): (&PipelineSet, &wgpu::RenderPipeline),
     bind_group: &wgpu::BindGroup,
@@ -231,14 +231,14 @@ pub fn record(
 /// A slice view's picture and where it lies: the plane's corners in patient space (mm) and each
 /// corner's coordinates in the picture.
 #[derive(Clone, Debug)]
-pub struct PlanePicture {
+pub(crate) struct PlanePicture {
     pub picture: wgpu::TextureView,
     pub corners: [glam::Vec3; 4],
     pub uv: [glam::Vec2; 4],
 }
 
 /// The draws of slice pictures on their planes, seen through `world_to_clip`.
-pub fn plane_draws(
+pub(crate) fn plane_draws(
     gpu: &Gpu,
     pipelines: &MeshPipelines,
     sampler: &wgpu::Sampler,

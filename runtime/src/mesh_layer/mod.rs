@@ -2,41 +2,41 @@
 //! layer under it, the view's meshes and slice views' pictures on their planes rasterized at
 //! its camera into a depth image and a premultiplied colour image, which the volume layer reads
 //! into `geometry_depth` and `geometry_color` (`BindingKind::GeometryDepth`, `GeometryColor`);
-//! and the [`Overlay`] over the finished picture.
+//! and the `Overlay` over the finished picture.
 //!
 //! Rules the mesh layer keeps (the reference's "Meshes and layers"): colour is premultiplied;
 //! depth is the WebGPU window depth of the view's own projection (0 near, 1 far, cleared to 1),
 //! so `std::meshes` turns it into a ray parameter with the same matrix (`geometry_inv_proj`);
 //! opaque meshes write depth, translucent ones are blended over them (back faces, then front
 //! faces, in scene order) without writing it. A slice view draws where each mesh crosses its
-//! plane, as opaque outlines on the plane ([`outline`]).
+//! plane, as opaque outlines on the plane (`outline`).
 
 mod draws;
-pub mod outline;
+pub(crate) mod outline;
 mod overlay;
-pub mod pipelines;
+pub(crate) mod pipelines;
 
 use crate::error::RuntimeError;
 use crate::gpu::Gpu;
 use crate::mesh::Mesh;
 use crate::textures::Image2d;
-pub use draws::PlanePicture;
+pub(crate) use draws::PlanePicture;
 use draws::{DrawBuffer, Target};
 use glam::Mat4;
 use outline::SliceFrame;
-pub use overlay::Overlay;
+pub(crate) use overlay::Overlay;
 use pipelines::{COLOR_FORMAT, DEPTH_FORMAT, DEPTH_IMAGE_FORMAT, MeshPipelines};
 use std::sync::Arc;
 
 /// A mesh on the GPU: interleaved positions and normals, and triangle indices.
-pub struct GpuMesh {
+pub(crate) struct GpuMesh {
     vertices: wgpu::Buffer,
     indices: wgpu::Buffer,
     index_count: u32,
 }
 
 impl GpuMesh {
-    pub fn upload(gpu: &Gpu, name: &str, mesh: &Mesh) -> Result<GpuMesh, RuntimeError> {
+    pub(crate) fn upload(gpu: &Gpu, name: &str, mesh: &Mesh) -> Result<GpuMesh, RuntimeError> {
         let interleaved: Vec<f32> =
             mesh.positions.iter().zip(&mesh.normals).flat_map(|(p, n)| [p[0], p[1], p[2], n[0], n[1], n[2]]).collect();
         let doing = format!("uploading mesh `{name}`");
@@ -52,21 +52,24 @@ impl GpuMesh {
 /// A mesh as a scene shows it: its surface (kept on the CPU too, for slice outlines), its
 /// colour, opacity and placement.
 pub struct MeshInstance {
+    /// The mesh's name in the scene.
     pub name: String,
+    /// The surface, in the mesh's own coordinates (`model` places it).
     pub mesh: Arc<Mesh>,
-    pub gpu: Arc<GpuMesh>,
+    pub(crate) gpu: Arc<GpuMesh>,
     /// sRGB display colour.
     pub color: [f32; 3],
+    /// 0 (invisible) to 1 (opaque).
     pub opacity: f32,
     /// The mesh's vertices to patient space (RAS mm).
     pub model: Mat4,
     /// The surface is closed and wound outward ([`Mesh::is_closed_outward`]): opaque, its back
     /// faces are culled.
-    pub closed: bool,
+    pub(crate) closed: bool,
 }
 
 /// What a mesh layer draws: meshes and slice views' pictures on their planes, seen by a camera.
-pub struct LayerContent<'a> {
+pub(crate) struct LayerContent<'a> {
     pub camera: &'a LayerCamera,
     pub meshes: &'a [&'a MeshInstance],
     pub planes: &'a [PlanePicture],
@@ -77,7 +80,7 @@ pub struct LayerContent<'a> {
 
 /// How a view's mesh layer looks at the meshes.
 #[derive(Clone, Copy, Debug)]
-pub enum LayerCamera {
+pub(crate) enum LayerCamera {
     /// A raycast view: its projection of patient space (RAS mm) to clip space.
     Projection { world_to_clip: Mat4 },
     /// A slice view: its plane; meshes show as outlines where they cross it.
@@ -85,7 +88,7 @@ pub enum LayerCamera {
 }
 
 /// The clip-space depth of the slice plane in a slice view's mesh layer.
-pub const SLICE_PLANE_DEPTH: f32 = 0.5;
+pub(crate) const SLICE_PLANE_DEPTH: f32 = 0.5;
 
 /// One view's mesh layer: its two images and what they were drawn from.
 pub struct MeshLayer {
@@ -102,7 +105,7 @@ pub struct MeshLayer {
 
 impl MeshLayer {
     /// An empty layer (depth 1, no colour) of `size` pixels.
-    pub fn new(gpu: &Gpu, size: [u32; 2]) -> Result<MeshLayer, RuntimeError> {
+    pub(crate) fn new(gpu: &Gpu, size: [u32; 2]) -> Result<MeshLayer, RuntimeError> {
         let usage = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING;
         let doing = format!("creating a {}x{} mesh layer", size[0], size[1]);
         let image = |label, format| Image2d { label, size, format, usage }.create(gpu, &doing);
@@ -119,18 +122,19 @@ impl MeshLayer {
         })
     }
 
+    /// Width and height of the layer's images in pixels (the view's image size).
     pub fn size(&self) -> [u32; 2] {
         [self.color.width(), self.color.height()]
     }
 
     /// The depth image (`r32float`) and the colour image the volume layer binds.
-    pub fn views(&self) -> (&wgpu::TextureView, &wgpu::TextureView) {
+    pub(crate) fn views(&self) -> (&wgpu::TextureView, &wgpu::TextureView) {
         (&self.depth_view, &self.color_view)
     }
 
     /// Records the drawing of `content` into the layer's images, unless they already hold
     /// exactly that picture (the tiles of one frame draw it once). `sampler` reads the pictures.
-    pub fn encode(
+    pub(crate) fn encode(
         &mut self,
         gpu: &Gpu,
         (pipelines, sampler): (Option<&MeshPipelines>, &wgpu::Sampler),

@@ -10,14 +10,21 @@ use glam::{Mat4, Vec2, Vec3};
 /// The plane of a slice image: image coordinates `(x, y)` in [0, 1]^2 (y down) and `s`, mm
 /// along the plane's normal, to patient space; and back.
 #[derive(Clone, Copy, Debug)]
-pub struct SliceFrame {
+pub(crate) struct SliceFrame {
     pub image_to_world: Mat4,
     pub world_to_image: Mat4,
 }
 
 /// Vertices (position, normal) of the outline quads of `mesh` placed by `model` in `frame`,
 /// in clip space at depth `depth`, `width` pixels wide in an image of `size` pixels.
-pub fn outline_quads(mesh: &Mesh, model: Mat4, frame: &SliceFrame, size: [u32; 2], width: f32, depth: f32) -> Vec<f32> {
+pub(crate) fn outline_quads(
+    mesh: &Mesh,
+    model: Mat4,
+    frame: &SliceFrame,
+    size: [u32; 2],
+    width: f32,
+    depth: f32,
+) -> Vec<f32> {
     let to_image = frame.world_to_image * model;
     let image: Vec<Vec3> = mesh.positions.iter().map(|&p| to_image.transform_point3(Vec3::from(p))).collect();
     let half = Vec2::new(width / size[0].max(1) as f32, width / size[1].max(1) as f32);

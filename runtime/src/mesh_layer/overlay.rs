@@ -11,26 +11,26 @@ use crate::gpu::Gpu;
 use crate::textures::Image2d;
 
 /// The overlay's depth buffer (one per target size) and its draws' uniforms.
-pub struct Overlay {
+pub(crate) struct Overlay {
     depth_buffer: wgpu::TextureView,
     size: [u32; 2],
     buffer: DrawBuffer,
 }
 
 impl Overlay {
-    pub fn new(gpu: &Gpu, size: [u32; 2]) -> Result<Overlay, RuntimeError> {
+    pub(crate) fn new(gpu: &Gpu, size: [u32; 2]) -> Result<Overlay, RuntimeError> {
         let usage = wgpu::TextureUsages::RENDER_ATTACHMENT;
         let doing = format!("creating a {}x{} overlay", size[0], size[1]);
         let depth = Image2d { label: "overlay depth", size, format: DEPTH_FORMAT, usage }.create(gpu, &doing)?;
         Ok(Overlay { depth_buffer: depth.create_view(&Default::default()), size, buffer: DrawBuffer::default() })
     }
 
-    pub fn size(&self) -> [u32; 2] {
+    pub(crate) fn size(&self) -> [u32; 2] {
         self.size
     }
 
     /// Records `meshes` seen by `camera` over `target` (a view's picture of this size).
-    pub fn encode(
+    pub(crate) fn encode(
         &mut self,
         gpu: &Gpu,
         pipelines: &MeshPipelines,

@@ -8,19 +8,19 @@ use crate::gpu::Gpu;
 use crate::pass_bindings::{PassBindings, PassLayout, Slot, ty};
 
 /// The depth buffer's format (the depth test).
-pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+pub(crate) const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 /// The depth image's format: the opaque surfaces' depth as colour, which every back end's
 /// compute shaders can load (a depth texture is not loadable in GLSL compute shaders).
-pub const DEPTH_IMAGE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Float;
+pub(crate) const DEPTH_IMAGE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Float;
 /// The colour image's format (premultiplied alpha).
-pub const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
+pub(crate) const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
 /// Bytes of one draw's uniforms, a multiple of every device's uniform offset alignment.
-pub const DRAW_SLOT: u64 = 512;
+pub(crate) const DRAW_SLOT: u64 = 512;
 
 /// One draw's uniforms, as the shader's `Draw` lays them out.
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-pub struct DrawUniforms {
+pub(crate) struct DrawUniforms {
     /// Patient space (RAS mm) to clip space.
     pub world_to_clip: [[f32; 4]; 4],
     /// Clip space to patient space: the view direction of each vertex.
@@ -163,7 +163,7 @@ enum Kind {
 }
 
 /// The pipelines of one kind of target, a draw's pass picking one.
-pub struct PipelineSet {
+pub(crate) struct PipelineSet {
     pub opaque: wgpu::RenderPipeline,
     pub opaque_closed: wgpu::RenderPipeline,
     pub translucent_back: wgpu::RenderPipeline,
@@ -171,7 +171,7 @@ pub struct PipelineSet {
 }
 
 /// The mesh pipelines and their bind-group layouts.
-pub struct MeshPipelines {
+pub(crate) struct MeshPipelines {
     /// The layouts of [`BINDINGS`]: a draw's uniforms (group 0 of every pipeline), a plane's
     /// picture and its sampler (group 1 of `plane`).
     pub(crate) bindings: PassLayout,
@@ -184,7 +184,7 @@ pub struct MeshPipelines {
 }
 
 impl MeshPipelines {
-    pub fn new(gpu: &Gpu) -> Result<MeshPipelines, RuntimeError> {
+    pub(crate) fn new(gpu: &Gpu) -> Result<MeshPipelines, RuntimeError> {
         let made = gpu.capture("making the mesh pipelines", || {
             let module = gpu.device.create_shader_module(wgpu::ShaderModuleDescriptor {
                 label: Some("mesh layer"),

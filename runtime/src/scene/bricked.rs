@@ -60,7 +60,7 @@ pub(super) fn open_source(
 }
 
 /// Where the Zarr store of `source` is, when it is one (a `.zarr` folder or any URL).
-pub fn store_location(source: &VolumeSource) -> Option<StoreLocation> {
+pub(crate) fn store_location(source: &VolumeSource) -> Option<StoreLocation> {
     match source {
         VolumeSource::File(file) if is_zarr(&file.resolved) => Some(StoreLocation::Path(file.resolved.clone())),
         VolumeSource::Url(url) => Some(StoreLocation::Url(url.value.clone())),
@@ -82,7 +82,7 @@ pub fn selection(keys: &ZarrKeys) -> ZarrSelection {
 }
 
 /// Opens the store at `location` as `keys` choose, with `cache` bytes for built levels.
-pub fn open_store(location: &StoreLocation, keys: &ZarrKeys, cache: u64) -> Result<ZarrSource, RuntimeError> {
+pub(crate) fn open_store(location: &StoreLocation, keys: &ZarrKeys, cache: u64) -> Result<ZarrSource, RuntimeError> {
     ZarrSource::open_at(location, &selection(keys), cache)
         .map_err(|e| RuntimeError::Invalid(format!("`{location}`: {e}")))
 }
@@ -215,6 +215,7 @@ pub(super) fn brick_view(
 /// The scene's bricked volumes' residency, summed.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct BrickProgress {
+    /// Bricks resident, pending, refused, and so on, over every bricked volume.
     pub residency: Residency,
     /// Bricks that arrived in this call.
     pub arrived: usize,

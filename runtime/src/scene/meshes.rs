@@ -56,7 +56,7 @@ impl SceneRenderer {
             self.resources.mesh_pipelines = Some(MeshPipelines::new(&self.gpu)?);
         }
         self.resources.meshes = instances;
-        self.resources.mesh_generation += 1;
+        self.resources.meshes_changed();
         self.meshes = SceneMeshes { tables: scene.meshes.clone(), followed, key };
         Ok(())
     }
@@ -80,7 +80,7 @@ impl SceneRenderer {
             (instance.color, instance.opacity, instance.model) = (now.color, now.opacity, now.model);
             self.resources.meshes[i] = instance;
             self.meshes.followed[i] = points;
-            self.resources.mesh_generation += 1;
+            self.resources.meshes_changed();
         }
         Ok(())
     }
@@ -166,7 +166,7 @@ fn no_surface_volume() -> RuntimeError {
     RuntimeError::Invalid("a surface's volume is not in the scene".into())
 }
 
-/// The surface of a mesh table: its file loaded (within [`mesh::Limits::default`]), its shape
+/// The surface of a mesh table: its file loaded (within `mesh::Limits::default`), its shape
 /// made with `points` the values of the uniforms it follows (in the order of
 /// [`vscene::Mesh::followed_uniforms`]; zero where missing), or the surface of the volume
 /// `volume(NAME)` gives at its level.
@@ -258,6 +258,7 @@ fn slice_frame(view: &SceneView, primary: &VolumeGrid) -> Option<(SliceFrame, Ma
 /// A point of a mesh that follows a uniform: what a viewer lets the user drag.
 #[derive(Clone, Debug, PartialEq)]
 pub struct MeshHandle {
+    /// The name of the mesh in the scene.
     pub mesh: String,
     /// The `vec3f` uniform the point follows (patient space, mm).
     pub uniform: String,

@@ -17,7 +17,9 @@ use vrsc::types::{Scalar, Type};
 /// at `ray.finish`, a sample field at accumulated opacity 0.5).
 #[derive(Clone, Debug, PartialEq)]
 pub struct ProbeSpec {
+    /// The state field's name.
     pub field: String,
+    /// Where along the ray to read it (`None`: the field's default, above).
     pub at: Option<ProbeAt>,
 }
 
@@ -34,11 +36,11 @@ pub struct ProbeImage {
     /// The view's name.
     pub view: String,
     /// The field's name, VRS type and lifetime (`true` for `@ray`).
-    pub field: String,
-    pub ty: String,
-    pub ray: bool,
+    pub(crate) field: String,
+    pub(crate) ty: String,
+    pub(crate) ray: bool,
     /// Where the value was read.
-    pub at: ProbeAt,
+    pub(crate) at: ProbeAt,
     /// The coloured image (straight alpha; transparent where a pixel has no value).
     pub image: image::RgbaImage,
     /// The exact values behind it, for a value under the mouse and for tests.

@@ -10,10 +10,13 @@ use serde_json::{Value, json};
 /// Between points both are linear; beyond the first and last point the end values hold.
 #[derive(Clone, Debug, PartialEq)]
 pub struct TfCurve {
+    /// The preset's or colormap's name, for editors and reports.
     pub name: String,
+    /// Colour stops, by position in `domain`.
     pub color: Vec<ColorPoint>,
+    /// The opacity curve's points, by position in `domain`.
     pub opacity: Vec<OpacityPoint>,
-    pub domain: TfDomain,
+    pub(crate) domain: TfDomain,
 }
 
 impl TfCurve {

@@ -34,22 +34,23 @@
 use super::TransferFunction;
 
 /// The side of a [`PreintegratedTable`] unless the caller picks another.
-pub const DEFAULT_SIZE: u32 = 256;
+pub(crate) const DEFAULT_SIZE: u32 = 256;
 
 /// The largest opacity per reference step an entry is taken to have: an opacity of 1 has an
 /// infinite extinction, so opacities are capped at `1 - 1e-6` and the extinction per reference
 /// step at `-ln(1e-6)` ≈ 13.8 (a step of one reference step then lets 1e-6 of the light
 /// through, which no 8- or 16-bit target can tell from opaque).
-pub const MAX_OPACITY: f64 = 1.0 - 1e-6;
+pub(crate) const MAX_OPACITY: f64 = 1.0 - 1e-6;
 
 /// Sub-intervals per interval between two transfer function entries over which the integrals
 /// are taken (8 × 1023 for a full table: the cost stays linear in the table's width).
-pub const SUBSTEPS: usize = 8;
+pub(crate) const SUBSTEPS: usize = 8;
 
+#[cfg(test)]
 /// The length (in normalized values) below which [`segment`] point-samples a segment at its
 /// middle rather than dividing by the length: the table's diagonal is point-sampled, and its
 /// other entries are at least one entry (`1 / size`) long.
-pub const POINT_SEGMENT: f64 = 1e-6;
+pub(crate) const POINT_SEGMENT: f64 = 1e-6;
 
 /// A pre-integrated transfer function table, for an `Rgba16Float` (or `Rgba32Float`) 2D
 /// texture, `size` × `size` entries.
@@ -63,7 +64,7 @@ pub const POINT_SEGMENT: f64 = 1e-6;
 /// (`sf == sb`) is the point-sampled transfer function: its colour, and `-ln(1 - a)`. The table
 /// is symmetric: a segment's mean does not depend on its direction.
 #[derive(Clone, Debug, PartialEq)]
-pub struct PreintegratedTable {
+pub(crate) struct PreintegratedTable {
     /// Entries per side (at least 2).
     pub size: u32,
     /// `size * size` entries `[r_mean, g_mean, b_mean, tau_mean]`, row by row (rows: back value).
@@ -71,14 +72,14 @@ pub struct PreintegratedTable {
 }
 
 /// The value entry `i` of a table of `size` entries per side stands for: its texel's centre.
-pub fn entry_value(i: u32, size: u32) -> f64 {
+pub(crate) fn entry_value(i: u32, size: u32) -> f64 {
     (f64::from(i) + 0.5) / f64::from(size)
 }
 
 impl PreintegratedTable {
     /// The table of `tf` (over the window it classifies: see [`TransferFunction::over_window`])
     /// with [`DEFAULT_SIZE`] entries per side.
-    pub fn new(tf: &TransferFunction) -> Self {
+    pub(crate) fn new(tf: &TransferFunction) -> Self {
         Self::with_size(tf, DEFAULT_SIZE)
     }
 
@@ -87,7 +88,7 @@ impl PreintegratedTable {
     /// # Panics
     ///
     /// If `size` is less than 2.
-    pub fn with_size(tf: &TransferFunction, size: u32) -> Self {
+    pub(crate) fn with_size(tf: &TransferFunction, size: u32) -> Self {
         assert!(size >= 2, "a pre-integrated table needs at least 2 entries per side, not {size}");
         let integrals = Integrals::new(tf);
         let n = size as usize;
@@ -108,34 +109,37 @@ impl PreintegratedTable {
         PreintegratedTable { size, rgba }
     }
 
+    #[cfg(test)]
     /// The entry for the front value's column `front` and the back value's row `back`.
-    pub fn entry(&self, front: u32, back: u32) -> [f32; 4] {
+    pub(crate) fn entry(&self, front: u32, back: u32) -> [f32; 4] {
         self.rgba[(back * self.size + front) as usize]
     }
 
     /// The table as little-endian `f16` RGBA (8 bytes per entry, row by row), for an
     /// `Rgba16Float` texture (filterable everywhere, unlike `Rgba32Float`). Its 11-bit mantissa
     /// keeps `tau` to about 5e-4 of itself.
-    pub fn to_rgba16f(&self) -> Vec<u8> {
+    pub(crate) fn to_rgba16f(&self) -> Vec<u8> {
         self.rgba.iter().flatten().flat_map(|&c| half::f16::from_f32(c).to_le_bytes()).collect()
     }
 }
 
+#[cfg(test)]
 /// What the shader does with a table entry `[r, g, b, tau]` for a step of `steps_ratio =
 /// dt / ref_step` reference steps: `alpha = 1 - exp(-tau * steps_ratio)` and the premultiplied
 /// `[r * alpha, g * alpha, b * alpha, alpha]`.
-pub fn premultiplied([r, g, b, tau]: [f32; 4], steps_ratio: f32) -> [f32; 4] {
+pub(crate) fn premultiplied([r, g, b, tau]: [f32; 4], steps_ratio: f32) -> [f32; 4] {
     let alpha = -(-tau * steps_ratio).exp_m1();
     [r * alpha, g * alpha, b * alpha, alpha]
 }
 
+#[cfg(test)]
 /// The premultiplied rgba of one segment from the front value `sf` to the back value `sb`
 /// (normalized, clamped to [0, 1]) of `steps_ratio = dt / ref_step` reference steps, by the
 /// table's formula at these exact values: a table's entry off the diagonal is `segment` at its
 /// grid values. A segment shorter than [`POINT_SEGMENT`] is point-sampled at its middle, as
 /// the table's diagonal is. Builds the integrals each call: for tests and checks; the renderer
 /// uses a [`PreintegratedTable`].
-pub fn segment(tf: &TransferFunction, sf: f32, sb: f32, steps_ratio: f32) -> [f32; 4] {
+pub(crate) fn segment(tf: &TransferFunction, sf: f32, sb: f32, steps_ratio: f32) -> [f32; 4] {
     let integrals = Integrals::new(tf);
     let (sf, sb) = ((sf as f64).clamp(0.0, 1.0), (sb as f64).clamp(0.0, 1.0));
     let mean = if (sb - sf).abs() < POINT_SEGMENT {

@@ -25,7 +25,7 @@ pub trait VolumeFeed: Send + Sync {
 }
 
 /// Streams `feed` into `sink` after the checks every file's header passes.
-pub fn stream_feed(feed: &dyn VolumeFeed, sink: &mut dyn SampleSink) -> Result<VolumeInfo, LoadErrorKind> {
+pub(crate) fn stream_feed(feed: &dyn VolumeFeed, sink: &mut dyn SampleSink) -> Result<VolumeInfo, LoadErrorKind> {
     let info = feed.info();
     let voxels: u64 = info.dims.iter().map(|&d| u64::from(d)).product();
     if voxels > super::MAX_VOXELS {
@@ -43,7 +43,7 @@ pub fn stream_feed(feed: &dyn VolumeFeed, sink: &mut dyn SampleSink) -> Result<V
 pub struct Feeds(BTreeMap<String, Arc<dyn VolumeFeed>>);
 
 impl Feeds {
-    pub fn new() -> Feeds {
+    pub(crate) fn new() -> Feeds {
         Feeds::default()
     }
 
@@ -52,12 +52,8 @@ impl Feeds {
         self.0.insert(name.into(), feed);
     }
 
-    pub fn get(&self, name: &str) -> Option<&Arc<dyn VolumeFeed>> {
+    pub(crate) fn get(&self, name: &str) -> Option<&Arc<dyn VolumeFeed>> {
         self.0.get(name)
-    }
-
-    pub fn is_empty(&self) -> bool {
-        self.0.is_empty()
     }
 }
 

@@ -10,11 +10,11 @@ use super::{LoadError, LoadErrorKind, SampleSink, Samples, VolumeInfo, spacing_o
 use std::path::Path;
 
 /// The smallest voxel spacing accepted: 1 nm in millimetres (beyond any microscope volume).
-pub const MIN_SPACING: f32 = 1e-6;
+pub(crate) const MIN_SPACING: f32 = 1e-6;
 /// The largest voxel spacing accepted: 1 km in millimetres.
-pub const MAX_SPACING: f32 = 1e6;
+pub(crate) const MAX_SPACING: f32 = 1e6;
 /// The largest ratio between the spacings of two axes.
-pub const MAX_ANISOTROPY: f32 = 1e4;
+pub(crate) const MAX_ANISOTROPY: f32 = 1e4;
 
 /// Checks the voxel spacing of a header's grid.
 pub(super) fn check_spacing(info: &VolumeInfo) -> Result<(), LoadErrorKind> {

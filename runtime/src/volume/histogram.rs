@@ -4,7 +4,7 @@
 use super::{LoadErrorKind, SampleSink, Samples, Scaling, Volume, VolumeInfo};
 
 /// The percentiles the automatic window spans.
-pub const AUTO_PERCENTILES: [f64; 2] = [0.5, 99.5];
+pub(crate) const AUTO_PERCENTILES: [f64; 2] = [0.5, 99.5];
 
 /// Bins of the histogram over the value range: fine enough for a window within 0.025% of the
 /// range.
@@ -12,7 +12,7 @@ const BINS: usize = 4096;
 
 /// A histogram of data values over a known range, filled from stored samples.
 #[derive(Clone, Debug)]
-pub struct Histogram {
+pub(crate) struct Histogram {
     range: [f32; 2],
     scaling: Scaling,
     bins: Vec<u64>,
@@ -20,12 +20,12 @@ pub struct Histogram {
 
 impl Histogram {
     /// An empty histogram over `range` (data units) of samples stored with `scaling`.
-    pub fn new(range: [f32; 2], scaling: Scaling) -> Histogram {
+    pub(crate) fn new(range: [f32; 2], scaling: Scaling) -> Histogram {
         Histogram { range, scaling, bins: vec![0; BINS] }
     }
 
     /// Counts one stored sample (non-finite ones are not counted).
-    pub fn add(&mut self, stored: f32) {
+    pub(crate) fn add(&mut self, stored: f32) {
         let value = self.scaling.apply(stored);
         if !value.is_finite() {
             return;
@@ -38,7 +38,7 @@ impl Histogram {
 
     /// The value below which `percent` of the counted values lie (interpolated in its bin); the
     /// range's low end for an empty histogram.
-    pub fn percentile(&self, percent: f64) -> f32 {
+    pub(crate) fn percentile(&self, percent: f64) -> f32 {
         let total: u64 = self.bins.iter().sum();
         let [lo, hi] = self.range;
         if total == 0 {
@@ -59,13 +59,13 @@ impl Histogram {
 
     /// The window from [`AUTO_PERCENTILES`]; the whole range when they coincide (a volume of
     /// one or two values).
-    pub fn auto_window(&self) -> [f32; 2] {
+    pub(crate) fn auto_window(&self) -> [f32; 2] {
         let [a, b] = AUTO_PERCENTILES.map(|p| self.percentile(p));
         if b > a { [a, b] } else { self.range }
     }
 }
 
-/// The automatic window of a volume in memory ([`Histogram::auto_window`]).
+/// The automatic window of a volume in memory (`Histogram::auto_window`).
 pub fn auto_window(volume: &Volume) -> [f32; 2] {
     let mut histogram = Histogram::new(volume.range, volume.scaling);
     volume.samples.for_each(0..volume.samples.len(), |s| histogram.add(s));

@@ -12,7 +12,7 @@
 mod dicom;
 mod feed;
 mod header;
-pub mod histogram;
+pub(crate) mod histogram;
 mod mhd;
 mod nifti;
 mod nrrd;
@@ -31,23 +31,25 @@ use std::path::{Path, PathBuf};
 
 use glam::{Mat4, Vec3, Vec4};
 
-pub use feed::{Feeds, VolumeFeed, stream_feed};
-pub use header::{MAX_ANISOTROPY, MAX_SPACING, MIN_SPACING, header};
-pub use histogram::{Histogram, auto_window};
-pub use phantom::{PHANTOMS, UnknownPhantom, phantom};
+pub(crate) use feed::stream_feed;
+pub use feed::{Feeds, VolumeFeed};
+pub use header::header;
+pub(crate) use histogram::Histogram;
+pub use histogram::auto_window;
+pub use phantom::{UnknownPhantom, phantom};
 pub use samples::{Samples, Scaling};
 
 /// Streams a volume's finite value range: the sink of a first pass over a file when the volume
 /// is not kept.
 #[derive(Debug, Default)]
-pub struct RangeSink {
+pub(crate) struct RangeSink {
     scaling: Option<Scaling>,
     stored: Option<[f32; 2]>,
 }
 
 impl RangeSink {
     /// The finite range in data units (`[0, 0]` without finite samples), as [`Volume::range`].
-    pub fn range(&self) -> [f32; 2] {
+    pub(crate) fn range(&self) -> [f32; 2] {
         self.scaling.unwrap_or(Scaling::IDENTITY).range(self.stored)
     }
 }
@@ -69,7 +71,7 @@ impl SampleSink for RangeSink {
 
 /// The most voxels a volume may have: 2^31 (4 GiB as 16-bit samples, 4 GiB on the GPU as half
 /// floats).
-pub const MAX_VOXELS: u64 = 1 << 31;
+pub(crate) const MAX_VOXELS: u64 = 1 << 31;
 
 /// A scalar volume in memory: the samples as the file stores them, and how they map to data
 /// units (the file's value scaling).
@@ -86,9 +88,9 @@ pub struct Volume {
     /// Voxel index (i, j, k) of a voxel centre -> world position (mm, RAS+), from the header.
     pub grid_to_world: Mat4,
     /// The stored samples, `dims[0] * dims[1] * dims[2]` of them, x fastest, then y, then z.
-    pub samples: Samples,
+    pub(crate) samples: Samples,
     /// Stored samples to data units (NIfTI `scl_slope`/`scl_inter`, DICOM rescale).
-    pub scaling: Scaling,
+    pub(crate) scaling: Scaling,
     /// Minimum and maximum of the finite samples in data units (`[0, 0]` when there are none).
     pub range: [f32; 2],
 }
@@ -101,13 +103,13 @@ impl Volume {
     }
 
     /// Builds a volume from stored samples and their scaling to data units.
-    pub fn from_samples(dims: [u32; 3], grid_to_world: Mat4, samples: Samples, scaling: Scaling) -> Volume {
+    pub(crate) fn from_samples(dims: [u32; 3], grid_to_world: Mat4, samples: Samples, scaling: Scaling) -> Volume {
         let range = scaling.range(samples.finite_range());
         Volume { dims, spacing: spacing_of(&grid_to_world), grid_to_world, samples, scaling, range }
     }
 
     /// The data value of voxel `index` (x fastest); `None` beyond the end.
-    pub fn value(&self, index: usize) -> Option<f32> {
+    pub(crate) fn value(&self, index: usize) -> Option<f32> {
         self.samples.get(index).map(|s| self.scaling.apply(s))
     }
 
@@ -119,18 +121,19 @@ impl Volume {
         out
     }
 
+    #[cfg(test)]
     /// Values mapped to [0, 1] by `window` (lo, hi, data units), or by `range` when `None`;
     /// clamped; NaN -> 0.
     ///
     /// This is what the GPU samples: the transfer function's table spans the same window. A
     /// window with `hi <= lo` is a threshold: values above `lo` become 1.
-    pub fn normalized(&self, window: Option<[f32; 2]>) -> Vec<f32> {
+    pub(crate) fn normalized(&self, window: Option<[f32; 2]>) -> Vec<f32> {
         let mut out = Vec::with_capacity(self.samples.len());
         self.for_each_normalized(window, 0..self.samples.len(), |t| out.push(t));
         out
     }
 
-    /// Calls `f` with the normalized value ([`Volume::normalized`]) of each voxel in `voxels`,
+    /// Calls `f` with the normalized value (`Volume::normalized`) of each voxel in `voxels`,
     /// in order, without a copy of the volume.
     pub fn for_each_normalized(&self, window: Option<[f32; 2]>, voxels: Range<usize>, f: impl FnMut(f32)) {
         let window = Window::new(window.unwrap_or(self.range), self.scaling);
@@ -138,9 +141,10 @@ impl Volume {
         self.samples.for_each(voxels, |s| f(window.apply(s)));
     }
 
+    #[cfg(test)]
     /// Appends the normalized values of the voxels in `voxels` to `out` as IEEE half floats, for
     /// an `R16Float` texture upload (half the memory of `f32`, and filterable on every backend).
-    pub fn normalized_f16_into(&self, window: Option<[f32; 2]>, voxels: Range<usize>, out: &mut Vec<half::f16>) {
+    pub(crate) fn normalized_f16_into(&self, window: Option<[f32; 2]>, voxels: Range<usize>, out: &mut Vec<half::f16>) {
         out.reserve(voxels.len());
         self.for_each_normalized(window, voxels, |t| out.push(half::f16::from_f32(t)));
     }
@@ -150,8 +154,9 @@ impl Volume {
         self.dims.iter().map(|&d| u64::from(d)).product()
     }
 
+    #[cfg(test)]
     /// Bytes the volume takes on the GPU at 2 bytes per voxel (see [`Volume::normalized_f16_into`]).
-    pub fn gpu_bytes(&self) -> u64 {
+    pub(crate) fn gpu_bytes(&self) -> u64 {
         self.voxel_count() * 2
     }
 }
@@ -177,7 +182,7 @@ impl fmt::Debug for Volume {
 /// multiply-add: `(stored * slope + intercept - lo) / (hi - lo)`, clamped to [0, 1], NaN -> 0
 /// (see [`Volume::normalized`]).
 #[derive(Clone, Copy, Debug)]
-pub struct Window {
+pub(crate) struct Window {
     /// `slope / (hi - lo)` and `(intercept - lo) / (hi - lo)`; `None` for a degenerate window
     /// (a threshold at `lo`).
     linear: Option<(f32, f32)>,
@@ -187,7 +192,7 @@ pub struct Window {
 
 impl Window {
     /// The window `[lo, hi]` (data units) over samples stored with `scaling`.
-    pub fn new([lo, hi]: [f32; 2], scaling: Scaling) -> Window {
+    pub(crate) fn new([lo, hi]: [f32; 2], scaling: Scaling) -> Window {
         let linear = (hi > lo).then(|| {
             let scale = 1.0 / (hi - lo);
             (scaling.slope * scale, (scaling.intercept - lo) * scale)
@@ -196,7 +201,7 @@ impl Window {
     }
 
     /// The normalized value of a stored sample.
-    pub fn apply(self, stored: f32) -> f32 {
+    pub(crate) fn apply(self, stored: f32) -> f32 {
         let t = match self.linear {
             Some((a, b)) => stored * a + b,
             None if self.scaling.apply(stored) > self.lo => 1.0,
@@ -243,9 +248,10 @@ pub struct LoadError {
 }
 
 impl LoadError {
+    #[cfg(test)]
     /// True for a file that is missing or unreadable, false for a file whose content is wrong
     /// or unsupported.
-    pub fn is_io(&self) -> bool {
+    pub(crate) fn is_io(&self) -> bool {
         matches!(self.kind, LoadErrorKind::Io { .. })
     }
 }
@@ -271,22 +277,47 @@ impl std::error::Error for LoadError {
 pub enum LoadErrorKind {
     /// A file could not be opened or read: the volume file itself (`file: None`) or the data file
     /// its header names.
-    Io { file: Option<PathBuf>, error: io::Error },
+    Io {
+        /// The data file, or `None` for the volume file itself.
+        file: Option<PathBuf>,
+        /// What the operating system said.
+        error: io::Error,
+    },
     /// The file name does not end in one of the supported extensions.
     UnknownFormat,
     /// A header field is missing, malformed or unsupported; the message names the field.
     Header(String),
-    /// The header declares more than [`MAX_VOXELS`] voxels.
-    TooLarge { dims: Vec<u64>, voxels: u128 },
+    /// The header declares more than `MAX_VOXELS` voxels.
+    TooLarge {
+        /// The declared size along each axis.
+        dims: Vec<u64>,
+        /// Their product.
+        voxels: u128,
+    },
     /// The data section's length disagrees with what the header declares.
-    SizeMismatch { expected: u64, found: u64, compressed: bool },
+    SizeMismatch {
+        /// Bytes the header declares.
+        expected: u64,
+        /// Bytes there are.
+        found: u64,
+        /// Whether the data were compressed (the count is of decompressed bytes).
+        compressed: bool,
+    },
     /// Compressed data could not be decompressed.
     Corrupt(String),
     /// The samples do not fit in memory.
-    OutOfMemory { bytes: u64 },
+    OutOfMemory {
+        /// The bytes that could not be allocated.
+        bytes: u64,
+    },
     /// A DICOM series is unusable: a file of it (`file`) or the series as a whole (`None`: several
     /// series in one folder, missing slices, unequal spacing).
-    Dicom { file: Option<PathBuf>, message: String },
+    Dicom {
+        /// The file at fault, or `None` for the series as a whole.
+        file: Option<PathBuf>,
+        /// What is wrong.
+        message: String,
+    },
 }
 
 impl fmt::Display for LoadErrorKind {
@@ -336,7 +367,7 @@ pub fn load(path: &Path, progress: &mut dyn FnMut(u64, u64)) -> Result<Volume, L
 /// Reads a volume like [`load`], but hands its samples to `sink` a chunk at a time instead of
 /// keeping them: a caller that only needs them once (a GPU upload, a histogram) holds no copy
 /// of the volume. Returns the volume's shape, placement and scaling.
-pub fn stream(
+pub(crate) fn stream(
     path: &Path,
     progress: &mut dyn FnMut(u64, u64),
     sink: &mut dyn SampleSink,
@@ -363,7 +394,7 @@ pub fn stream(
 /// memory-mapped brick source) instead of loaded: the header validated as a load would, and
 /// the file checked to hold exactly the samples it claims.
 #[derive(Clone, Debug, PartialEq)]
-pub struct RawData {
+pub(crate) struct RawData {
     /// The file holding the samples: the volume file, or the data file its header names.
     pub file: PathBuf,
     /// The byte of `file` where the first sample starts (x fastest, then y, then z).
@@ -378,7 +409,7 @@ pub struct RawData {
 
 impl RawData {
     /// Bytes of the samples in `file`.
-    pub fn bytes(&self) -> u64 {
+    pub(crate) fn bytes(&self) -> u64 {
         self.info.dims.iter().map(|&d| u64::from(d)).product::<u64>() * self.sample.size()
     }
 }
@@ -387,7 +418,7 @@ impl RawData {
 /// `encoding: raw`, MetaImage without `CompressedData`, `.nii`): `None` for compressed data and
 /// DICOM series, which must be loaded. Errors are a load's: a header it refuses, or a data
 /// section shorter or longer than the header claims.
-pub fn raw_layout(path: &Path) -> Result<Option<RawData>, LoadError> {
+pub(crate) fn raw_layout(path: &Path) -> Result<Option<RawData>, LoadError> {
     let name = path.file_name().map(|n| n.to_string_lossy().to_ascii_lowercase()).unwrap_or_default();
     let located = if path.is_dir() || name.ends_with(".nii.gz") {
         Ok(None)
@@ -418,7 +449,7 @@ pub struct VolumeInfo {
     pub scaling: Scaling,
 }
 
-/// Receives a volume's stored samples as a loader reads them ([`stream`]).
+/// Receives a volume's stored samples as a loader reads them (`stream`).
 pub trait SampleSink {
     /// Called once, after the header is validated and before any sample.
     fn begin(&mut self, info: &VolumeInfo) -> Result<(), LoadErrorKind>;
@@ -470,7 +501,7 @@ impl SampleSink for Collect {
 
 /// The sample types the loaders accept; `f64` is kept as `f32`, the others as they are.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum ScalarType {
+pub(crate) enum ScalarType {
     U8,
     I8,
     U16,
@@ -483,7 +514,7 @@ pub enum ScalarType {
 
 impl ScalarType {
     /// Bytes per sample.
-    pub fn size(self) -> u64 {
+    pub(crate) fn size(self) -> u64 {
         match self {
             ScalarType::U8 | ScalarType::I8 => 1,
             ScalarType::U16 | ScalarType::I16 => 2,

@@ -14,19 +14,19 @@ use glam::{Mat4, Quat, Vec2, Vec3};
 use super::Volume;
 
 /// Air around the body, in Hounsfield units.
-pub const AIR: f32 = -1000.0;
+pub(crate) const AIR: f32 = -1000.0;
 
 /// The phantoms [`phantom`] knows.
-pub const PHANTOMS: &[&str] = &["head", "abdomen"];
+pub(crate) const PHANTOMS: &[&str] = &["head", "abdomen"];
 
 /// Each axis of a generated phantom is clamped to this many voxels (2^30 voxels in all, 4 GiB as
 /// `f32`), so a typo in a size cannot exhaust memory.
-pub const MAX_PHANTOM_DIM: u32 = 1024;
+pub(crate) const MAX_PHANTOM_DIM: u32 = 1024;
 
-/// A phantom name that is not one of [`PHANTOMS`].
+/// A phantom name that is not one of `PHANTOMS`.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct UnknownPhantom {
-    pub name: String,
+    pub(crate) name: String,
 }
 
 impl fmt::Display for UnknownPhantom {
@@ -41,8 +41,8 @@ impl fmt::Display for UnknownPhantom {
 
 impl std::error::Error for UnknownPhantom {}
 
-/// Generates the phantom `name` (one of [`PHANTOMS`]) with `dims` voxels of 1 mm, centred at the
-/// world origin. Each axis is clamped to 1..=[`MAX_PHANTOM_DIM`]. Deterministic.
+/// Generates the phantom `name` (one of `PHANTOMS`) with `dims` voxels of 1 mm, centred at the
+/// world origin. Each axis is clamped to 1..=`MAX_PHANTOM_DIM`. Deterministic.
 ///
 /// - `head`: the 3D Shepp-Logan phantom (Kak & Slaney's ellipsoids) with CT values: skull
 ///   1000 HU, brain 35, ventricles 5, a few hyperdense small lesions (75-90).
@@ -271,18 +271,18 @@ fn head() -> Vec<Shape> {
 
 /// Tissue values of the abdomen phantom, in Hounsfield units after intravenous contrast.
 mod level {
-    pub const SKIN: f32 = 30.0;
-    pub const FAT: f32 = -100.0;
-    pub const MUSCLE: f32 = 55.0;
-    pub const SOFT_TISSUE: f32 = 40.0;
-    pub const LIVER: f32 = 65.0;
-    pub const VESSEL: f32 = 250.0;
-    pub const TUMOUR: f32 = 45.0;
-    pub const TUMOUR_RIM: f32 = 150.0;
-    pub const KIDNEY: f32 = 160.0;
-    pub const BONE: f32 = 700.0;
-    pub const DISC: f32 = 90.0;
-    pub const CSF: f32 = 10.0;
+    pub(crate) const SKIN: f32 = 30.0;
+    pub(crate) const FAT: f32 = -100.0;
+    pub(crate) const MUSCLE: f32 = 55.0;
+    pub(crate) const SOFT_TISSUE: f32 = 40.0;
+    pub(crate) const LIVER: f32 = 65.0;
+    pub(crate) const VESSEL: f32 = 250.0;
+    pub(crate) const TUMOUR: f32 = 45.0;
+    pub(crate) const TUMOUR_RIM: f32 = 150.0;
+    pub(crate) const KIDNEY: f32 = 160.0;
+    pub(crate) const BONE: f32 = 700.0;
+    pub(crate) const DISC: f32 = 90.0;
+    pub(crate) const CSF: f32 = 10.0;
 }
 
 /// The liver: a large right lobe and a smaller left lobe reaching across the midline.

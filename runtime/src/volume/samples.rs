@@ -11,12 +11,19 @@ use super::ScalarType;
 /// half floats; `f32` keeps every value a half float can tell apart).
 #[derive(Clone, PartialEq)]
 pub enum Samples {
+    /// Unsigned 8-bit samples.
     U8(Vec<u8>),
+    /// Signed 8-bit samples.
     I8(Vec<i8>),
+    /// Unsigned 16-bit samples.
     U16(Vec<u16>),
+    /// Signed 16-bit samples.
     I16(Vec<i16>),
+    /// Unsigned 32-bit samples.
     U32(Vec<u32>),
+    /// Signed 32-bit samples.
     I32(Vec<i32>),
+    /// Float samples (`f32`, or `f64` narrowed).
     F32(Vec<f32>),
 }
 
@@ -47,16 +54,12 @@ sample!(u8, i8, u16, i16, u32, i32, f32);
 
 impl Samples {
     /// The number of samples.
-    pub fn len(&self) -> usize {
+    pub(crate) fn len(&self) -> usize {
         with_samples!(self, v => v.len())
     }
 
-    pub fn is_empty(&self) -> bool {
-        self.len() == 0
-    }
-
     /// Bytes per sample in memory.
-    pub fn sample_bytes(&self) -> usize {
+    pub(crate) fn sample_bytes(&self) -> usize {
         match self {
             Samples::U8(_) | Samples::I8(_) => 1,
             Samples::U16(_) | Samples::I16(_) => 2,
@@ -65,25 +68,26 @@ impl Samples {
     }
 
     /// Stored sample `i` as `f32`; `None` beyond the end.
-    pub fn get(&self, i: usize) -> Option<f32> {
+    pub(crate) fn get(&self, i: usize) -> Option<f32> {
         with_samples!(self, v => v.get(i).map(|&s| s.to_f32()))
     }
 
     /// Calls `f` with each stored sample of `range` as `f32`, in order (one type dispatch per
     /// call, not per sample).
-    pub fn for_each(&self, range: Range<usize>, mut f: impl FnMut(f32)) {
+    pub(crate) fn for_each(&self, range: Range<usize>, mut f: impl FnMut(f32)) {
         with_samples!(self, v => v[range].iter().for_each(|&s| f(s.to_f32())))
     }
 
+    #[cfg(test)]
     /// Every stored sample as `f32` (a full copy: for tests and small volumes).
-    pub fn to_f32(&self) -> Vec<f32> {
+    pub(crate) fn to_f32(&self) -> Vec<f32> {
         let mut out = Vec::with_capacity(self.len());
         self.for_each(0..self.len(), |s| out.push(s));
         out
     }
 
     /// Minimum and maximum of the finite stored samples, `None` when there are none.
-    pub fn finite_range(&self) -> Option<[f32; 2]> {
+    pub(crate) fn finite_range(&self) -> Option<[f32; 2]> {
         let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
         self.for_each(0..self.len(), |s| {
             if s.is_finite() {
@@ -99,8 +103,8 @@ impl Samples {
 /// `scl_inter`, DICOM Rescale Slope and Intercept).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Scaling {
-    pub slope: f32,
-    pub intercept: f32,
+    pub(crate) slope: f32,
+    pub(crate) intercept: f32,
 }
 
 impl Scaling {
@@ -108,13 +112,13 @@ impl Scaling {
     pub const IDENTITY: Scaling = Scaling { slope: 1.0, intercept: 0.0 };
 
     /// The data value of a stored sample.
-    pub fn apply(self, stored: f32) -> f32 {
+    pub(crate) fn apply(self, stored: f32) -> f32 {
         stored * self.slope + self.intercept
     }
 
     /// The data range of samples whose stored range is `stored` (`[0, 0]` without finite
     /// samples, or when scaling overflows).
-    pub fn range(self, stored: Option<[f32; 2]>) -> [f32; 2] {
+    pub(crate) fn range(self, stored: Option<[f32; 2]>) -> [f32; 2] {
         match stored {
             Some([lo, hi]) => {
                 let (a, b) = (self.apply(lo), self.apply(hi));

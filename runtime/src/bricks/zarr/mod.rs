@@ -6,7 +6,7 @@
 //!   names, the last three as z, y, x after channel (4 axes) or time and channel (5). A time or
 //!   channel axis is read at the index the [`ZarrSelection`] names (index 0 when it has one
 //!   entry; more without a choice is an error that says how to choose).
-//! - Levels: the pyramid is [`levels_for`] level 0; each dataset is placed by its coordinate
+//! - Levels: the pyramid is `levels_for` level 0; each dataset is placed by its coordinate
 //!   transformations, and answers the levels it can (`plan.rs`: any power-of-two factors per
 //!   axis, ome-zarr-py's x-y pyramids, odd sizes halved either way, translations). Levels no
 //!   dataset answers are built from the level below on demand (`lazy_levels`), through a cache
@@ -31,6 +31,7 @@ mod store;
 mod testdata;
 
 use std::ops::Range;
+#[cfg(test)]
 use std::path::Path;
 use std::sync::{Arc, Mutex, OnceLock};
 
@@ -48,7 +49,7 @@ use ome::{Axis, AxisKind, Multiscale, Transform};
 use plan::{LevelPlan, Placement};
 use store::{Listing, Root};
 
-pub use super::MAX_BRICKS;
+pub(crate) use super::MAX_BRICKS;
 pub use store::StoreLocation;
 pub use testdata::write_test_zarr;
 
@@ -66,7 +67,9 @@ const MAX_NOTES: usize = 32;
 /// An entry of a store's list (a multiscale or a channel): its index or its name.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum Choice {
+    /// The entry at this position of the list.
     Index(u64),
+    /// The entry of this name.
     Name(String),
 }
 
@@ -74,7 +77,7 @@ pub enum Choice {
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct ZarrSelection {
     /// The OME multiscale, by index or name (the first when `None`).
-    pub multiscale: Option<Choice>,
+    pub(crate) multiscale: Option<Choice>,
     /// The channel, by index or `omero` label.
     pub channel: Option<Choice>,
     /// The time point.
@@ -105,9 +108,10 @@ enum Region {
 }
 
 impl ZarrSource {
+    #[cfg(test)]
     /// Opens the Zarr array or OME-Zarr image in the directory `path`, as it is (first
     /// multiscale, no time or channel chosen), with a 256 MiB cache for built levels.
-    pub fn open(path: &Path) -> Result<ZarrSource, BrickError> {
+    pub(crate) fn open(path: &Path) -> Result<ZarrSource, BrickError> {
         Self::open_at(&StoreLocation::Path(path.to_path_buf()), &ZarrSelection::default(), 256 << 20)
     }
 

@@ -30,7 +30,7 @@ pub enum StoreLocation {
 
 impl StoreLocation {
     /// The store's name for messages: the directory's or the URL's last part.
-    pub fn name(&self) -> String {
+    pub(crate) fn name(&self) -> String {
         match self {
             StoreLocation::Path(p) => {
                 p.file_name().map_or_else(|| p.display().to_string(), |n| n.to_string_lossy().into_owned())
