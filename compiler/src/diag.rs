@@ -107,7 +107,7 @@ codes! {
     SceneInvalid = "E0702", Error, "a scene value the composed views reject: a uniform no view reads or of another type, more entries than the limits allow";
     SceneUnknownKey = "E0703", Error, "a key the scene format does not know";
     SceneMissingKey = "E0704", Error, "a key that its table or another key needs is missing";
-    SceneNoTable = "E0705", Error, "a scene without a [[view]] or without a primary volume";
+    SceneNoTable = "E0705", Error, "a scene without a `[[view]]` or without a primary volume";
     SceneConflict = "E0706", Error, "two keys that exclude each other (`path` and `phantom`, `window` and `level`, ...)";
     SceneSecondPrimary = "E0707", Error, "a second volume with `role = \"primary\"`";
     SceneOutOfRange = "E0708", Error, "a number outside the range its key allows";

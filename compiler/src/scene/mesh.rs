@@ -23,9 +23,9 @@ pub enum MeshSource {
         tip: Point,
         /// `direction`: the way from the tip towards the handle.
         direction: Point,
-        /// `length`: the shaft's length in mm, above 0 ([`DEFAULT_NEEDLE_LENGTH`] without it).
+        /// `length`: the shaft's length in mm, above 0; 150 without it (`DEFAULT_NEEDLE_LENGTH`).
         length: f32,
-        /// `radius`: the shaft's radius in mm, above 0 ([`DEFAULT_NEEDLE_RADIUS`] without it).
+        /// `radius`: the shaft's radius in mm, above 0; 1 without it (`DEFAULT_NEEDLE_RADIUS`).
         radius: f32,
     },
     /// `shape = "cylinder"`: from `base` to `tip`, closed.
@@ -34,7 +34,7 @@ pub enum MeshSource {
         base: Point,
         /// `tip`: the centre of the other end (mm).
         tip: Point,
-        /// `radius` in mm, above 0 ([`DEFAULT_NEEDLE_RADIUS`] without it).
+        /// `radius` in mm, above 0; 1 without it (`DEFAULT_NEEDLE_RADIUS`).
         radius: f32,
     },
     /// `shape = "sphere"`.
