@@ -12,7 +12,8 @@ pub struct Located<T> {
     /// The value as validated.
     pub value: T,
     /// Where the value is written in the scene file (global offsets), for diagnostics; a
-    /// default that the file does not write gets the span of the key or table it belongs to.
+    /// default the file does not write carries a nearby span (its table's, its name's) or
+    /// [`Span::DUMMY`].
     pub span: Span,
 }
 
