@@ -2,6 +2,11 @@
 //!
 //! Every pass reports through a [`Diagnostics`] sink; nothing is printed until the driver
 //! decides how (codespan-reporting for people, one JSON object per line for tools).
+//!
+//! The public face: [`Code`] (every stable code, with its severity and title), [`Severity`],
+//! [`Diagnostic`] (built with [`Diagnostic::new`] and the `with_*` methods), the
+//! [`Diagnostics`] sink, [`sort`] for the order diagnostics are shown in, and
+//! [`JsonDiagnostic`], the shape of `--message-format json`.
 
 use crate::source::{SourceMap, Span};
 use codespan_reporting::diagnostic as cs;
@@ -11,7 +16,7 @@ macro_rules! codes {
     ($($variant:ident = $code:literal, $severity:ident, $title:literal;)*) => {
         /// Stable diagnostic codes. The catalogue in `docs/reference.md` lists each one.
         #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
-        pub enum Code { $($variant),* }
+        pub enum Code { $(#[doc = $title] $variant),* }
 
         impl Code {
             /// Every code, in catalogue order.
@@ -102,7 +107,7 @@ codes! {
     SceneInvalid = "E0702", Error, "a scene value the composed views reject: a uniform no view reads or of another type, more entries than the limits allow";
     SceneUnknownKey = "E0703", Error, "a key the scene format does not know";
     SceneMissingKey = "E0704", Error, "a key that its table or another key needs is missing";
-    SceneNoTable = "E0705", Error, "a scene without a [[view]] or without a primary volume";
+    SceneNoTable = "E0705", Error, "a scene without a `[[view]]` or without a primary volume";
     SceneConflict = "E0706", Error, "two keys that exclude each other (`path` and `phantom`, `window` and `level`, ...)";
     SceneSecondPrimary = "E0707", Error, "a second volume with `role = \"primary\"`";
     SceneOutOfRange = "E0708", Error, "a number outside the range its key allows";
@@ -142,16 +147,22 @@ codes! {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Severity {
+    /// Stops compilation: nothing is emitted while any error stands.
     Error,
+    /// Reported, but compilation goes on.
     Warning,
 }
 
 /// One diagnostic. Build with [`Diagnostic::new`] and the `with_*` methods.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Diagnostic {
+    /// The stable code (`E0104`), whose catalogue entry in `docs/reference.md` explains it.
     pub code: Code,
+    /// Error or warning: [`Code::severity`] of `code`, set by [`Diagnostic::new`].
     pub severity: Severity,
+    /// The headline: what is wrong, in one sentence.
     pub message: String,
+    /// The primary span, in the [`SourceMap`]'s global offset space.
     pub span: Span,
     /// Text under the primary span.
     pub label: String,
@@ -279,17 +290,27 @@ pub fn sort(list: &mut [Diagnostic]) {
     list.sort_by(|a, b| (a.span.start, a.code, &a.message).cmp(&(b.span.start, b.code, &b.message)));
 }
 
-/// The JSON shape of section 10 of the language spec.
+/// One line of `--message-format json`: the shape "Diagnostics" in `docs/language.md` shows.
 #[derive(Serialize)]
 pub struct JsonDiagnostic<'a> {
+    /// `"error"` or `"warning"`.
     pub severity: Severity,
+    /// The code as printed (`E0104`).
     pub code: &'a str,
+    /// The diagnostic's message.
     pub message: &'a str,
+    /// The name of the file the primary span is in (empty when the span is in none).
     pub file: String,
+    /// 1-based line of the primary span's start (0 when it is in no file).
     pub line: usize,
+    /// 1-based column of the primary span's start.
     pub column: usize,
+    /// 1-based line of the primary span's end.
     pub end_line: usize,
+    /// 1-based column just past the primary span's end.
     pub end_column: usize,
+    /// The primary label, then each secondary label as `FILE:LINE:COLUMN: label`, then the
+    /// notes and help lines.
     pub notes: Vec<String>,
 }
 

@@ -11,19 +11,55 @@ use crate::lexer::is_identifier;
 #[derive(Clone, Debug, PartialEq)]
 pub enum MeshSource {
     /// `path = "FILE"`: OBJ, STL or PLY, by extension.
-    File { file: FileRef, coordinates: Coordinates },
-    /// `shape = "needle"`: a shaft of `length` mm and `radius` ending in a cone whose apex is
-    /// `tip`; `direction` points from the tip towards the handle.
-    Needle { tip: Point, direction: Point, length: f32, radius: f32 },
+    File {
+        /// The mesh file, resolved against the scene file's directory.
+        file: FileRef,
+        /// `coordinates`: the axes the file's vertices use (`ras` by default).
+        coordinates: Coordinates,
+    },
+    /// `shape = "needle"`: a shaft ending in a cone whose apex is the tip.
+    Needle {
+        /// `tip`: the apex of the cone, where the needle ends (mm).
+        tip: Point,
+        /// `direction`: the way from the tip towards the handle.
+        direction: Point,
+        /// `length`: the shaft's length in mm, above 0; 150 without it (`DEFAULT_NEEDLE_LENGTH`).
+        length: f32,
+        /// `radius`: the shaft's radius in mm, above 0; 1 without it (`DEFAULT_NEEDLE_RADIUS`).
+        radius: f32,
+    },
     /// `shape = "cylinder"`: from `base` to `tip`, closed.
-    Cylinder { base: Point, tip: Point, radius: f32 },
+    Cylinder {
+        /// `base`: the centre of one end (mm).
+        base: Point,
+        /// `tip`: the centre of the other end (mm).
+        tip: Point,
+        /// `radius` in mm, above 0; 1 without it (`DEFAULT_NEEDLE_RADIUS`).
+        radius: f32,
+    },
     /// `shape = "sphere"`.
-    Sphere { centre: Point, radius: f32 },
+    Sphere {
+        /// `centre` (or `center`): the sphere's centre (mm).
+        centre: Point,
+        /// `radius` in mm, above 0; required (E0704 without it).
+        radius: f32,
+    },
     /// `shape = "box"`: the axis-aligned box from `min` to `max`.
-    Box { min: Point, max: Point },
-    /// `volume = "NAME"`: the surface where volume NAME's data values cross `level` (data units;
-    /// 0.5 by default, a label or mask's border), by marching cubes.
-    Surface { volume: Located<String>, level: f32 },
+    Box {
+        /// `min`: the corner with the smallest coordinates (mm).
+        min: Point,
+        /// `max`: the corner with the largest coordinates (mm).
+        max: Point,
+    },
+    /// `volume = "NAME"`: the surface where a volume's data values cross a level, by marching
+    /// cubes.
+    Surface {
+        /// `volume`: the name of the `[[volume]]` whose surface this is.
+        volume: Located<String>,
+        /// `level`: the data value (data units) the surface passes through; 0.5 by default, the
+        /// border of a label or mask.
+        level: f32,
+    },
 }
 
 /// The axes a mesh file's coordinates use.
@@ -41,7 +77,9 @@ pub enum Coordinates {
 /// whose value (patient space, mm) the shape follows as it changes.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Point {
+    /// `[x, y, z]`: a fixed point in patient space (RAS, mm).
     Value([f32; 3]),
+    /// `"NAME"`: the current value of the `vec3f` uniform NAME.
     Uniform(Located<String>),
 }
 
@@ -60,6 +98,7 @@ impl Point {
 pub struct Mesh {
     /// An identifier: views list meshes by name (`meshes = [...]`), the panel shows it.
     pub name: Ident,
+    /// What the surface is: `path`, `shape` or `volume` (exactly one of them).
     pub source: MeshSource,
     /// Display colour (sRGB, 0 to 1).
     pub color: [f32; 3],

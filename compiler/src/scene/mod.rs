@@ -1,4 +1,12 @@
-//! Scenes (section 11 of the language spec): what to compose and render, as TOML.
+//! Scenes ("Scenes" in `docs/language.md`, with `vrsc`'s own keys under "Scenes" in
+//! `docs/reference.md`): what to compose and render, as TOML.
+//!
+//! The public face: [`parse_scene`] and [`parse_scene_text`], which give the typed [`Scene`]
+//! (its tables [`Render`], [`Volume`], [`View`], [`Mesh`], [`ModuleRef`] and the `[uniforms]`
+//! values, [`UniformSetting`]), the queries later passes ask of it (which modules a view
+//! composes, what a uniform starts at), the defaults and limits the scene applies
+//! ([`DEFAULT_VIEW_SIZE`], [`MAX_VIEW_SIZE`], [`DEFAULT_CAMERA`], ...), and small helpers the
+//! runtime shares ([`is_zarr`], [`is_url`], [`is_view_name`]).
 //!
 //! The caller adds the scene file to the [`SourceMap`] and calls [`parse_scene`] with its id;
 //! every diagnostic then points into that file, in the map's global offset space. Parsing has
@@ -7,7 +15,8 @@
 //! cannot (names, ranges, one primary volume, keys that need each other) and builds the typed
 //! [`Scene`], in which every name and value a later pass may point at carries its [`Span`].
 //!
-//! Decisions beyond section 11 (documented for users in `stdlib/README.md`):
+//! Decisions beyond "Scenes" in `docs/language.md` (documented for users in `docs/reference.md`,
+//! "Choices beyond the language guide", and `stdlib/README.md`):
 //! - `render.shading = true` without `lights` means `lights = ["key"]`; `lights` is ignored
 //!   (warning) when shading is off. `lights = []` with shading gives ambient light only.
 //! - `compositing = "iso"` requires `iso_value` (an error, not a silent default).
@@ -21,7 +30,8 @@
 //! - Keys that have no effect where they are (a raycast view's `axis`, a slice view's `camera`)
 //!   are warnings, not errors.
 //! - Names of volumes, lights, instances and uniforms are identifiers and not VRS keywords; view
-//!   names (which name output files, `3d` in the spec's example) are `[A-Za-z0-9_-]+`.
+//!   names (which name output files, `3d` in the examples of `docs/language.md`) are
+//!   `[A-Za-z0-9_-]+`.
 
 use crate::ast::Ident;
 use crate::diag::{Code, Diagnostic, Diagnostics};

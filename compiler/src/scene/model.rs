@@ -9,13 +9,18 @@ use std::fmt;
 /// A value with the span of its TOML value.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Located<T> {
+    /// The value as validated.
     pub value: T,
+    /// Where the value is written in the scene file (global offsets), for diagnostics; a
+    /// default the file does not write carries a nearby span (its table's, its name's) or
+    /// [`Span::DUMMY`].
     pub span: Span,
 }
 
 /// A parsed and validated scene.
 #[derive(Clone, Debug)]
 pub struct Scene {
+    /// `[render]`: the settings every view starts from.
     pub render: Render,
     /// `[[volume]]` tables, in file order.
     pub volumes: Vec<Volume>,
@@ -59,6 +64,8 @@ impl Default for Memory {
 /// `[render]`: how every view composites and shades.
 #[derive(Clone, Debug)]
 pub struct Render {
+    /// `compositing = "dvr" | "mip" | "minip" | "average" | "iso"`: how samples along a ray
+    /// combine; `dvr` without the key.
     pub compositing: Located<Compositing>,
     /// Initial value of the `iso_value` uniform; present when compositing is `iso`.
     pub iso_value: Option<Located<f32>>,
@@ -147,9 +154,17 @@ pub enum Compositing {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Role {
+    /// The volume every view is built on: its box and spacing place the views and set the
+    /// step size. A scene has exactly one.
     Primary,
+    /// Another data set, sampled in patient space, classified by its own transfer function and
+    /// composited with the primary (`std::sample_volume`, `std::classify_volume`).
     Additional,
+    /// A mask: where it is below the `mask_threshold_NAME` uniform the primary volume is hidden
+    /// (`std::mask`); it has no transfer function.
     Mask,
+    /// A label volume: its transfer function (`labels` by default) gives each label a colour
+    /// that tints the primary colour (`std::tag`).
     Tag,
 }
 
@@ -158,7 +173,9 @@ pub enum Role {
 pub struct Volume {
     /// The instance name of this volume's template functions (`value_t1`, `tf_t1`).
     pub name: Ident,
+    /// `role`: what the volume is to the views.
     pub role: Located<Role>,
+    /// `path` or `phantom`: where the samples come from.
     pub source: VolumeSource,
     /// `fallback = "NAME"`: the built-in phantom to use when the `path` file does not exist (so
     /// an example renders before its data is downloaded).
@@ -215,7 +232,9 @@ pub struct ZarrKeys {
 /// An entry of a store's list: its index or its name.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum Entry {
+    /// A number: the 0-based index in the store's list.
     Index(u64),
+    /// A string: the entry's name (a multiscale's `name`, a channel's `omero` label).
     Name(String),
 }
 
@@ -249,14 +268,18 @@ pub enum TfRef {
 /// A path as written in the scene and resolved against the scene file's directory.
 #[derive(Clone, Debug, PartialEq)]
 pub struct FileRef {
+    /// The path exactly as the scene writes it (what messages quote).
     pub given: String,
+    /// The path to open: `given` joined to the scene file's directory when relative.
     pub resolved: PathBuf,
+    /// The string's span in the scene file.
     pub span: Span,
 }
 
 /// A module to compose: `[[module]]`, or an entry of a view's `modules`.
 #[derive(Clone, Debug)]
 pub struct ModuleRef {
+    /// `path`: a standard module or a file.
     pub source: ModuleSource,
     /// Instance names for a template module; `None` for a plain module.
     pub instances: Option<Vec<Ident>>,
@@ -269,6 +292,7 @@ pub struct ModuleRef {
 pub enum ModuleSource {
     /// `path = "std::NAME"`: the standard module `NAME`.
     Std(Located<String>),
+    /// Any other `path`: a VRS file, relative to the scene file.
     File(FileRef),
 }
 
@@ -276,7 +300,9 @@ pub enum ModuleSource {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum ViewKind {
+    /// A 3D picture: rays from the orbit camera through the volumes (the default).
     Raycast,
+    /// A 2D picture: a plane through the primary volume, normal to the view's `axis`.
     Slice,
 }
 
@@ -284,10 +310,13 @@ pub enum ViewKind {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Axis {
+    /// `x` or `sagittal`: the patient's left-right axis (+x towards the patient's right).
     #[serde(alias = "sagittal")]
     X,
+    /// `y` or `coronal`: the posterior-anterior axis.
     #[serde(alias = "coronal")]
     Y,
+    /// `z` or `axial`: the inferior-superior axis.
     #[serde(alias = "axial")]
     Z,
 }
@@ -303,10 +332,15 @@ impl Axis {
 /// volume's largest extent.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Camera {
+    /// `azimuth`: rotation about the patient's superior axis (degrees; 0, the default, looks
+    /// from the front, anterior, towards -y).
     pub azimuth: f32,
+    /// `elevation`: angle above the axial plane (degrees; 0 by default).
     pub elevation: f32,
+    /// `distance` from the volume's centre, in units of its largest extent; above 0, 2.5 by
+    /// default.
     pub distance: f32,
-    /// Vertical field of view.
+    /// `fov`: vertical field of view (degrees, between 0 and 180; 30 by default).
     pub fov: f32,
 }
 
@@ -319,7 +353,9 @@ impl Default for Camera {
 /// `[[view]]`: one rendered image and its own modules.
 #[derive(Clone, Debug)]
 pub struct View {
+    /// `name`: `[A-Za-z0-9_-]+`, unique; it names the view's output files.
     pub name: Ident,
+    /// `kind`: raycast (the default) or slice.
     pub kind: Located<ViewKind>,
     /// Width and height in pixels.
     pub size: [u32; 2],
@@ -356,6 +392,7 @@ pub struct View {
 /// A `[uniforms]` entry.
 #[derive(Clone, Debug, PartialEq)]
 pub struct UniformSetting {
+    /// The initial value, not yet checked against the uniform's type.
     pub value: UniformValue,
     /// The key.
     pub name_span: Span,
@@ -368,9 +405,13 @@ pub struct UniformSetting {
 /// the uniform's declared type.
 #[derive(Clone, Debug, PartialEq)]
 pub enum UniformValue {
+    /// `true` or `false`.
     Bool(bool),
+    /// A TOML integer (`3`); it also initialises a float uniform.
     Int(i64),
+    /// A TOML float (`0.5`).
     Float(f64),
+    /// `[...]`: a vector, or a matrix as an array of columns.
     Array(Vec<UniformValue>),
 }
 

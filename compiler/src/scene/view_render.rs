@@ -18,8 +18,10 @@ use toml::Spanned;
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Convention {
+    /// `radiological` (the default): the patient's right on the image's left.
     #[default]
     Radiological,
+    /// `neurological`: the patient's right on the image's right.
     Neurological,
 }
 
