@@ -6,8 +6,8 @@
 # Usage: bash scripts/bench-instructions.sh
 #            the composed and the hand-written raycaster of runtime/benches/render.rs
 #        bash scripts/bench-instructions.sh bricks ROW...
-#            rows of runtime/benches/bricks.rs (numbered as it prints them; its breakdown rows
-#            included, early ray termination off), e.g. `bricks 0 1 3 4 5 6 7`
+#            rows of runtime/benches/bricks.rs (numbered as it prints them, early ray
+#            termination off), e.g. `bricks 0 1 4`
 set -euo pipefail
 cd "$(dirname "$0")/.."
 VULKAN_ICD_PATTERN="lvp_icd*" source scripts/ensure-vulkan.sh
@@ -17,7 +17,7 @@ if [ "$name" = render ]; then
     rows=(hand-written composed)
 else
     rows=("${@:2}")
-    export VRS_BENCH_BREAKDOWN=1
+    export VRS_BENCH_NO_ERT=1
 fi
 [ ${#rows[@]} -gt 0 ] || { echo "usage: $0 [render | bricks ROW...]" >&2; exit 2; }
 bench=$(cargo bench -p vrs-runtime --bench "$name" --no-run 2>&1 | grep -oP "Executable benches/$name.rs \(\K[^)]+")

@@ -5,11 +5,16 @@
 // not resident is requested (the runtime loads what rays asked for) and the next coarser level
 // answers instead, so the picture is complete and sharpens as bricks arrive.
 //
-// Every sample pays for the whole lookup: a software rasterizer (lavapipe) runs both sides of
-// a branch for a group of pixels anyway, so the lookup has no branch to skip work, reads no
-// per-level table (each level's page-table block is indexed as level 0's) and converts with
-// signed integers (x86 has no vector conversions for unsigned ones). The loop runs once unless
-// a brick is missing.
+// Rays march brick by brick (see "Bricked volumes" in docs/reference.md): the first lookup of a
+// sample that `NAME_segment_start` opened keeps the brick it found as the ray's segment, and the
+// samples after it read that brick with `NAME_sample_in_segment`, which reads no page table and
+// writes no request, until one reads outside it (`NAME_segment_missed`): the composer then
+// takes that sample again with the full lookup, which opens the next segment.
+//
+// The full lookup has no branch to skip work (a software rasterizer such as lavapipe runs both
+// sides of a branch for a group of pixels anyway), reads no per-level table (each level's
+// page-table block is indexed as level 0's) and converts with signed integers (x86 has no
+// vector conversions for unsigned ones). Its loop runs once unless a brick is missing.
 
 struct BrickLayout {
     // Level-0 voxels per axis (xyz) and the number of levels (w).
@@ -20,7 +25,8 @@ struct BrickLayout {
     // 1 / brick pool texels per axis (xyz) and voxels per brick edge, apron excluded (w).
     pool: vec4f,
     // x: the square of a pixel's footprint in level-0 voxels that does not grow with distance
-    // (slice views); y: the finest level used.
+    // (slice views); y: the finest level used; z: voxels of apron stored on each side of a
+    // brick.
     detail: vec4f,
     // A brick's page-table entry is dot((brick xyz, level), table): 1, level 0's bricks per row,
     // per slice, and per level.
@@ -33,6 +39,20 @@ struct BrickLayout {
 @group(0) @binding(3) var<uniform> NAME_layout: BrickLayout;
 @group(0) @binding(4) var<storage, read_write> NAME_requests: array<u32>;
 
+// The ray's segment, in the voxels of the level that answers it: the box its samples may read
+// (the wanted brick widened by what its apron holds), what turns a normalized position into
+// those voxels (`scale`, clamped to the edge voxels' centres at `top`) and into pool texels
+// (`shift`), and the value of a brick of one value (x, when y is 1).
+var<private> NAME_segment_lo: vec3f;
+var<private> NAME_segment_hi: vec3f;
+var<private> NAME_segment_scale: vec3f;
+var<private> NAME_segment_top: vec3f;
+var<private> NAME_segment_shift: vec3f;
+var<private> NAME_segment_value: vec2f;
+// Whether the next full lookup opens a segment, and whether a sample read outside it.
+var<private> NAME_segment_open: bool;
+var<private> NAME_segment_out: bool;
+
 // The value of bricked volume NAME at `p` (normalized volume coordinates).
 fn NAME_sample(p: vec3f) -> f32 {
     let x0 = p * NAME_layout.grid.xyz;
@@ -44,6 +64,12 @@ fn NAME_sample(p: vec3f) -> f32 {
     let coarsest = i32(NAME_layout.grid.w) - 1;
     var level = min(max(wanted, i32(NAME_layout.detail.y)), coarsest);
     let edge = NAME_layout.pool.w;
+    let apron = NAME_layout.detail.z;
+    // The wanted brick in level-0 voxels: the segment ends where it does, so the ray asks for
+    // the next one even while a coarser level answers.
+    let wanted_scale = bitcast<f32>((127 - level) << 23);
+    let wanted_x = clamp(x0 * wanted_scale, vec3f(0.5), ceil(NAME_layout.grid.xyz * wanted_scale) - 0.5);
+    let wanted_lo = floor(wanted_x * (1.0 / edge)) * edge / wanted_scale;
     var x: vec3f;
     var lo: vec3f;
     var entry: u32;
@@ -69,15 +95,52 @@ fn NAME_sample(p: vec3f) -> f32 {
     // brick's first voxel.
     let bits = bitcast<i32>(entry);
     let slot = vec3f((vec3i(bits) >> vec3u(20u, 10u, 0u)) & vec3i(1023));
-    let texel = x - lo + slot * (edge + 2.0) + 1.0;
-    let value = textureSampleLevel(NAME, NAME_sampler, texel * NAME_layout.pool.xyz, 0.0).x;
+    let shift = slot * (edge + 2.0 * apron) + apron - lo;
+    let value = textureSampleLevel(NAME, NAME_sampler, (x + shift) * NAME_layout.pool.xyz, 0.0).x;
     // A brick of one value holds it in 30-bit fixed point.
     let constant = f32(bits & 0x3fffffff) * (1.0 / 1073741823.0);
     let kind = entry >> 30u;
+    if NAME_segment_open {
+        // The samples of the segment may read up to half a voxel short of the apron's end.
+        let scale = bitcast<f32>((127 - level) << 23);
+        let margin = apron - 0.5;
+        NAME_segment_open = false;
+        NAME_segment_lo = wanted_lo * scale - margin;
+        NAME_segment_hi = (wanted_lo + edge / wanted_scale) * scale + margin;
+        NAME_segment_scale = NAME_layout.grid.xyz * scale;
+        NAME_segment_top = ceil(NAME_layout.grid.xyz * scale) - 0.5;
+        NAME_segment_shift = shift;
+        NAME_segment_value = vec2f(select(0.0, constant, kind == 2u), select(1.0, 0.0, kind == 1u));
+    }
     return select(select(0.0, value, kind == 1u), constant, kind == 2u);
 }
 
 // Level-0 voxels per axis of bricked volume NAME: what `dims(v)` gives.
 fn NAME_dims() -> vec3u {
     return vec3u(NAME_layout.grid.xyz);
+}
+
+// Opens a segment: the next full lookup keeps the brick it finds. Until then the segment is
+// empty, so that no sample reads a segment of another sample's choosing.
+fn NAME_segment_start() {
+    NAME_segment_open = true;
+    NAME_segment_out = false;
+    NAME_segment_lo = vec3f(1.0);
+    NAME_segment_hi = vec3f(0.0);
+}
+
+// The value of bricked volume NAME at `p` read from the ray's segment, without the page table;
+// a position outside the segment reads a wrong value and is noted (`NAME_segment_missed`).
+fn NAME_sample_in_segment(p: vec3f) -> f32 {
+    let x = clamp(p * NAME_segment_scale, vec3f(0.5), NAME_segment_top);
+    NAME_segment_out = NAME_segment_out || any(x < NAME_segment_lo) || any(x > NAME_segment_hi);
+    let value = textureSampleLevel(NAME, NAME_sampler, (x + NAME_segment_shift) * NAME_layout.pool.xyz, 0.0).x;
+    return select(value, NAME_segment_value.x, NAME_segment_value.y != 0.0);
+}
+
+// Whether a sample read outside the segment since the last call.
+fn NAME_segment_missed() -> bool {
+    let out = NAME_segment_out;
+    NAME_segment_out = false;
+    return out;
 }

@@ -158,8 +158,10 @@ fn bricked_volumes_sample_through_their_lookup() {
         let wgsl = &shader.wgsl;
         assert!(wgsl.contains("fn volume_sample(p: vec3<f32>) -> f32"), "{}: {wgsl}", view.name);
         assert!(wgsl.contains("volume_sample("), "{}", view.name);
-        // The pool is sampled in the lookup only.
-        assert_eq!(wgsl.matches("textureSampleLevel(volume, volume_sampler").count(), 1, "{}", view.name);
+        // The pool is sampled in the lookup only: its exact sample and its sample inside the
+        // current brick's segment.
+        assert_eq!(wgsl.matches("textureSampleLevel(volume, volume_sampler").count(), 2, "{}", view.name);
+        assert!(wgsl.contains("fn volume_sample_in_segment("), "{}", view.name);
         // The additional volume keeps its texture.
         assert!(wgsl.contains("textureSampleLevel(volume_ct, volume_ct_sampler"), "{}", view.name);
         let kinds: Vec<_> =

@@ -39,6 +39,13 @@ impl BrickRanges {
         builder.finish()
     }
 
+    /// Ranges per texel of a grid of `bricks` texels (x fastest), as [`RangeBuilder`] makes them
+    /// (`bricks::ranges` learns them brick by brick).
+    pub(crate) fn from_ranges(bricks: [u32; 3], ranges: Vec<(f32, f32)>) -> BrickRanges {
+        debug_assert_eq!(ranges.len(), bricks.iter().map(|&n| n as usize).product::<usize>());
+        BrickRanges { bricks, ranges }
+    }
+
     #[cfg(test)]
     /// `std::skip`'s grid: 1 where `tf` gives some value in the brick's range a non-zero
     /// opacity, else 0.
@@ -106,6 +113,23 @@ impl SceneRanges {
     pub(crate) fn add(&mut self, name: &str, ranges: BrickRanges, to_primary: glam::Mat4, tf: &TransferFunction) {
         let visible = VisibleRanges::new(tf);
         self.additional.push(AdditionalRanges { name: name.to_string(), ranges, to_primary, visible });
+    }
+
+    /// Replaces the ranges of volume `name` (the primary when `primary`) with what is known of
+    /// them now (a bricked volume learns as its bricks are read); false when the volume takes
+    /// no part in the grid.
+    pub(crate) fn set_ranges(&mut self, name: &str, primary: bool, ranges: BrickRanges) -> bool {
+        if primary {
+            self.primary.0 = ranges;
+            return true;
+        }
+        match self.additional.iter_mut().find(|a| a.name == name) {
+            Some(a) => {
+                a.ranges = ranges;
+                true
+            }
+            None => false,
+        }
     }
 
     /// The primary volume's ranges (what `std::skip_mip` and `std::skip_iso` bound).
@@ -205,7 +229,7 @@ fn mark_box(bricks: [u32; 3], min: glam::Vec3, max: glam::Vec3, occupied: &mut [
 }
 
 /// For each texel along one axis, the voxels a trilinear sample in its interval may read.
-fn texel_voxels(voxels: u32, texels: u32) -> Vec<std::ops::RangeInclusive<u32>> {
+pub(crate) fn texel_voxels(voxels: u32, texels: u32) -> Vec<std::ops::RangeInclusive<u32>> {
     (0..texels)
         .map(|j| {
             // The interval [j, j + 1] / texels is [j, j + 1] * scale - 0.5 in voxel-index
@@ -240,9 +264,9 @@ pub(crate) struct RangeBuilder {
     z: usize,
 }
 
-const EMPTY: (f32, f32) = (f32::INFINITY, f32::NEG_INFINITY);
+pub(crate) const EMPTY: (f32, f32) = (f32::INFINITY, f32::NEG_INFINITY);
 
-fn merge(a: (f32, f32), b: (f32, f32)) -> (f32, f32) {
+pub(crate) fn merge(a: (f32, f32), b: (f32, f32)) -> (f32, f32) {
     (a.0.min(b.0), a.1.max(b.1))
 }
 

@@ -688,10 +688,15 @@ fn load_volumes(
             )));
         }
         if v.bricked {
+            let ranges = plan.ranges;
             let (volume, grid) = load_bricked(gpu, scene, v, plan, grids.first(), options, notices, progress)?;
-            resources.bricked.insert(v.binding(), Arc::new(volume));
-            insert_tf(gpu, resources, v, grid.curve.as_ref(), grid.window)?;
+            let table = insert_tf(gpu, resources, v, grid.curve.as_ref(), grid.window)?;
             grids.push(grid);
+            // Nothing is known of its bricks yet: the grid skips nothing until they are read.
+            if let Some(known) = volume.new_ranges().filter(|_| ranges) {
+                add_ranges(&mut scene_ranges, &grids, known, table.as_ref().unwrap_or(&default_tf));
+            }
+            resources.bricked.insert(v.binding(), Arc::new(volume));
             continue;
         }
         let (texture, window, bricks) = upload_volume(gpu, v, &plan, fed, options, notices, progress)?;

@@ -109,6 +109,22 @@ fn access(program: &hir::Program, placed: &PlacedFn) -> Access {
     out
 }
 
+/// The `@ray` fields (indices into [`Composition::fields`]) that some function of the sample
+/// loop writes: what a sample changes that outlives it (the rest is reset at each sample's
+/// start).
+pub fn ray_fields_written_per_sample(program: &hir::Program, comp: &Composition) -> Vec<usize> {
+    let mut written: Vec<usize> = Step::ALL
+        .iter()
+        .filter(|s| !s.is_per_ray())
+        .flat_map(|&s| comp.step(s).iter())
+        .flat_map(|placed| access(program, placed).writes)
+        .filter(|&f| comp.fields[f].ray)
+        .collect();
+    written.sort_unstable();
+    written.dedup();
+    written
+}
+
 /// The per-sample `bool` field `name` and the index (in `accesses`) of its last writer.
 fn last_writer(comp: &Composition, accesses: &[Access], name: &str) -> Option<(usize, usize)> {
     let flag = comp.fields.iter().position(|f| f.name == name && !f.ray && f.ty == Type::BOOL)?;

@@ -41,13 +41,43 @@
 //!         /* contributing */
 //!         /* end */
 //! ```
+//!
+//! With bricked volumes whose lookup marches brick by brick (`compose::segment`), the sample
+//! loop becomes two: a sample taken with full lookups opens each volume's segment (the brick
+//! its first lookup found), and the samples after it read the segments through the functions'
+//! variants until one reads outside a segment; that sample is taken back (`state` and `i` as
+//! they were before it) and taken again with full lookups:
+//! ```wgsl
+//!     loop {
+//!         if i >= uniforms.max_samples || state.terminate { break; }
+//!         reset_sample(&state);
+//!         volume_segment_start();       // for each bricked volume
+//!         /* start .. end functions, one sample (`if state.contributes { .. }` with a gate) */
+//!         i = i + 1u;
+//!         loop {
+//!             if i >= uniforms.max_samples || state.terminate { break; }
+//!             saved.F = state.F; saved_i = i; missed = false; // @ray fields the loop writes
+//!             reset_sample(&state);
+//!             /* start .. end functions' segment variants; after each group that reads one: */
+//!             missed = volume_segment_missed();
+//!             if missed { state.F = saved.F; i = saved_i; break; }
+//!             continuing { i = i + 1u; }
+//!         }
+//!     }
+//! ```
+//! Software rasterizers that run both sides of a branch for a group of pixels (lavapipe) do
+//! leave a loop that no lane continues, so the full lookup runs once per brick a ray crosses.
 
+use super::segment::SegmentVariants;
 use crate::lower::emitter::Emitter;
 use naga::{Expression as E, Handle, Statement as S};
 
 /// What the entry point calls and touches.
 pub struct EntryPlan {
     pub state_type: Handle<naga::Type>,
+    /// The segment march of bricked volumes: the variants of the sample functions that read
+    /// segments (`compose::segment`), when a view has one.
+    pub segment: Option<SegmentVariants>,
     /// Member indices in `State`; a missing field is simply not touched.
     pub pixel: Option<u32>,
     pub terminate: Option<u32>,
@@ -220,35 +250,26 @@ pub fn build(module: &mut naga::Module, plan: &EntryPlan) -> naga::EntryPoint {
     let counter = b.expr(E::LocalVariable(counter_var));
     let zero = b.literal(naga::Literal::U32(0));
     b.push(&mut body, S::Store { pointer: counter, value: zero });
-    let mut loop_body = naga::Block::new();
-    let done = sample_loop_done(&mut b, plan, state, counter);
-    b.exit_if(&mut loop_body, done, S::Break);
-    b.call(&mut loop_body, plan.reset_sample, state);
-    for &f in &plan.samples {
-        b.call(&mut loop_body, f, state);
-    }
-    if let Some(EntryGate::Each { flag }) = plan.gate {
-        skip_non_contributing(&mut b, &mut loop_body, plan, state, counter, flag);
-    }
+    let bool_type = add_type(module, naga::TypeInner::Scalar(naga::Scalar::BOOL));
     let kept = match &plan.gate {
-        Some(EntryGate::Once { flag, saved, .. }) => {
-            let bool_type = add_type(module, naga::TypeInner::Scalar(naga::Scalar::BOOL));
-            let types = (plan.state_type, bool_type);
-            Some(b.keep_selected(&mut body, &mut loop_body, state, (*flag, saved), types))
-        }
-        _ => {
-            for &f in &plan.contributing {
-                b.call(&mut loop_body, f, state);
-            }
-            None
+        Some(EntryGate::Once { .. }) => Some(b.kept_locals(&mut body, (plan.state_type, bool_type))),
+        _ => None,
+    };
+    let loops = Loops { plan, state, counter, kept: kept.as_ref() };
+    let sample_loop = match &plan.segment {
+        None => loops.single(&mut b),
+        Some(segment) => {
+            let u32_type = add_type(module, naga::TypeInner::Scalar(naga::Scalar::U32));
+            let saved = Saved {
+                state: b.local("saved", plan.state_type),
+                members: segment.saved.clone(),
+                counter: b.local("saved_i", u32_type),
+                missed: b.local("missed", bool_type),
+            };
+            loops.segmented(&mut b, segment, &saved)
         }
     };
-    for &f in &plan.sample_end {
-        b.call(&mut loop_body, f, state);
-    }
-    let mut continuing = naga::Block::new();
-    increment(&mut b, &mut continuing, counter);
-    b.push(&mut body, S::Loop { body: loop_body, continuing, break_if: None });
+    b.push(&mut body, sample_loop);
     if let (Some(kept), Some(EntryGate::Once { saved, restored, .. })) = (kept, &plan.gate) {
         b.replay_selected(&mut body, plan, state, kept, saved, restored);
     }
@@ -264,40 +285,241 @@ pub fn build(module: &mut naga::Module, plan: &EntryPlan) -> naga::EntryPoint {
     compute_entry_point(function)
 }
 
-/// The samples of a ray that cannot contribute, skipped ([`EntryGate::Each`] with flag `member`).
-///
-/// Samples that cannot contribute run only `samples` and `sample_end`, in an inner loop that
-/// moves on to the next sample until one contributes (or the ray ends): a group of invocations
-/// that runs in lockstep (SIMD lanes, a warp) then does the contributing work together rather
-/// than each lane in turn, and where lanes only mask code (as on lavapipe) the work is not done
-/// for samples that skip it. Every invocation still runs its samples' functions in the same
-/// order as with `if contributes { .. }`.
-fn skip_non_contributing(
-    b: &mut Body,
-    loop_body: &mut naga::Block,
-    plan: &EntryPlan,
+/// What the sample loops of the entry point read and write.
+struct Loops<'a> {
+    plan: &'a EntryPlan,
     state: Handle<E>,
     counter: Handle<E>,
-    member: u32,
-) {
-    let mut skipping = naga::Block::new();
-    let contributes = load_member(b, state, member);
-    b.exit_if(&mut skipping, contributes, S::Break);
-    for &f in &plan.sample_end {
-        b.call(&mut skipping, f, state);
+    kept: Option<&'a Kept>,
+}
+
+/// The functions one sample runs, and how it stands to the bricked volumes' segments.
+struct Iteration<'a> {
+    samples: &'a [Handle<naga::Function>],
+    contributing: &'a [Handle<naga::Function>],
+    sample_end: &'a [Handle<naga::Function>],
+    segments: Segments<'a>,
+}
+
+/// How a sample uses the segments of the bricked volumes (`compose::segment`).
+#[derive(Clone, Copy)]
+enum Segments<'a> {
+    /// No segment march.
+    None,
+    /// Full lookups, each sample opening the segments (the volumes' `segment_start`).
+    Open(&'a [Handle<naga::Function>]),
+    /// Reads of the segments: each sample saved before it runs, and taken back (then left for a
+    /// full lookup) where it read outside a segment (the volumes' `segment_missed`, asked
+    /// after each of `samples`, `contributing` and `sample_end` that reads a segment).
+    Read(&'a [Handle<naga::Function>], &'a Saved, Groups),
+}
+
+/// Which of the groups of sample functions (`samples`, `contributing`, `sample_end`) read a
+/// segment.
+#[derive(Clone, Copy)]
+struct Groups {
+    samples: bool,
+    contributing: bool,
+    sample_end: bool,
+}
+
+/// The locals of the segment march: the state and sample count before the sample, and whether
+/// it read outside a segment.
+struct Saved {
+    state: Handle<E>,
+    /// The members of `State` saved: the `@ray` fields the sample loop writes (the rest are
+    /// reset when the sample is taken again).
+    members: Vec<u32>,
+    counter: Handle<E>,
+    missed: Handle<E>,
+}
+
+impl Loops<'_> {
+    /// `loop { SAMPLE continuing { i = i + 1u; } }`.
+    fn single(&self, b: &mut Body) -> S {
+        let plan = self.plan;
+        let every = Iteration {
+            samples: &plan.samples,
+            contributing: &plan.contributing,
+            sample_end: &plan.sample_end,
+            segments: Segments::None,
+        };
+        let mut loop_body = naga::Block::new();
+        self.sample(b, &mut loop_body, &every);
+        let mut continuing = naga::Block::new();
+        increment(b, &mut continuing, self.counter);
+        S::Loop { body: loop_body, continuing, break_if: None }
     }
-    increment(b, &mut skipping, counter);
-    let done = sample_loop_done(b, plan, state, counter);
-    b.exit_if(&mut skipping, done, S::Break);
-    b.call(&mut skipping, plan.reset_sample, state);
-    for &f in &plan.samples {
-        b.call(&mut skipping, f, state);
+
+    /// The march brick by brick: a sample with full lookups opens the segments, and the samples
+    /// after it read them until one reads outside a segment, which is taken back and taken
+    /// again with full lookups:
+    /// `loop { SAMPLE(open) i = i + 1u; loop { SAMPLE(read) continuing { i = i + 1u; } } }`.
+    fn segmented(&self, b: &mut Body, segment: &SegmentVariants, saved: &Saved) -> S {
+        let plan = self.plan;
+        let starts: Vec<_> = segment.volumes.iter().map(|v| v.start).collect();
+        let missed: Vec<_> = segment.volumes.iter().map(|v| v.missed).collect();
+        let opening = Iteration {
+            samples: &plan.samples,
+            contributing: &plan.contributing,
+            sample_end: &plan.sample_end,
+            segments: Segments::Open(&starts),
+        };
+        let reading = Iteration {
+            samples: &segment.samples,
+            contributing: &segment.contributing,
+            sample_end: &segment.sample_end,
+            segments: Segments::Read(
+                &missed,
+                saved,
+                Groups {
+                    samples: segment.samples != plan.samples,
+                    contributing: segment.contributing != plan.contributing,
+                    sample_end: segment.sample_end != plan.sample_end,
+                },
+            ),
+        };
+        let mut outer = naga::Block::new();
+        self.sample(b, &mut outer, &opening);
+        increment(b, &mut outer, self.counter);
+        let mut inner = naga::Block::new();
+        self.sample(b, &mut inner, &reading);
+        let mut continuing = naga::Block::new();
+        increment(b, &mut continuing, self.counter);
+        b.push(&mut outer, S::Loop { body: inner, continuing, break_if: None });
+        S::Loop { body: outer, continuing: naga::Block::new(), break_if: None }
     }
-    b.push(loop_body, S::Loop { body: skipping, continuing: naga::Block::new(), break_if: None });
-    // Left without a contributing sample: the ray ended.
-    let contributes = load_member(b, state, member);
-    let ended = b.expr(E::Unary { op: naga::UnaryOperator::LogicalNot, expr: contributes });
-    b.exit_if(loop_body, ended, S::Break);
+
+    /// One sample, leaving the loop when the ray is over (or, reading segments, when it read
+    /// outside one).
+    fn sample(&self, b: &mut Body, block: &mut naga::Block, it: &Iteration<'_>) {
+        let plan = self.plan;
+        let done = sample_loop_done(b, plan, self.state, self.counter);
+        b.exit_if(block, done, S::Break);
+        self.start(b, block, it);
+        for &f in it.samples {
+            b.call(block, f, self.state);
+        }
+        self.take_back_if_missed(b, block, it, |g| g.samples);
+        match (&plan.gate, self.kept) {
+            (Some(EntryGate::Once { flag, saved, .. }), Some(kept)) => {
+                b.keep_selected(block, self.state, kept, (*flag, saved))
+            }
+            // The sample that opens segments is one sample: the next ones read them.
+            (Some(EntryGate::Each { flag }), _) if matches!(it.segments, Segments::Open(_)) => {
+                let mut accept = naga::Block::new();
+                for &f in it.contributing {
+                    b.call(&mut accept, f, self.state);
+                }
+                let contributes = load_member(b, self.state, *flag);
+                b.push(block, S::If { condition: contributes, accept, reject: naga::Block::new() });
+            }
+            (gate, _) => {
+                if let Some(EntryGate::Each { flag }) = gate {
+                    self.skip_non_contributing(b, block, it, *flag);
+                }
+                for &f in it.contributing {
+                    b.call(block, f, self.state);
+                }
+            }
+        }
+        for &f in it.sample_end {
+            b.call(block, f, self.state);
+        }
+        self.take_back_if_missed(b, block, it, |g| g.contributing || g.sample_end);
+    }
+
+    /// The start of a sample: `reset_sample(&state);`, after `saved.F = state.F; saved_i = i;
+    /// missed = false;` (the saved members) when it reads segments, and before the volumes' `segment_start()` when it opens them.
+    fn start(&self, b: &mut Body, block: &mut naga::Block, it: &Iteration<'_>) {
+        if let Segments::Read(_, saved, _) = it.segments {
+            b.copy_members(block, saved.state, self.state, &saved.members);
+            let i = b.expr(E::Load { pointer: self.counter });
+            b.push(block, S::Store { pointer: saved.counter, value: i });
+            let no = b.literal(naga::Literal::Bool(false));
+            b.push(block, S::Store { pointer: saved.missed, value: no });
+        }
+        b.call(block, self.plan.reset_sample, self.state);
+        if let Segments::Open(starts) = it.segments {
+            for &start in starts {
+                b.push(block, S::Call { function: start, arguments: Vec::new(), result: None });
+            }
+        }
+    }
+
+    /// Reading segments: `missed = A_segment_missed() | B_segment_missed() ..; if missed {
+    /// state.F = saved.F; i = saved_i; break; }` (every volume's flag is read, which clears it).
+    /// Nothing where `reads` says the functions just called read no segment.
+    fn take_back_if_missed(
+        &self,
+        b: &mut Body,
+        block: &mut naga::Block,
+        it: &Iteration<'_>,
+        reads: fn(Groups) -> bool,
+    ) {
+        let Segments::Read(missed_fns, saved, groups) = it.segments else {
+            return;
+        };
+        if !reads(groups) {
+            return;
+        }
+        let mut any = None;
+        for &function in missed_fns {
+            let result = b.expr(E::CallResult(function));
+            b.push(block, S::Call { function, arguments: Vec::new(), result: Some(result) });
+            any = Some(match any {
+                Some(before) => b.binary(naga::BinaryOperator::LogicalOr, before, result),
+                None => result,
+            });
+        }
+        let Some(any) = any else {
+            return;
+        };
+        b.push(block, S::Store { pointer: saved.missed, value: any });
+        let mut accept = naga::Block::new();
+        b.copy_members(&mut accept, self.state, saved.state, &saved.members);
+        let i = b.expr(E::Load { pointer: saved.counter });
+        b.push(&mut accept, S::Store { pointer: self.counter, value: i });
+        accept.push(S::Break, naga::Span::UNDEFINED);
+        b.push(block, S::If { condition: any, accept, reject: naga::Block::new() });
+    }
+
+    /// The samples of a ray that cannot contribute, skipped ([`EntryGate::Each`] with flag
+    /// `member`).
+    ///
+    /// Samples that cannot contribute run only `samples` and `sample_end`, in an inner loop that
+    /// moves on to the next sample until one contributes (or the ray ends): a group of
+    /// invocations that runs in lockstep (SIMD lanes, a warp) then does the contributing work
+    /// together rather than each lane in turn, and where lanes only mask code (as on lavapipe)
+    /// the work is not done for samples that skip it. Every invocation still runs its samples'
+    /// functions in the same order as with `if contributes { .. }`.
+    fn skip_non_contributing(&self, b: &mut Body, block: &mut naga::Block, it: &Iteration<'_>, member: u32) {
+        let mut skipping = naga::Block::new();
+        let contributes = load_member(b, self.state, member);
+        b.exit_if(&mut skipping, contributes, S::Break);
+        for &f in it.sample_end {
+            b.call(&mut skipping, f, self.state);
+        }
+        self.take_back_if_missed(b, &mut skipping, it, |g| g.sample_end);
+        increment(b, &mut skipping, self.counter);
+        let done = sample_loop_done(b, self.plan, self.state, self.counter);
+        b.exit_if(&mut skipping, done, S::Break);
+        self.start(b, &mut skipping, it);
+        for &f in it.samples {
+            b.call(&mut skipping, f, self.state);
+        }
+        self.take_back_if_missed(b, &mut skipping, it, |g| g.samples);
+        b.push(block, S::Loop { body: skipping, continuing: naga::Block::new(), break_if: None });
+        // Left for a sample read outside a segment: that sample is taken again.
+        if let Segments::Read(_, saved, _) = it.segments {
+            let missed = b.expr(E::Load { pointer: saved.missed });
+            b.exit_if(block, missed, S::Break);
+        }
+        // Left without a contributing sample: the ray ended.
+        let contributes = load_member(b, self.state, member);
+        let ended = b.expr(E::Unary { op: naga::UnaryOperator::LogicalNot, expr: contributes });
+        b.exit_if(block, ended, S::Break);
+    }
 }
 
 /// The ray's results: `state.out_color` (or zero) into the output image at pixel `p`, and the
@@ -377,27 +599,24 @@ impl Body {
         }
     }
 
-    /// `kept_any = false;` before the loop, and in the loop after the functions that always run
-    /// (`types`: `State` and `bool`):
-    /// `if state.FLAG { kept.F = state.F (saved); kept_any = true; }`.
-    fn keep_selected(
-        &mut self,
-        body: &mut naga::Block,
-        loop_body: &mut naga::Block,
-        state: Handle<E>,
-        (flag, saved): (u32, &[u32]),
-        types: (Handle<naga::Type>, Handle<naga::Type>),
-    ) -> Kept {
+    /// The locals of a ray that keeps its selected sample, and `kept_any = false;` before the
+    /// loop (`types`: `State` and `bool`).
+    fn kept_locals(&mut self, body: &mut naga::Block, types: (Handle<naga::Type>, Handle<naga::Type>)) -> Kept {
         let kept = Kept { state: self.local("kept", types.0), any: self.local("kept_any", types.1) };
         let no = self.literal(naga::Literal::Bool(false));
         self.push(body, S::Store { pointer: kept.any, value: no });
+        kept
+    }
+
+    /// In the loop after the functions that always run:
+    /// `if state.FLAG { kept.F = state.F (saved); kept_any = true; }`.
+    fn keep_selected(&mut self, block: &mut naga::Block, state: Handle<E>, kept: &Kept, (flag, saved): (u32, &[u32])) {
         let mut accept = naga::Block::new();
         self.copy_members(&mut accept, kept.state, state, saved);
         let yes = self.literal(naga::Literal::Bool(true));
         self.push(&mut accept, S::Store { pointer: kept.any, value: yes });
         let selected = load_member(self, state, flag);
-        self.push(loop_body, S::If { condition: selected, accept, reject: naga::Block::new() });
-        kept
+        self.push(block, S::If { condition: selected, accept, reject: naga::Block::new() });
     }
 
     /// After the loop: `if kept_any { ended = state; state.F = kept.F (saved); WAITING;

@@ -48,6 +48,7 @@ mod merge;
 pub(crate) mod place;
 pub mod probe;
 pub(crate) mod reflect;
+pub(crate) mod segment;
 pub(crate) mod standard;
 #[cfg(test)]
 mod tests;

@@ -10,6 +10,7 @@
 use super::contribution;
 use super::entry::{self, EntryPlan};
 use super::ir::{Composition, Uniform};
+use super::segment;
 use crate::ast::{AssignOp, PlacementKind};
 use crate::diag::Diagnostic;
 use crate::hir::{self, ConstValue, ScalarValue};
@@ -80,18 +81,32 @@ pub fn emit(
     let init_state = lower_defaults(&mut b, program, comp, state_type, "init_state", |_| true)?;
     let reset_sample = lower_defaults(&mut b, program, comp, state_type, "reset_sample", |ray| !ray)?;
     let member = |name: &str| comp.field(name).map(|i| i as u32);
+    let (samples, contributing, sample_end) =
+        (handles(&schedule.always), handles(&schedule.contributing), handles(&schedule.end));
+    let bricked_fns: Vec<_> = access
+        .iter()
+        .filter_map(|a| match a {
+            UniformAccess::Bricked(fns) => Some(*fns),
+            _ => None,
+        })
+        .collect();
+    let segment = segment::variants(&mut b.module, &bricked_fns, [&samples, &contributing, &sample_end]).map(|s| {
+        let saved = contribution::ray_fields_written_per_sample(program, comp).into_iter().map(|f| f as u32).collect();
+        segment::SegmentVariants { saved, ..s }
+    });
     let plan = EntryPlan {
         state_type,
+        segment,
         pixel: member(entry::PIXEL),
         terminate: member(entry::TERMINATE),
         out_color: member(entry::OUT_COLOR),
         init_state,
         reset_sample,
         ray_setup,
-        samples: handles(&schedule.always),
+        samples,
         gate: entry_gate(comp, &schedule),
-        contributing: handles(&schedule.contributing),
-        sample_end: handles(&schedule.end),
+        contributing,
+        sample_end,
         ray_finish,
         uniforms: block,
         max_samples: block_member(&uniforms, MAX_SAMPLES, Span::DUMMY)?,

@@ -25,8 +25,24 @@ pub const BRICK_GLOBALS: usize = 5;
 /// The functions a bricked volume's `sample` and `dims` call.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct BrickedFns {
+    /// The full lookup, `NAME_sample(p)`.
     pub sample: Handle<naga::Function>,
     pub dims: Handle<naga::Function>,
+    /// The segment march, when the lookup has it.
+    pub segment: Option<SegmentFns>,
+}
+
+/// The functions of a lookup's segment march (`stdlib/bricks.wgsl`): the composer opens a
+/// segment before each sample it takes with the full lookup, reads the segment in the samples
+/// after it, and takes a sample again where one read outside it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct SegmentFns {
+    /// `NAME_segment_start()`.
+    pub start: Handle<naga::Function>,
+    /// `NAME_sample_in_segment(p) -> f32`: what a call of `sample` becomes in those samples.
+    pub sample: Handle<naga::Function>,
+    /// `NAME_segment_missed() -> bool`.
+    pub missed: Handle<naga::Function>,
 }
 
 /// Where a bricked volume's lookup comes from.
@@ -151,9 +167,12 @@ impl ModuleBuilder {
             };
             functions.push(self.module.functions.append(copy, at));
         }
-        // The interface check found exactly these two, in this order.
+        // The interface check found these, in this order.
         match functions[..] {
-            [sample, dims] => Ok(BrickedFns { sample, dims }),
+            [sample, dims] => Ok(BrickedFns { sample, dims, segment: None }),
+            [sample, dims, start, in_segment, missed] => {
+                Ok(BrickedFns { sample, dims, segment: Some(SegmentFns { start, sample: in_segment, missed }) })
+            }
             _ => {
                 Err(lookup_diagnostic(source, span, (naga::Span::UNDEFINED, "no `NAME_sample` and `NAME_dims`".into())))
             }

@@ -19,9 +19,22 @@ const RESOURCES: [&str; 5] = [
     "`var<storage, read_write> NAME_requests: array<u32>` (the requests)",
 ];
 
-/// The lookup's functions: `NAME_sample(p: vec3f) -> f32` and `NAME_dims() -> vec3u`.
+/// The lookup's functions: `NAME_sample(p: vec3f) -> f32` and `NAME_dims() -> vec3u`, then,
+/// optionally, the three of a segment march (see `stdlib/bricks.wgsl`).
 pub const SAMPLE: &str = "NAME_sample";
 pub const DIMS: &str = "NAME_dims";
+pub const SEGMENT_START: &str = "NAME_segment_start";
+pub const SAMPLE_IN_SEGMENT: &str = "NAME_sample_in_segment";
+pub const SEGMENT_MISSED: &str = "NAME_segment_missed";
+
+/// The functions a lookup defines, in order: the two it must have, then the three it may have.
+const FUNCTIONS: [(&str, &str); 5] = [
+    (SAMPLE, "fn NAME_sample(p: vec3f) -> f32"),
+    (DIMS, "fn NAME_dims() -> vec3u"),
+    (SEGMENT_START, "fn NAME_segment_start()"),
+    (SAMPLE_IN_SEGMENT, "fn NAME_sample_in_segment(p: vec3f) -> f32"),
+    (SEGMENT_MISSED, "fn NAME_segment_missed() -> bool"),
+];
 
 /// Checks `module` (parsed and valid) against the interface.
 pub fn check(module: &naga::Module) -> Result<(), LookupError> {
@@ -85,40 +98,49 @@ fn resource_fits(module: &naga::Module, index: usize, global: &naga::GlobalVaria
     }
 }
 
-/// Exactly `NAME_sample(vec3f) -> f32` then `NAME_dims() -> vec3u`.
+/// `NAME_sample(vec3f) -> f32` then `NAME_dims() -> vec3u`, and either nothing more or the
+/// three segment functions.
 fn check_functions(module: &naga::Module) -> Result<(), LookupError> {
-    let wanted = [(SAMPLE, "fn NAME_sample(p: vec3f) -> f32"), (DIMS, "fn NAME_dims() -> vec3u")];
     let functions: Vec<_> = module.functions.iter().collect();
-    if functions.len() != wanted.len() {
-        let span = functions.get(wanted.len()).map_or(naga::Span::UNDEFINED, |(h, _)| module.functions.get_span(*h));
+    if functions.len() != 2 && functions.len() != FUNCTIONS.len() {
+        let span = functions.get(2).map_or(naga::Span::UNDEFINED, |(h, _)| module.functions.get_span(*h));
         return Err((
             span,
             format!(
-                "a lookup defines exactly two functions, `{}` then `{}` (write helpers inline); it defines {}",
-                wanted[0].1,
-                wanted[1].1,
+                "a lookup defines `{}` then `{}`, and may add `{}`, `{}` and `{}` (write helpers inline); it defines {} functions",
+                FUNCTIONS[0].1,
+                FUNCTIONS[1].1,
+                FUNCTIONS[2].1,
+                FUNCTIONS[3].1,
+                FUNCTIONS[4].1,
                 functions.len()
             ),
         ));
     }
-    for ((handle, function), (name, signature)) in functions.into_iter().zip(wanted) {
-        let ty = |h: naga::Handle<naga::Type>| &module.types[h].inner;
-        let fits = match name {
-            SAMPLE => {
-                function.arguments.len() == 1
-                    && matches!(ty(function.arguments[0].ty), TypeInner::Vector { size: VectorSize::Tri, scalar } if *scalar == naga::Scalar::F32)
-                    && function.result.as_ref().is_some_and(|r| matches!(ty(r.ty), TypeInner::Scalar(s) if *s == naga::Scalar::F32))
-            }
-            _ => {
-                function.arguments.is_empty()
-                    && function.result.as_ref().is_some_and(|r| matches!(ty(r.ty), TypeInner::Vector { size: VectorSize::Tri, scalar } if *scalar == naga::Scalar::U32))
-            }
-        };
-        if function.name.as_deref() != Some(name) || !fits {
+    for ((handle, function), (name, signature)) in functions.into_iter().zip(FUNCTIONS) {
+        if function.name.as_deref() != Some(name) || !signature_fits(module, function, name) {
             return Err((module.functions.get_span(handle), format!("this function must be `{signature}`")));
         }
     }
     Ok(())
+}
+
+/// Whether `function`'s arguments and result are those of the interface's function `name`.
+fn signature_fits(module: &naga::Module, function: &naga::Function, name: &str) -> bool {
+    let ty = |h: naga::Handle<naga::Type>| &module.types[h].inner;
+    let vec3 = |h, scalar| matches!(ty(h), TypeInner::Vector { size: VectorSize::Tri, scalar: s } if *s == scalar);
+    let scalar = |h, scalar| matches!(ty(h), TypeInner::Scalar(s) if *s == scalar);
+    let result = function.result.as_ref().map(|r| r.ty);
+    let arguments: Vec<_> = function.arguments.iter().map(|a| a.ty).collect();
+    match name {
+        SAMPLE | SAMPLE_IN_SEGMENT => {
+            matches!(arguments[..], [p] if vec3(p, naga::Scalar::F32))
+                && result.is_some_and(|r| scalar(r, naga::Scalar::F32))
+        }
+        DIMS => arguments.is_empty() && result.is_some_and(|r| vec3(r, naga::Scalar::U32)),
+        SEGMENT_START => arguments.is_empty() && result.is_none(),
+        _ => arguments.is_empty() && result.is_some_and(|r| scalar(r, naga::Scalar::BOOL)),
+    }
 }
 
 #[cfg(test)]
@@ -137,13 +159,22 @@ mod tests {
     }
 
     #[test]
+    fn a_lookup_may_leave_out_the_segment_march() {
+        let text = BRICKS_WGSL;
+        let two = &text[..text.find("// Opens a segment").expect("the segment functions")];
+        check(&naga::front::wgsl::parse_str(two).expect("parses")).expect("fits");
+    }
+
+    #[test]
     fn lookups_without_the_interface_are_refused_saying_what_is_wanted() {
         let swapped = BRICKS_WGSL.replace("var<storage, read> NAME_pages", "var<storage, read_write> NAME_pages");
         assert!(error_of(&swapped).contains("resource 3 of the lookup must be `var<storage, read> NAME_pages"));
         let renamed = BRICKS_WGSL.replace("fn NAME_dims()", "fn NAME_size()").replace("NAME_dims", "NAME_size");
         assert!(error_of(&renamed).contains("must be `fn NAME_dims() -> vec3u`"), "{}", error_of(&renamed));
         let helper = format!("{BRICKS_WGSL}\nfn NAME_helper() -> f32 {{ return 1.0; }}\n");
-        assert!(error_of(&helper).contains("exactly two functions"));
+        assert!(error_of(&helper).contains("it defines 6 functions"), "{}", error_of(&helper));
+        let renamed = BRICKS_WGSL.replace("NAME_segment_missed", "NAME_segment_left");
+        assert!(error_of(&renamed).contains("must be `fn NAME_segment_missed() -> bool`"));
         let initialized = BRICKS_WGSL.replace(
             "@group(0) @binding(0) var NAME:",
             "var<private> NAME_count: u32 = 1u;\n@group(0) @binding(0) var NAME:",

@@ -50,7 +50,7 @@ use crate::hir;
 use crate::source::{SourceMap, Span};
 use crate::types::{Scalar, Type};
 
-pub use bricked::{BrickedFns, LookupSource};
+pub use bricked::{BrickedFns, LookupSource, SegmentFns};
 
 /// An `E0901` diagnostic: something that the checker or composer should have ruled out.
 pub(crate) fn internal(span: Span, message: impl Into<String>) -> Diagnostic {

@@ -114,17 +114,7 @@ impl Cx<'_> {
         let modules = raw.modules.into_iter().map(|m| self.module(m)).collect();
         let uniforms = self.uniforms(raw.uniforms, &render);
         let meshes = self.meshes(raw.meshes, &volumes);
-        let mut views = self.views(raw.views, shared.as_ref(), &render, &meshes);
-        // The occupancy grid of empty-space skipping is made from every voxel's value, which a
-        // bricked volume never has in memory: its rays skip nothing (constant bricks still cost
-        // one page-table read per sample, not a texture fetch).
-        let mut render = render;
-        if volumes.iter().any(|v| v.bricked && matches!(v.role.value, Role::Primary | Role::Additional)) {
-            render.empty_space_skipping = false;
-            for view in &mut views {
-                view.render.empty_space_skipping = false;
-            }
-        }
+        let views = self.views(raw.views, shared.as_ref(), &render, &meshes);
         Scene { render, volumes, modules, uniforms, views, meshes, memory, dir: self.dir.to_path_buf() }
     }
 

@@ -54,8 +54,8 @@ impl Summary {
             for y in 0..inside[1] {
                 let row = box_index([0, y / 2, z / 2], [HALF; 3]);
                 for x in 0..inside[0] {
-                    // Past the one-voxel apron.
-                    sums[row + (x / 2) as usize] += data.at([x + 1, y + 1, z + 1]);
+                    // Past the apron.
+                    sums[row + (x / 2) as usize] += data.voxel([x, y, z]);
                 }
             }
         }

@@ -1,6 +1,6 @@
 //! Bricked volumes: volumes larger than a texture or than memory, split into bricks of
-//! `BRICK`^3 voxels (each stored with an `APRON` of one voxel on every side, so trilinear
-//! filtering is seamless across bricks) in a mip pyramid, read on demand from a [`BrickSource`]
+//! `BRICK`^3 voxels (each stored with an `APRON` of two voxels on every side, so trilinear
+//! filtering is seamless across bricks and a ray's segment may reach half a voxel past its brick) in a mip pyramid, read on demand from a [`BrickSource`]
 //! and kept on the GPU in a brick pool that a page table indexes (`residency`).
 //!
 //! Sources: Zarr v2/v3 and OME-Zarr stores (`zarr`, through the `zarrs` crate; multiscales read
@@ -11,6 +11,7 @@ mod lazy_levels;
 pub(crate) mod loader;
 pub(crate) mod mapped;
 pub(crate) mod pyramid;
+pub(crate) mod ranges;
 pub(crate) mod residency;
 pub(crate) mod source;
 pub mod zarr;
@@ -25,7 +26,7 @@ pub use source::{BrickData, BrickError, BrickSource, Level};
 pub(crate) const BRICK: u32 = 64;
 
 /// Voxels of neighbouring data (or repeated edge voxels) stored on each side of a brick.
-pub(crate) const APRON: u32 = 1;
+pub(crate) const APRON: u32 = 2;
 
 /// Voxels along each edge of a brick as stored: the brick and its apron on both sides.
 pub(crate) const STORED: u32 = BRICK + 2 * APRON;

@@ -173,20 +173,21 @@ mod tests {
         let source = PyramidSource::from_volume(&volume);
         assert_eq!(source.levels()[0].bricks, [3, 2, 1]);
         let brick = source.read(0, [1, 0, 0]).unwrap();
-        // Interior: stored (1, 1, 1) is voxel (64, 0, 0).
-        assert_eq!(brick.at([APRON, APRON, APRON]), voxel(&volume, [BRICK, 0, 0]));
-        assert_eq!(brick.at([10, 20, 5]), voxel(&volume, [BRICK + 9, 19, 4]));
-        // The apron before x holds the neighbour brick's last voxel, after x the next one's first.
-        assert_eq!(brick.at([0, 5, 5]), voxel(&volume, [BRICK - 1, 4, 4]));
-        assert_eq!(brick.at([STORED - 1, 5, 5]), voxel(&volume, [2 * BRICK, 4, 4]));
+        // Interior: stored (APRON, APRON, APRON) is voxel (64, 0, 0).
+        const A: u32 = APRON;
+        assert_eq!(brick.at([A, A, A]), voxel(&volume, [BRICK, 0, 0]));
+        assert_eq!(brick.at([10, 20, 5]), voxel(&volume, [BRICK + 10 - A, 20 - A, 5 - A]));
+        // The apron before x holds the neighbour brick's last voxels, after x the next one's first.
+        assert_eq!(brick.at([0, 5, 5]), voxel(&volume, [BRICK - A, 5 - A, 5 - A]));
+        assert_eq!(brick.at([STORED - 1, 5, 5]), voxel(&volume, [2 * BRICK + A - 1, 5 - A, 5 - A]));
         // Before y and z (the volume's start), and past z's 9 voxels, the edge voxel repeats.
-        assert_eq!(brick.at([5, 0, 0]), voxel(&volume, [BRICK + 4, 0, 0]));
-        assert_eq!(brick.at([5, 3, STORED - 1]), voxel(&volume, [BRICK + 4, 2, 8]));
-        assert_eq!(brick.at([5, 3, 30]), voxel(&volume, [BRICK + 4, 2, 8]));
+        assert_eq!(brick.at([5, 0, 0]), voxel(&volume, [BRICK + 5 - A, 0, 0]));
+        assert_eq!(brick.at([5, 3, STORED - 1]), voxel(&volume, [BRICK + 5 - A, 3 - A, 8]));
+        assert_eq!(brick.at([5, 3, 30]), voxel(&volume, [BRICK + 5 - A, 3 - A, 8]));
         // The last brick along x: voxels 128, 129, then 129 repeated.
         let last = source.read(0, [2, 0, 0]).unwrap();
-        assert_eq!(last.at([2, 1, 1]), voxel(&volume, [129, 0, 0]));
-        assert_eq!(last.at([40, 1, 1]), voxel(&volume, [129, 0, 0]));
+        assert_eq!(last.at([A + 1, A, A]), voxel(&volume, [129, 0, 0]));
+        assert_eq!(last.at([40, A, A]), voxel(&volume, [129, 0, 0]));
     }
 
     #[test]
@@ -197,10 +198,12 @@ mod tests {
         let brick = source.read(1, [0, 0, 0]).unwrap();
         let mean = |cells: &[[u32; 3]]| cells.iter().map(|&c| voxel(&volume, c)).sum::<f32>() / cells.len() as f32;
         let full: Vec<[u32; 3]> = (0..8).map(|i| [2 + (i & 1), 2 + ((i >> 1) & 1), (i >> 2) & 1]).collect();
-        assert_eq!(brick.at([2, 2, 1]), mean(&full));
+        // Stored voxel s is level voxel s - APRON.
+        const A: u32 = APRON;
+        assert_eq!(brick.at([1 + A, 1 + A, A]), mean(&full));
         // At the odd edges only the existing children count: x 130 alone, y 4 alone, z 2 alone.
-        assert_eq!(source.read(1, [1, 0, 0]).unwrap().at([2, 3, 2]), mean(&[[130, 4, 2]]));
-        assert_eq!(brick.at([1, 3, 2]), mean(&[[0, 4, 2], [1, 4, 2]]));
+        assert_eq!(source.read(1, [1, 0, 0]).unwrap().at([1 + A, 2 + A, 1 + A]), mean(&[[130, 4, 2]]));
+        assert_eq!(brick.at([A, 2 + A, 1 + A]), mean(&[[0, 4, 2], [1, 4, 2]]));
     }
 
     #[test]

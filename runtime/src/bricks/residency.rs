@@ -14,9 +14,11 @@ use std::sync::{Arc, Mutex};
 use glam::{Mat4, Vec3};
 
 use super::loader::{Loader, Normalized};
-use super::{BRICK, BrickSource, Level, MAX_BRICKS, STORED, lock, table_entries};
+use super::ranges::{LearntRanges, stored_voxel};
+use super::{APRON, BRICK, BrickSource, Level, MAX_BRICKS, STORED, lock, table_entries};
 use crate::error::RuntimeError;
 use crate::gpu::Gpu;
+use crate::occupancy::BrickRanges;
 
 /// Page-table entry kinds (the top two bits), as the lookup reads them.
 const MISSING: u32 = 0;
@@ -90,6 +92,9 @@ struct State {
     /// Loading errors, once each (a corrupt chunk is reported, its brick left missing).
     errors: Vec<String>,
     failed: HashSet<u32>,
+    /// What the level-0 bricks read so far tell of the values, for empty-space skipping (kept
+    /// after an eviction).
+    learnt: LearntRanges,
 }
 
 /// A bricked volume's GPU objects and residency.
@@ -190,6 +195,7 @@ impl BrickedVolume {
             stats: Residency { slots: count, ..Residency::default() },
             errors: Vec::new(),
             failed: HashSet::new(),
+            learnt: LearntRanges::new(levels[0].dims),
         };
         let volume = BrickedVolume {
             name: name.to_string(),
@@ -220,6 +226,13 @@ impl BrickedVolume {
     /// The levels, finest first.
     pub(crate) fn levels(&self) -> &[Level] {
         &self.levels
+    }
+
+    /// The value ranges empty-space skipping reads (a grid as fine as a single texture's), as
+    /// far as the level-0 bricks read so far tell, when they told something new since the last
+    /// call (`None`: nothing new).
+    pub(crate) fn new_ranges(&self) -> Option<BrickRanges> {
+        self.lock().learnt.take_changed()
     }
 
     /// Counts of the residency now.
@@ -267,7 +280,7 @@ impl BrickedVolume {
         let pool = self.pool_dims.map(|n| 1.0 / n as f32);
         words.extend([f(pool[0]), f(pool[1]), f(pool[2]), f(BRICK as f32)]);
         let finest = finest.max(self.floor.load(Ordering::Relaxed)).min(self.levels.len() as u32 - 1);
-        words.extend([f(footprint * footprint), f(finest as f32), 0, 0]);
+        words.extend([f(footprint * footprint), f(finest as f32), f(APRON as f32), 0]);
         let [bx, by, bz] = self.levels[0].bricks.map(|n| n as f32);
         words.extend([f(1.0), f(bx), f(bx * by), f(bx * by * bz)]);
         bytemuck::cast_slice(&words).to_vec()
@@ -375,6 +388,15 @@ impl BrickedVolume {
             arrived += 1;
             let mut state = self.lock();
             state.pending.remove(&entry);
+            if let Ok(data) = &result {
+                let (level, brick) = self.brick_of(entry);
+                if level == 0 {
+                    match data {
+                        Normalized::Constant(v) => state.learnt.record(brick, |_| *v),
+                        Normalized::Voxels(voxels) => state.learnt.record(brick, |at| stored_voxel(voxels, at)),
+                    }
+                }
+            }
             match result {
                 Ok(Normalized::Constant(value)) => {
                     state.table[entry as usize] = CONSTANT | (value.clamp(0.0, 1.0) * PAYLOAD as f32).round() as u32;

@@ -54,13 +54,19 @@ impl BrickData {
     /// Values of a [`BrickData::Voxels`] brick.
     pub(crate) const LEN: usize = (STORED * STORED * STORED) as usize;
 
-    /// The voxel at `[x, y, z]` of the stored brick (apron included: 0 is the apron before the
-    /// brick's first voxel).
+    /// The voxel at `[x, y, z]` of the stored brick (apron included: 0 is the outermost apron
+    /// voxel before the brick's first voxel, which is at `APRON`).
     pub fn at(&self, [x, y, z]: [u32; 3]) -> f32 {
         match self {
             BrickData::Constant(v) => *v,
             BrickData::Voxels(v) => v[((z * STORED + y) * STORED + x) as usize],
         }
+    }
+
+    /// The brick's own voxel at `[x, y, z]` (0 is the brick's first voxel; the apron is not
+    /// counted).
+    pub fn voxel(&self, [x, y, z]: [u32; 3]) -> f32 {
+        self.at([x + APRON, y + APRON, z + APRON])
     }
 
     /// A brick whose voxels all have one value becomes [`BrickData::Constant`].

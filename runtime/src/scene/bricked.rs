@@ -9,7 +9,7 @@ use super::{SceneRenderer, SceneView, VolumeGrid};
 use crate::bricks::mapped::MappedSource;
 use crate::bricks::pyramid::PyramidSource;
 use crate::bricks::zarr::{Choice, StoreLocation, ZarrSelection, ZarrSource};
-use crate::bricks::{BrickData, BrickSource, BrickView, BrickedVolume, Residency, STORED};
+use crate::bricks::{BrickData, BrickSource, BrickView, BrickedVolume, Residency};
 use crate::error::RuntimeError;
 use crate::gpu::Gpu;
 use crate::textures::HISTOGRAM_BINS;
@@ -151,11 +151,10 @@ fn copy_interior(brick: &BrickData, [bx, by, bz]: [u32; 3], dims: [u32; 3], out:
                     continue;
                 }
                 let index = v[0] as usize + dims[0] as usize * (v[1] as usize + dims[1] as usize * v[2] as usize);
-                out[index] = brick.at([x + 1, y + 1, z + 1]);
+                out[index] = brick.voxel([x, y, z]);
             }
         }
     }
-    debug_assert!(STORED == edge + 2);
 }
 
 /// Opens and places bricked volume `name`: its window (the scene's, else percentiles of its
@@ -247,7 +246,26 @@ impl SceneRenderer {
             progress.arrived += volume.receive(&self.gpu, wait)?;
             progress.residency = sum(progress.residency, volume.residency());
         }
+        self.skip_what_bricks_showed();
         Ok(progress)
+    }
+
+    /// Rebuilds the grids of empty-space skipping when the bricks read so far told something
+    /// new of a bricked volume's values: bricks its transfer function makes invisible are
+    /// skipped from then on, and so never asked for again.
+    fn skip_what_bricks_showed(&mut self) {
+        let Some(skipping) = &mut self.skipping else { return };
+        let mut changed = false;
+        for volume in self.resources.bricked.values() {
+            if let Some(ranges) = volume.new_ranges() {
+                let primary = self.grids.first().is_some_and(|g| g.name == volume.name);
+                changed |= skipping.set_ranges(&volume.name, primary, ranges);
+            }
+        }
+        if changed {
+            self.update_occupancy();
+            self.upload_max_grid();
+        }
     }
 
     /// Renders until the rays of every view find the bricks they asked for (or no more can be

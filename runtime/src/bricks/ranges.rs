@@ -1,0 +1,158 @@
+//! What the bricks read so far tell of a bricked volume's values, for empty-space skipping: the
+//! value range of every texel of a grid as fine as a single texture's (`occupancy::BRICK`
+//! voxels a texel), learnt from each level-0 brick the first time it arrives. A texel's samples
+//! read voxels of one or more bricks (the voxels in their interiors, each voxel in one brick's);
+//! its range is known once every one of those bricks has been read, and until then it is any
+//! value (never skipped). A coarser level bounds nothing here: its voxels are averages.
+
+use std::collections::HashSet;
+use std::ops::RangeInclusive;
+
+use super::{APRON, BRICK, STORED};
+use crate::occupancy::{self, BrickRanges, EMPTY, merge};
+
+/// Any value: a texel not yet known.
+const ANY: (f32, f32) = (f32::NEG_INFINITY, f32::INFINITY);
+
+/// The grid's ranges as far as the bricks read tell.
+pub(crate) struct LearntRanges {
+    dims: [u32; 3],
+    texels: [u32; 3],
+    /// Per texel along each axis, the voxels its samples read.
+    spans: [Vec<RangeInclusive<u32>>; 3],
+    /// Per texel: the range of the voxels read so far, and how many bricks are still to come.
+    ranges: Vec<(f32, f32)>,
+    missing: Vec<u8>,
+    /// Level-0 bricks recorded (an evicted brick that arrives again tells nothing new).
+    recorded: HashSet<[u32; 3]>,
+    /// Whether something was learnt since [`LearntRanges::take_changed`].
+    changed: bool,
+}
+
+impl LearntRanges {
+    /// Nothing known yet of a volume of `dims` voxels.
+    pub(crate) fn new(dims: [u32; 3]) -> LearntRanges {
+        let texels = dims.map(|d| d.div_ceil(occupancy::BRICK).max(1));
+        let spans = [0, 1, 2].map(|a| occupancy::texel_voxels(dims[a], texels[a]));
+        let bricks_of = |a: usize| -> Vec<u8> {
+            spans[a].iter().map(|s| (s.end() / BRICK - s.start() / BRICK + 1) as u8).collect()
+        };
+        let [bx, by, bz] = [bricks_of(0), bricks_of(1), bricks_of(2)];
+        let mut missing = Vec::with_capacity(bx.len() * by.len() * bz.len());
+        for z in &bz {
+            for y in &by {
+                for x in &bx {
+                    missing.push(x * y * z);
+                }
+            }
+        }
+        let count = missing.len();
+        LearntRanges {
+            dims,
+            texels,
+            spans,
+            ranges: vec![EMPTY; count],
+            missing,
+            recorded: HashSet::new(),
+            changed: true,
+        }
+    }
+
+    /// Takes in level-0 brick `brick`: `value(x, y, z)` gives its stored voxel (apron
+    /// included) as the pool holds it.
+    pub(crate) fn record(&mut self, brick: [u32; 3], value: impl Fn([u32; 3]) -> f32) {
+        if !self.recorded.insert(brick) {
+            return;
+        }
+        // Per axis: the brick's interior voxels and, for each, the texels that read it (a
+        // contiguous run from the axis's first texel `first[a]`).
+        let axes = [0, 1, 2].map(|a| self.interior_texels(a, brick[a]));
+        let first = [0, 1, 2].map(|a| axes[a].iter().flat_map(|(_, t)| t.clone()).min().unwrap_or(0));
+        let size = [0, 1, 2].map(|a| axes[a].iter().flat_map(|(_, t)| t.clone()).max().map_or(0, |m| m + 1 - first[a]));
+        let mut partial = vec![EMPTY; (size[0] * size[1] * size[2]) as usize];
+        for (z, tz) in &axes[2] {
+            for (y, ty) in &axes[1] {
+                for (x, tx) in &axes[0] {
+                    let v = value([
+                        x - brick[0] * BRICK + APRON,
+                        y - brick[1] * BRICK + APRON,
+                        z - brick[2] * BRICK + APRON,
+                    ]);
+                    for k in tz.clone() {
+                        for j in ty.clone() {
+                            for i in tx.clone() {
+                                let local = (i - first[0]) + size[0] * ((j - first[1]) + size[1] * (k - first[2]));
+                                let range = &mut partial[local as usize];
+                                *range = merge(*range, (v, v));
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        for (local, range) in partial.into_iter().enumerate().filter(|(_, r)| r.0 <= r.1) {
+            let local = local as u32;
+            let [i, j, k] = [local % size[0], local / size[0] % size[1], local / (size[0] * size[1])];
+            let texel = ((i + first[0]) + self.texels[0] * ((j + first[1]) + self.texels[1] * (k + first[2]))) as usize;
+            self.ranges[texel] = merge(self.ranges[texel], range);
+            self.missing[texel] = self.missing[texel].saturating_sub(1);
+        }
+        self.changed = true;
+    }
+
+    /// The interior voxels of brick `b` along axis `a`, each with the texels that read it.
+    fn interior_texels(&self, a: usize, b: u32) -> Vec<(u32, RangeInclusive<u32>)> {
+        let end = ((b + 1) * BRICK).min(self.dims[a]);
+        let spans = &self.spans[a];
+        (b * BRICK..end)
+            .filter_map(|v| {
+                let first = spans.iter().position(|s| s.contains(&v))? as u32;
+                let count = spans[first as usize..].iter().take_while(|s| s.contains(&v)).count() as u32;
+                Some((v, first..=first + count - 1))
+            })
+            .collect()
+    }
+
+    /// The grid as far as it is known, when something was learnt since the last call.
+    pub(crate) fn take_changed(&mut self) -> Option<BrickRanges> {
+        if !std::mem::take(&mut self.changed) {
+            return None;
+        }
+        let ranges = self.ranges.iter().zip(&self.missing).map(|(&r, &m)| if m == 0 { r } else { ANY }).collect();
+        Some(BrickRanges::from_ranges(self.texels, ranges))
+    }
+}
+
+/// The stored voxel at `[x, y, z]` of a brick's half floats.
+pub(crate) fn stored_voxel(voxels: &[half::f16], [x, y, z]: [u32; 3]) -> f32 {
+    voxels[((z * STORED + y) * STORED + x) as usize].to_f32()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_texel_is_known_once_every_brick_its_samples_read_has_arrived() {
+        // 100 voxels along x in bricks of 64: 13 texels; the one whose samples read voxels 63
+        // and 64 reads both bricks.
+        let mut learnt = LearntRanges::new([100, 8, 8]);
+        let straddling = learnt.spans[0].iter().position(|s| s.contains(&63) && s.contains(&64)).expect("a texel");
+        let grid = |learnt: &mut LearntRanges| learnt.take_changed().map(|r| r.max_grid().values());
+        assert!(grid(&mut learnt).expect("the first grid").iter().all(|v| v.is_infinite()), "nothing known yet");
+        // Brick 0: 0.1, but 0.9 at voxel 63.
+        learnt.record([0, 0, 0], |[x, _, _]| if x == APRON + 63 { 0.9 } else { 0.1 });
+        let after_0 = grid(&mut learnt).expect("brick 0 told something");
+        assert!(after_0[0] < 0.11, "texel 0 lies in brick 0: {after_0:?}");
+        assert!(after_0[straddling].is_infinite(), "the straddling texel waits for brick 1: {after_0:?}");
+        assert!(after_0[12].is_infinite(), "the last texel lies in brick 1");
+        assert!(grid(&mut learnt).is_none(), "nothing new");
+        learnt.record([1, 0, 0], |_| 0.3);
+        let after_1 = grid(&mut learnt).expect("brick 1 told something");
+        assert!(after_1.iter().all(|v| v.is_finite()), "{after_1:?}");
+        assert!((0.9..0.91).contains(&after_1[straddling]), "{after_1:?}");
+        assert!((0.3..0.31).contains(&after_1[12]), "{after_1:?}");
+        learnt.record([1, 0, 0], |_| 0.3);
+        assert!(grid(&mut learnt).is_none(), "a brick read again tells nothing new");
+    }
+}
