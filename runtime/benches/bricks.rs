@@ -10,7 +10,8 @@
 //! The volume is the MNI152 T1 of `../shared/data` when it is there, else the built-in head
 //! phantom at 256^3 (said in the output). Run: `cargo bench -p vrs-runtime --bench bricks`;
 //! settings: `VRS_BENCH_SIZE` (512), `VRS_BENCH_ROUNDS` (4), `VRS_BENCH_FRAMES` (2),
-//! `VRS_BENCH_SHADING` (0; 1 for shaded DVR), `VRS_BENCH_LOOKUP` (lookup files, comma
+//! `VRS_BENCH_SHADING` (0; 1 for shaded DVR), `VRS_BENCH_COMPOSITING` (`dvr`; `mip` for maximum
+//! intensity projection), `VRS_BENCH_LOOKUP` (lookup files, comma
 //! separated: a bricked row each with the scene's `lookup = FILE`, to weigh one's own lookup
 //! against the standard one), `VRS_BENCH_NO_ERT` (1: no early ray termination, so every ray
 //! takes the same samples whatever a lookup answers), `VRS_BENCH_ONLY` (a row's number: time
@@ -48,13 +49,19 @@ fn flag(name: &str) -> bool {
     std::env::var(name).is_ok_and(|v| v != "0" && v != "false")
 }
 
+/// `VRS_BENCH_COMPOSITING`: the scene's compositing (`dvr` unless set).
+fn compositing() -> String {
+    std::env::var("VRS_BENCH_COMPOSITING").unwrap_or_else(|_| "dvr".to_string())
+}
+
 fn scene(volume: &str, size: u32, shading: bool, variant: &Variant) -> String {
     let Variant { bricks, skipping, .. } = variant;
+    let compositing = compositing();
     let no_ert = flag("VRS_BENCH_NO_ERT");
     let uniforms = if no_ert { "[uniforms]\nert_threshold = 2.0\n\n" } else { "" };
     let lookup = variant.lookup.as_ref().map(|file| format!("lookup = {file:?}\n")).unwrap_or_default();
     format!(
-        "[render]\ncompositing = \"dvr\"\nshading = {shading}\njitter = 1.0\nempty_space_skipping = {skipping}\n\n\
+        "[render]\ncompositing = {compositing:?}\nshading = {shading}\njitter = 1.0\nempty_space_skipping = {skipping}\n\n\
          [[volume]]\nname = \"t1\"\nrole = \"primary\"\n{volume}\nbricks = {bricks}\n{lookup}\n\
          [[view]]\nname = \"3d\"\nkind = \"raycast\"\nsize = [{size}, {size}]\n\
          camera = {{ azimuth = 35.0, elevation = 15.0, distance = 2.4 }}\n\n{uniforms}"
@@ -76,7 +83,11 @@ fn main() {
     let shading = flag("VRS_BENCH_SHADING");
     let gpu = Gpu::headless(AdapterChoice::Software).expect("the software adapter");
     let dir = tempfile::tempdir().expect("a folder");
-    println!("adapter: {}, {size}x{size}, {rounds} rounds of {frames} frames, shading {shading}", gpu.adapter);
+    let compositing = compositing();
+    println!(
+        "adapter: {}, {size}x{size}, {rounds} rounds of {frames} frames, {compositing}, shading {shading}",
+        gpu.adapter
+    );
     let mut variants = vec![
         Variant::new("single texture, no skipping", false, false),
         Variant::new("bricked, all resident", true, false),

@@ -10,13 +10,17 @@ use std::collections::BTreeMap;
 use std::path::Path;
 use vrs_runtime::{RenderOptions, SceneRenderer};
 
-/// Bricked against one texture, the same for every view. The two sample the same voxels (the
-/// apron makes a brick's edge read its neighbour's voxels, as the whole texture does), so what
-/// differs is rounding: measured on lavapipe, a mean of at most 0.0005/255, a 99th percentile of
-/// 0 and a maximum of 1/255 (under 100 pixels of 384^2 differ at all). The limits leave room for
-/// another driver's rounding (mean 0.05, 99th percentile 1, maximum 4) and no more: a seam one
-/// voxel wide (a missing or wrong apron) passes the maximum along its pixels.
-const ALIKE: Tolerance = Tolerance { mean: 0.05, p99: 1, max: 4 };
+/// Bricked against one texture, the same for every view. The two sample the same voxels (the apron
+/// makes a brick's edge read its neighbour's voxels, as the whole texture does), so what differs is
+/// rounding: the pool's texture coordinates depend on the slot each brick got, which follows the
+/// order the loader threads finish in, so the picture varies by a rounding from run to run.
+/// Measured on lavapipe over 18 runs: a mean of at most 0.0007/255, a 99th percentile of 0, under
+/// 140 pixels of 384^2 differing at all, and a maximum of 1, 3 or 5/255 at one of two pixels where
+/// the rounding flips a ray's early termination (with `ert_threshold = 1.01`, 8 runs: a maximum of
+/// 1/255). The limits leave room for another driver's rounding (mean 0.05, 99th percentile 1,
+/// maximum 8) and no more: a seam one voxel wide (a missing or wrong apron) passes the maximum
+/// along its pixels.
+const ALIKE: Tolerance = Tolerance { mean: 0.05, p99: 1, max: 8 };
 
 /// The views of [`scene`], each compared under [`ALIKE`].
 const VIEWS: [&str; 3] = ["3d", "seam", "sagittal"];
