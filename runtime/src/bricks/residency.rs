@@ -3,8 +3,8 @@
 //! buffer rays write, a word per page-table word (`stdlib/bricks.wgsl`). After a frame the
 //! runtime reads the requests back (`BrickedVolume::start_collect`, then `finish_collect`), loads
 //! what rays asked for on loader threads (from the host cache when it is there), and places
-//! arrived bricks in free or least recently used slots
-//! (`BrickedVolume::receive`). The coarsest level is loaded first and never evicted, so every
+//! arrived bricks in their own slots when the pool has one for every brick, else in free or
+//! least recently used slots (`BrickedVolume::receive`). The coarsest level is loaded first and never evicted, so every
 //! ray finds an answer.
 
 use std::collections::{HashMap, HashSet};
@@ -82,6 +82,8 @@ struct State {
     /// Per slot: the table entry it holds and the frame it was last used in.
     owner: Vec<Option<u32>>,
     used: Vec<u64>,
+    /// Slots not given out yet, when bricks share the pool's slots (empty when every brick has
+    /// its own: [`BrickedVolume::own_slot`]).
     free: Vec<u32>,
     /// Entries asked of the loader and not yet arrived.
     pending: HashSet<u32>,
@@ -119,6 +121,8 @@ pub(crate) struct BrickedVolume {
     /// the pool holds (so coarser levels stand in rather than bricks evicting each other every
     /// frame), lowered again when a finer level would fit ([`next_floor`]).
     floor: AtomicU32,
+    /// The pool has a slot for every brick of the pyramid: each brick goes to its own.
+    own_slots: bool,
 }
 
 impl BrickedVolume {
@@ -151,6 +155,7 @@ impl BrickedVolume {
             .ok_or_else(|| invalid(format!("a memory budget of {} MiB holds no brick", budgets.0 >> 20)))?;
         let pool_dims = slots.map(|n| n * STORED);
         let count = slots.iter().product::<u32>();
+        let own_slots = bricks <= u64::from(count);
         let doing = format!("creating the brick pool of volume `{name}`");
         let texture = |label: &str, size: [u32; 3], format| {
             gpu.capture(&doing, || {
@@ -188,7 +193,7 @@ impl BrickedVolume {
             dirty: true,
             owner: vec![None; count as usize],
             used: vec![0; count as usize],
-            free: (0..count).rev().collect(),
+            free: if own_slots { Vec::new() } else { (0..count).rev().collect() },
             pending: HashSet::new(),
             pinned,
             frame: 0,
@@ -213,6 +218,7 @@ impl BrickedVolume {
             state: Mutex::new(state),
             mapping: Mutex::new(None),
             floor: AtomicU32::new(0),
+            own_slots,
         };
         volume.load_coarsest(gpu)?;
         Ok(volume)
@@ -403,7 +409,7 @@ impl BrickedVolume {
                     state.stats.constant += 1;
                     state.dirty = true;
                 }
-                Ok(Normalized::Voxels(voxels)) => match self.slot_for(&mut state) {
+                Ok(Normalized::Voxels(voxels)) => match self.slot_for(&mut state, entry) {
                     Some(slot) => {
                         self.upload(gpu, slot, &voxels);
                         uploads += 1;
@@ -440,9 +446,13 @@ impl BrickedVolume {
         Ok(arrived)
     }
 
-    /// A free slot, else the least recently used one not used in the current frame nor pinned
-    /// (its brick evicted); `None` when every slot is in use.
-    fn slot_for(&self, state: &mut State) -> Option<u32> {
+    /// The slot for brick `entry`: its own when every brick has one, else a free slot, else the
+    /// least recently used one not used in the current frame nor pinned (its brick evicted);
+    /// `None` when every slot is in use.
+    fn slot_for(&self, state: &mut State, entry: u32) -> Option<u32> {
+        if self.own_slots {
+            return Some(self.own_slot(entry));
+        }
         if let Some(slot) = state.free.pop() {
             return Some(slot);
         }
@@ -455,6 +465,18 @@ impl BrickedVolume {
             state.stats.evicted += 1;
         }
         Some(victim as u32)
+    }
+
+    /// Brick `entry`'s own slot when the pool has one for every brick: its place in the pyramid
+    /// (level by level, x fastest). So where a brick lands in the pool, and the rounding of its
+    /// pool coordinates, does not depend on the order the loader threads finish in, and a
+    /// picture repeats exactly (with slots taken in arrival order, early ray termination
+    /// flipped at a few pixels from run to run, up to 5/255).
+    fn own_slot(&self, entry: u32) -> u32 {
+        let (level, [x, y, z]) = self.brick_of(entry);
+        let before: u64 = self.levels[..level].iter().map(Level::brick_count).sum();
+        let [w, h, _] = self.levels[level].bricks;
+        (before + u64::from(x + w * (y + h * z))) as u32
     }
 
     /// Slot `slot`'s position in the pool, in slots.
