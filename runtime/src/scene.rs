@@ -122,6 +122,8 @@ struct VolumeGrid {
     histogram: Vec<u64>,
     /// The control points of its transfer function (`None` for a mask, which has none).
     curve: Option<tf::TfCurve>,
+    /// Whether it holds label ids (`labels_NAME` of `std::tag`).
+    labels: bool,
 }
 
 /// Progress of loading a volume: (volume name, bytes done, bytes in all).
@@ -618,6 +620,10 @@ fn apply_view_uniforms(view: &mut SceneView, grids: &[VolumeGrid]) -> Result<(),
             let m = geometry::primary_to((primary_dims, primary_g), (&other.dims, other.grid_to_world));
             r.set_uniform(&uniform, m)?;
         }
+        let labels = format!("labels_{}", other.name);
+        if r.has_uniform(&labels) {
+            r.set_uniform(&labels, other.labels)?;
+        }
     }
     if (view.renderer.reads_mesh_layer() || !view.overlay.is_empty())
         && let Some((camera, inv_proj)) = meshes::layer_camera(view, primary)
@@ -635,7 +641,8 @@ const GEOMETRY_INV_PROJ: &str = "geometry_inv_proj";
 
 /// Whether the renderer sets uniform `name` itself before every frame (what
 /// `apply_view_uniforms` writes: the camera, the slice plane, the transforms of the primary
-/// volume to patient space and to the other volumes), so a value set by hand would not last.
+/// volume to patient space and to the other volumes, whether a tag volume holds label ids), so a
+/// value set by hand would not last.
 pub fn is_set_by_renderer(name: &str) -> bool {
     matches!(
         name,
@@ -649,6 +656,7 @@ pub fn is_set_by_renderer(name: &str) -> bool {
             | "slab"
             | GEOMETRY_INV_PROJ
     ) || name.starts_with("primary_to_")
+        || name.starts_with("labels_")
 }
 
 /// What [`load_volumes`] leaves for the renderer besides the uploaded textures.
@@ -679,7 +687,7 @@ fn load_volumes(
     let primary = scene.primary().ok_or_else(|| RuntimeError::Invalid("the scene has no primary volume".into()))?;
     let ordered = std::iter::once(primary).chain(scene.volumes.iter().filter(|v| v.role.value != Role::Primary));
     for v in ordered {
-        let plan = VolumePlan::of(scene, v)?;
+        let plan = VolumePlan::of(scene, v, notices)?;
         let name = &v.name.name;
         let fed = options.feeds.get(name);
         if v.bricked && fed.is_some() {
@@ -710,6 +718,7 @@ fn load_volumes(
             window,
             histogram: texture.histogram.clone(),
             curve: plan.curve,
+            labels: plan.labels,
         };
         resources.volumes.insert(v.binding(), Arc::new(texture));
         let table = insert_tf(gpu, resources, v, grid.curve.as_ref(), window)?;
@@ -733,23 +742,66 @@ struct VolumePlan {
     /// ones (composited over it), taken from the texels as they are uploaded: every volume file
     /// is streamed into its texture without a copy in memory.
     ranges: bool,
+    /// A tag volume of label ids (`labels = true`, or an OME-Zarr label image): read at the
+    /// nearest voxel, over [`tf::LABEL_WINDOW`].
+    labels: bool,
 }
 
 impl VolumePlan {
-    fn of(scene: &Scene, v: &vscene::Volume) -> Result<VolumePlan, RuntimeError> {
-        let curve = match &v.tf {
+    fn of(scene: &Scene, v: &vscene::Volume, notices: &mut Vec<String>) -> Result<VolumePlan, RuntimeError> {
+        let mut curve = match &v.tf {
             Some(TfRef::Preset(p)) => Some(tf::preset_curve(&p.value)?),
             Some(TfRef::File(file)) => Some(tf::paraview_curve(&file.resolved)?),
             None => None,
         };
+        let label_colors = if v.role.value == Role::Tag { store_label_colors(&v.source) } else { None };
+        let labels = v.role.value == Role::Tag && v.labels.as_ref().map_or(label_colors.is_some(), |l| l.value);
+        if labels {
+            // The `labels` preset's 16 bins over a window become one entry per id.
+            let own_colours = curve.as_ref().is_some_and(|c| c.name == vscene::DEFAULT_TAG_TF);
+            if own_colours {
+                curve = Some(tf::label_curve(vscene::DEFAULT_TAG_TF, label_colors.as_deref().unwrap_or_default()));
+            }
+            let colours = own_colours.then_some(label_colors.as_deref().unwrap_or_default());
+            notices.push(labels_notice(&v.name.name, v.labels.is_none(), colours));
+        }
         let domain = curve.as_ref().map(|c| c.table().domain);
-        let fixed = v.window.as_ref().map(|w| w.value).or(match domain {
+        let window = if labels { Some(tf::LABEL_WINDOW) } else { v.window.as_ref().map(|w| w.value) };
+        let fixed = window.or(match domain {
             Some(TfDomain::Data(domain)) => Some(domain),
             _ => None,
         });
         let ranges = matches!(v.role.value, Role::Primary | Role::Additional) && scene.skips_empty_space();
-        Ok(VolumePlan { curve, fixed, ranges })
+        Ok(VolumePlan { curve, fixed, ranges, labels })
     }
+}
+
+/// The label colours of an OME-Zarr label image at `source`; `None` for any other source (and
+/// for a store that cannot be read: loading it says why).
+fn store_label_colors(source: &VolumeSource) -> Option<Vec<crate::bricks::zarr::LabelColor>> {
+    use crate::bricks::zarr::{StoreLocation, label_colors};
+    let location = match source {
+        VolumeSource::Url(url) => StoreLocation::Url(url.value.clone()),
+        VolumeSource::File(file) if vscene::is_zarr(&file.resolved) => StoreLocation::Path(file.resolved.clone()),
+        _ => return None,
+    };
+    label_colors(&location).ok().flatten()
+}
+
+/// The notice that tag volume `name` is shown as labels (`automatic`: because it is an OME-Zarr
+/// label image), with the colours of the `labels` preset and its store (`colours`) or with its
+/// own transfer function (`None`).
+fn labels_notice(name: &str, automatic: bool, colours: Option<&[crate::bricks::zarr::LabelColor]>) -> String {
+    let why = if automatic { "an OME-Zarr label image" } else { "`labels = true`" };
+    let colours = match colours {
+        Some(listed) if !listed.is_empty() => format!(
+            "in the colours of its {} listed labels and 16 colours in turn for the rest (id 0 transparent unless listed)",
+            listed.len()
+        ),
+        Some(_) => "in 16 colours in turn (id 0 transparent)".to_string(),
+        None => "id k taking entry k of its transfer function".to_string(),
+    };
+    format!("volume `{name}`: label ids ({why}) read at the nearest voxel, {colours}")
 }
 
 /// The built-in phantom `p` standing in for volume `name`, at the options' size.
@@ -806,6 +858,7 @@ fn load_bricked(
         grid_to_world: volume.grid_to_world,
         window,
         histogram,
+        labels: plan.labels,
         curve: plan.curve,
     };
     Ok((volume, grid))

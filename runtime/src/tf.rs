@@ -23,8 +23,10 @@ use std::path::{Path, PathBuf};
 use serde_json::Value;
 
 mod curve;
+mod labels;
 pub(crate) mod preintegrate;
 pub use curve::TfCurve;
+pub(crate) use labels::{LABEL_WINDOW, label_curve};
 
 /// Entries in a transfer function table.
 pub(crate) const TF_WIDTH: u32 = 1024;

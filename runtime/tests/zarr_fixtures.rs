@@ -236,3 +236,81 @@ fn a_channel_list_renders_like_its_channels_as_volumes() {
     assert!(b.as_raw().iter().filter(|&&v| v > 0).count() > 100, "the twins' picture is empty");
     assert!(mean <= 0.5, "mean difference {mean:.3}/255");
 }
+
+/// What a slice pixel of a grey volume tinted by the labels fixture's segmentation shows: the
+/// grey alone, or one label's colour over it (ids 1, 2 and 70000 opaque red, green and yellow,
+/// id 3 blue at half strength). Trilinear reads of the ids blend neighbouring labels (and
+/// the background) into colours of none of these.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+enum LabelPixel {
+    Grey,
+    Red,
+    Green,
+    Yellow,
+    HalfBlue,
+    Other,
+}
+
+fn label_pixel([r, g, b, _]: [u8; 4]) -> LabelPixel {
+    let near = |a: u8, b: u8| a.abs_diff(b) <= 2;
+    match () {
+        _ if near(r, g) && near(g, b) => LabelPixel::Grey,
+        _ if g <= 2 && b <= 2 => LabelPixel::Red,
+        _ if r <= 2 && b <= 2 => LabelPixel::Green,
+        _ if near(r, g) && b <= 2 => LabelPixel::Yellow,
+        _ if near(r, g) && b > g + 2 => LabelPixel::HalfBlue,
+        _ => LabelPixel::Other,
+    }
+}
+
+/// An OME-Zarr label image (ome-zarr-py's `write_labels`: uint64 ids, `image-label` colours, one
+/// id beyond 65535) as a tag volume, bricked or not, is shown as labels without a word in the
+/// scene: every pixel is the grey of the image or exactly one label's colour from the store,
+/// no label blends into its neighbour or the background, and every label shows.
+#[test]
+fn ome_label_images_show_each_label_in_its_own_colour() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let root = fixtures().canonicalize().expect("fixtures");
+    let image = root.join("labels_image.nii").display().to_string();
+    let labels = root.join("labels_ome05.zarr/labels/segmentation").display().to_string();
+    let slice = |name: &str, position: f32| {
+        format!(
+            "[[view]]\nname = \"{name}\"\nkind = \"slice\"\naxis = \"axial\"\nposition = {position}\nsize = [144, 112]\n"
+        )
+    };
+    for bricks in [false, true] {
+        let text = format!(
+            "[[volume]]\nname = \"image\"\nrole = \"primary\"\npath = \"{image}\"\ntf = \"grayscale\"\n\n\
+             [[volume]]\nname = \"seg\"\nrole = \"tag\"\npath = \"{labels}\"\nbricks = {bricks}\n\n{}\n{}",
+            slice("low", 0.25),
+            slice("high", 0.75)
+        );
+        let path = dir.path().join("labels.toml");
+        std::fs::write(&path, text).expect("scene written");
+        let mut renderer =
+            SceneRenderer::open(common::software_gpu(), &path, RenderOptions::default(), &mut |_, _, _| {})
+                .unwrap_or_else(|e| panic!("bricks = {bricks}: {e}"));
+        assert!(
+            renderer.notices.iter().any(|n| n.contains("label ids (an OME-Zarr label image)")),
+            "bricks = {bricks}: {:?}",
+            renderer.notices
+        );
+        let views = renderer.render_all().unwrap_or_else(|e| panic!("bricks = {bricks}: {e}"));
+        assert_eq!(views.len(), 2);
+        let mut seen = std::collections::HashMap::new();
+        for (view, picture) in &views {
+            for p in picture.pixels() {
+                let class = label_pixel(p.0);
+                assert_ne!(class, LabelPixel::Other, "bricks = {bricks}, view {view}: pixel {:?} blends labels", p.0);
+                *seen.entry(class).or_insert(0u32) += 1;
+            }
+        }
+        println!("bricks = {bricks}: {seen:?}");
+        for class in [LabelPixel::Grey, LabelPixel::Red, LabelPixel::Green, LabelPixel::Yellow, LabelPixel::HalfBlue] {
+            assert!(
+                seen.get(&class).copied().unwrap_or(0) > 20,
+                "bricks = {bricks}: too few {class:?} pixels: {seen:?}"
+            );
+        }
+    }
+}

@@ -197,6 +197,10 @@ pub struct Volume {
     /// `lookup = "FILE.wgsl"`: the volume's own brick lookup in place of `stdlib/bricks.wgsl`
     /// (same interface), when it is bricked.
     pub lookup: Option<FileRef>,
+    /// `labels = true | false` on a tag volume: whether its values are label ids (sampled at
+    /// the nearest voxel, each id its own colour); `None`: the runtime decides (an OME-Zarr
+    /// label image, one with `image-label` metadata, is one). Only tag volumes have it.
+    pub labels: Option<Located<bool>>,
     /// What of a Zarr store the volume shows (`multiscale`, `channel`, `time`).
     pub zarr: ZarrKeys,
     /// The whole `[[volume]]` table.

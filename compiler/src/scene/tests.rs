@@ -472,6 +472,39 @@ fn zarr_keys_choose_what_a_store_shows() {
 }
 
 #[test]
+fn labels_mark_tag_volumes_of_ids_and_nothing_else() {
+    let tag = "\n[[volume]]\nname = \"seg\"\nrole = \"tag\"\nphantom = \"sphere\"\nlabels = true\n";
+    let scene_with = |extra: &str| MINIMAL.replace("\n[[view]]", &format!("{extra}\n[[view]]"));
+    let (_, scene, warnings) = parse_reporting(&scene_with(tag));
+    let scene = scene.unwrap_or_else(|| panic!("{warnings:?}"));
+    assert!(warnings.is_empty(), "{warnings:?}");
+    let seg = scene.volumes.iter().find(|v| v.name.name == "seg").expect("the tag volume");
+    assert_eq!(seg.labels.as_ref().map(|l| l.value), Some(true));
+    let codes = |text: &str| -> Vec<(String, String)> {
+        let (_, _, warnings) = parse_reporting(text);
+        warnings.iter().map(|d| (d.code.as_str().to_string(), d.message.clone())).collect()
+    };
+    // A window beside it has no effect; `labels = false` keeps the window.
+    assert_eq!(
+        codes(&scene_with(&format!("{tag}window = [0.0, 4.0]\n"))),
+        [(
+            "W0701".to_string(),
+            "`window` has no effect beside `labels = true` (label id k reads entry k of the transfer function)"
+                .to_string()
+        )]
+    );
+    assert!(codes(&scene_with(&format!("{}window = [0.0, 4.0]\n", tag.replace("true", "false")))).is_empty());
+    // Another role has no label reading.
+    let additional = tag.replace("\"tag\"", "\"additional\"");
+    assert_eq!(
+        codes(&scene_with(&additional)),
+        [("W0701".to_string(), "`labels` has no effect on a volume whose role is not `tag`".to_string())]
+    );
+    let (_, scene, _) = parse_reporting(&scene_with(&additional));
+    assert!(scene.is_some_and(|s| s.volumes.iter().all(|v| v.labels.is_none())));
+}
+
+#[test]
 fn only_http_urls_name_remote_stores() {
     for (url, scheme) in [("s3://bucket/cells.zarr", "s3"), ("gs://b/c.zarr", "gs"), ("file:///tmp/c.zarr", "file")] {
         let text = MINIMAL.replace("phantom = \"sphere\"\n", &format!("path = \"{url}\"\n"));

@@ -343,9 +343,11 @@ impl Cx<'_> {
             let bricks = self.located(&v.bricks);
             let bricked = bricks.as_ref().map_or_else(|| outgrows_a_texture(&source, memory), |b| b.value);
             let lookup = self.lookup(v.lookup.as_ref(), bricked);
+            let labels = self.labels(v.labels.as_ref(), role.value, window.as_ref().map(|w| w.span));
             let (channel, channels) = split_channels(v.channel);
             let zarr = self.zarr_keys(&source, v.multiscale, channel, v.time);
-            let volume = Volume { name, role, source, fallback, tf, window, bricks, bricked, lookup, zarr, span };
+            let volume =
+                Volume { name, role, source, fallback, tf, window, bricks, bricked, lookup, labels, zarr, span };
             self.push_volume(&mut out, volume, channels, tf_list);
         }
         if !out.iter().any(|v| v.role.value == Role::Primary) {
@@ -432,6 +434,24 @@ impl Cx<'_> {
             return None;
         }
         Some(self.file_ref(path, "lookup"))
+    }
+
+    /// A volume's `labels`, for a tag volume (its window is then the ids', so `window` has no
+    /// effect beside `labels = true`).
+    fn labels(&mut self, raw: Option<&Spanned<bool>>, role: Role, window: Option<Span>) -> Option<Located<bool>> {
+        let labels = raw?;
+        if role != Role::Tag {
+            self.ignored(labels, "labels", "on a volume whose role is not `tag`");
+            return None;
+        }
+        if let Some(window) = window.filter(|_| *labels.get_ref()) {
+            self.ignored_at(
+                window,
+                "window",
+                "beside `labels = true` (label id k reads entry k of the transfer function)",
+            );
+        }
+        Some(Located { value: *labels.get_ref(), span: self.span(labels) })
     }
 
     /// Adds `volume` to `out`, or one volume per channel for a channel list.

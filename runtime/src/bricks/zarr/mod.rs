@@ -50,6 +50,7 @@ use plan::{LevelPlan, Placement};
 use store::{Listing, Root};
 
 pub(crate) use super::MAX_BRICKS;
+pub use ome::LabelColor;
 pub use store::StoreLocation;
 pub use testdata::write_test_zarr;
 
@@ -82,6 +83,17 @@ pub struct ZarrSelection {
     pub channel: Option<Choice>,
     /// The time point.
     pub time: Option<u64>,
+}
+
+/// The label colours of the store at `location` when it is an OME-Zarr label image (a group
+/// with `image-label` metadata; its `colors`, possibly none); `None` for any other store.
+pub fn label_colors(location: &StoreLocation) -> Result<Option<Vec<LabelColor>>, BrickError> {
+    let fail = |m: String| BrickError(format!("{}: {m}", location.name()));
+    let opened = store::open(location).map_err(fail)?;
+    Ok(match store::root_node(opened.store.as_ref()).map_err(fail)? {
+        Root::Group(attributes) => ome::label_colors(&attributes),
+        Root::Array(_) => None,
+    })
 }
 
 /// A Zarr store read a brick at a time.

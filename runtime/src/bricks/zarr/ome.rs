@@ -74,6 +74,24 @@ fn multiscales(attributes: &Value) -> Result<&Vec<Value>, String> {
     list.as_array().filter(|l| !l.is_empty()).ok_or_else(|| "`multiscales` is not a non-empty list".to_string())
 }
 
+/// A label's colour in an OME-Zarr label image: its id and RGBA in [0, 1].
+pub type LabelColor = (u64, [f32; 4]);
+
+/// The colours of an OME-Zarr label image (`image-label.colors`, v0.5 under `ome`): `None`
+/// when the group is no label image; entries that are not a `label-value` with four 0-255
+/// `rgba` numbers are left out.
+pub(super) fn label_colors(attributes: &Value) -> Option<Vec<LabelColor>> {
+    let label = attributes.get("ome").and_then(|o| o.get("image-label")).or_else(|| attributes.get("image-label"))?;
+    let entries = label.get("colors").and_then(Value::as_array).map(Vec::as_slice).unwrap_or_default();
+    let color = |entry: &Value| -> Option<LabelColor> {
+        let id = entry.get("label-value")?.as_u64()?;
+        let rgba: Vec<f64> = entry.get("rgba")?.as_array()?.iter().filter_map(Value::as_f64).collect();
+        let rgba: [f64; 4] = rgba.try_into().ok()?;
+        Some((id, rgba.map(|c| (c / 255.0).clamp(0.0, 1.0) as f32)))
+    };
+    Some(entries.iter().filter_map(color).collect())
+}
+
 /// The multiscale `choice` picks (by index or `name`; the first without a choice), for arrays
 /// of `ndim` axes (the first dataset's, read by the caller once it knows the path: see
 /// [`Multiscale::parse`]).
