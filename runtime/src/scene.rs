@@ -779,13 +779,7 @@ impl VolumePlan {
 /// The label colours of an OME-Zarr label image at `source`; `None` for any other source (and
 /// for a store that cannot be read: loading it says why).
 fn store_label_colors(source: &VolumeSource) -> Option<Vec<crate::bricks::zarr::LabelColor>> {
-    use crate::bricks::zarr::{StoreLocation, label_colors};
-    let location = match source {
-        VolumeSource::Url(url) => StoreLocation::Url(url.value.clone()),
-        VolumeSource::File(file) if vscene::is_zarr(&file.resolved) => StoreLocation::Path(file.resolved.clone()),
-        _ => return None,
-    };
-    label_colors(&location).ok().flatten()
+    crate::bricks::zarr::label_colors(&bricked::store_location(source)?).ok().flatten()
 }
 
 /// The notice that tag volume `name` is shown as labels (`automatic`: because it is an OME-Zarr

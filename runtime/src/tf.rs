@@ -196,7 +196,7 @@ pub fn preset_curve(name: &str) -> Result<TfCurve, TfError> {
             &[(0.0, [0.0; 3]), (0.35, [0.85, 0.05, 0.0]), (0.7, [1.0, 0.85, 0.0]), (1.0, [1.0; 3])],
             &[(0.05, 0.0), (1.0, 0.3)],
         ),
-        "labels" => return Ok(labels()),
+        "labels" => return Ok(labels::preset()),
         _ => return Err(TfError::UnknownPreset { name: name.to_string() }),
     };
     Ok(curve(color, opacity, TfDomain::Window))
@@ -312,25 +312,6 @@ const LABEL_COLOURS: [[f32; 3]; 16] = [
     [0.60, 0.80, 1.00],
     [0.40, 0.40, 0.40],
 ];
-
-/// Piecewise-constant colours for label volumes: bin k is centred on k/16, so with labels
-/// 0..=L (L <= 16) normalized by their range, every label gets its own bin and colour; label 0
-/// is transparent. (Label volumes should be sampled without interpolation, or values between
-/// two labels pass through other bins.)
-fn labels() -> TfCurve {
-    let bins = LABEL_COLOURS.len();
-    let edge = |k: usize| (k as f32 + 0.5) / bins as f32;
-    let mut color = vec![(0.0, [0.0; 3])];
-    let mut opacity = vec![(0.0, 0.0)];
-    for (i, &c) in LABEL_COLOURS.iter().enumerate() {
-        // Close the previous bin at the edge, then open this one there.
-        let previous = color.last().map_or([0.0; 3], |p| p.1);
-        let previous_opacity = opacity.last().map_or(0.0, |p| p.1);
-        color.extend([(edge(i), previous), (edge(i), c)]);
-        opacity.extend([(edge(i), previous_opacity), (edge(i), 0.6)]);
-    }
-    TfCurve { name: "labels".into(), color, opacity, domain: TfDomain::Window }
-}
 
 /// A transfer function over data values `domain` from control points in data units.
 pub(crate) fn from_data_points(

@@ -35,13 +35,28 @@ pub(crate) fn label_curve(name: &str, colors: &[(u64, [f32; 4])]) -> TfCurve {
         })
     };
     let entries: Vec<[f32; 4]> = (0..=last).map(rgba).collect();
-    let color: Vec<ColorPoint> = steps(&entries, |e| [e[0], e[1], e[2]]);
-    let opacity: Vec<OpacityPoint> = steps(&entries, |e| [e[3]]).into_iter().map(|(x, [a])| (x, a)).collect();
+    piecewise_constant(name, &entries)
+}
+
+/// The `labels` preset: bin k of 17 centred on k/16 of the window, bin 0 (the background)
+/// transparent, bins 1 to 16 the 16 colours in turn. With labels 0..=L (L <= 16) normalized by
+/// their range, every label gets its own bin.
+pub(super) fn preset() -> TfCurve {
+    let colours = LABEL_COLOURS.iter().map(|&[r, g, b]| [r, g, b, DEFAULT_OPACITY]);
+    let entries: Vec<[f32; 4]> = std::iter::once([0.0; 4]).chain(colours).collect();
+    piecewise_constant("labels", &entries)
+}
+
+/// A window-relative curve whose value at `i / (entries.len() - 1)` is `entries[i]` (straight
+/// RGBA) and that holds it halfway to each neighbour.
+fn piecewise_constant(name: &str, entries: &[[f32; 4]]) -> TfCurve {
+    let color: Vec<ColorPoint> = steps(entries, |e| [e[0], e[1], e[2]]);
+    let opacity: Vec<OpacityPoint> = steps(entries, |e| [e[3]]).into_iter().map(|(x, [a])| (x, a)).collect();
     TfCurve { name: name.to_string(), color, opacity, domain: TfDomain::Window }
 }
 
-/// Control points of a piecewise-constant curve whose value at entry i (sampled at
-/// `i / (TF_WIDTH - 1)`) is `part(entries[i])`: a step halfway between two entries wherever
+/// Control points of a piecewise-constant curve whose value at `i / (entries.len() - 1)` is
+/// `part(entries[i])`: a step halfway between two entries wherever
 /// the value changes, so runs of one value take two points.
 fn steps<const N: usize>(entries: &[[f32; 4]], part: impl Fn(&[f32; 4]) -> [f32; N]) -> Vec<(f32, [f32; N])> {
     let last = (entries.len() - 1) as f32;
