@@ -32,7 +32,7 @@ pub fn check_scene_inputs(scene: &Scene) -> Vec<Diagnostic> {
             }
             VolumeSource::Url(url) => {
                 let location = StoreLocation::Url(url.value.clone());
-                if let Err(e) = ZarrSource::open_at(&location, &vrs_runtime::scene::selection(&v.zarr), 1 << 20) {
+                if let Err(e) = ZarrSource::check_at(&location, &vrs_runtime::scene::selection(&v.zarr)) {
                     let d = invalid(url.span, format!("cannot read volume `{}`: {e}", url.value), "this store");
                     out.push(d.with_help("check the URL and that the server answers"));
                 }
@@ -42,7 +42,7 @@ pub fn check_scene_inputs(scene: &Scene) -> Vec<Diagnostic> {
                 let header = if vrsc::scene::is_zarr(&file.resolved) {
                     let location = StoreLocation::Path(file.resolved.clone());
                     let selection = vrs_runtime::scene::selection(&v.zarr);
-                    ZarrSource::open_at(&location, &selection, 1 << 20).map(|_| ()).map_err(|e| e.to_string())
+                    ZarrSource::check_at(&location, &selection).map_err(|e| e.to_string())
                 } else {
                     volume::header(&file.resolved).map(|_| ()).map_err(|e| e.kind.to_string())
                 };

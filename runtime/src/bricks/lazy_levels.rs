@@ -4,12 +4,14 @@
 //! finest levels (a Zarr array without a pyramid, a memory-mapped raw file), so that every
 //! source averages exactly as [`super::pyramid::PyramidSource`] does and gives the same bricks.
 
-use std::collections::{BTreeMap, HashMap};
 use std::ops::Range;
 use std::sync::{Arc, Mutex};
 
+use rayon::prelude::*;
+
 use super::pyramid::cut_brick;
 use super::source::stored_origin;
+use super::summary::{HALF, Summary, SummaryCache};
 use super::{BRICK, BrickData, BrickError, Level, STORED};
 
 /// Bytes of finer-level bricks kept to build the coarse levels a source does not store, out of
@@ -24,49 +26,13 @@ pub(crate) fn cache_bytes(host: u64) -> u64 {
 /// brick), so those are what the cache keeps: a finer brick is read once for all the coarse
 /// bricks that cover it (up to 8, their aprons included) within a small budget.
 pub(crate) struct LazyLevels {
-    cache: Mutex<BrickCache>,
-}
-
-/// Edge of a [`Summary`]: one sum for each 2x2x2 block of a brick.
-const HALF: u32 = BRICK / 2;
-
-/// A finer brick as the level above reads it: the sum of its voxels (those inside the volume)
-/// in each 2x2x2 block, `HALF`^3 values x fastest; or, for a brick of one value, that value.
-#[derive(Clone, Debug, PartialEq)]
-pub(crate) enum Summary {
-    Constant(f32),
-    Sums(Vec<f32>),
-}
-
-impl Summary {
-    /// The sums of brick `fb` of a level of `fine` dims.
-    fn of(data: &BrickData, fb: [u32; 3], fine: [u32; 3]) -> Summary {
-        let BrickData::Voxels(_) = data else {
-            return match data {
-                BrickData::Constant(v) => Summary::Constant(*v),
-                BrickData::Voxels(_) => unreachable!("matched above"),
-            };
-        };
-        // Voxels of the brick inside the volume, per axis.
-        let inside = [0, 1, 2].map(|a| fine[a].saturating_sub(fb[a] * BRICK).min(BRICK));
-        let mut sums = vec![0.0f32; (HALF * HALF * HALF) as usize];
-        for z in 0..inside[2] {
-            for y in 0..inside[1] {
-                let row = box_index([0, y / 2, z / 2], [HALF; 3]);
-                for x in 0..inside[0] {
-                    // Past the apron.
-                    sums[row + (x / 2) as usize] += data.voxel([x, y, z]);
-                }
-            }
-        }
-        Summary::Sums(sums)
-    }
+    cache: Mutex<SummaryCache>,
 }
 
 impl LazyLevels {
     /// Levels built with a cache of at most `budget` bytes of finer bricks' sums.
     pub(crate) fn new(budget: u64) -> LazyLevels {
-        LazyLevels { cache: Mutex::new(BrickCache::new(budget)) }
+        LazyLevels { cache: Mutex::new(SummaryCache::new(budget)) }
     }
 
     /// Brick `brick` of `level` (not 0) as the box average of `level - 1`, whose bricks come
@@ -76,7 +42,7 @@ impl LazyLevels {
         levels: &[Level],
         level: usize,
         brick: [u32; 3],
-        read: &dyn Fn(usize, [u32; 3]) -> Result<BrickData, BrickError>,
+        read: &(dyn Fn(usize, [u32; 3]) -> Result<BrickData, BrickError> + Sync),
     ) -> Result<BrickData, BrickError> {
         let dims = levels[level].dims;
         let fine = levels[level - 1].dims;
@@ -86,20 +52,24 @@ impl LazyLevels {
         // The finer bricks under the box: finer brick b's voxels are coarse voxels
         // [b HALF, (b + 1) HALF).
         let bricks: [Range<u32>; 3] = [0, 1, 2].map(|a| lo[a] / HALF..(hi[a] - 1) / HALF + 1);
-        let mut uniform: Option<Option<f32>> = None;
-        for bz in bricks[2].clone() {
-            for by in bricks[1].clone() {
-                for bx in bricks[0].clone() {
-                    let fb = [bx, by, bz];
-                    let summary = self.summary(level - 1, fb, fine, read)?;
-                    uniform = Some(match (uniform, &*summary) {
-                        (None, Summary::Constant(v)) => Some(*v),
-                        (Some(Some(u)), Summary::Constant(v)) if u.to_bits() == v.to_bits() => Some(u),
-                        _ => None,
-                    });
-                    add_summary(&mut sums, (lo, hi), &summary, fb, fine);
-                }
+        let mut finer = Vec::new();
+        for z in bricks[2].clone() {
+            for y in bricks[1].clone() {
+                finer.extend(bricks[0].clone().map(|x| [x, y, z]));
             }
+        }
+        // The finer bricks are read in parallel (each may build its own finer level in turn),
+        // and added in one order, so that the sums do not depend on which came first.
+        let summaries =
+            finer.par_iter().map(|&fb| self.summary(level - 1, fb, fine, read)).collect::<Result<Vec<_>, _>>()?;
+        let mut uniform: Option<Option<f32>> = None;
+        for (&fb, summary) in finer.iter().zip(&summaries) {
+            uniform = Some(match (uniform, &**summary) {
+                (None, Summary::Constant(v)) => Some(*v),
+                (Some(Some(u)), Summary::Constant(v)) if u.to_bits() == v.to_bits() => Some(u),
+                _ => None,
+            });
+            add_summary(&mut sums, (lo, hi), summary, fb, fine);
         }
         if let Some(Some(v)) = uniform {
             return Ok(BrickData::Constant(v));
@@ -114,7 +84,7 @@ impl LazyLevels {
         level: usize,
         brick: [u32; 3],
         fine: [u32; 3],
-        read: &dyn Fn(usize, [u32; 3]) -> Result<BrickData, BrickError>,
+        read: &(dyn Fn(usize, [u32; 3]) -> Result<BrickData, BrickError> + Sync),
     ) -> Result<Arc<Summary>, BrickError> {
         if let Some(hit) = self.cache.lock().unwrap_or_else(|e| e.into_inner()).get((level, brick)) {
             return Ok(hit);
@@ -170,6 +140,14 @@ pub(crate) fn stored_box(dims: [u32; 3], brick: [u32; 3]) -> ([u32; 3], [u32; 3]
     (lo, hi)
 }
 
+/// The box of a level's voxels that are a brick's own (no apron), clamped to the grid: all a
+/// built level reads of a finer brick.
+pub(crate) fn inside_box(dims: [u32; 3], brick: [u32; 3]) -> ([u32; 3], [u32; 3]) {
+    let lo = brick.map(|b| b * BRICK);
+    let hi = [0, 1, 2].map(|a| (lo[a] + BRICK).min(dims[a]));
+    (lo, hi)
+}
+
 pub(crate) fn sub(a: [u32; 3], b: [u32; 3]) -> [u32; 3] {
     [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
 }
@@ -177,52 +155,4 @@ pub(crate) fn sub(a: [u32; 3], b: [u32; 3]) -> [u32; 3] {
 /// Index of `p` in a box of `size`, x fastest.
 pub(crate) fn box_index(p: [u32; 3], size: [u32; 3]) -> usize {
     (p[2] as usize * size[1] as usize + p[1] as usize) * size[0] as usize + p[0] as usize
-}
-
-/// Bricks kept by recency of use within a byte budget.
-pub(crate) struct BrickCache {
-    pub(crate) budget: u64,
-    pub(crate) bytes: u64,
-    tick: u64,
-    pub(crate) entries: HashMap<(usize, [u32; 3]), (Arc<Summary>, u64)>,
-    /// Keys by their last use, oldest first.
-    order: BTreeMap<u64, (usize, [u32; 3])>,
-}
-
-impl BrickCache {
-    pub(crate) fn new(budget: u64) -> BrickCache {
-        BrickCache { budget, bytes: 0, tick: 0, entries: HashMap::new(), order: BTreeMap::new() }
-    }
-
-    fn cost(data: &Summary) -> u64 {
-        match data {
-            Summary::Constant(_) => 64,
-            Summary::Sums(v) => v.len() as u64 * 4 + 64,
-        }
-    }
-
-    pub(crate) fn get(&mut self, key: (usize, [u32; 3])) -> Option<Arc<Summary>> {
-        self.tick += 1;
-        let (data, used) = self.entries.get_mut(&key)?;
-        self.order.remove(used);
-        *used = self.tick;
-        self.order.insert(self.tick, key);
-        Some(data.clone())
-    }
-
-    pub(crate) fn insert(&mut self, key: (usize, [u32; 3]), data: Arc<Summary>) {
-        self.tick += 1;
-        if let Some((old, used)) = self.entries.insert(key, (data.clone(), self.tick)) {
-            self.order.remove(&used);
-            self.bytes -= Self::cost(&old);
-        }
-        self.order.insert(self.tick, key);
-        self.bytes += Self::cost(&data);
-        while self.bytes > self.budget {
-            let Some((_, oldest)) = self.order.pop_first() else { break };
-            if let Some((gone, _)) = self.entries.remove(&oldest) {
-                self.bytes -= Self::cost(&gone);
-            }
-        }
-    }
 }

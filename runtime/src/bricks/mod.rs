@@ -14,6 +14,7 @@ pub(crate) mod pyramid;
 pub(crate) mod ranges;
 pub(crate) mod residency;
 pub(crate) mod source;
+mod summary;
 pub mod zarr;
 
 pub(crate) use lazy_levels::cache_bytes;

@@ -39,11 +39,9 @@ use glam::{Mat4, Vec4};
 use zarrs::array::{ArrayError, ArraySubsetTraits};
 
 use super::grid::{GridSource, SourceGrid, spread};
-#[cfg(test)]
-use super::lazy_levels::{BrickCache, Summary};
-use super::lazy_levels::{box_index, stored_box, sub};
-use super::pyramid::cut_brick;
-use super::{BRICK, BrickData, BrickError, BrickSource, levels_for, lock, table_entries};
+use super::lazy_levels::{box_index, inside_box, stored_box, sub};
+use super::pyramid::{check_brick, cut_brick};
+use super::{BRICK, BrickData, BrickError, levels_for, lock, table_entries};
 use dataset::{Dataset, Fixed, Store};
 use ome::{Axis, AxisKind, Multiscale, Transform};
 use plan::{LevelPlan, Placement};
@@ -135,6 +133,23 @@ impl ZarrSource {
         selection: &ZarrSelection,
         cache_bytes: u64,
     ) -> Result<ZarrSource, BrickError> {
+        let mut source = Self::open_metadata(location, selection, cache_bytes)?;
+        source.grid.range = source.estimate_range();
+        Ok(source)
+    }
+
+    /// Checks that the store at `location` can be shown as `selection` picks it, from its
+    /// metadata alone (no voxel is read): what `vrsc build` asks of a store.
+    pub fn check_at(location: &StoreLocation, selection: &ZarrSelection) -> Result<(), BrickError> {
+        Self::open_metadata(location, selection, 0).map(|_| ())
+    }
+
+    /// [`ZarrSource::open_at`] without the value range (`[0, 0]`).
+    fn open_metadata(
+        location: &StoreLocation,
+        selection: &ZarrSelection,
+        cache_bytes: u64,
+    ) -> Result<ZarrSource, BrickError> {
         let name = location.name();
         let fail = |m: String| BrickError(format!("{name}: {m}"));
         let opened = store::open(location).map_err(fail)?;
@@ -155,16 +170,14 @@ impl ZarrSource {
             }
             None => (vec![Placement { factor: [1.0; 3], shift: [0.0; 3], dims: datasets[0].dims }], Mat4::IDENTITY),
         };
-        let mut source = ZarrSource {
+        Ok(ZarrSource {
             plans: plan::plan_levels(levels.len(), &placements),
             grid: SourceGrid::new(name, levels, grid_to_world, cache_bytes),
             listings: datasets.iter().map(|_| OnceLock::new()).collect(),
             datasets,
             dir: opened.dir,
             notes: Mutex::new(Vec::new()),
-        };
-        source.grid.range = source.estimate_range();
-        Ok(source)
+        })
     }
 
     /// How many levels a dataset answers at its own resolution; the others are averaged from
@@ -189,7 +202,8 @@ impl ZarrSource {
         let level = self.plans.iter().rposition(|p| matches!(p, LevelPlan::Read { .. })).unwrap_or(0);
         let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
         for brick in self.range_bricks(level) {
-            let values = match self.read(level, brick) {
+            // The brick's own voxels: its apron is its neighbours', and would read their chunks.
+            let values = match self.read_inside(level, brick) {
                 Ok(BrickData::Constant(v)) => vec![v],
                 Ok(BrickData::Voxels(v)) => v,
                 Err(e) => {
@@ -333,24 +347,42 @@ impl ZarrSource {
         self.grid.error(format_args!("`{}`: {error}", dataset.path))
     }
 
-    /// Brick `brick` of a level a dataset answers.
+    /// Brick `brick` of a level a dataset answers, the voxels of `(lo, hi)` read: its stored
+    /// box, or its own voxels alone ([`inside_box`]; the apron then repeats its edge voxels).
     fn read_planned(
         &self,
         level: usize,
         brick: [u32; 3],
         plan: (usize, [u32; 3], [i64; 3]),
+        (lo, hi): ([u32; 3], [u32; 3]),
     ) -> Result<BrickData, BrickError> {
         let (d, ratio, offset) = plan;
         let dims = self.grid.levels[level].dims;
-        let (lo, hi) = stored_box(dims, brick);
         let (slo, shi) = plan::source_box(lo, hi, ratio, offset, self.datasets[d].dims);
         match self.read_region(d, slo, shi)? {
             Region::Constant(v) => Ok(BrickData::Constant(v)),
             Region::Voxels(values) => {
                 let level_values = plan::resample(values, (slo, shi), (lo, hi), ratio, offset);
                 let size = sub(hi, lo);
-                Ok(cut_brick(dims, brick, |p| level_values[box_index(sub(p, lo), size)]).collapse())
+                let last = hi.map(|v| v - 1);
+                let at = |p: [u32; 3]| [0, 1, 2].map(|a| p[a].clamp(lo[a], last[a]) - lo[a]);
+                Ok(cut_brick(dims, brick, |p| level_values[box_index(at(p), size)]).collapse())
             }
+        }
+    }
+
+    /// Brick `brick` of `level` as a built level reads it: only its own voxels are summed
+    /// (`lazy_levels`), so a level a dataset answers reads them without the apron, which would
+    /// decode the neighbouring chunks too (three chunks instead of one along an axis whose
+    /// chunks are a brick long).
+    fn read_inside(&self, level: usize, brick: [u32; 3]) -> Result<BrickData, BrickError> {
+        check_brick(&self.grid.levels, level, brick).map_err(|e| self.grid.error(e))?;
+        match self.plans[level] {
+            LevelPlan::Read { dataset, ratio, offset } => {
+                let inside = inside_box(self.grid.levels[level].dims, brick);
+                self.read_planned(level, brick, (dataset, ratio, offset), inside)
+            }
+            LevelPlan::Built => self.build_brick(level, brick),
         }
     }
 
@@ -378,7 +410,7 @@ impl ZarrSource {
         }
         let fill = self.datasets[0].fill;
         let read = |l: usize, b: [u32; 3]| {
-            self.read(l, b).or_else(|e| {
+            self.read_inside(l, b).or_else(|e| {
                 self.note(format!("{e}; levels built from it show the fill value {fill} there"));
                 Ok(BrickData::Constant(fill))
             })
@@ -394,7 +426,10 @@ impl GridSource for ZarrSource {
 
     fn read_brick(&self, level: usize, brick: [u32; 3]) -> Result<BrickData, BrickError> {
         match self.plans[level] {
-            LevelPlan::Read { dataset, ratio, offset } => self.read_planned(level, brick, (dataset, ratio, offset)),
+            LevelPlan::Read { dataset, ratio, offset } => {
+                let stored = stored_box(self.grid.levels[level].dims, brick);
+                self.read_planned(level, brick, (dataset, ratio, offset), stored)
+            }
             LevelPlan::Built => self.build_brick(level, brick),
         }
     }
