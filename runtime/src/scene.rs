@@ -3,6 +3,7 @@
 //! slice and uniform settings. This is the paper's scene graph: volumes, transfer functions and
 //! scene uniforms are shared nodes; each view owns its composed pipeline.
 
+use crate::bricks::Coarsening;
 use crate::error::RuntimeError;
 use crate::geometry::{self, Convention, OrbitCamera, ShaderPlane, SliceAxis, SlicePlane};
 use crate::gpu::Gpu;
@@ -835,14 +836,17 @@ fn load_bricked(
     let name = &v.name.name;
     // The source's cache for built levels: its part of this volume's host budget.
     let cache = crate::bricks::cache_bytes(scene.memory.host / bricked::sharing(scene).max(1));
+    // Label ids keep one id per coarse voxel; a mean would make other ids.
+    let coarsening = if plan.labels { Coarsening::First } else { Coarsening::Mean };
+    let building = (cache, coarsening);
     let report = &mut |done, total| progress(name, done, total);
     let phantom = |p: &str| phantom_of(name, p, options);
     let source = match (&v.source, &v.fallback) {
         (VolumeSource::File(file), Some(fallback)) if !file.resolved.exists() => {
             notices.push(fallback_notice(name, &file.resolved, &fallback.value));
-            bricked::open_source(&VolumeSource::Phantom(fallback.clone()), &v.zarr, cache, phantom, report)?
+            bricked::open_source(&VolumeSource::Phantom(fallback.clone()), &v.zarr, building, phantom, report)?
         }
-        (source, _) => bricked::open_source(source, &v.zarr, cache, phantom, report)?,
+        (source, _) => bricked::open_source(source, &v.zarr, building, phantom, report)?,
     };
     let budget = (&scene.memory, bricked::sharing(scene));
     let (volume, window, histogram) = bricked::load(gpu, name, source, plan.fixed, budget, primary)?;

@@ -12,7 +12,7 @@ use rayon::prelude::*;
 use super::pyramid::cut_brick;
 use super::source::stored_origin;
 use super::summary::{HALF, Summary, SummaryCache};
-use super::{BRICK, BrickData, BrickError, Level, STORED};
+use super::{BRICK, BrickData, BrickError, Coarsening, Level, STORED};
 
 /// Bytes of finer-level bricks kept to build the coarse levels a source does not store, out of
 /// a volume's host budget of `host` bytes: a quarter, at most 256 MiB (the rest holds the
@@ -27,12 +27,14 @@ pub(crate) fn cache_bytes(host: u64) -> u64 {
 /// bricks that cover it (up to 8, their aprons included) within a small budget.
 pub(crate) struct LazyLevels {
     cache: Mutex<SummaryCache>,
+    /// How a coarse voxel is made of the finer ones.
+    pub(crate) coarsening: Coarsening,
 }
 
 impl LazyLevels {
     /// Levels built with a cache of at most `budget` bytes of finer bricks' sums.
     pub(crate) fn new(budget: u64) -> LazyLevels {
-        LazyLevels { cache: Mutex::new(SummaryCache::new(budget)) }
+        LazyLevels { cache: Mutex::new(SummaryCache::new(budget)), coarsening: Coarsening::Mean }
     }
 
     /// Brick `brick` of `level` (not 0) as the box average of `level - 1`, whose bricks come
@@ -69,12 +71,14 @@ impl LazyLevels {
                 (Some(Some(u)), Summary::Constant(v)) if u.to_bits() == v.to_bits() => Some(u),
                 _ => None,
             });
-            add_summary(&mut sums, (lo, hi), summary, fb, fine);
+            add_summary(&mut sums, (lo, hi), summary, fb, fine, self.coarsening);
         }
         if let Some(Some(v)) = uniform {
             return Ok(BrickData::Constant(v));
         }
-        divide_by_children(&mut sums, lo, size, fine);
+        if self.coarsening == Coarsening::Mean {
+            divide_by_children(&mut sums, lo, size, fine);
+        }
         Ok(cut_brick(dims, brick, |p| sums[box_index(sub(p, lo), size)]).collapse())
     }
 
@@ -90,19 +94,30 @@ impl LazyLevels {
             return Ok(hit);
         }
         // Read without the lock, so that other loader threads are not held up.
-        let summary = Arc::new(Summary::of(&read(level, brick)?, brick, fine));
+        let summary = Arc::new(Summary::of(&read(level, brick)?, brick, fine, self.coarsening));
         self.cache.lock().unwrap_or_else(|e| e.into_inner()).insert((level, brick), summary.clone());
         Ok(summary)
     }
 }
 
 /// Adds the sums of finer brick `fb` (a level of `fine` dims) to the coarse voxels of the box
-/// `[lo, hi)` it covers.
-fn add_summary(sums: &mut [f32], (lo, hi): ([u32; 3], [u32; 3]), summary: &Summary, fb: [u32; 3], fine: [u32; 3]) {
+/// `[lo, hi)` it covers (with [`Coarsening::First`], its first voxels: each coarse voxel has
+/// one block in one finer brick).
+fn add_summary(
+    sums: &mut [f32],
+    (lo, hi): ([u32; 3], [u32; 3]),
+    summary: &Summary,
+    fb: [u32; 3],
+    fine: [u32; 3],
+    coarsening: Coarsening,
+) {
     let size = sub(hi, lo);
     let start = [0, 1, 2].map(|a| lo[a].max(fb[a] * HALF));
     let end = [0, 1, 2].map(|a| hi[a].min((fb[a] + 1) * HALF));
-    let children = |c: u32, n: u32| n.saturating_sub(2 * c).min(2) as f32;
+    let children = |c: u32, n: u32| match coarsening {
+        Coarsening::Mean => n.saturating_sub(2 * c).min(2) as f32,
+        Coarsening::First => 1.0,
+    };
     for z in start[2]..end[2] {
         for y in start[1]..end[1] {
             let row = box_index([0, y - lo[1], z - lo[2]], size);

@@ -64,6 +64,12 @@ impl MappedSource {
         Ok(source)
     }
 
+    /// The source with its coarse levels made by `coarsening` (the mean by default).
+    pub(crate) fn coarsened_by(mut self, coarsening: super::Coarsening) -> MappedSource {
+        self.grid.lazy.coarsening = coarsening;
+        self
+    }
+
     /// The finite range of up to [`super::grid::RANGE_BRICKS_PER_AXIS`]^3 level-0 bricks spread
     /// evenly over the volume (all of them in a small one): the true extremes may lie elsewhere,
     /// but reading every voxel at open would read the whole file.
@@ -273,7 +279,7 @@ mod tests {
     fn assert_same_as_loaded(path: &Path) {
         let mapped = MappedSource::open(path).unwrap().expect("uncompressed data is mapped");
         let loaded = crate::volume::load(path, &mut |_, _| {}).unwrap();
-        let reference = PyramidSource::from_volume(&loaded);
+        let reference = PyramidSource::from_volume(&loaded, crate::bricks::Coarsening::Mean);
         assert_eq!(mapped.levels(), reference.levels());
         assert_eq!(mapped.levels().len(), 3);
         assert_eq!(mapped.grid_to_world(), reference.grid_to_world());

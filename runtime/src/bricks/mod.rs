@@ -23,6 +23,19 @@ pub(crate) use residency::{BrickView, BrickedVolume, BrickedVolumes};
 pub(crate) use source::levels_for;
 pub use source::{BrickData, BrickError, BrickSource, Level};
 
+/// How a level a source does not store is made from the finer one (or from a finer dataset
+/// of a store, a few of its voxels per voxel).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Coarsening {
+    /// Each voxel the mean of the finer voxels it covers (up to eight): intensities.
+    #[default]
+    Mean,
+    /// Each voxel the first of the finer voxels it covers (lowest x, y and z), as a
+    /// nearest-neighbour downsampling keeps it: label ids, which a mean would turn into
+    /// other ids.
+    First,
+}
+
 /// Voxels along each edge of a brick, without its apron.
 pub(crate) const BRICK: u32 = 64;
 

@@ -12,7 +12,7 @@ use std::sync::Arc;
 use glam::Mat4;
 
 use super::source::stored_origin;
-use super::{BrickData, BrickError, BrickSource, Level, STORED, levels_for};
+use super::{BrickData, BrickError, BrickSource, Coarsening, Level, STORED, levels_for};
 use crate::volume::Volume;
 
 /// A volume in memory, read a brick at a time, with a box-averaged mip pyramid.
@@ -24,26 +24,27 @@ pub(crate) struct PyramidSource {
 }
 
 impl PyramidSource {
-    /// The pyramid over `volume`. Its samples are cloned in their stored type (no `f32` copy of
-    /// level 0); use [`PyramidSource::from_shared`] to share them instead.
-    pub(crate) fn from_volume(volume: &Volume) -> PyramidSource {
-        PyramidSource::from_shared(Arc::new(volume.clone()))
+    /// The pyramid over `volume`, its coarse levels made by `coarsening`. Its samples are
+    /// cloned in their stored type (no `f32` copy of level 0); use
+    /// [`PyramidSource::from_shared`] to share them instead.
+    pub(crate) fn from_volume(volume: &Volume, coarsening: Coarsening) -> PyramidSource {
+        PyramidSource::from_shared(Arc::new(volume.clone()), coarsening)
     }
 
     /// The pyramid over a shared volume, without copying its samples.
-    pub(crate) fn from_shared(volume: Arc<Volume>) -> PyramidSource {
+    pub(crate) fn from_shared(volume: Arc<Volume>, coarsening: Coarsening) -> PyramidSource {
         let levels = levels_for(volume.dims);
         let mut coarse: Vec<Vec<f32>> = Vec::with_capacity(levels.len().saturating_sub(1));
         for pair in levels.windows(2) {
             let (fine, dims) = (pair[0].dims, pair[1].dims);
             let level = match coarse.last() {
                 // Level 1 reads the samples a row at a time (one type dispatch per row).
-                None => downsample(fine, dims, |start, len, f| {
+                None => downsample((fine, dims), coarsening, |start, len, f| {
                     volume.samples.for_each(start..start + len, |s| f(volume.scaling.apply(s)))
                 }),
-                Some(finer) => {
-                    downsample(fine, dims, |start, len, f| finer[start..start + len].iter().for_each(|&v| f(v)))
-                }
+                Some(finer) => downsample((fine, dims), coarsening, |start, len, f| {
+                    finer[start..start + len].iter().for_each(|&v| f(v))
+                }),
             };
             coarse.push(level);
         }
@@ -112,23 +113,32 @@ pub(crate) fn cut_brick(dims: [u32; 3], brick: [u32; 3], mut value: impl FnMut([
     BrickData::Voxels(out)
 }
 
-/// A level of `dims` averaged from a finer one of `fine` dims: each voxel the mean of the (up to
-/// eight) finer voxels it covers. `row(start, len, f)` calls `f` with the `len` finer values
-/// from index `start` (x fastest), in order.
-fn downsample(fine: [u32; 3], dims: [u32; 3], mut row: impl FnMut(usize, usize, &mut dyn FnMut(f32))) -> Vec<f32> {
+/// A level of `dims` made from a finer one of `fine` dims: each voxel the mean of the (up to
+/// eight) finer voxels it covers, or the first of them ([`Coarsening`]). `row(start, len, f)`
+/// calls `f` with the `len` finer values from index `start` (x fastest), in order.
+fn downsample(
+    (fine, dims): ([u32; 3], [u32; 3]),
+    coarsening: Coarsening,
+    mut row: impl FnMut(usize, usize, &mut dyn FnMut(f32)),
+) -> Vec<f32> {
     let [fx, fy, fz] = fine.map(|n| n as usize);
     let [dx, dy, dz] = dims.map(|n| n as usize);
     let mut out = vec![0.0f32; dx * dy * dz];
-    // How many finer voxels a coarse voxel covers along an axis: 2, or 1 at an odd edge.
-    let children = |i: usize, n: usize| (n - 2 * i).min(2) as f32;
+    // How many finer voxels a coarse voxel takes along an axis: 2, or 1 at an odd edge; 1 when
+    // it takes the first.
+    let first = coarsening == Coarsening::First;
+    let children = |i: usize, n: usize| if first { 1.0 } else { (n - 2 * i).min(2) as f32 };
+    let step = if first { 2 } else { 1 };
     for z in 0..dz {
         let slice = &mut out[z * dx * dy..(z + 1) * dx * dy];
-        for k in (2 * z)..(2 * z + 2).min(fz) {
-            for j in 0..fy {
+        for k in ((2 * z)..(2 * z + 2).min(fz)).step_by(step) {
+            for j in (0..fy).step_by(step) {
                 let sums = &mut slice[(j / 2) * dx..(j / 2 + 1) * dx];
                 let mut i = 0;
                 row((k * fy + j) * fx, fx, &mut |v| {
-                    sums[i / 2] += v;
+                    if !first || i % 2 == 0 {
+                        sums[i / 2] += v;
+                    }
                     i += 1;
                 });
             }
@@ -170,7 +180,7 @@ mod tests {
     #[test]
     fn a_bricks_interior_and_apron_are_the_volumes_voxels() {
         let volume = ramp([130, 70, 9]);
-        let source = PyramidSource::from_volume(&volume);
+        let source = PyramidSource::from_volume(&volume, Coarsening::Mean);
         assert_eq!(source.levels()[0].bricks, [3, 2, 1]);
         let brick = source.read(0, [1, 0, 0]).unwrap();
         // Interior: stored (APRON, APRON, APRON) is voxel (64, 0, 0).
@@ -193,7 +203,7 @@ mod tests {
     #[test]
     fn level_one_is_the_average_of_the_children() {
         let volume = ramp([131, 5, 3]);
-        let source = PyramidSource::from_volume(&volume);
+        let source = PyramidSource::from_volume(&volume, Coarsening::Mean);
         assert_eq!(source.levels()[1].dims, [66, 3, 2]);
         let brick = source.read(1, [0, 0, 0]).unwrap();
         let mean = |cells: &[[u32; 3]]| cells.iter().map(|&c| voxel(&volume, c)).sum::<f32>() / cells.len() as f32;
@@ -209,7 +219,7 @@ mod tests {
     #[test]
     fn bricks_of_one_value_collapse_and_bad_indices_are_errors() {
         let volume = Volume::new([70, 3, 3], Mat4::IDENTITY, vec![4.0; 70 * 9]);
-        let source = PyramidSource::from_volume(&volume);
+        let source = PyramidSource::from_volume(&volume, Coarsening::Mean);
         assert_eq!(source.read(0, [1, 0, 0]).unwrap(), BrickData::Constant(4.0));
         assert_eq!(source.read(1, [0, 0, 0]).unwrap(), BrickData::Constant(4.0));
         assert!(source.read(0, [2, 0, 0]).unwrap_err().0.contains("outside level 0"));
@@ -220,7 +230,7 @@ mod tests {
     #[test]
     fn a_phantom_pyramid_ends_in_one_brick() {
         let volume = crate::volume::phantom("head", [96, 96, 40]).unwrap();
-        let source = PyramidSource::from_volume(&volume);
+        let source = PyramidSource::from_volume(&volume, Coarsening::Mean);
         assert_eq!(source.levels().len(), 2);
         assert_eq!(source.levels()[1].bricks, [1, 1, 1]);
         let top = source.read(1, [0, 0, 0]).unwrap();

@@ -16,13 +16,14 @@ use std::fs::File;
 use std::io::{Read, Seek, SeekFrom, Write};
 use std::sync::Arc;
 
-use super::{BRICK, BrickData};
+use super::{BRICK, BrickData, Coarsening};
 
 /// Edge of a [`Summary`]: one sum for each 2x2x2 block of a brick.
 pub(crate) const HALF: u32 = BRICK / 2;
 
 /// A finer brick as the level above reads it: the sum of its voxels (those inside the volume)
-/// in each 2x2x2 block, `HALF`^3 values x fastest; or, for a brick of one value, that value.
+/// in each 2x2x2 block (its first voxel, with [`Coarsening::First`]), `HALF`^3 values x
+/// fastest; or, for a brick of one value, that value.
 #[derive(Clone, Debug, PartialEq)]
 pub(crate) enum Summary {
     Constant(f32),
@@ -30,8 +31,8 @@ pub(crate) enum Summary {
 }
 
 impl Summary {
-    /// The sums of brick `fb` of a level of `fine` dims.
-    pub(crate) fn of(data: &BrickData, fb: [u32; 3], fine: [u32; 3]) -> Summary {
+    /// The sums (or first voxels) of brick `fb` of a level of `fine` dims.
+    pub(crate) fn of(data: &BrickData, fb: [u32; 3], fine: [u32; 3], coarsening: Coarsening) -> Summary {
         let BrickData::Voxels(_) = data else {
             return match data {
                 BrickData::Constant(v) => Summary::Constant(*v),
@@ -41,10 +42,15 @@ impl Summary {
         // Voxels of the brick inside the volume, per axis.
         let inside = [0, 1, 2].map(|a| fine[a].saturating_sub(fb[a] * BRICK).min(BRICK));
         let mut sums = vec![0.0f32; (HALF * HALF * HALF) as usize];
-        for z in 0..inside[2] {
-            for y in 0..inside[1] {
+        // Every voxel, or the first of each block.
+        let step = match coarsening {
+            Coarsening::Mean => 1,
+            Coarsening::First => 2,
+        };
+        for z in (0..inside[2]).step_by(step) {
+            for y in (0..inside[1]).step_by(step) {
                 let row = ((z / 2 * HALF + y / 2) * HALF) as usize;
-                for x in 0..inside[0] {
+                for x in (0..inside[0]).step_by(step) {
                     // Past the apron.
                     sums[row + (x / 2) as usize] += data.voxel([x, y, z]);
                 }

@@ -9,7 +9,7 @@ use super::{SceneRenderer, SceneView, VolumeGrid};
 use crate::bricks::mapped::MappedSource;
 use crate::bricks::pyramid::PyramidSource;
 use crate::bricks::zarr::{Choice, StoreLocation, ZarrSelection, ZarrSource};
-use crate::bricks::{BrickData, BrickSource, BrickView, BrickedVolume, Residency};
+use crate::bricks::{BrickData, BrickSource, BrickView, BrickedVolume, Coarsening, Residency};
 use crate::error::RuntimeError;
 use crate::gpu::Gpu;
 use crate::textures::HISTOGRAM_BINS;
@@ -34,23 +34,23 @@ pub(super) type Opened = (Arc<dyn BrickSource>, Option<[f32; 2]>);
 pub(super) fn open_source(
     source: &VolumeSource,
     keys: &ZarrKeys,
-    cache: u64,
+    (cache, coarsening): (u64, Coarsening),
     phantom: impl Fn(&str) -> Result<Volume, RuntimeError>,
     progress: &mut dyn FnMut(u64, u64),
 ) -> Result<Opened, RuntimeError> {
     let in_memory = |volume: Volume| -> Opened {
         let window = volume::auto_window(&volume);
-        (Arc::new(PyramidSource::from_volume(&volume)), Some(window))
+        (Arc::new(PyramidSource::from_volume(&volume, coarsening)), Some(window))
     };
     if let Some(location) = store_location(source) {
-        return Ok((Arc::new(open_store(&location, keys, cache)?), None));
+        return Ok((Arc::new(open_store(&location, keys, cache)?.coarsened_by(coarsening)), None));
     }
     Ok(match source {
         VolumeSource::File(file) => match volume::raw_layout(&file.resolved).map_err(RuntimeError::Volume)? {
             Some(raw) => {
                 let mapped = MappedSource::new(&raw, cache)
                     .map_err(|e| RuntimeError::Invalid(format!("`{}`: {e}", file.resolved.display())))?;
-                (Arc::new(mapped), None)
+                (Arc::new(mapped.coarsened_by(coarsening)), None)
             }
             None => in_memory(volume::load(&file.resolved, progress).map_err(RuntimeError::Volume)?),
         },

@@ -41,7 +41,7 @@ use zarrs::array::{ArrayError, ArraySubsetTraits};
 use super::grid::{GridSource, SourceGrid, spread};
 use super::lazy_levels::{box_index, inside_box, stored_box, sub};
 use super::pyramid::{check_brick, cut_brick};
-use super::{BRICK, BrickData, BrickError, levels_for, lock, table_entries};
+use super::{BRICK, BrickData, BrickError, Coarsening, levels_for, lock, table_entries};
 use dataset::{Dataset, Fixed, Store};
 use ome::{Axis, AxisKind, Multiscale, Transform};
 use plan::{LevelPlan, Placement};
@@ -109,6 +109,8 @@ pub struct ZarrSource {
     listings: Vec<OnceLock<Option<Listing>>>,
     /// Unreadable chunks met while building levels, once each.
     notes: Mutex<Vec<String>>,
+    /// How a level is made of a finer dataset's voxels, or built from the level below.
+    coarsening: Coarsening,
 }
 
 /// A box of a dataset's voxels in data units, x fastest.
@@ -177,7 +179,16 @@ impl ZarrSource {
             datasets,
             dir: opened.dir,
             notes: Mutex::new(Vec::new()),
+            coarsening: Coarsening::Mean,
         })
+    }
+
+    /// The source with its coarse levels made by `coarsening` (the mean by default): what
+    /// label ids need ([`Coarsening::First`]).
+    pub fn coarsened_by(mut self, coarsening: Coarsening) -> ZarrSource {
+        self.coarsening = coarsening;
+        self.grid.lazy.coarsening = coarsening;
+        self
     }
 
     /// How many levels a dataset answers at its own resolution; the others are averaged from
@@ -362,7 +373,7 @@ impl ZarrSource {
         match self.read_region(d, slo, shi)? {
             Region::Constant(v) => Ok(BrickData::Constant(v)),
             Region::Voxels(values) => {
-                let level_values = plan::resample(values, (slo, shi), (lo, hi), ratio, offset);
+                let level_values = plan::resample(values, (slo, shi), (lo, hi), ratio, offset, self.coarsening);
                 let size = sub(hi, lo);
                 let last = hi.map(|v| v - 1);
                 let at = |p: [u32; 3]| [0, 1, 2].map(|a| p[a].clamp(lo[a], last[a]) - lo[a]);

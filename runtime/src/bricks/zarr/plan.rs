@@ -12,6 +12,7 @@
 //! the level below (`lazy_levels`).
 
 use super::ome::Transform;
+use crate::bricks::Coarsening;
 
 /// The most dataset voxels averaged into one level voxel when reading a level from a finer
 /// dataset (a brick reads at most this many bricks' worth of voxels).
@@ -103,14 +104,16 @@ pub(super) fn source_box(
 }
 
 /// The level voxels of the box `[lo, hi)` from the dataset voxels `values` of the box
-/// `[slo, shi)` (x fastest): each the mean of the voxels its window covers, or, past the
-/// dataset's end (a level rounded up over a dataset rounded down), the nearest voxel.
+/// `[slo, shi)` (x fastest): each the mean of the voxels its window covers (the first of them
+/// with [`Coarsening::First`]), or, past the dataset's end (a level rounded up over a dataset
+/// rounded down), the nearest voxel.
 pub(super) fn resample(
     values: Vec<f32>,
     (slo, shi): ([u32; 3], [u32; 3]),
     (lo, hi): ([u32; 3], [u32; 3]),
     ratio: [u32; 3],
     offset: [i64; 3],
+    coarsening: Coarsening,
 ) -> Vec<f32> {
     // A dataset that is the level (every brick of level 0, on the loaders' path): as read.
     if ratio == [1, 1, 1] && offset == [0, 0, 0] && slo == lo && shi == hi {
@@ -126,6 +129,8 @@ pub(super) fn resample(
                 let n = ssize[a] as i64;
                 let (s, e) = (start.clamp(0, n), end.clamp(0, n));
                 if s < e {
+                    // The first voxel alone, or all it covers.
+                    let e = if coarsening == Coarsening::First { s + 1 } else { e };
                     (s as usize, e as usize)
                 } else {
                     let i = start.clamp(0, n - 1) as usize;
@@ -192,10 +197,20 @@ mod tests {
     fn resampling_averages_windows_and_repeats_past_the_end() {
         // A 1D row (x) of 5 dataset voxels read as 3 level voxels with ratio 2: the last has one.
         let values = [1.0, 3.0, 5.0, 7.0, 9.0];
-        let out = resample(values.to_vec(), ([0, 0, 0], [5, 1, 1]), ([0, 0, 0], [3, 1, 1]), [2, 1, 1], [0, 0, 0]);
-        assert_eq!(out, [2.0, 6.0, 9.0]);
+        let row =
+            |c| resample(values.to_vec(), ([0, 0, 0], [5, 1, 1]), ([0, 0, 0], [3, 1, 1]), [2, 1, 1], [0, 0, 0], c);
+        assert_eq!(row(Coarsening::Mean), [2.0, 6.0, 9.0]);
+        // Label ids: the first of each window, never a mean.
+        assert_eq!(row(Coarsening::First), [1.0, 5.0, 9.0]);
         // A level rounded up over a dataset rounded down: the voxel past the end repeats.
-        let out = resample(values[..2].to_vec(), ([0, 0, 0], [2, 1, 1]), ([0, 0, 0], [3, 1, 1]), [1, 1, 1], [0, 0, 0]);
+        let out = resample(
+            values[..2].to_vec(),
+            ([0, 0, 0], [2, 1, 1]),
+            ([0, 0, 0], [3, 1, 1]),
+            [1, 1, 1],
+            [0, 0, 0],
+            Coarsening::Mean,
+        );
         assert_eq!(out, [1.0, 3.0, 3.0]);
         assert_eq!(source_box([0, 0, 0], [3, 1, 1], [1, 1, 1], [0, 0, 0], [2, 1, 1]), ([0, 0, 0], [2, 1, 1]));
     }

@@ -89,7 +89,54 @@ fn assert_same_bricks(source: &dyn BrickSource, expected: &dyn BrickSource) {
 }
 
 fn reference(dims: [u32; 3], f: impl Fn([u32; 3]) -> f32) -> PyramidSource {
-    PyramidSource::from_volume(&Volume::new(dims, Mat4::IDENTITY, grid(dims, f)))
+    PyramidSource::from_volume(&Volume::new(dims, Mat4::IDENTITY, grid(dims, f)), Coarsening::Mean)
+}
+
+/// Label ids: runs of 0, 3, 7 and 70000 along every axis (odd lengths, so 2x2x2 blocks mix
+/// them).
+fn label([x, y, z]: [u32; 3]) -> f32 {
+    [0.0, 3.0, 7.0, 70000.0][((x / 3 + y / 5 + z / 7) % 4) as usize]
+}
+
+/// Every voxel of every brick of every level of `source`, apron included.
+fn every_voxel(source: &dyn BrickSource) -> Vec<f32> {
+    let mut out = Vec::new();
+    for (l, level) in source.levels().iter().enumerate() {
+        for z in 0..level.bricks[2] {
+            for y in 0..level.bricks[1] {
+                for x in 0..level.bricks[0] {
+                    match source.read(l, [x, y, z]).unwrap() {
+                        BrickData::Constant(v) => out.push(v),
+                        BrickData::Voxels(v) => out.extend(v),
+                    }
+                }
+            }
+        }
+    }
+    out
+}
+
+#[test]
+fn label_ids_stay_ids_in_every_level() {
+    let dir = tempfile::tempdir().unwrap();
+    let root = dir.path().join("labels.zarr");
+    let dims = [150, 90, 140];
+    let data: Vec<u32> = grid(dims, label).into_iter().map(|v| v as u32).collect();
+    write_array(&root, "/", v3(zyx(dims), [40, 30, 50], "uint32", bytes_gzip()), data);
+    let ids = [0.0, 3.0, 7.0, 70000.0];
+    let only_ids = |source: &dyn BrickSource| every_voxel(source).iter().all(|v| ids.contains(v));
+    // Level 1 is read from the array two voxels per axis at a time, level 2 built from it.
+    let source = ZarrSource::open(&root).unwrap().coarsened_by(Coarsening::First);
+    assert_eq!(source.levels().len(), 3);
+    assert!(only_ids(&source), "a coarse level of the store holds a voxel that is no label id");
+    let volume = Volume::new(dims, Mat4::IDENTITY, grid(dims, label));
+    let in_memory = PyramidSource::from_volume(&volume, Coarsening::First);
+    assert!(only_ids(&in_memory), "a coarse level in memory holds a voxel that is no label id");
+    // Both take the first voxel of each block: the same bricks.
+    assert_same_bricks(&source, &in_memory);
+    // Means would not do.
+    assert!(!only_ids(&ZarrSource::open(&root).unwrap()));
+    assert!(!only_ids(&PyramidSource::from_volume(&volume, Coarsening::Mean)));
 }
 
 #[test]
