@@ -1,6 +1,7 @@
 //! Coarse levels a source does not store, built on demand: each brick the 2x2x2 box average of
-//! the next finer level (the mean of the existing children at odd edges), read a finer brick at
-//! a time through a cache bounded in bytes. Shared by the sources whose files hold only the
+//! the next finer level (the mean of the existing children at odd edges; for label ids the
+//! first child, [`Coarsening::First`]), read a finer brick at a time through a cache bounded in
+//! bytes (`summary`: what it lets go waits in a temporary file). Shared by the sources whose files hold only the
 //! finest levels (a Zarr array without a pyramid, a memory-mapped raw file), so that every
 //! source averages exactly as [`super::pyramid::PyramidSource`] does and gives the same bricks.
 
