@@ -109,8 +109,6 @@ pub struct ZarrSource {
     listings: Vec<OnceLock<Option<Listing>>>,
     /// Unreadable chunks met while building levels, once each.
     notes: Mutex<Vec<String>>,
-    /// How a level is made of a finer dataset's voxels, or built from the level below.
-    coarsening: Coarsening,
 }
 
 /// A box of a dataset's voxels in data units, x fastest.
@@ -179,14 +177,13 @@ impl ZarrSource {
             datasets,
             dir: opened.dir,
             notes: Mutex::new(Vec::new()),
-            coarsening: Coarsening::Mean,
         })
     }
 
     /// The source with its coarse levels made by `coarsening` (the mean by default): what
-    /// label ids need ([`Coarsening::First`]).
+    /// label ids need ([`Coarsening::First`]). One setting for the levels read from a finer
+    /// dataset and those built from the level below.
     pub fn coarsened_by(mut self, coarsening: Coarsening) -> ZarrSource {
-        self.coarsening = coarsening;
         self.grid.lazy.coarsening = coarsening;
         self
     }
@@ -373,7 +370,8 @@ impl ZarrSource {
         match self.read_region(d, slo, shi)? {
             Region::Constant(v) => Ok(BrickData::Constant(v)),
             Region::Voxels(values) => {
-                let level_values = plan::resample(values, (slo, shi), (lo, hi), ratio, offset, self.coarsening);
+                let level_values =
+                    plan::resample(values, (slo, shi), (lo, hi), ratio, offset, self.grid.lazy.coarsening);
                 let size = sub(hi, lo);
                 let last = hi.map(|v| v - 1);
                 let at = |p: [u32; 3]| [0, 1, 2].map(|a| p[a].clamp(lo[a], last[a]) - lo[a]);

@@ -73,18 +73,25 @@ fn zyx(d: [u32; 3]) -> [u32; 3] {
     [d[2], d[1], d[0]]
 }
 
-/// Every brick of every level of `source` equals the same brick of `expected`.
-fn assert_same_bricks(source: &dyn BrickSource, expected: &dyn BrickSource) {
-    assert_eq!(source.levels(), expected.levels());
+/// Every brick of every level of `source`: (level, brick).
+fn every_brick(source: &dyn BrickSource) -> Vec<(usize, [u32; 3])> {
+    let mut out = Vec::new();
     for (l, level) in source.levels().iter().enumerate() {
         for z in 0..level.bricks[2] {
             for y in 0..level.bricks[1] {
-                for x in 0..level.bricks[0] {
-                    let (a, b) = (source.read(l, [x, y, z]).unwrap(), expected.read(l, [x, y, z]).unwrap());
-                    assert!(a == b, "level {l} brick {:?} differs", [x, y, z]);
-                }
+                out.extend((0..level.bricks[0]).map(|x| (l, [x, y, z])));
             }
         }
+    }
+    out
+}
+
+/// Every brick of every level of `source` equals the same brick of `expected`.
+fn assert_same_bricks(source: &dyn BrickSource, expected: &dyn BrickSource) {
+    assert_eq!(source.levels(), expected.levels());
+    for (l, brick) in every_brick(source) {
+        let (a, b) = (source.read(l, brick).unwrap(), expected.read(l, brick).unwrap());
+        assert!(a == b, "level {l} brick {brick:?} differs");
     }
 }
 
@@ -101,16 +108,10 @@ fn label([x, y, z]: [u32; 3]) -> f32 {
 /// Every voxel of every brick of every level of `source`, apron included.
 fn every_voxel(source: &dyn BrickSource) -> Vec<f32> {
     let mut out = Vec::new();
-    for (l, level) in source.levels().iter().enumerate() {
-        for z in 0..level.bricks[2] {
-            for y in 0..level.bricks[1] {
-                for x in 0..level.bricks[0] {
-                    match source.read(l, [x, y, z]).unwrap() {
-                        BrickData::Constant(v) => out.push(v),
-                        BrickData::Voxels(v) => out.extend(v),
-                    }
-                }
-            }
+    for (l, brick) in every_brick(source) {
+        match source.read(l, brick).unwrap() {
+            BrickData::Constant(v) => out.push(v),
+            BrickData::Voxels(v) => out.extend(v),
         }
     }
     out
