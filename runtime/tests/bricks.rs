@@ -223,3 +223,49 @@ camera = {{ azimuth = 35.0, elevation = 20.0, distance = 2.2 }}
         ALIKE.check(what, &difference).unwrap_or_else(|e| panic!("{e}"));
     }
 }
+
+/// A volume read from a file without a pyramid is read whole once at open, to build its coarse
+/// levels; what that pass shows of the values is known before the first frame, so bricks the
+/// transfer function makes transparent are skipped from the first ray on and never loaded. Here
+/// 256 x 64 x 64 voxels (bricks of 64: 4 x 1 x 1 at level 0): air with noise (never one value,
+/// so never a constant brick) up to x = 160 and bone beyond, so the 2 bricks of x < 128 (their
+/// aprons included) are transparent under `ct_bone`. The pyramid has 4 + 2 + 1 bricks; the
+/// picture's pixels are smaller than a voxel, so that the rays ask for level 0.
+#[test]
+fn bricks_the_transfer_function_hides_are_never_loaded() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let dims = [256u32, 64, 64];
+    let values: Vec<f32> = (0..dims.iter().product::<u32>())
+        .map(|i| {
+            let noise = (i.wrapping_mul(2_654_435_761) >> 28) as f32;
+            if i % dims[0] < 160 { -1000.0 + noise } else { 1000.0 + 10.0 * noise }
+        })
+        .collect();
+    let identity = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+    common::write_nrrd(&dir.path().join("half.nrrd"), "right-anterior-superior", dims, identity, [0.0; 3], &values);
+    let text = r#"
+[render]
+compositing = "dvr"
+jitter = 0.0
+
+[[volume]]
+name = "half"
+role = "primary"
+path = "half.nrrd"
+tf = "ct_bone"
+bricks = true
+
+[[view]]
+name = "3d"
+kind = "raycast"
+size = [384, 384]
+camera = { azimuth = -60.0, elevation = 20.0, distance = 1.6 }
+"#;
+    let (images, renderer) = render(dir.path(), "scene.toml", text);
+    let residency = renderer.brick_residency();
+    println!("{residency:?}");
+    assert!(images[0].1.pixels().any(|p| p.0[3] > 200), "the bone shows");
+    assert_eq!(residency.pending, 0, "{residency:?}");
+    assert!(residency.loaded + u64::from(residency.constant) <= 7 - 2, "transparent bricks were loaded: {residency:?}");
+    assert!(residency.loaded >= 2, "the bone's bricks were loaded: {residency:?}");
+}

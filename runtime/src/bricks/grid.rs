@@ -7,7 +7,7 @@ use glam::Mat4;
 
 use super::lazy_levels::LazyLevels;
 use super::pyramid::check_brick;
-use super::{BrickData, BrickError, BrickSource, Level};
+use super::{BrickData, BrickError, BrickSource, Level, Level0Observer};
 
 /// Bricks per axis read at open to estimate the value range (at most 4^3; see [`spread`]).
 pub(super) const RANGE_BRICKS_PER_AXIS: u32 = 4;
@@ -74,6 +74,10 @@ impl<S: GridSource> BrickSource for S {
 
     fn warnings(&self) -> Vec<String> {
         self.notes()
+    }
+
+    fn observe_level0(&self, observer: Level0Observer) {
+        self.grid().lazy.observe_level0(observer);
     }
 }
 

@@ -6,14 +6,14 @@
 //! source averages exactly as [`super::pyramid::PyramidSource`] does and gives the same bricks.
 
 use std::ops::Range;
-use std::sync::{Arc, Mutex};
+use std::sync::{Arc, Mutex, OnceLock};
 
 use rayon::prelude::*;
 
 use super::pyramid::cut_brick;
 use super::source::stored_origin;
 use super::summary::{HALF, Summary, SummaryCache};
-use super::{BRICK, BrickData, BrickError, Coarsening, Level, STORED};
+use super::{BRICK, BrickData, BrickError, Coarsening, Level, Level0Observer, STORED};
 
 /// Bytes of finer-level bricks kept to build the coarse levels a source does not store, out of
 /// a volume's host budget of `host` bytes: a quarter, at most 256 MiB (the rest holds the
@@ -30,12 +30,24 @@ pub(crate) struct LazyLevels {
     cache: Mutex<SummaryCache>,
     /// How a coarse voxel is made of the finer ones.
     pub(crate) coarsening: Coarsening,
+    /// Shown each level-0 brick read to build level 1.
+    observer: OnceLock<Level0Observer>,
 }
 
 impl LazyLevels {
     /// Levels built with a cache of at most `budget` bytes of finer bricks' sums.
     pub(crate) fn new(budget: u64) -> LazyLevels {
-        LazyLevels { cache: Mutex::new(SummaryCache::new(budget)), coarsening: Coarsening::Mean }
+        LazyLevels {
+            cache: Mutex::new(SummaryCache::new(budget)),
+            coarsening: Coarsening::Mean,
+            observer: OnceLock::new(),
+        }
+    }
+
+    /// Shows `observer` every level-0 brick read from now on (the first observer only: a
+    /// source belongs to one volume).
+    pub(crate) fn observe_level0(&self, observer: Level0Observer) {
+        let _ = self.observer.set(observer);
     }
 
     /// Brick `brick` of `level` (not 0) as the box average of `level - 1`, whose bricks come
@@ -95,7 +107,13 @@ impl LazyLevels {
             return Ok(hit);
         }
         // Read without the lock, so that other loader threads are not held up.
-        let summary = Arc::new(Summary::of(&read(level, brick)?, brick, fine, self.coarsening));
+        let data = read(level, brick)?;
+        if level == 0
+            && let Some(observe) = self.observer.get()
+        {
+            observe(brick, &data);
+        }
+        let summary = Arc::new(Summary::of(&data, brick, fine, self.coarsening));
         self.cache.lock().unwrap_or_else(|e| e.into_inner()).insert((level, brick), summary.clone());
         Ok(summary)
     }

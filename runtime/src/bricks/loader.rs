@@ -137,9 +137,14 @@ fn normalize(data: BrickData, window: Window) -> Normalized {
     match data {
         BrickData::Constant(v) => Normalized::Constant(window.apply(v)),
         BrickData::Voxels(values) => {
-            Normalized::Voxels(Arc::new(values.into_iter().map(|v| half::f16::from_f32(window.apply(v))).collect()))
+            Normalized::Voxels(Arc::new(values.into_iter().map(|v| pool_value(window, v)).collect()))
         }
     }
+}
+
+/// A value in data units as the pool holds it.
+pub(crate) fn pool_value(window: Window, value: f32) -> half::f16 {
+    half::f16::from_f32(window.apply(value))
 }
 
 /// Normalized bricks by page-table entry, the least recently used dropped past the budget.

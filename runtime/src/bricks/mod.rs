@@ -21,7 +21,7 @@ pub(crate) use lazy_levels::cache_bytes;
 pub use residency::Residency;
 pub(crate) use residency::{BrickView, BrickedVolume, BrickedVolumes};
 pub(crate) use source::levels_for;
-pub use source::{BrickData, BrickError, BrickSource, Level};
+pub use source::{BrickData, BrickError, BrickSource, Level, Level0Observer};
 
 /// How a level a source does not store is made from the finer one (or from a finer dataset
 /// of a store, a few of its voxels per voxel).

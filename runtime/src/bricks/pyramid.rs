@@ -12,7 +12,7 @@ use std::sync::Arc;
 use glam::Mat4;
 
 use super::source::stored_origin;
-use super::{BrickData, BrickError, BrickSource, Coarsening, Level, STORED, levels_for};
+use super::{BrickData, BrickError, BrickSource, Coarsening, Level, Level0Observer, STORED, levels_for};
 use crate::volume::Volume;
 
 /// A volume in memory, read a brick at a time, with a box-averaged mip pyramid.
@@ -60,6 +60,12 @@ impl PyramidSource {
     }
 }
 
+/// Brick `brick` of a grid of `dims` whose voxel `index` (x fastest) has `value(index)`.
+fn brick_of(dims: [u32; 3], brick: [u32; 3], value: impl Fn(usize) -> f32) -> BrickData {
+    let [dx, dy, _] = dims.map(|n| n as usize);
+    cut_brick(dims, brick, |[x, y, z]| value((z as usize * dy + y as usize) * dx + x as usize)).collapse()
+}
+
 impl BrickSource for PyramidSource {
     fn levels(&self) -> &[Level] {
         &self.levels
@@ -75,9 +81,18 @@ impl BrickSource for PyramidSource {
 
     fn read(&self, level: usize, brick: [u32; 3]) -> Result<BrickData, BrickError> {
         let info = check_brick(&self.levels, level, brick)?;
-        let [dx, dy, _] = info.dims.map(|n| n as usize);
-        Ok(cut_brick(info.dims, brick, |[x, y, z]| self.value(level, (z as usize * dy + y as usize) * dx + x as usize))
-            .collapse())
+        Ok(brick_of(info.dims, brick, |index| self.value(level, index)))
+    }
+
+    /// Shows `observer` every level-0 brick, on a thread of its own (the volume is in memory:
+    /// its bricks' values are known before any is asked for).
+    fn observe_level0(&self, observer: Level0Observer) {
+        let (volume, level) = (self.volume.clone(), self.levels[0]);
+        std::thread::spawn(move || {
+            for brick in level.each_brick() {
+                observer(brick, &brick_of(level.dims, brick, |index| volume.value(index).unwrap_or(0.0)));
+            }
+        });
     }
 }
 
@@ -225,6 +240,29 @@ mod tests {
         assert!(source.read(0, [2, 0, 0]).unwrap_err().0.contains("outside level 0"));
         assert!(source.read(5, [0, 0, 0]).unwrap_err().0.contains("level 5 does not exist"));
         assert_eq!(source.range(), [4.0, 4.0]);
+    }
+
+    #[test]
+    fn an_observer_is_shown_every_level_0_brick_as_read() {
+        let volume = ramp([130, 70, 9]);
+        let source = PyramidSource::from_volume(&volume, Coarsening::Mean);
+        let (send, seen) = std::sync::mpsc::channel();
+        let send = std::sync::Mutex::new(send);
+        source.observe_level0(Arc::new(move |brick, data: &BrickData| {
+            send.lock().unwrap().send((brick, data.clone())).unwrap();
+        }));
+        let mut bricks = Vec::new();
+        for _ in 0..6 {
+            bricks.push(seen.recv_timeout(std::time::Duration::from_secs(10)).expect("every brick is shown"));
+        }
+        bricks.sort_by_key(|(brick, _)| [brick[2], brick[1], brick[0]]);
+        assert_eq!(
+            bricks.iter().map(|(b, _)| *b).collect::<Vec<_>>(),
+            source.levels()[0].each_brick().collect::<Vec<_>>()
+        );
+        for (brick, data) in bricks {
+            assert_eq!(data, source.read(0, brick).unwrap(), "brick {brick:?}");
+        }
     }
 
     #[test]

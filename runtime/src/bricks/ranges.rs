@@ -7,9 +7,12 @@
 
 use std::collections::HashSet;
 use std::ops::RangeInclusive;
+use std::sync::{Arc, Mutex};
 
-use super::{APRON, BRICK, STORED};
+use super::loader::{Normalized, pool_value};
+use super::{APRON, BRICK, BrickData, BrickSource, STORED, lock};
 use crate::occupancy::{self, BrickRanges, EMPTY, merge};
+use crate::volume::{Scaling, Window};
 
 /// Any value: a texel not yet known.
 const ANY: (f32, f32) = (f32::NEG_INFINITY, f32::INFINITY);
@@ -113,6 +116,15 @@ impl LearntRanges {
             .collect()
     }
 
+    /// Takes every range known to `(lo(min), hi(max))`: with non-decreasing `lo <= hi`, what
+    /// a range bounded bounds what the new one does.
+    fn map(&mut self, lo: impl Fn(f32) -> f32, hi: impl Fn(f32) -> f32) {
+        for range in self.ranges.iter_mut().filter(|r| r.0 <= r.1) {
+            *range = (lo(range.0), hi(range.1));
+        }
+        self.changed = true;
+    }
+
     /// The grid as far as it is known, when something was learnt since the last call.
     pub(crate) fn take_changed(&mut self) -> Option<BrickRanges> {
         if !std::mem::take(&mut self.changed) {
@@ -121,6 +133,67 @@ impl LearntRanges {
         let ranges = self.ranges.iter().zip(&self.missing).map(|(&r, &m)| if m == 0 { r } else { ANY }).collect();
         Some(BrickRanges::from_ranges(self.texels, ranges))
     }
+}
+
+/// A bricked volume's [`LearntRanges`], fed by the bricks that arrive from the loader and by
+/// those its source reads of itself ([`BrickSource::observe_level0`]). Those may come before
+/// the volume's window is known (a source without a stored pyramid reads level 0 whole to build
+/// the coarsest level, which the automatic window is taken from), so until [`Self::set_window`]
+/// values are kept in data units; from then on, as the pool holds them.
+pub(crate) struct RangeLearner {
+    ranges: LearntRanges,
+    window: Option<Window>,
+}
+
+impl RangeLearner {
+    /// A learner for `source`, shown every level-0 brick the source reads of itself from now on.
+    pub(crate) fn of(source: &dyn BrickSource) -> Arc<Mutex<RangeLearner>> {
+        let learner =
+            Arc::new(Mutex::new(RangeLearner { ranges: LearntRanges::new(source.levels()[0].dims), window: None }));
+        let recorder = learner.clone();
+        source.observe_level0(Arc::new(move |brick, data| lock(&recorder).record_read(brick, data)));
+        learner
+    }
+
+    /// Level-0 brick `brick` as the source read it (data units).
+    fn record_read(&mut self, brick: [u32; 3], data: &BrickData) {
+        let window = self.window;
+        let value = |v: f32| window.map_or(v, |w| in_pool(w, v).0);
+        match data {
+            BrickData::Constant(v) => self.ranges.record(brick, |_| value(*v)),
+            BrickData::Voxels(_) => self.ranges.record(brick, |at| value(data.at(at))),
+        }
+    }
+
+    /// Level-0 brick `brick` as it arrived for the pool.
+    pub(crate) fn record_arrival(&mut self, brick: [u32; 3], data: &Normalized) {
+        match data {
+            Normalized::Constant(v) => self.ranges.record(brick, |_| *v),
+            Normalized::Voxels(voxels) => self.ranges.record(brick, |at| stored_voxel(voxels, at)),
+        }
+    }
+
+    /// From now on values are mapped by `window` (data units to the pool's [0, 1]), and so are
+    /// the ranges learnt so far.
+    pub(crate) fn set_window(&mut self, window: [f32; 2]) {
+        let window = Window::new(window, Scaling::IDENTITY);
+        if self.window.is_none() {
+            self.ranges.map(|v| in_pool(window, v).0, |v| in_pool(window, v).1);
+        }
+        self.window = Some(window);
+    }
+
+    /// [`LearntRanges::take_changed`], once the window is set (`None` before).
+    pub(crate) fn take_changed(&mut self) -> Option<BrickRanges> {
+        self.window.and(self.ranges.take_changed())
+    }
+}
+
+/// Bounds of value `v` (data units) as the pool holds it: a voxel rounded to a half float, a
+/// brick of one value in the page table's fixed point (close to the exact value).
+fn in_pool(window: Window, v: f32) -> (f32, f32) {
+    let (voxel, exact) = (pool_value(window, v).to_f32(), window.apply(v));
+    (voxel.min(exact) - f32::EPSILON, voxel.max(exact) + f32::EPSILON)
 }
 
 /// The stored voxel at `[x, y, z]` of a brick's half floats.
@@ -154,5 +227,21 @@ mod tests {
         assert!((0.3..0.31).contains(&after_1[12]), "{after_1:?}");
         learnt.record([1, 0, 0], |_| 0.3);
         assert!(grid(&mut learnt).is_none(), "a brick read again tells nothing new");
+    }
+
+    #[test]
+    fn ranges_read_before_the_window_is_known_are_mapped_by_it() {
+        let mut learner = RangeLearner { ranges: LearntRanges::new([64, 8, 8]), window: None };
+        learner.record_read([0, 0, 0], &BrickData::Constant(-1000.0));
+        assert!(learner.take_changed().is_none(), "no grid before the window");
+        learner.set_window([-1000.0, 1000.0]);
+        let grid = learner.take_changed().expect("the grid once the window is set").max_grid().values();
+        assert!(grid.iter().all(|&v| v.abs() < 1e-3), "-1000 is the window's bottom: {grid:?}");
+        // A brick read after the window is set is mapped as it is read.
+        let mut learner = RangeLearner { ranges: LearntRanges::new([64, 8, 8]), window: None };
+        learner.set_window([-1000.0, 1000.0]);
+        learner.record_read([0, 0, 0], &BrickData::Constant(0.0));
+        let grid = learner.take_changed().expect("the grid").max_grid().values();
+        assert!(grid.iter().all(|&v| (v - 0.5).abs() < 1e-3), "0 is the window's middle: {grid:?}");
     }
 }

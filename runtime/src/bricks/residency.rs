@@ -14,7 +14,7 @@ use std::sync::{Arc, Mutex};
 use glam::{Mat4, Vec3};
 
 use super::loader::{Loader, Normalized};
-use super::ranges::{LearntRanges, stored_voxel};
+use super::ranges::RangeLearner;
 use super::{APRON, BRICK, BrickSource, Level, MAX_BRICKS, STORED, lock, table_entries};
 use crate::error::RuntimeError;
 use crate::gpu::Gpu;
@@ -94,9 +94,6 @@ struct State {
     /// Loading errors, once each (a corrupt chunk is reported, its brick left missing).
     errors: Vec<String>,
     failed: HashSet<u32>,
-    /// What the level-0 bricks read so far tell of the values, for empty-space skipping (kept
-    /// after an eviction).
-    learnt: LearntRanges,
 }
 
 /// A bricked volume's GPU objects and residency.
@@ -123,13 +120,19 @@ pub(crate) struct BrickedVolume {
     floor: AtomicU32,
     /// The pool has a slot for every brick of the pyramid: each brick goes to its own.
     own_slots: bool,
+    /// What the level-0 bricks read so far tell of the values, for empty-space skipping (kept
+    /// after an eviction): those that arrive, and those the source reads of itself
+    /// ([`BrickSource::observe_level0`], from before the volume was made: `learnt` of
+    /// [`BrickedVolume::new`]).
+    learnt: Arc<Mutex<RangeLearner>>,
 }
 
 impl BrickedVolume {
     /// The GPU objects of `source` with a pool of at most `budgets.0` bytes, values mapped to
     /// [0, 1] by `window`; the coarsest level is loaded before it returns. `budgets.1` is the
     /// volume's host budget, of which the source's cache for built levels takes
-    /// [`super::cache_bytes`] and the loader's cache of normalized bricks the rest.
+    /// [`super::cache_bytes`] and the loader's cache of normalized bricks the rest. `learnt`
+    /// holds what the source showed of level 0 so far ([`RangeLearner::of`]).
     pub(crate) fn new(
         gpu: &Gpu,
         name: &str,
@@ -137,6 +140,7 @@ impl BrickedVolume {
         window: [f32; 2],
         budgets: (u64, u64),
         primary_to: Mat4,
+        learnt: Arc<Mutex<RangeLearner>>,
     ) -> Result<BrickedVolume, RuntimeError> {
         let invalid = |m: String| RuntimeError::Invalid(format!("volume `{name}`: {m}"));
         let levels = source.levels().to_vec();
@@ -200,8 +204,8 @@ impl BrickedVolume {
             stats: Residency { slots: count, ..Residency::default() },
             errors: Vec::new(),
             failed: HashSet::new(),
-            learnt: LearntRanges::new(levels[0].dims),
         };
+        lock(&learnt).set_window(window);
         let volume = BrickedVolume {
             name: name.to_string(),
             grid_to_world: source.grid_to_world(),
@@ -219,6 +223,7 @@ impl BrickedVolume {
             mapping: Mutex::new(None),
             floor: AtomicU32::new(0),
             own_slots,
+            learnt,
         };
         volume.load_coarsest(gpu)?;
         Ok(volume)
@@ -238,7 +243,7 @@ impl BrickedVolume {
     /// far as the level-0 bricks read so far tell, when they told something new since the last
     /// call (`None`: nothing new).
     pub(crate) fn new_ranges(&self) -> Option<BrickRanges> {
-        self.lock().learnt.take_changed()
+        lock(&self.learnt).take_changed()
     }
 
     /// Counts of the residency now.
@@ -392,17 +397,14 @@ impl BrickedVolume {
             let next = if wait && pending { self.loader.wait() } else { self.loader.try_next() };
             let Some((entry, result)) = next else { break };
             arrived += 1;
-            let mut state = self.lock();
-            state.pending.remove(&entry);
             if let Ok(data) = &result {
                 let (level, brick) = self.brick_of(entry);
                 if level == 0 {
-                    match data {
-                        Normalized::Constant(v) => state.learnt.record(brick, |_| *v),
-                        Normalized::Voxels(voxels) => state.learnt.record(brick, |at| stored_voxel(voxels, at)),
-                    }
+                    lock(&self.learnt).record_arrival(brick, data);
                 }
             }
+            let mut state = self.lock();
+            state.pending.remove(&entry);
             match result {
                 Ok(Normalized::Constant(value)) => {
                     state.table[entry as usize] = CONSTANT | (value.clamp(0.0, 1.0) * PAYLOAD as f32).round() as u32;

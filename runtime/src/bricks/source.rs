@@ -1,5 +1,7 @@
 //! What a bricked volume is read from: its levels and one brick at a time.
 
+use std::sync::Arc;
+
 use glam::Mat4;
 
 use super::{APRON, BRICK, STORED};
@@ -21,6 +23,12 @@ impl Level {
     /// Bricks in the level.
     pub(crate) fn brick_count(&self) -> u64 {
         self.bricks.iter().map(|&n| n as u64).product()
+    }
+
+    /// Every brick of the level, x fastest.
+    pub(crate) fn each_brick(&self) -> impl Iterator<Item = [u32; 3]> + use<> {
+        let [nx, ny, nz] = self.bricks;
+        (0..nz).flat_map(move |z| (0..ny).flat_map(move |y| (0..nx).map(move |x| [x, y, z])))
     }
 }
 
@@ -94,6 +102,11 @@ impl std::fmt::Display for BrickError {
 
 impl std::error::Error for BrickError {}
 
+/// Shown each level-0 brick (its index and data) that a source reads of itself: what a bricked
+/// volume learns of its values before it asks for any brick (see
+/// [`BrickSource::observe_level0`]).
+pub type Level0Observer = Arc<dyn Fn([u32; 3], &BrickData) + Send + Sync>;
+
 /// A volume read a brick at a time. Shared with the loader threads, hence `Send + Sync`.
 pub trait BrickSource: Send + Sync {
     /// The pyramid, finest first; level 0 is the volume's grid. Never empty.
@@ -115,6 +128,12 @@ pub trait BrickSource: Send + Sync {
     fn warnings(&self) -> Vec<String> {
         Vec::new()
     }
+
+    /// Shows `observer` every level-0 brick the source reads of itself from now on: a source
+    /// that builds the coarse levels it lacks reads all of level 0 for its coarsest level, and
+    /// a volume in memory has it already. The default shows none (a store with a pyramid reads
+    /// level 0 only where asked).
+    fn observe_level0(&self, _observer: Level0Observer) {}
 }
 
 /// The first voxel (apron included) a stored brick starts at, per axis: `brick * BRICK - APRON`

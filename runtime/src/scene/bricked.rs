@@ -8,6 +8,7 @@ use glam::{Mat4, Vec4};
 use super::{SceneRenderer, SceneView, VolumeGrid};
 use crate::bricks::mapped::MappedSource;
 use crate::bricks::pyramid::PyramidSource;
+use crate::bricks::ranges::RangeLearner;
 use crate::bricks::zarr::{Choice, StoreLocation, ZarrSelection, ZarrSource};
 use crate::bricks::{BrickData, BrickSource, BrickView, BrickedVolume, Coarsening, Residency};
 use crate::error::RuntimeError;
@@ -167,6 +168,9 @@ pub(super) fn load(
     (memory, share): (&Memory, u64),
     primary: Option<&VolumeGrid>,
 ) -> Result<(BrickedVolume, [f32; 2], Vec<u64>), RuntimeError> {
+    // Before the coarsest level is read: a source without a stored pyramid reads all of level
+    // 0 for it, and what that pass shows of the values is kept for empty-space skipping.
+    let learnt = RangeLearner::of(source.as_ref());
     let top = coarsest(source.as_ref())?;
     let window = fixed.or(automatic).unwrap_or_else(|| volume::auto_window(&top));
     let dims = source.levels()[0].dims;
@@ -175,7 +179,7 @@ pub(super) fn load(
         None => Mat4::IDENTITY,
     };
     let budgets = (memory.gpu / share.max(1), memory.host / share.max(1));
-    let bricked = BrickedVolume::new(gpu, name, source, window, budgets, primary_to)?;
+    let bricked = BrickedVolume::new(gpu, name, source, window, budgets, primary_to, learnt)?;
     Ok((bricked, window, histogram(&top, window)))
 }
 
