@@ -118,6 +118,13 @@ pub enum BindingKind {
     /// `texture_2d<f32>` (`rgba8unorm`): the colour of the view's mesh layer, premultiplied,
     /// which the entry point loads into `geometry_color`.
     GeometryColor,
+    /// `texture_2d_array<f32>` (`r32float`, not filterable), one layer per translucent layer of
+    /// the view's mesh layer (nearest first): its depth (1 where the layer holds nothing), which
+    /// the entry point loads into `translucent_depth_N`.
+    TranslucentDepth,
+    /// `texture_2d_array<f32>` (`rgba8unorm`), one layer per translucent layer: its colour,
+    /// premultiplied, which the entry point loads into `translucent_color_N`.
+    TranslucentColor,
     /// `texture_3d<f32>` (`r16float`): the brick pool of a bricked volume (named like the
     /// volume's uniform), sampled through its page table; its sampler is a `VolumeSampler`.
     BrickPool,

@@ -6,6 +6,7 @@
 //! samples but never composites is declared, and bound, all the same).
 
 use crate::error::RuntimeError;
+use crate::mesh_layer::LayerViews;
 use crate::reflection::{BindingInfo, BindingKind, Reflection};
 use crate::resources::Resources;
 
@@ -35,6 +36,11 @@ fn binding_type(kind: BindingKind) -> wgpu::BindingType {
         BindingKind::GeometryDepth | BindingKind::GeometryColor => wgpu::BindingType::Texture {
             sample_type: wgpu::TextureSampleType::Float { filterable: false },
             view_dimension: wgpu::TextureViewDimension::D2,
+            multisampled: false,
+        },
+        BindingKind::TranslucentDepth | BindingKind::TranslucentColor => wgpu::BindingType::Texture {
+            sample_type: wgpu::TextureSampleType::Float { filterable: false },
+            view_dimension: wgpu::TextureViewDimension::D2Array,
             multisampled: false,
         },
         BindingKind::VolumeTexture | BindingKind::BrickPool => texture(wgpu::TextureViewDimension::D3),
@@ -90,8 +96,8 @@ pub(crate) struct DispatchResources<'a> {
     pub output: &'a wgpu::TextureView,
     /// The luminance image of a view that meters (`crate::metering`).
     pub luminance: Option<&'a wgpu::TextureView>,
-    /// The depth and colour images of the view's mesh layer (`crate::mesh_layer`).
-    pub mesh_layer: Option<(&'a wgpu::TextureView, &'a wgpu::TextureView)>,
+    /// The images of the view's mesh layer (`crate::mesh_layer`).
+    pub mesh_layer: Option<LayerViews<'a>>,
     /// The view's `BrickLayout` buffer of each bricked volume it reads, by binding name.
     pub brick_layouts: &'a std::collections::HashMap<String, wgpu::Buffer>,
 }
@@ -119,10 +125,16 @@ pub(crate) fn group_entries<'a>(
                     own.luminance.ok_or_else(|| missing("a luminance image", "luminance_image"))?,
                 ),
                 BindingKind::GeometryDepth => wgpu::BindingResource::TextureView(
-                    own.mesh_layer.ok_or_else(|| missing("a mesh layer", "geometry_depth"))?.0,
+                    own.mesh_layer.ok_or_else(|| missing("a mesh layer", "geometry_depth"))?.depth,
                 ),
                 BindingKind::GeometryColor => wgpu::BindingResource::TextureView(
-                    own.mesh_layer.ok_or_else(|| missing("a mesh layer", "geometry_color"))?.1,
+                    own.mesh_layer.ok_or_else(|| missing("a mesh layer", "geometry_color"))?.color,
+                ),
+                BindingKind::TranslucentDepth => wgpu::BindingResource::TextureView(
+                    own.mesh_layer.and_then(|l| l.translucent).ok_or_else(|| missing("translucent layers", &b.name))?.0,
+                ),
+                BindingKind::TranslucentColor => wgpu::BindingResource::TextureView(
+                    own.mesh_layer.and_then(|l| l.translucent).ok_or_else(|| missing("translucent layers", &b.name))?.1,
                 ),
                 BindingKind::VolumeTexture => wgpu::BindingResource::TextureView(
                     &shared.volumes.get(&b.name).ok_or_else(|| missing("volume", &b.name))?.view,

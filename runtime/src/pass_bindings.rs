@@ -107,6 +107,19 @@ impl PassLayout {
         })
     }
 
+    /// The pipeline layout of the groups `groups` (a pipeline that reads only those; the
+    /// others are left unbound).
+    pub(crate) fn pipeline_layout_of(&self, gpu: &Gpu, groups: &[usize]) -> wgpu::PipelineLayout {
+        let count = groups.iter().max().map_or(0, |g| g + 1);
+        let layouts: Vec<Option<&wgpu::BindGroupLayout>> =
+            (0..count).map(|g| groups.contains(&g).then(|| &self.groups[g])).collect();
+        gpu.device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some(self.label),
+            bind_group_layouts: &layouts,
+            immediate_size: 0,
+        })
+    }
+
     /// A bind group of group `group`: `resources` in the declaration's order, each numbered as
     /// declared. Too few or too many resources are wgpu validation errors (the caller's capture
     /// reports them).

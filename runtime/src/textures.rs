@@ -409,11 +409,16 @@ pub(crate) struct Image2d<'a> {
 impl Image2d<'_> {
     /// Creates it, its errors captured as those of `doing`; a zero side is one texel.
     pub(crate) fn create(&self, gpu: &Gpu, doing: &str) -> Result<wgpu::Texture, RuntimeError> {
+        self.create_layers(gpu, doing, 1)
+    }
+
+    /// Creates an array of `layers` such images.
+    pub(crate) fn create_layers(&self, gpu: &Gpu, doing: &str, layers: u32) -> Result<wgpu::Texture, RuntimeError> {
         let [w, h] = self.size;
         let texture = gpu.capture(doing, || {
             gpu.device.create_texture(&wgpu::TextureDescriptor {
                 label: Some(self.label),
-                size: wgpu::Extent3d { width: w.max(1), height: h.max(1), depth_or_array_layers: 1 },
+                size: wgpu::Extent3d { width: w.max(1), height: h.max(1), depth_or_array_layers: layers.max(1) },
                 mip_level_count: 1,
                 sample_count: 1,
                 dimension: wgpu::TextureDimension::D2,

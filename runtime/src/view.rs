@@ -138,13 +138,28 @@ impl ViewRenderer {
         &self.uniforms
     }
 
-    /// Whether the shader reads a mesh layer (`geometry_depth` or `geometry_color`).
+    /// Whether the shader reads a mesh layer (`geometry_depth`, `geometry_color` or the
+    /// translucent layers).
     pub fn reads_mesh_layer(&self) -> bool {
+        self.shader.reflection.bindings.iter().any(|b| {
+            matches!(
+                b.kind,
+                BindingKind::GeometryDepth
+                    | BindingKind::GeometryColor
+                    | BindingKind::TranslucentDepth
+                    | BindingKind::TranslucentColor
+            )
+        })
+    }
+
+    /// Whether the shader blends the mesh layer's translucent surfaces in depth order (it reads
+    /// the translucent layers): its mesh layer peels them.
+    pub fn reads_translucent_layers(&self) -> bool {
         self.shader
             .reflection
             .bindings
             .iter()
-            .any(|b| matches!(b.kind, BindingKind::GeometryDepth | BindingKind::GeometryColor))
+            .any(|b| matches!(b.kind, BindingKind::TranslucentDepth | BindingKind::TranslucentColor))
     }
 
     /// How the mesh layer and the overlay look at the meshes, and which each draws (indices
@@ -221,7 +236,8 @@ impl ViewRenderer {
         encoder: &mut wgpu::CommandEncoder,
         size: [u32; 2],
     ) -> Result<(), RuntimeError> {
-        let layer = for_size(&mut self.mesh_layers, size, MeshLayer::size, || MeshLayer::new(gpu, size))?;
+        let peeled = self.reads_translucent_layers();
+        let layer = for_size(&mut self.mesh_layers, size, MeshLayer::size, || MeshLayer::new(gpu, size, peeled))?;
         let meshes: Vec<&MeshInstance> = match (&self.layer_camera, &resources.mesh_pipelines) {
             (Some(_), Some(_)) => self.layer_meshes.iter().filter_map(|&i| resources.meshes.get(i)).collect(),
             _ => Vec::new(),

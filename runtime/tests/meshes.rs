@@ -299,3 +299,69 @@ fn a_user_function_fades_the_volume_near_the_surface() {
     }
     assert!(away > 1000, "most pixels miss the box ({away} checked)");
 }
+
+/// The ray parameters where `origin + t dir` (unit `dir`) meets the sphere, if it does.
+fn sphere_hit(origin: Vec3, dir: Vec3, centre: Vec3, radius: f32) -> Option<(f32, f32)> {
+    let to = origin - centre;
+    let b = to.dot(dir);
+    let disc = b * b - (to.length_squared() - radius * radius);
+    (disc > 0.0).then(|| (-b - disc.sqrt(), -b + disc.sqrt()))
+}
+
+/// A translucent red ball between the camera and the homogeneous volume (no volume around it):
+/// the volume behind it shows through both of its surfaces, so the green channel (the white
+/// volume's alone: the ball is red) is the volume's without the ball times (1 - opacity)^2.
+/// Blending the volume over the mesh layer (the order before meshes were peeled) leaves the
+/// green channel as it is without the ball. The ball's colour is 8-bit (0.5 is 128/255), so the
+/// tolerance is 2/255 plus 1% of the green.
+#[test]
+fn a_translucent_mesh_in_front_of_the_volume_veils_it() {
+    let dir = tempfile::tempdir().expect("a folder");
+    homogeneous_volume(dir.path());
+    // Looking along an axis, so that a ball fits between the box and the near plane (which
+    // touches the sphere around the box).
+    let scene = SCENE
+        .replace("azimuth = 60.0, elevation = 25.0", "azimuth = 0.0, elevation = 0.0")
+        .replace("[64, 64]", "[128, 128]");
+    let mut alone = open(dir.path(), &scene.replace("size = [128, 128]", "size = [128, 128]\nmeshes = []"));
+    let volume = alone.render_all().expect("render").remove(0).1;
+    let (dims, grid_to_world) = alone.primary_grid().expect("a primary volume");
+    let to_world = vrs_runtime::geometry::volume_to_world(dims, grid_to_world);
+    let clip_to_world = to_world * alone.views()[0].camera.expect("a raycast view").inv_view_proj(to_world, 1.0);
+    // On the way from the volume's centre to the camera, just clear of the volume's box.
+    let (_, forward) = pixel_ray(clip_to_world, [0.5, 0.5]);
+    let (middle, radius) = (Vec3::splat(15.5), 5.0);
+    let (_, exit) = slab_hit(middle, -forward, Vec3::splat(-0.5), Vec3::splat(31.5)).expect("inside the box");
+    let centre = middle - forward * (exit + radius + 0.5);
+    let ball = format!(
+        "shape = \"sphere\"\ncentre = [{}, {}, {}]\nradius = {radius}\ncolor = [1.0, 0.0, 0.0]\nopacity = 0.5",
+        centre.x, centre.y, centre.z
+    );
+    let scene_text = scene
+        .replace("shape = \"box\"\nmin = [16.0, 6.0, 6.0]\nmax = [40.0, 25.0, 25.0]\ncolor = [0.0, 0.0, 0.0]", &ball);
+    let veiled = open(dir.path(), &scene_text).render_all().expect("render").remove(0).1;
+    let transmitted = (1.0 - 128.0 / 255.0f64).powi(2);
+    let (mut checked, mut worst) = (0, 0.0f64);
+    for (px, py, pixel) in veiled.enumerate_pixels() {
+        let at = |dx: f32, dy: f32| {
+            let (o, d) = pixel_ray(clip_to_world, [(px as f32 + 0.5 + dx) / 128.0, (py as f32 + 0.5 + dy) / 128.0]);
+            sphere_hit(o, d, centre, radius).is_some()
+        };
+        // Well inside the ball's outline, where the volume behind it shows.
+        let behind = f64::from(volume.get_pixel(px, py)[1]) / 255.0;
+        if !at(0.0, 0.0) || [(1.5, 0.0), (-1.5, 0.0), (0.0, 1.5), (0.0, -1.5)].iter().any(|&(x, y)| !at(x, y)) {
+            continue;
+        }
+        let want = behind * transmitted;
+        let got = f64::from(pixel[1]) / 255.0;
+        worst = worst.max((got - want).abs());
+        assert!(
+            (got - want).abs() <= 2.0 / 255.0 + 0.01 * behind,
+            "pixel ({px}, {py}): green {got:.4}, the volume's {behind:.4} through the ball is {want:.4}"
+        );
+        assert!(pixel[0] > pixel[1], "pixel ({px}, {py}): the ball's red shows: {pixel:?}");
+        checked += usize::from(behind > 0.3);
+    }
+    assert!(checked > 100, "many pixels show the volume through the ball ({checked})");
+    eprintln!("{checked} pixels through the ball; largest difference {worst:.4}");
+}

@@ -106,10 +106,21 @@ pub struct EntryPlan {
     /// The luminance image and the `State` member stored into it after `ray.finish` (when the
     /// composition meters luminance).
     pub metering: Option<(Handle<naga::GlobalVariable>, u32)>,
-    /// The mesh layer's images and the `State` members loaded from them before `ray.setup`
-    /// (`geometry_depth`, `geometry_color`), for the fields the composition has, with the
-    /// member's number of components (1: the texel's first).
-    pub geometry: Vec<(Handle<naga::GlobalVariable>, u32, u32)>,
+    /// The `State` members loaded from the mesh layer's images before `ray.setup`
+    /// (`geometry_depth`, `geometry_color`, the translucent layers), for the fields the
+    /// composition has.
+    pub geometry: Vec<LayerLoad>,
+}
+
+/// A `State` member the entry point loads from a texel of a mesh layer's image.
+#[derive(Clone, Copy, Debug)]
+pub struct LayerLoad {
+    /// A `texture_2d<f32>`, or a `texture_2d_array<f32>` read at `layer`.
+    pub image: Handle<naga::GlobalVariable>,
+    pub layer: Option<u32>,
+    pub member: u32,
+    /// The member's number of components (1: the texel's first).
+    pub components: u32,
 }
 
 /// How the entry point runs the functions that wait for a flag (member indices in `State`).
@@ -140,6 +151,16 @@ pub const GEOMETRY_DEPTH: &str = "geometry_depth";
 /// The state field the entry point loads, before ray setup, from the colour of the view's mesh
 /// layer (a binding only views with this field get).
 pub const GEOMETRY_COLOR: &str = "geometry_color";
+/// The state fields the entry point loads, before ray setup, from the depths of the view's
+/// translucent layers, nearest first (a binding only views with one of them get).
+pub const TRANSLUCENT_DEPTH: [&str; TRANSLUCENT_LAYERS] =
+    ["translucent_depth_0", "translucent_depth_1", "translucent_depth_2", "translucent_depth_3"];
+/// The state fields the entry point loads, before ray setup, from the colours of the view's
+/// translucent layers, nearest first (a binding only views with one of them get).
+pub const TRANSLUCENT_COLOR: [&str; TRANSLUCENT_LAYERS] =
+    ["translucent_color_0", "translucent_color_1", "translucent_color_2", "translucent_color_3"];
+/// How many layers of translucent surfaces the mesh layer peels for the volume layer.
+pub const TRANSLUCENT_LAYERS: usize = 4;
 /// The fields the entry point reads or writes itself: kept whenever a placed function declares
 /// them, and without data-flow warnings.
 pub(crate) const ENTRY_FIELDS: &[&str] = &[
@@ -149,6 +170,14 @@ pub(crate) const ENTRY_FIELDS: &[&str] = &[
     METERED_LUMINANCE,
     GEOMETRY_DEPTH,
     GEOMETRY_COLOR,
+    TRANSLUCENT_DEPTH[0],
+    TRANSLUCENT_DEPTH[1],
+    TRANSLUCENT_DEPTH[2],
+    TRANSLUCENT_DEPTH[3],
+    TRANSLUCENT_COLOR[0],
+    TRANSLUCENT_COLOR[1],
+    TRANSLUCENT_COLOR[2],
+    TRANSLUCENT_COLOR[3],
     super::contribution::CONTRIBUTES,
     super::contribution::SELECTED,
 ];
@@ -240,8 +269,8 @@ pub fn build(module: &mut naga::Module, plan: &EntryPlan) -> naga::EntryPoint {
     if let Some(member) = plan.pixel {
         b.store_pixel_centre(&mut body, state, member, p, size);
     }
-    for &(image, member, components) in &plan.geometry {
-        b.load_layer_texel(&mut body, state, (image, member, components), p, size);
+    for load in &plan.geometry {
+        b.load_layer_texel(&mut body, state, load, p, size);
     }
     for &f in &plan.ray_setup {
         b.call(&mut body, f, state);
@@ -747,12 +776,12 @@ impl Body {
         &mut self,
         body: &mut naga::Block,
         state: Handle<E>,
-        (image, member, components): (Handle<naga::GlobalVariable>, u32, u32),
+        load: &LayerLoad,
         p: Handle<E>,
         size: Handle<E>,
     ) {
         use naga::BinaryOperator as Bo;
-        let image = self.expr(E::GlobalVariable(image));
+        let image = self.expr(E::GlobalVariable(load.image));
         let dims = self.expr(E::ImageQuery { image, query: naga::ImageQuery::Size { level: None } });
         let scaled = self.binary(Bo::Multiply, p, dims);
         let texel = self.binary(Bo::Divide, scaled, size);
@@ -762,10 +791,10 @@ impl Body {
         let texel =
             self.expr(E::Math { fun: naga::MathFunction::Min, arg: texel, arg1: Some(last), arg2: None, arg3: None });
         let level = self.literal(naga::Literal::U32(0));
-        let texel =
-            self.expr(E::ImageLoad { image, coordinate: texel, array_index: None, sample: None, level: Some(level) });
-        let value = if components == 1 { self.component(texel, 0) } else { texel };
-        let pointer = self.component(state, member);
+        let array_index = load.layer.map(|layer| self.literal(naga::Literal::U32(layer)));
+        let texel = self.expr(E::ImageLoad { image, coordinate: texel, array_index, sample: None, level: Some(level) });
+        let value = if load.components == 1 { self.component(texel, 0) } else { texel };
+        let pointer = self.component(state, load.member);
         self.push(body, S::Store { pointer, value });
     }
 }

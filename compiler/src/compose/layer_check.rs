@@ -5,7 +5,7 @@
 //! nothing that any layer wrote (E0609 at the field's declaration); a mesh whose shape follows a
 //! uniform must follow a `vec3f` uniform that some view reads (E0702 at the name).
 
-use super::entry::{GEOMETRY_COLOR, GEOMETRY_DEPTH};
+use super::entry::{GEOMETRY_COLOR, GEOMETRY_DEPTH, TRANSLUCENT_COLOR, TRANSLUCENT_DEPTH};
 use super::ir::Composition;
 use crate::diag::{Code, Diagnostic, Diagnostics};
 use crate::scene::Scene;
@@ -19,7 +19,9 @@ pub fn check_layers(scene: &Scene, views: &[(&str, &Composition)], diags: &mut D
         if draws_meshes {
             continue;
         }
-        for field in [GEOMETRY_DEPTH, GEOMETRY_COLOR] {
+        let layer_fields =
+            [GEOMETRY_DEPTH, GEOMETRY_COLOR].into_iter().chain(TRANSLUCENT_DEPTH).chain(TRANSLUCENT_COLOR);
+        for field in layer_fields {
             if let Some(f) = composition.fields.iter().find(|f| f.name == field) {
                 diags.push(
                     Diagnostic::new(
@@ -28,7 +30,7 @@ pub fn check_layers(scene: &Scene, views: &[(&str, &Composition)], diags: &mut D
                         format!("view `{name}` reads `{field}`, but no layer of the view writes it"),
                     )
                     .with_label("read by the volume layer")
-                    .with_note("`geometry_depth` and `geometry_color` are written by a view's mesh layer, which draws its meshes before the volume")
+                    .with_note("`geometry_depth`, `geometry_color` and the translucent layers are written by a view's mesh layer, which draws its meshes before the volume")
                     .with_help(if scene.meshes.is_empty() {
                         "add a [[mesh]] to the scene (a file, or `shape = \"needle\"`)".to_string()
                     } else {

@@ -55,6 +55,7 @@ mod tests;
 pub mod uniform_check;
 pub(crate) mod view;
 
+pub use entry::TRANSLUCENT_LAYERS;
 use instantiate::{Source, Unit, instantiate};
 use ir::{Composition, ModuleUse, NotPlaced};
 use merge::Merger;

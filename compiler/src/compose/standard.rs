@@ -24,8 +24,28 @@ impl Scene {
             // Last: `stop_at_meshes` follows the ray setup (and skipping's first walk), and
             // `blend_meshes` runs after `encode_srgb` (mesh colours are display colours).
             selection.add("meshes", vec![]);
+            // After `meshes` (its ray setup places the layers on the ray, after
+            // `stop_at_meshes`); `finish_translucent` goes first in `ray.finish`, before
+            // `expose`.
+            if self.peels_translucent_meshes(view) {
+                selection.add("translucent", vec![]);
+                if tone_operator(view.render.tone_mapping).is_some() {
+                    selection.add("translucent_hdr", vec![]);
+                }
+            }
         }
         selection.out
+    }
+}
+
+impl Scene {
+    /// Whether `view` blends its translucent meshes into the rays in depth order
+    /// (std::translucent): a DVR raycast view that draws a mesh with an opacity between 0 and 1.
+    /// Other views blend them into the mesh layer's colour, behind the volume.
+    pub fn peels_translucent_meshes(&self, view: &View) -> bool {
+        view.kind.value == ViewKind::Raycast
+            && view.render.compositing.value == Compositing::Dvr
+            && view.meshes.iter().filter_map(|&i| self.meshes.get(i)).any(|m| m.opacity > 0.0 && m.opacity < 1.0)
     }
 }
 

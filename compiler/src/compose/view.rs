@@ -223,25 +223,38 @@ fn add_metering_image(
 }
 
 /// After the luminance image: the mesh layer's images, for the fields the composition has, each
-/// with its `State` member and that member's component count. Both are `texture_2d<f32>` read
-/// with `textureLoad` (a depth texture cannot be loaded in every back end's compute shaders; the
-/// layer keeps its depth as `r32float` colour).
-fn add_geometry_images(
-    b: &mut ModuleBuilder,
-    bindings: &mut Bindings,
-    comp: &Composition,
-) -> Vec<(Handle<naga::GlobalVariable>, u32, u32)> {
-    let layers =
-        [(entry::GEOMETRY_DEPTH, BindingKind::GeometryDepth), (entry::GEOMETRY_COLOR, BindingKind::GeometryColor)];
+/// with the `State` members loaded from it. All are read with `textureLoad` (a depth texture
+/// cannot be loaded in every back end's compute shaders; the layer keeps its depths as
+/// `r32float` colour): `geometry_depth` and `geometry_color` from a `texture_2d<f32>` each, the
+/// translucent layers' depths and colours from a `texture_2d_array<f32>` each, layer N into
+/// field N.
+fn add_geometry_images(b: &mut ModuleBuilder, bindings: &mut Bindings, comp: &Composition) -> Vec<entry::LayerLoad> {
+    let images: [(&str, &[&str], BindingKind); 4] = [
+        (entry::GEOMETRY_DEPTH, &[entry::GEOMETRY_DEPTH], BindingKind::GeometryDepth),
+        (entry::GEOMETRY_COLOR, &[entry::GEOMETRY_COLOR], BindingKind::GeometryColor),
+        ("translucent_depth", &entry::TRANSLUCENT_DEPTH, BindingKind::TranslucentDepth),
+        ("translucent_color", &entry::TRANSLUCENT_COLOR, BindingKind::TranslucentColor),
+    ];
     let class = naga::ImageClass::Sampled { kind: naga::ScalarKind::Float, multi: false };
-    layers
-        .into_iter()
-        .filter_map(|(field, kind)| {
-            let member = comp.field(field)? as u32;
-            let components = comp.fields[member as usize].ty.components() as u32;
-            Some((add_image(b, &format!("{field}_image"), class, bindings.next(field, kind)), member, components))
-        })
-        .collect()
+    let mut loads = Vec::new();
+    for (name, fields, kind) in images {
+        let members: Vec<(Option<u32>, u32)> = (0u32..)
+            .zip(fields)
+            .filter_map(|(layer, field)| Some(((fields.len() > 1).then_some(layer), comp.field(field)? as u32)))
+            .collect();
+        if members.is_empty() {
+            continue;
+        }
+        let arrayed = fields.len() > 1;
+        let image = add_image(b, &format!("{name}_image"), (class, arrayed), bindings.next(name, kind));
+        loads.extend(members.into_iter().map(|(layer, member)| entry::LayerLoad {
+            image,
+            layer,
+            member,
+            components: comp.fields[member as usize].ty.components() as u32,
+        }));
+    }
+    loads
 }
 
 /// What lowering the placed pipeline functions of a step needs.
@@ -295,17 +308,17 @@ fn add_storage_image(
     format: naga::StorageFormat,
     binding: ResourceBinding,
 ) -> Handle<naga::GlobalVariable> {
-    add_image(b, name, naga::ImageClass::Storage { format, access: naga::StorageAccess::STORE }, binding)
+    add_image(b, name, (naga::ImageClass::Storage { format, access: naga::StorageAccess::STORE }, false), binding)
 }
 
 /// A 2D image `name` of `class` (with no sampler: read with `textureLoad`, or stored to).
 fn add_image(
     b: &mut ModuleBuilder,
     name: &str,
-    class: naga::ImageClass,
+    (class, arrayed): (naga::ImageClass, bool),
     binding: ResourceBinding,
 ) -> Handle<naga::GlobalVariable> {
-    let inner = naga::TypeInner::Image { dim: naga::ImageDimension::D2, arrayed: false, class };
+    let inner = naga::TypeInner::Image { dim: naga::ImageDimension::D2, arrayed, class };
     let ty = b.module.types.insert(naga::Type { name: None, inner }, naga::Span::UNDEFINED);
     let var = naga::GlobalVariable {
         name: Some(name.into()),

@@ -88,24 +88,39 @@ pub(crate) fn frame_draws(
 
 /// Lit surfaces: opaque ones first, then each translucent one's back and front faces.
 fn surfaces(world_to_clip: Mat4, meshes: &[&MeshInstance]) -> Vec<Draw> {
-    let clip_to_world = world_to_clip.inverse();
     let (opaque, translucent): (Vec<&MeshInstance>, Vec<&MeshInstance>) =
         meshes.iter().copied().partition(|m| m.opacity >= 1.0);
-    let surface = |m: &MeshInstance, pass| Draw {
+    let mut out: Vec<Draw> = opaque
+        .iter()
+        .map(|m| surface(world_to_clip, m, if m.closed { Pass::OpaqueClosed } else { Pass::Opaque }))
+        .collect();
+    for m in translucent.iter().filter(|m| m.opacity > 0.0) {
+        out.push(surface(world_to_clip, m, Pass::Back));
+        out.push(surface(world_to_clip, m, Pass::Front));
+    }
+    out
+}
+
+/// Each translucent mesh of `meshes` once (both faces), for the peeling passes of a raycast
+/// view's layer (recorded with [`Pipelines::One`]).
+pub(crate) fn peel_draws(world_to_clip: Mat4, meshes: &[&MeshInstance]) -> Vec<Draw> {
+    meshes
+        .iter()
+        .filter(|m| m.opacity > 0.0 && m.opacity < 1.0)
+        .map(|m| surface(world_to_clip, m, Pass::Front))
+        .collect()
+}
+
+/// The draw of mesh `m` seen through `world_to_clip`.
+fn surface(world_to_clip: Mat4, m: &MeshInstance, pass: Pass) -> Draw {
+    Draw {
         pass,
-        uniforms: DrawUniforms::surface(world_to_clip, clip_to_world, m),
+        uniforms: DrawUniforms::surface(world_to_clip, world_to_clip.inverse(), m),
         vertices: m.gpu.vertices.clone(),
         indices: Some((m.gpu.indices.clone(), m.gpu.index_count)),
         vertex_count: 0,
         picture: None,
-    };
-    let mut out: Vec<Draw> =
-        opaque.iter().map(|m| surface(m, if m.closed { Pass::OpaqueClosed } else { Pass::Opaque })).collect();
-    for m in translucent.iter().filter(|m| m.opacity > 0.0) {
-        out.push(surface(m, Pass::Back));
-        out.push(surface(m, Pass::Front));
     }
-    out
 }
 
 /// A slice image's projection along its normal: patient space to clip space, depth 0.5 on the
@@ -197,23 +212,34 @@ impl DrawBuffer {
     }
 }
 
-/// Records `draws` into `pass` with the pipelines of `set` (and `plane` for planes).
+/// The pipelines draws are recorded with.
+#[derive(Clone, Copy)]
+pub(crate) enum Pipelines<'a> {
+    /// Each draw's pass picks one of `set`'s, or the plane pipeline.
+    ByPass(&'a PipelineSet, &'a wgpu::RenderPipeline),
+    /// Every draw with one pipeline (the peeling passes).
+    One(&'a wgpu::RenderPipeline),
+}
+
+/// Records `draws` into `pass` with `pipelines`; their uniforms are the bound buffer's slots
+/// from `first_slot` on.
 pub(crate) fn record(
     pass: &mut wgpu::RenderPass<'_>,
-    (set, plane): (&PipelineSet, &wgpu::RenderPipeline),
+    pipelines: Pipelines,
     bind_group: &wgpu::BindGroup,
-    draws: &[Draw],
+    (draws, first_slot): (&[Draw], usize),
 ) {
-    for (slot, draw) in draws.iter().enumerate() {
+    for (slot, draw) in (first_slot..).zip(draws) {
         if let Some(picture) = &draw.picture {
             pass.set_bind_group(1, picture, &[]);
         }
-        let pipeline = match draw.pass {
-            Pass::Plane => plane,
-            Pass::Opaque => &set.opaque,
-            Pass::OpaqueClosed => &set.opaque_closed,
-            Pass::Back => &set.translucent_back,
-            Pass::Front => &set.translucent_front,
+        let pipeline = match (pipelines, draw.pass) {
+            (Pipelines::One(pipeline), _) => pipeline,
+            (Pipelines::ByPass(_, plane), Pass::Plane) => plane,
+            (Pipelines::ByPass(set, _), Pass::Opaque) => &set.opaque,
+            (Pipelines::ByPass(set, _), Pass::OpaqueClosed) => &set.opaque_closed,
+            (Pipelines::ByPass(set, _), Pass::Back) => &set.translucent_back,
+            (Pipelines::ByPass(set, _), Pass::Front) => &set.translucent_front,
         };
         pass.set_pipeline(pipeline);
         pass.set_bind_group(0, bind_group, &[(slot as u64 * DRAW_SLOT) as u32]);

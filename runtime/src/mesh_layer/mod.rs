@@ -8,12 +8,15 @@
 //! depth is the WebGPU window depth of the view's own projection (0 near, 1 far, cleared to 1),
 //! so `std::meshes` turns it into a ray parameter with the same matrix (`geometry_inv_proj`);
 //! opaque meshes write depth, translucent ones are blended over them (back faces, then front
-//! faces, in scene order) without writing it. A slice view draws where each mesh crosses its
-//! plane, as opaque outlines on the plane (`outline`).
+//! faces, in scene order) without writing it, unless the volume layer blends them into its rays
+//! in depth order: then they are peeled into layers (`peel`) and left out of the colour. A
+//! slice view draws where each mesh crosses its plane, as opaque outlines on the plane
+//! (`outline`).
 
 mod draws;
 pub(crate) mod outline;
 mod overlay;
+mod peel;
 pub(crate) mod pipelines;
 
 use crate::error::RuntimeError;
@@ -21,10 +24,11 @@ use crate::gpu::Gpu;
 use crate::mesh::Mesh;
 use crate::textures::Image2d;
 pub(crate) use draws::PlanePicture;
-use draws::{DrawBuffer, Target};
+use draws::{DrawBuffer, Pipelines, Target};
 use glam::Mat4;
 use outline::SliceFrame;
 pub(crate) use overlay::Overlay;
+use peel::PeeledLayers;
 use pipelines::{COLOR_FORMAT, DEPTH_FORMAT, DEPTH_IMAGE_FORMAT, MeshPipelines};
 use std::sync::Arc;
 
@@ -98,14 +102,27 @@ pub struct MeshLayer {
     /// The opaque surfaces' depth, as the volume layer reads it.
     depth_view: wgpu::TextureView,
     color_view: wgpu::TextureView,
+    /// The translucent surfaces peeled into layers, for a volume layer that reads them.
+    peeled: Option<PeeledLayers>,
     /// What the images hold, so tiles and unchanged frames draw nothing again.
     drawn: Option<u64>,
     buffer: DrawBuffer,
 }
 
+/// The images of a mesh layer that a volume layer binds.
+#[derive(Clone, Copy)]
+pub(crate) struct LayerViews<'a> {
+    /// The opaque surfaces' depth (`r32float`) and the colour.
+    pub depth: &'a wgpu::TextureView,
+    pub color: &'a wgpu::TextureView,
+    /// The translucent layers' depths and colours (`texture_2d_array`), where peeled.
+    pub translucent: Option<(&'a wgpu::TextureView, &'a wgpu::TextureView)>,
+}
+
 impl MeshLayer {
-    /// An empty layer (depth 1, no colour) of `size` pixels.
-    pub(crate) fn new(gpu: &Gpu, size: [u32; 2]) -> Result<MeshLayer, RuntimeError> {
+    /// An empty layer (depth 1, no colour) of `size` pixels; with `peeled`, its translucent
+    /// meshes are peeled into layers rather than blended into its colour.
+    pub(crate) fn new(gpu: &Gpu, size: [u32; 2], peeled: bool) -> Result<MeshLayer, RuntimeError> {
         let usage = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING;
         let doing = format!("creating a {}x{} mesh layer", size[0], size[1]);
         let image = |label, format| Image2d { label, size, format, usage }.create(gpu, &doing);
@@ -117,6 +134,7 @@ impl MeshLayer {
             depth_view: depth.create_view(&Default::default()),
             color_view: color.create_view(&Default::default()),
             color,
+            peeled: if peeled { Some(PeeledLayers::new(gpu, size)?) } else { None },
             drawn: None,
             buffer: DrawBuffer::default(),
         })
@@ -127,9 +145,13 @@ impl MeshLayer {
         [self.color.width(), self.color.height()]
     }
 
-    /// The depth image (`r32float`) and the colour image the volume layer binds.
-    pub(crate) fn views(&self) -> (&wgpu::TextureView, &wgpu::TextureView) {
-        (&self.depth_view, &self.color_view)
+    /// The images the volume layer binds.
+    pub(crate) fn views(&self) -> LayerViews<'_> {
+        LayerViews {
+            depth: &self.depth_view,
+            color: &self.color_view,
+            translucent: self.peeled.as_ref().map(PeeledLayers::views),
+        }
     }
 
     /// Records the drawing of `content` into the layer's images, unless they already hold
@@ -147,11 +169,19 @@ impl MeshLayer {
             return Ok(());
         }
         let mut draws = Vec::new();
+        // Peeled: the translucent meshes are drawn only by the peeling passes, after the others.
+        let (drawn, peeled): (Vec<&MeshInstance>, Vec<&MeshInstance>) =
+            content.meshes.iter().copied().partition(|m| self.peeled.is_none() || m.opacity >= 1.0);
+        let mut layer_draws = 0;
         if let Some(pipelines) = pipelines {
             if let LayerCamera::Projection { world_to_clip } = content.camera {
                 draws = draws::plane_draws(gpu, pipelines, sampler, *world_to_clip, content.planes)?;
             }
-            draws.extend(draws::frame_draws(gpu, content.camera, content.meshes, self.size(), Target::Layer)?);
+            draws.extend(draws::frame_draws(gpu, content.camera, &drawn, self.size(), Target::Layer)?);
+            layer_draws = draws.len();
+            if let (LayerCamera::Projection { world_to_clip }, Some(_)) = (content.camera, &self.peeled) {
+                draws.extend(draws::peel_draws(*world_to_clip, &peeled));
+            }
         }
         let bind_group = self.buffer.bind(gpu, pipelines, &draws)?;
         let doing = "drawing a mesh layer";
@@ -168,9 +198,14 @@ impl MeshLayer {
                 multiview_mask: None,
             });
             if let (Some(pipelines), Some(bind_group)) = (pipelines, &bind_group) {
-                draws::record(&mut pass, (&pipelines.layer, &pipelines.plane), bind_group, &draws);
+                let by_pass = Pipelines::ByPass(&pipelines.layer, &pipelines.plane);
+                draws::record(&mut pass, by_pass, bind_group, (&draws[..layer_draws], 0));
             }
         })?;
+        if let (Some(peeled), Some(pipelines), Some(bind_group)) = (&self.peeled, pipelines, &bind_group) {
+            let translucent = (bind_group, &draws[layer_draws..], layer_draws);
+            peeled.encode(gpu, pipelines, encoder, &self.depth_view, translucent)?;
+        }
         self.drawn = Some(key);
         Ok(())
     }

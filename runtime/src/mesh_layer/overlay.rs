@@ -3,7 +3,7 @@
 //! draws them at its camera; a slice view draws them as seen along its normal (their whole
 //! shape, not only the plane's crossing).
 
-use super::draws::{self, DrawBuffer, Target};
+use super::draws::{self, DrawBuffer, Pipelines, Target};
 use super::pipelines::{DEPTH_FORMAT, MeshPipelines};
 use super::{LayerCamera, MeshInstance, attachment, depth_attachment};
 use crate::error::RuntimeError;
@@ -50,7 +50,7 @@ impl Overlay {
                 occlusion_query_set: None,
                 multiview_mask: None,
             });
-            draws::record(&mut pass, (&pipelines.overlay, &pipelines.plane), &bind_group, &draws);
+            draws::record(&mut pass, Pipelines::ByPass(&pipelines.overlay, &pipelines.plane), &bind_group, (&draws, 0));
         })?;
         Ok(())
     }

@@ -1,7 +1,10 @@
 //! The render pipelines of mesh layers and overlays, made once per renderer: opaque surfaces
 //! (depth written), translucent ones (back faces, then front faces, blended over what is drawn,
 //! depth tested but not written); slice outlines draw as opaque surfaces of flat colour. A
-//! layer draws into its colour and depth images, an overlay into the view's picture.
+//! layer draws into its colour and depth images, an overlay into the view's picture. A layer
+//! whose volume layer blends translucent surfaces in depth order peels them instead (`peel`:
+//! the nearest surface behind the last layer peeled and in front of the first opaque one;
+//! `peel_rest`: the surfaces behind the last layer, blended under it).
 
 use crate::error::RuntimeError;
 use crate::gpu::Gpu;
@@ -96,6 +99,33 @@ fn fs_overlay(in: Varyings) -> @location(0) vec4<f32> {
     return shade(in);
 }
 
+// Peeling: the depth of the first opaque surface and of the translucent layer peeled last (0
+// before the first), at each pixel.
+@group(2) @binding(0) var opaque_depth: texture_2d<f32>;
+@group(2) @binding(1) var peeled_depth: texture_2d<f32>;
+
+// Whether a fragment lies behind the layer peeled last and in front of the first opaque surface.
+fn beyond_peeled(clip: vec4<f32>) -> bool {
+    let pixel = vec2<i32>(clip.xy);
+    return clip.z > textureLoad(peeled_depth, pixel, 0).x && clip.z < textureLoad(opaque_depth, pixel, 0).x;
+}
+
+@fragment
+fn fs_peel(in: Varyings) -> Fragment {
+    if !beyond_peeled(in.clip) {
+        discard;
+    }
+    return Fragment(shade(in), in.clip.z);
+}
+
+@fragment
+fn fs_peel_rest(in: Varyings) -> @location(0) vec4<f32> {
+    if !beyond_peeled(in.clip) {
+        discard;
+    }
+    return shade(in);
+}
+
 // A slice view's picture on its plane, opaque where it is at least half covered (its colour
 // unpremultiplied), left out elsewhere: a slice with a transparent background leaves the rest of
 // its plane empty, and a ray that ends at the plane never loses what lies behind a half-covered
@@ -127,7 +157,8 @@ fn fs_plane(in: PlaneVaryings) -> Fragment {
 "#;
 
 /// The bindings of [`SHADER`]: group 0, a draw's uniforms (at a dynamic offset, one
-/// [`DRAW_SLOT`] per draw); group 1, a plane's picture and its sampler (`vs_plane`/`fs_plane`).
+/// [`DRAW_SLOT`] per draw); group 1, a plane's picture and its sampler (`vs_plane`/`fs_plane`);
+/// group 2, the opaque and the last peeled depth (`fs_peel`, `fs_peel_rest`).
 pub(crate) const BINDINGS: PassBindings = PassBindings {
     label: "mesh layer",
     groups: &[
@@ -147,6 +178,18 @@ pub(crate) const BINDINGS: PassBindings = PassBindings {
                 ty: ty::texture(wgpu::TextureViewDimension::D2, true),
             },
             Slot { binding: 1, visibility: wgpu::ShaderStages::FRAGMENT, ty: ty::SAMPLER },
+        ],
+        &[
+            Slot {
+                binding: 0,
+                visibility: wgpu::ShaderStages::FRAGMENT,
+                ty: ty::texture(wgpu::TextureViewDimension::D2, false),
+            },
+            Slot {
+                binding: 1,
+                visibility: wgpu::ShaderStages::FRAGMENT,
+                ty: ty::texture(wgpu::TextureViewDimension::D2, false),
+            },
         ],
     ],
 };
@@ -181,6 +224,11 @@ pub(crate) struct MeshPipelines {
     pub layer: PipelineSet,
     /// Over a view's picture (`rgba8unorm`).
     pub overlay: PipelineSet,
+    /// A translucent layer: the nearest translucent surface behind the layer peeled last, into
+    /// the layer's colour and depth (both faces).
+    pub peel: wgpu::RenderPipeline,
+    /// The translucent surfaces behind the last layer, blended under it in drawing order.
+    pub peel_rest: wgpu::RenderPipeline,
 }
 
 impl MeshPipelines {
@@ -203,7 +251,10 @@ impl MeshPipelines {
                 }
             };
             let plane = plane_pipeline(gpu, &module, &bindings.pipeline_layout(gpu, 2));
-            MeshPipelines { layer: set(false), overlay: set(true), plane, bindings }
+            let peeling = bindings.pipeline_layout_of(gpu, &[0, 2]);
+            let peel = peel_pipeline(gpu, &module, &peeling, false);
+            let peel_rest = peel_pipeline(gpu, &module, &peeling, true);
+            MeshPipelines { layer: set(false), overlay: set(true), plane, peel, peel_rest, bindings }
         })?;
         Ok(made)
     }
@@ -226,15 +277,9 @@ fn pipeline(
         Kind::TranslucentBack => (Some(wgpu::Face::Front), false),
         Kind::TranslucentFront => (Some(wgpu::Face::Back), false),
     };
-    // Premultiplied "over": what is drawn later lies in front.
-    let over = wgpu::BlendComponent {
-        src_factor: wgpu::BlendFactor::One,
-        dst_factor: wgpu::BlendFactor::OneMinusSrcAlpha,
-        operation: wgpu::BlendOperation::Add,
-    };
     let color = Some(wgpu::ColorTargetState {
         format: COLOR_FORMAT,
-        blend: Some(wgpu::BlendState { color: over, alpha: over }),
+        blend: Some(wgpu::BlendState { color: OVER, alpha: OVER }),
         write_mask: wgpu::ColorWrites::ALL,
     });
     // Only opaque surfaces stop rays: translucent ones leave the depth image as it is.
@@ -244,6 +289,39 @@ fn pipeline(
         write_mask: if depth_write_enabled { wgpu::ColorWrites::RED } else { wgpu::ColorWrites::empty() },
     });
     let (entry_point, targets) = if overlay { ("fs_overlay", vec![color]) } else { ("fs", vec![color, depth_image]) };
+    let surface =
+        SurfacePipeline { entry_point, targets: &targets, depth: Some(depth_test(depth_write_enabled)), cull_mode };
+    surface_pipeline(gpu, module, layout, surface)
+}
+
+/// Premultiplied "over": what is drawn later lies in front.
+const OVER: wgpu::BlendComponent = wgpu::BlendComponent {
+    src_factor: wgpu::BlendFactor::One,
+    dst_factor: wgpu::BlendFactor::OneMinusSrcAlpha,
+    operation: wgpu::BlendOperation::Add,
+};
+
+/// Premultiplied "under": what is drawn later lies behind.
+const UNDER: wgpu::BlendComponent = wgpu::BlendComponent {
+    src_factor: wgpu::BlendFactor::OneMinusDstAlpha,
+    dst_factor: wgpu::BlendFactor::One,
+    operation: wgpu::BlendOperation::Add,
+};
+
+/// What differs between the pipelines of lit surfaces (`vs` and one of the fragment shaders).
+struct SurfacePipeline<'a> {
+    entry_point: &'a str,
+    targets: &'a [Option<wgpu::ColorTargetState>],
+    depth: Option<wgpu::DepthStencilState>,
+    cull_mode: Option<wgpu::Face>,
+}
+
+fn surface_pipeline(
+    gpu: &Gpu,
+    module: &wgpu::ShaderModule,
+    layout: &wgpu::PipelineLayout,
+    surface: SurfacePipeline,
+) -> wgpu::RenderPipeline {
     gpu.device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
         label: Some("mesh layer"),
         layout: Some(layout),
@@ -257,18 +335,47 @@ fn pipeline(
                 attributes: &VERTEX_ATTRIBUTES,
             })],
         },
-        primitive: wgpu::PrimitiveState { cull_mode, front_face: wgpu::FrontFace::Ccw, ..Default::default() },
-        depth_stencil: Some(depth_test(depth_write_enabled)),
+        primitive: wgpu::PrimitiveState {
+            cull_mode: surface.cull_mode,
+            front_face: wgpu::FrontFace::Ccw,
+            ..Default::default()
+        },
+        depth_stencil: surface.depth,
         multisample: Default::default(),
         fragment: Some(wgpu::FragmentState {
             module,
-            entry_point: Some(entry_point),
+            entry_point: Some(surface.entry_point),
             compilation_options: Default::default(),
-            targets: &targets,
+            targets: surface.targets,
         }),
         multiview_mask: None,
         cache: None,
     })
+}
+
+/// A peeling pipeline (both faces): a layer's nearest surface into its colour and depth (the
+/// depth test keeps the nearest), or (`rest`) every surface behind the last layer blended under
+/// its colour.
+fn peel_pipeline(
+    gpu: &Gpu,
+    module: &wgpu::ShaderModule,
+    layout: &wgpu::PipelineLayout,
+    rest: bool,
+) -> wgpu::RenderPipeline {
+    let target = |format, blend| Some(wgpu::ColorTargetState { format, blend, write_mask: wgpu::ColorWrites::ALL });
+    let under = Some(wgpu::BlendState { color: UNDER, alpha: UNDER });
+    let targets = if rest {
+        vec![target(COLOR_FORMAT, under)]
+    } else {
+        vec![target(COLOR_FORMAT, None), target(DEPTH_IMAGE_FORMAT, None)]
+    };
+    let surface = SurfacePipeline {
+        entry_point: if rest { "fs_peel_rest" } else { "fs_peel" },
+        targets: &targets,
+        depth: (!rest).then(|| depth_test(true)),
+        cull_mode: None,
+    };
+    surface_pipeline(gpu, module, layout, surface)
 }
 
 /// Position and picture coordinates, 20 bytes a vertex.
