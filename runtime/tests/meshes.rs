@@ -313,7 +313,7 @@ fn sphere_hit(origin: Vec3, dir: Vec3, centre: Vec3, radius: f32) -> Option<(f32
 /// volume's alone: the ball is red) is the volume's without the ball times (1 - opacity)^2.
 /// Blending the volume over the mesh layer (the order before meshes were peeled) leaves the
 /// green channel as it is without the ball. The ball's colour is 8-bit (0.5 is 128/255), so the
-/// tolerance is 2/255 plus 1% of the green.
+/// tolerance is 2/255 plus 1% of the green. A ball made translucent while shown gives the same.
 #[test]
 fn a_translucent_mesh_in_front_of_the_volume_veils_it() {
     let dir = tempfile::tempdir().expect("a folder");
@@ -364,4 +364,9 @@ fn a_translucent_mesh_in_front_of_the_volume_veils_it() {
     }
     assert!(checked > 100, "many pixels show the volume through the ball ({checked})");
     eprintln!("{checked} pixels through the ball; largest difference {worst:.4}");
+    // Made translucent while shown (a viewer's panel), without composing again: the same.
+    let mut opaque = open(dir.path(), &scene_text.replace("opacity = 0.5", "opacity = 1.0"));
+    let model = opaque.meshes()[0].model;
+    opaque.set_mesh_style("block", [1.0, 0.0, 0.0], 0.5, model).expect("the mesh's style");
+    assert!(opaque.render_all().expect("render").remove(0).1 == veiled, "made translucent in the panel");
 }

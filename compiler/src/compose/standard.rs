@@ -27,7 +27,7 @@ impl Scene {
             // After `meshes` (its ray setup places the layers on the ray, after
             // `stop_at_meshes`); `finish_translucent` goes first in `ray.finish`, before
             // `expose`.
-            if self.peels_translucent_meshes(view) {
+            if Scene::peels_translucent_meshes(view) {
                 selection.add("translucent", vec![]);
                 if tone_operator(view.render.tone_mapping).is_some() {
                     selection.add("translucent_hdr", vec![]);
@@ -40,12 +40,13 @@ impl Scene {
 
 impl Scene {
     /// Whether `view` blends its translucent meshes into the rays in depth order
-    /// (std::translucent): a DVR raycast view that draws a mesh with an opacity between 0 and 1.
-    /// Other views blend them into the mesh layer's colour, behind the volume.
-    pub fn peels_translucent_meshes(&self, view: &View) -> bool {
+    /// (std::translucent): a DVR raycast view that draws meshes, whatever their opacity now (a
+    /// viewer's panel changes it while the scene is shown, without composing again). Other
+    /// views blend them into the mesh layer's colour, behind the volume.
+    pub fn peels_translucent_meshes(view: &View) -> bool {
         view.kind.value == ViewKind::Raycast
             && view.render.compositing.value == Compositing::Dvr
-            && view.meshes.iter().filter_map(|&i| self.meshes.get(i)).any(|m| m.opacity > 0.0 && m.opacity < 1.0)
+            && !view.meshes.is_empty()
     }
 }
 
