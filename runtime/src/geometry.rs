@@ -105,6 +105,24 @@ impl OrbitCamera {
     /// camera orbits the grid box's centre in patient space with superior up; distances are in
     /// units of the largest side of its [`PatientBox`].
     pub fn inv_view_proj(&self, volume_to_world: Mat4, aspect: f32) -> Mat4 {
+        // The volume lies within 1 of the centre; keep it between the planes wherever the
+        // target has been panned to.
+        let reach = 1.0 + self.target.length();
+        let distance = self.distance.max(0.01);
+        self.inv_view_proj_between(volume_to_world, aspect, [(distance - reach).max(distance * 0.01), distance + reach])
+    }
+
+    /// [`Self::inv_view_proj`] with its planes far enough apart for meshes that reach out of
+    /// the volume's sphere (a needle's handle towards the camera): the near one at 1% of the
+    /// distance, the far one 100 sides beyond the centre. A mesh layer's depth is 32-bit float:
+    /// at the volume that is still far finer than a voxel. The same pixels look along the same
+    /// rays as through [`Self::inv_view_proj`].
+    pub fn mesh_inv_view_proj(&self, volume_to_world: Mat4, aspect: f32) -> Mat4 {
+        let distance = self.distance.max(0.01);
+        self.inv_view_proj_between(volume_to_world, aspect, [distance * 0.01, distance + 100.0 + self.target.length()])
+    }
+
+    fn inv_view_proj_between(&self, volume_to_world: Mat4, aspect: f32, [near, far]: [f32; 2]) -> Mat4 {
         let centre = volume_to_world.transform_point3(Vec3::splat(0.5));
         let size = PatientBox::of(volume_to_world).size().max_element().max(f32::MIN_POSITIVE);
         // Normalized coordinates to a world box centred at the origin whose largest side is 1.
@@ -113,13 +131,9 @@ impl OrbitCamera {
         let distance = self.distance.max(0.01);
         let eye = self.target + distance * Vec3::new(az.sin() * el.cos(), az.cos() * el.cos(), el.sin());
         let view = glam::camera::rh::view::look_at_mat4(eye, self.target, Vec3::Z);
-        // The volume lies within 1 of the centre; keep it between the planes wherever the
-        // target has been panned to.
-        let reach = 1.0 + self.target.length();
-        let near = (distance - reach).max(distance * 0.01);
         // WebGPU clip space: depth 0..1, y up (glam's `directx` convention).
         let fov = self.fov.clamp(1.0, 170.0).to_radians();
-        let proj = glam::camera::rh::proj::directx::perspective(fov, aspect.max(1e-3), near, distance + reach);
+        let proj = glam::camera::rh::proj::directx::perspective(fov, aspect.max(1e-3), near, far);
         (proj * view * model).inverse()
     }
 }

@@ -370,3 +370,41 @@ fn a_translucent_mesh_in_front_of_the_volume_veils_it() {
     opaque.set_mesh_style("block", [1.0, 0.0, 0.0], 0.5, model).expect("the mesh's style");
     assert!(opaque.render_all().expect("render").remove(0).1 == veiled, "made translucent in the panel");
 }
+
+/// An opaque ball between the camera and the volume, reaching further from the volume's centre
+/// than the volume's own sphere (a needle's handle does): drawn whole, so no pixel inside its
+/// outline shows the volume (green) through it. With the volume's planes for the mesh layer too,
+/// its front was cut away at the near plane and the volume showed through the hole.
+#[test]
+fn a_mesh_beyond_the_volumes_reach_is_drawn_whole() {
+    let dir = tempfile::tempdir().expect("a folder");
+    homogeneous_volume(dir.path());
+    let scene = SCENE.replace("azimuth = 60.0, elevation = 25.0", "azimuth = 0.0, elevation = 0.0");
+    let alone = open(dir.path(), &scene.replace("size = [64, 64]", "size = [64, 64]\nmeshes = []"));
+    let (dims, grid_to_world) = alone.primary_grid().expect("a primary volume");
+    let to_world = vrs_runtime::geometry::volume_to_world(dims, grid_to_world);
+    let clip_to_world = to_world * alone.views()[0].camera.expect("a raycast view").inv_view_proj(to_world, 1.0);
+    let (_, forward) = pixel_ray(clip_to_world, [0.5, 0.5]);
+    // The box's sphere has a radius of 27.7 mm; the ball's front lies 16 + 1 + 16 = 33 mm out.
+    let (middle, radius) = (Vec3::splat(15.5), 8.0);
+    let centre = middle - forward * (16.0 + 1.0 + radius);
+    let ball = format!(
+        "shape = \"sphere\"\ncentre = [{}, {}, {}]\nradius = {radius}\ncolor = [1.0, 0.0, 0.0]",
+        centre.x, centre.y, centre.z
+    );
+    let text = scene
+        .replace("shape = \"box\"\nmin = [16.0, 6.0, 6.0]\nmax = [40.0, 25.0, 25.0]\ncolor = [0.0, 0.0, 0.0]", &ball);
+    let image = open(dir.path(), &text).render_all().expect("render").remove(0).1;
+    let mut inside = 0;
+    for (px, py, pixel) in image.enumerate_pixels() {
+        let covered = [(0.0, 0.0), (1.5, 0.0), (-1.5, 0.0), (0.0, 1.5), (0.0, -1.5)].iter().all(|&(dx, dy)| {
+            let (o, d) = pixel_ray(clip_to_world, [(px as f32 + 0.5 + dx) / 64.0, (py as f32 + 0.5 + dy) / 64.0]);
+            sphere_hit(o, d, centre, radius).is_some()
+        });
+        if covered {
+            assert!(pixel[1] == 0 && pixel[0] > 60, "pixel ({px}, {py}) inside the ball shows {pixel:?}");
+            inside += 1;
+        }
+    }
+    assert!(inside > 200, "the ball covers many pixels ({inside})");
+}

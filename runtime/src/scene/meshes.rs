@@ -221,7 +221,7 @@ pub(super) fn layer_camera(view: &SceneView, primary: &VolumeGrid) -> Option<(La
     let [w, h] = view.renderer.size();
     let aspect = w as f32 / h.max(1) as f32;
     if let Some(camera) = view.camera {
-        let inv_view_proj = camera.inv_view_proj(to_world, aspect);
+        let inv_view_proj = camera.mesh_inv_view_proj(to_world, aspect);
         let world_to_clip = (to_world * inv_view_proj).inverse();
         return Some((LayerCamera::Projection { world_to_clip }, inv_view_proj));
     }
