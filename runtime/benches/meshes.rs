@@ -4,7 +4,9 @@
 //! orbits); a variant with the camera still (the layer drawn once and kept) separates the
 //! layer's own cost from the rays the mesh ends early. Target: the mesh over plain DVR at most
 //! 1.2x at 512^2. A closed mesh's back faces are culled; the same sphere with one triangle
-//! missing (open: every face drawn) shows what that saves.
+//! missing (open: every face drawn) shows what that saves. The same sphere at opacity 0.5 is
+//! peeled into the translucent layers and blended into the rays (std::translucent): turning,
+//! the peeling passes draw it five times a frame; still, what is left is the rays' share.
 //!
 //! The volume is the MNI152 T1 of `../shared/data` when it is there, else the built-in head
 //! phantom (said in the output). Run: `cargo bench -p vrs-runtime --bench meshes`; settings:
@@ -48,12 +50,12 @@ fn write_sphere_stl(path: &Path, centre: glam::Vec3, radius: f32, triangles: u32
     count
 }
 
-/// The scene with the mesh file `mesh` (none: `""`), shaded with one light or not.
-fn scene(volume: &str, size: u32, mesh: &str, shading: bool) -> String {
+/// The scene with the mesh file `mesh` (none: `""`) of `opacity`, shaded with one light or not.
+fn scene(volume: &str, size: u32, (mesh, opacity): (&str, f32), shading: bool) -> String {
     let mesh = if mesh.is_empty() {
         String::new()
     } else {
-        format!("[[mesh]]\nname = \"ball\"\npath = \"{mesh}\"\ncolor = [0.9, 0.7, 0.2]\n\n")
+        format!("[[mesh]]\nname = \"ball\"\npath = \"{mesh}\"\ncolor = [0.9, 0.7, 0.2]\nopacity = {opacity:?}\n\n")
     };
     format!(
         "[render]\ncompositing = \"dvr\"\nshading = {shading}\njitter = 1.0\n\n\
@@ -106,12 +108,14 @@ fn main() {
         "adapter: {}, {size}x{size}, {rounds} rounds of {frames} frames, a mesh of {triangles} triangles",
         gpu.adapter
     );
-    // (name, mesh file, degrees the camera turns per frame)
+    // (name, mesh file and its opacity, degrees the camera turns per frame)
     let variants = [
-        ("DVR", "", 0.05),
-        ("DVR + mesh, camera turning", "ball.stl", 0.05),
-        ("DVR + mesh, camera still", "ball.stl", 0.0),
-        ("DVR + open mesh, camera turning", "open.stl", 0.05),
+        ("DVR", ("", 1.0), 0.05),
+        ("DVR + mesh, camera turning", ("ball.stl", 1.0), 0.05),
+        ("DVR + mesh, camera still", ("ball.stl", 1.0), 0.0),
+        ("DVR + open mesh, camera turning", ("open.stl", 1.0), 0.05),
+        ("DVR + translucent mesh, turning", ("ball.stl", 0.5), 0.05),
+        ("DVR + translucent mesh, still", ("ball.stl", 0.5), 0.0),
     ];
     let mut renderers: Vec<SceneRenderer> = variants
         .iter()
@@ -135,4 +139,9 @@ fn main() {
     println!("mesh (drawn every frame) over DVR: {:.3}x (target <= 1.2)", medians[1] / medians[0]);
     println!("the mesh layer's own share:        {:.3}x (turning over still)", medians[1] / medians[2]);
     println!("an open mesh (no culling) over DVR: {:.3}x", medians[3] / medians[0]);
+    println!(
+        "translucent (peeled) over DVR:      {:.3}x, camera still {:.3}x",
+        medians[4] / medians[0],
+        medians[5] / medians[0]
+    );
 }
