@@ -202,7 +202,7 @@ impl MeshLayer {
                 draws::record(&mut pass, by_pass, bind_group, (&draws[..layer_draws], 0));
             }
         })?;
-        if let (Some(peeled), Some(pipelines), Some(bind_group)) = (&self.peeled, pipelines, &bind_group) {
+        if let (Some(peeled), Some(pipelines), Some(bind_group)) = (&mut self.peeled, pipelines, &bind_group) {
             let translucent = (bind_group, &draws[layer_draws..], layer_draws);
             peeled.encode(gpu, pipelines, encoder, &self.depth_view, translucent)?;
         }

@@ -29,6 +29,9 @@ pub(crate) struct PeeledLayers {
     depths: wgpu::TextureView,
     /// The depth test of a peeling pass (the nearest surface wins).
     depth_buffer: wgpu::TextureView,
+    /// The layers hold nothing (cleared, no surface drawn since): a frame without translucent
+    /// meshes then records no pass at all.
+    empty: bool,
 }
 
 impl PeeledLayers {
@@ -56,6 +59,7 @@ impl PeeledLayers {
             depth_layers: (0..=layers).map(|i| view(&depths, i, 1, D2)).collect(),
             depths: view(&depths, 1, layers, D2Array),
             depth_buffer: depth_buffer.create_view(&Default::default()),
+            empty: false,
         })
     }
 
@@ -67,13 +71,17 @@ impl PeeledLayers {
     /// Records the peeling of `draws` (each a translucent mesh; their uniforms are
     /// `bind_group`'s slots from `first_slot` on) in front of `opaque`, the layer's opaque depth.
     pub(crate) fn encode(
-        &self,
+        &mut self,
         gpu: &Gpu,
         pipelines: &MeshPipelines,
         encoder: &mut wgpu::CommandEncoder,
         opaque: &wgpu::TextureView,
         (bind_group, draws, first_slot): (&wgpu::BindGroup, &[Draw], usize),
     ) -> Result<(), RuntimeError> {
+        if draws.is_empty() && self.empty {
+            return Ok(());
+        }
+        self.empty = draws.is_empty();
         let doing = "peeling translucent meshes";
         let behind = |layer: usize| {
             gpu.capture(doing, || {
