@@ -408,3 +408,102 @@ fn a_mesh_beyond_the_volumes_reach_is_drawn_whole() {
     }
     assert!(inside > 200, "the ball covers many pixels ({inside})");
 }
+
+/// The green of a ray (the white volume's share; the translucent surfaces are red) through the
+/// homogeneous volume over ray parameters `volume` (mm) and translucent surfaces of opacity
+/// `alpha` at `surfaces`, composited front to back: a stretch of volume `len` mm long adds
+/// `T (1 - (1 - A)^len)` and leaves `T (1 - A)^len`, a surface leaves `T (1 - alpha)`.
+fn composite_green((v0, v1): (f32, f32), surfaces: &[f32], alpha: f64) -> f64 {
+    let (mut at, mut transmitted, mut green) = (v0, 1.0f64, 0.0f64);
+    let mut stretch = |from: f32, to: f32, transmitted: &mut f64| {
+        let kept = (1.0 - A).powf(f64::from(to - from));
+        green += *transmitted * (1.0 - kept);
+        *transmitted *= kept;
+    };
+    let mut sorted = surfaces.to_vec();
+    sorted.sort_by(f32::total_cmp);
+    for s in sorted {
+        if s > at && at < v1 {
+            stretch(at, s.min(v1), &mut transmitted);
+            at = s.min(v1);
+        }
+        transmitted *= 1.0 - alpha;
+    }
+    if at < v1 {
+        stretch(at, v1, &mut transmitted);
+    }
+    green
+}
+
+/// A translucent red ball (opacity 0.5) in front of, inside and behind the homogeneous volume:
+/// each pixel's green is the front-to-back composite of the volume's stretches and the ball's
+/// two surfaces along its ray ([`composite_green`]). Samples 0.25 mm apart place each of the
+/// three boundaries on a ray (the volume's entry and the two surfaces) to within a step, each
+/// a step's opacity `1 - (1 - A)^0.25` at most, and the colours are 8-bit: the tolerance is
+/// three steps' opacity plus 2/255 (measured: 0.011 at most). Blending the volume over the mesh
+/// layer, as before meshes were peeled, fails at once: green 0.82 where the composite is 0.20
+/// (the ball in front).
+#[test]
+fn a_translucent_ball_in_front_of_inside_and_behind_the_volume_composites_in_depth_order() {
+    let dir = tempfile::tempdir().expect("a folder");
+    homogeneous_volume(dir.path());
+    let scene = SCENE
+        .replace("azimuth = 60.0, elevation = 25.0", "azimuth = 0.0, elevation = 0.0")
+        .replace("[64, 64]", "[96, 96]");
+    let mut alone = open(dir.path(), &scene.replace("size = [96, 96]", "size = [96, 96]\nmeshes = []"));
+    let (dims, grid_to_world) = alone.primary_grid().expect("a primary volume");
+    let to_world = vrs_runtime::geometry::volume_to_world(dims, grid_to_world);
+    let clip_to_world = to_world * alone.views()[0].camera.expect("a raycast view").inv_view_proj(to_world, 1.0);
+    let _ = alone.render_all().expect("render");
+    let (_, forward) = pixel_ray(clip_to_world, [0.5, 0.5]);
+    let middle = Vec3::splat(15.5);
+    let step = 1.0 - (1.0 - A).powf(0.25);
+    let tolerance = 3.0 * step + 2.0 / 255.0;
+    // (where, centre, radius): just clear of the box on either side, and around the centre.
+    let places = [
+        ("in front", middle - forward * (16.0 + 5.5), 5.0),
+        ("inside", middle + Vec3::new(2.0, -1.0, 1.5), 8.0),
+        ("behind", middle + forward * (16.0 + 5.5), 5.0),
+    ];
+    for (place, centre, radius) in places {
+        let ball = format!(
+            "shape = \"sphere\"\ncentre = [{}, {}, {}]\nradius = {radius}\ncolor = [1.0, 0.0, 0.0]\nopacity = 0.5",
+            centre.x, centre.y, centre.z
+        );
+        let text = scene.replace(
+            "shape = \"box\"\nmin = [16.0, 6.0, 6.0]\nmax = [40.0, 25.0, 25.0]\ncolor = [0.0, 0.0, 0.0]",
+            &ball,
+        );
+        let image = open(dir.path(), &text).render_all().expect("render").remove(0).1;
+        let (mut checked, mut worst) = (0, 0.0f64);
+        for (px, py, pixel) in image.enumerate_pixels() {
+            let ray = |dx: f32, dy: f32| {
+                pixel_ray(clip_to_world, [(px as f32 + 0.5 + dx) / 96.0, (py as f32 + 0.5 + dy) / 96.0])
+            };
+            // Pixels on the ball's or the box's outline are left out (coverage decides them).
+            let (o, d) = ray(0.0, 0.0);
+            let hits = |(o, d): (Vec3, Vec3)| {
+                (
+                    sphere_hit(o, d, centre, radius).is_some(),
+                    slab_hit(o, d, Vec3::splat(-0.5), Vec3::splat(31.5)).is_some(),
+                )
+            };
+            let here = hits((o, d));
+            if [(1.5, 0.0), (-1.5, 0.0), (0.0, 1.5), (0.0, -1.5)].iter().any(|&(x, y)| hits(ray(x, y)) != here) {
+                continue;
+            }
+            let volume = slab_hit(o, d, Vec3::splat(-0.5), Vec3::splat(31.5)).unwrap_or((0.0, 0.0));
+            let surfaces: Vec<f32> = sphere_hit(o, d, centre, radius).map_or(Vec::new(), |(a, b)| vec![a, b]);
+            let want = composite_green(volume, &surfaces, 128.0 / 255.0);
+            let got = f64::from(pixel[1]) / 255.0;
+            worst = worst.max((got - want).abs());
+            assert!(
+                (got - want).abs() <= tolerance,
+                "{place}, pixel ({px}, {py}): green {got:.4}, the composite along its ray {want:.4}"
+            );
+            checked += usize::from(!surfaces.is_empty() && here.1);
+        }
+        assert!(checked > 100, "{place}: many pixels see the volume and the ball ({checked})");
+        eprintln!("{place}: {checked} pixels through both; largest difference {worst:.4} (tolerance {tolerance:.4})");
+    }
+}
