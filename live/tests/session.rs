@@ -81,6 +81,27 @@ fn a_broken_edit_keeps_the_last_good_pipeline_and_a_fix_resumes() {
     assert_eq!(live.last_error(), None);
 }
 
+/// The viewer validates a scene as `vrsc build` does: a uniform renamed in `[uniforms]` (a
+/// value change, which reuses the composition when it is valid) fails with build's E0702.
+#[test]
+fn a_renamed_uniform_value_fails_as_build_fails() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut live = open(dir.path());
+    let path = dir.path().join("scene.toml");
+    std::fs::write(&path, scene(0.5, false).replace("k = 0.50", "kk = 0.50")).unwrap();
+    let rebuild = live.rebuild();
+    assert!(matches!(rebuild.outcome, Err(Failure::Compose)), "the viewer refuses it");
+    let text = rebuild.error_text().unwrap();
+    let built = vrsc::compose::build::build_scene(&path, None).unwrap();
+    assert!(built.diags.has_errors(), "build refuses it");
+    for d in built.diags.iter() {
+        assert!(text.contains(&d.message), "build's `{}` is said in the viewer: {text}", d.message);
+    }
+    assert!(text.contains("E0702") && text.contains("`kk`"), "{text}");
+    std::fs::write(&path, scene(0.5, false)).unwrap();
+    assert!(live.rebuild().succeeded());
+}
+
 #[test]
 fn user_uniforms_and_cameras_survive_a_reload_unless_the_scene_changes_them() {
     let dir = tempfile::tempdir().unwrap();

@@ -176,12 +176,8 @@ pub fn compose_scene_with(
         views.push(output);
     }
     data_flow.finish(&mut diags);
-    let compositions: Vec<&Composition> = views.iter().map(|v| &v.composition).collect();
     let every_view = only_view.is_none() && views.iter().all(|v| v.shader.is_some());
-    uniform_check::check_scene_uniforms(&scene, &compositions, every_view, &mut diags);
-    let named: Vec<(&str, &Composition)> = views.iter().map(|v| (v.name.as_str(), &v.composition)).collect();
-    uniform_check::check_resources(&scene, &named, &mut diags);
-    layer_check::check_layers(&scene, &named, &mut diags);
+    check_against_views(&scene, &views, every_view, &mut diags);
     if let Some(name) = only_view
         && views.is_empty()
     {
@@ -192,6 +188,18 @@ pub fn compose_scene_with(
         );
     }
     BuiltScene { sources, diags, scene: Some(scene), views }
+}
+
+/// The checks of a scene's values against its composed views (`every_view`: all of them, each
+/// with a shader): uniform values (E0702), the volumes and transfer functions they bind (E0608)
+/// and the layers they read (E0609). What a composition reused for a scene whose values changed
+/// ([`super::cache`]) must pass again.
+pub(crate) fn check_against_views(scene: &Scene, views: &[ViewOutput], every_view: bool, diags: &mut Diagnostics) {
+    let compositions: Vec<&Composition> = views.iter().map(|v| &v.composition).collect();
+    uniform_check::check_scene_uniforms(scene, &compositions, every_view, diags);
+    let named: Vec<(&str, &Composition)> = views.iter().map(|v| (v.name.as_str(), &v.composition)).collect();
+    uniform_check::check_resources(scene, &named, diags);
+    layer_check::check_layers(scene, &named, diags);
 }
 
 /// The data-flow warnings of every view (W0005, W0006), each once for all the views it holds in,

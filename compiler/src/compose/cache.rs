@@ -1,8 +1,11 @@
 //! A composition cache: composing a scene whose structure was composed before (same views,
 //! same standard and user modules with the same instances, same module sources) returns the
 //! earlier shaders instead of composing again. Changing only uniform values, camera, sizes,
-//! volumes' files or transfer functions is such a hit; it costs a scene parse and a read of the
-//! module files, not a composition.
+//! volumes' files or transfer functions is such a hit; it costs a scene parse, a read of the
+//! module files and the checks of the scene's values against the views, not a composition. A
+//! hit is only given where neither the composition nor the scene as it is now has anything to
+//! say: otherwise the scene is composed again, so that every diagnostic is the one `vrsc
+//! build` gives.
 
 use super::build::{self, BuiltScene, Keep};
 use super::reflect::content_hash;
@@ -69,6 +72,7 @@ impl CompositionCache {
         let key = structural_key(&scene);
         if let Some(entry) = self.entries.get(&key)
             && inputs_unchanged(&entry.inputs)
+            && still_clean(&parsed, &scene, &entry.built)
         {
             self.stats.hits += 1;
             return Ok(CachedBuild { built: entry.built.clone(), scene: Some(scene), hit: true });
@@ -81,6 +85,22 @@ impl CompositionCache {
         }
         Ok(CachedBuild { built, scene: Some(scene), hit: false })
     }
+}
+
+/// Whether a composition `built` of the same structure, clean when it was made (no diagnostic
+/// at all), stays clean for `scene` as parsed now: nothing said of the scene file, and the checks
+/// of its values against the views pass ([`build::check_against_views`]: a uniform renamed in
+/// `[uniforms]`, a value of another type). Otherwise the scene is composed again, so that what it
+/// says is said with the scene as it is: the one path `vrsc build` takes.
+fn still_clean(parsed: &build::ParsedScene, scene: &Scene, built: &BuiltScene) -> bool {
+    if !parsed.diags.is_empty() || !built.diags.is_empty() {
+        return false;
+    }
+    let mut diags = crate::diag::Diagnostics::new();
+    super::limits::check_counts(scene).into_iter().for_each(|d| diags.push(d));
+    let every_view = built.views.iter().all(|v| v.shader.is_some());
+    build::check_against_views(scene, &built.views, every_view, &mut diags);
+    diags.is_empty()
 }
 
 /// Everything of a scene that shapes its shaders: per view, its name and kind and the modules
@@ -142,6 +162,34 @@ mod tests {
              phantom = \"head\"\n\n[[module]]\npath = \"dim.vrs\"\n\n[uniforms]\nk = {k:.2}\n\n\
              [[view]]\nname = \"3d\"\nkind = \"raycast\"\n"
         )
+    }
+
+    /// A value change the composition rejects (a uniform renamed in `[uniforms]`, a value of
+    /// another type) is not a hit: the scene is composed again and says what `build` says.
+    #[test]
+    fn a_renamed_or_mistyped_uniform_value_is_said_as_build_says_it() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("scene.toml");
+        std::fs::write(dir.path().join("dim.vrs"), MODULE).unwrap();
+        std::fs::write(&path, scene(0.5, "dvr")).unwrap();
+        let mut cache = CompositionCache::new();
+        assert!(!cache.build(&path).unwrap().hit);
+        for (text, what) in [
+            (scene(0.5, "dvr").replace("k = 0.50", "kk = 0.50"), "no view reads a uniform `kk`"),
+            (scene(0.5, "dvr").replace("k = 0.50", "k = [0.5, 0.5]"), "`k`"),
+        ] {
+            std::fs::write(&path, &text).unwrap();
+            let cached = cache.build(&path).unwrap();
+            let built = build::build_scene(&path, None).unwrap();
+            let said = |b: &BuiltScene| b.diags.iter().map(|d| d.message.clone()).collect::<Vec<_>>();
+            assert!(!cached.hit, "{what}: composed again");
+            assert!(cached.built.diags.has_errors(), "{what}: an error, as build gives");
+            assert_eq!(said(&cached.built), said(&built), "{what}: the same diagnostics as build");
+            assert!(said(&built).iter().any(|m| m.contains(what)), "{what}: {:?}", said(&built));
+        }
+        // Fixed again: a hit on the first composition.
+        std::fs::write(&path, scene(0.25, "dvr")).unwrap();
+        assert!(cache.build(&path).unwrap().hit);
     }
 
     #[test]
