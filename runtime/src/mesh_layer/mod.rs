@@ -169,9 +169,11 @@ impl MeshLayer {
             return Ok(());
         }
         let mut draws = Vec::new();
-        // Peeled: the translucent meshes are drawn only by the peeling passes, after the others.
+        // Peeled (a raycast view): the translucent meshes are drawn only by the peeling passes,
+        // after the others. A slice view outlines every mesh.
+        let peels = self.peeled.is_some() && matches!(content.camera, LayerCamera::Projection { .. });
         let (drawn, peeled): (Vec<&MeshInstance>, Vec<&MeshInstance>) =
-            content.meshes.iter().copied().partition(|m| self.peeled.is_none() || m.opacity >= 1.0);
+            content.meshes.iter().copied().partition(|m| !peels || m.opacity >= 1.0);
         let mut layer_draws = 0;
         if let Some(pipelines) = pipelines {
             if let LayerCamera::Projection { world_to_clip } = content.camera {
