@@ -308,6 +308,33 @@ fn sphere_hit(origin: Vec3, dir: Vec3, centre: Vec3, radius: f32) -> Option<(f32
     (disc > 0.0).then(|| (-b - disc.sqrt(), -b + disc.sqrt()))
 }
 
+/// [`SCENE`] at `size` pixels looking along an axis (so that a ball fits between the box and the
+/// near plane, which touches the sphere around the box), with the homogeneous volume written
+/// into `dir`; the scene's text with its box, the picture of the volume alone and the view's
+/// clip space to patient space.
+fn along_an_axis(dir: &Path, size: u32) -> (String, image::RgbaImage, Mat4) {
+    homogeneous_volume(dir);
+    let sized = format!("size = [{size}, {size}]");
+    let scene = SCENE
+        .replace("azimuth = 60.0, elevation = 25.0", "azimuth = 0.0, elevation = 0.0")
+        .replace("size = [64, 64]", &sized);
+    let mut alone = open(dir, &scene.replace(&sized, &format!("{sized}\nmeshes = []")));
+    let volume = alone.render_all().expect("render").remove(0).1;
+    let (dims, grid_to_world) = alone.primary_grid().expect("a primary volume");
+    let to_world = vrs_runtime::geometry::volume_to_world(dims, grid_to_world);
+    let clip_to_world = to_world * alone.views()[0].camera.expect("a raycast view").inv_view_proj(to_world, 1.0);
+    (scene, volume, clip_to_world)
+}
+
+/// `scene` with its box replaced by a sphere of `centre`, `radius`, `color` and `opacity`.
+fn with_ball(scene: &str, centre: Vec3, radius: f32, opacity: f32) -> String {
+    let ball = format!(
+        "shape = \"sphere\"\ncentre = [{}, {}, {}]\nradius = {radius}\ncolor = [1.0, 0.0, 0.0]\nopacity = {opacity:?}",
+        centre.x, centre.y, centre.z
+    );
+    scene.replace("shape = \"box\"\nmin = [16.0, 6.0, 6.0]\nmax = [40.0, 25.0, 25.0]\ncolor = [0.0, 0.0, 0.0]", &ball)
+}
+
 /// A translucent red ball between the camera and the homogeneous volume (no volume around it):
 /// the volume behind it shows through both of its surfaces, so the green channel (the white
 /// volume's alone: the ball is red) is the volume's without the ball times (1 - opacity)^2.
@@ -317,28 +344,13 @@ fn sphere_hit(origin: Vec3, dir: Vec3, centre: Vec3, radius: f32) -> Option<(f32
 #[test]
 fn a_translucent_mesh_in_front_of_the_volume_veils_it() {
     let dir = tempfile::tempdir().expect("a folder");
-    homogeneous_volume(dir.path());
-    // Looking along an axis, so that a ball fits between the box and the near plane (which
-    // touches the sphere around the box).
-    let scene = SCENE
-        .replace("azimuth = 60.0, elevation = 25.0", "azimuth = 0.0, elevation = 0.0")
-        .replace("[64, 64]", "[128, 128]");
-    let mut alone = open(dir.path(), &scene.replace("size = [128, 128]", "size = [128, 128]\nmeshes = []"));
-    let volume = alone.render_all().expect("render").remove(0).1;
-    let (dims, grid_to_world) = alone.primary_grid().expect("a primary volume");
-    let to_world = vrs_runtime::geometry::volume_to_world(dims, grid_to_world);
-    let clip_to_world = to_world * alone.views()[0].camera.expect("a raycast view").inv_view_proj(to_world, 1.0);
+    let (scene, volume, clip_to_world) = along_an_axis(dir.path(), 128);
     // On the way from the volume's centre to the camera, just clear of the volume's box.
     let (_, forward) = pixel_ray(clip_to_world, [0.5, 0.5]);
     let (middle, radius) = (Vec3::splat(15.5), 5.0);
     let (_, exit) = slab_hit(middle, -forward, Vec3::splat(-0.5), Vec3::splat(31.5)).expect("inside the box");
     let centre = middle - forward * (exit + radius + 0.5);
-    let ball = format!(
-        "shape = \"sphere\"\ncentre = [{}, {}, {}]\nradius = {radius}\ncolor = [1.0, 0.0, 0.0]\nopacity = 0.5",
-        centre.x, centre.y, centre.z
-    );
-    let scene_text = scene
-        .replace("shape = \"box\"\nmin = [16.0, 6.0, 6.0]\nmax = [40.0, 25.0, 25.0]\ncolor = [0.0, 0.0, 0.0]", &ball);
+    let scene_text = with_ball(&scene, centre, radius, 0.5);
     let veiled = open(dir.path(), &scene_text).render_all().expect("render").remove(0).1;
     let transmitted = (1.0 - 128.0 / 255.0f64).powi(2);
     let (mut checked, mut worst) = (0, 0.0f64);
@@ -378,22 +390,12 @@ fn a_translucent_mesh_in_front_of_the_volume_veils_it() {
 #[test]
 fn a_mesh_beyond_the_volumes_reach_is_drawn_whole() {
     let dir = tempfile::tempdir().expect("a folder");
-    homogeneous_volume(dir.path());
-    let scene = SCENE.replace("azimuth = 60.0, elevation = 25.0", "azimuth = 0.0, elevation = 0.0");
-    let alone = open(dir.path(), &scene.replace("size = [64, 64]", "size = [64, 64]\nmeshes = []"));
-    let (dims, grid_to_world) = alone.primary_grid().expect("a primary volume");
-    let to_world = vrs_runtime::geometry::volume_to_world(dims, grid_to_world);
-    let clip_to_world = to_world * alone.views()[0].camera.expect("a raycast view").inv_view_proj(to_world, 1.0);
+    let (scene, _, clip_to_world) = along_an_axis(dir.path(), 64);
     let (_, forward) = pixel_ray(clip_to_world, [0.5, 0.5]);
     // The box's sphere has a radius of 27.7 mm; the ball's front lies 16 + 1 + 16 = 33 mm out.
     let (middle, radius) = (Vec3::splat(15.5), 8.0);
     let centre = middle - forward * (16.0 + 1.0 + radius);
-    let ball = format!(
-        "shape = \"sphere\"\ncentre = [{}, {}, {}]\nradius = {radius}\ncolor = [1.0, 0.0, 0.0]",
-        centre.x, centre.y, centre.z
-    );
-    let text = scene
-        .replace("shape = \"box\"\nmin = [16.0, 6.0, 6.0]\nmax = [40.0, 25.0, 25.0]\ncolor = [0.0, 0.0, 0.0]", &ball);
+    let text = with_ball(&scene, centre, radius, 1.0);
     let image = open(dir.path(), &text).render_all().expect("render").remove(0).1;
     let mut inside = 0;
     for (px, py, pixel) in image.enumerate_pixels() {
@@ -446,15 +448,7 @@ fn composite_green((v0, v1): (f32, f32), surfaces: &[f32], alpha: f64) -> f64 {
 #[test]
 fn a_translucent_ball_in_front_of_inside_and_behind_the_volume_composites_in_depth_order() {
     let dir = tempfile::tempdir().expect("a folder");
-    homogeneous_volume(dir.path());
-    let scene = SCENE
-        .replace("azimuth = 60.0, elevation = 25.0", "azimuth = 0.0, elevation = 0.0")
-        .replace("[64, 64]", "[96, 96]");
-    let mut alone = open(dir.path(), &scene.replace("size = [96, 96]", "size = [96, 96]\nmeshes = []"));
-    let (dims, grid_to_world) = alone.primary_grid().expect("a primary volume");
-    let to_world = vrs_runtime::geometry::volume_to_world(dims, grid_to_world);
-    let clip_to_world = to_world * alone.views()[0].camera.expect("a raycast view").inv_view_proj(to_world, 1.0);
-    let _ = alone.render_all().expect("render");
+    let (scene, _, clip_to_world) = along_an_axis(dir.path(), 96);
     let (_, forward) = pixel_ray(clip_to_world, [0.5, 0.5]);
     let middle = Vec3::splat(15.5);
     let step = 1.0 - (1.0 - A).powf(0.25);
@@ -466,14 +460,7 @@ fn a_translucent_ball_in_front_of_inside_and_behind_the_volume_composites_in_dep
         ("behind", middle + forward * (16.0 + 5.5), 5.0),
     ];
     for (place, centre, radius) in places {
-        let ball = format!(
-            "shape = \"sphere\"\ncentre = [{}, {}, {}]\nradius = {radius}\ncolor = [1.0, 0.0, 0.0]\nopacity = 0.5",
-            centre.x, centre.y, centre.z
-        );
-        let text = scene.replace(
-            "shape = \"box\"\nmin = [16.0, 6.0, 6.0]\nmax = [40.0, 25.0, 25.0]\ncolor = [0.0, 0.0, 0.0]",
-            &ball,
-        );
+        let text = with_ball(&scene, centre, radius, 0.5);
         let image = open(dir.path(), &text).render_all().expect("render").remove(0).1;
         let (mut checked, mut worst) = (0, 0.0f64);
         for (px, py, pixel) in image.enumerate_pixels() {
