@@ -1,5 +1,6 @@
 //! The scene against the composed views' uniforms: every `[uniforms]` entry must name a
-//! uniform that some view reads (E0702 with a did-you-mean otherwise), and its value must have
+//! uniform that some view reads (E0702 with a did-you-mean otherwise; W0701 where a standard
+//! module the scene's options leave out declares it), and its value must have
 //! that uniform's type and length (E0702 at the value); every `volume` and `tf` uniform a view
 //! reads must be one the runtime binds for this scene (E0608 at its declaration). The runtime
 //! sets values and binds resources by the same rules, so a scene that `build` accepts never
@@ -26,7 +27,10 @@ pub fn check_scene_uniforms(scene: &Scene, views: &[&Composition], all_views: bo
                     diags.push(wrong_value(name, u.ty, setting, &why));
                 }
             }
-            None if all_views => diags.push(unknown(name, setting, views)),
+            None if all_views => diags.push(match std_module_declaring(name) {
+                Some(module) => left_out(name, setting, module),
+                None => unknown(name, setting, views),
+            }),
             None => {}
         }
     }
@@ -103,6 +107,57 @@ fn unknown(name: &str, setting: &UniformSetting, views: &[&Composition]) -> Diag
         None => d.with_note("a `[uniforms]` entry sets the initial value of a uniform that a module declares"),
     };
     d
+}
+
+/// W0701 for a value of a uniform that a standard module declares but no view reads: the
+/// scene's options leave that module (or the function) out, as `shading = false` leaves out
+/// std::light and its `light_dir_NAME`. The value is kept for when the option is on again.
+fn left_out(name: &str, setting: &UniformSetting, module: &str) -> Diagnostic {
+    Diagnostic::new(Code::SceneIgnored, setting.name_span, format!("no view reads `{name}` with these settings"))
+        .with_label("ignored")
+        .with_note(format!(
+            "`{name}` is a uniform of std::{module}, which the scene's options leave out of every view (`shading = false` leaves out the lights)"
+        ))
+        .with_help("the value applies again when an option selects the module; remove it to silence this")
+}
+
+/// The standard module that declares uniform `name`, as written or as an instance of a template
+/// (`light_dir_$` declares `light_dir_key`).
+fn std_module_declaring(name: &str) -> Option<&'static str> {
+    std_uniforms().iter().find(|(_, declared)| matches_template(declared, name)).map(|(module, _)| *module)
+}
+
+/// Whether `name` is `declared`, or an instance of it when it holds `$` (any non-empty name in
+/// its place).
+fn matches_template(declared: &str, name: &str) -> bool {
+    match declared.split_once('$') {
+        None => declared == name,
+        Some((before, after)) => {
+            name.len() > before.len() + after.len() && name.starts_with(before) && name.ends_with(after)
+        }
+    }
+}
+
+/// Every uniform the standard modules' pipeline functions declare, with the module: parsed once.
+fn std_uniforms() -> &'static [(&'static str, String)] {
+    static UNIFORMS: std::sync::OnceLock<Vec<(&'static str, String)>> = std::sync::OnceLock::new();
+    UNIFORMS.get_or_init(|| {
+        let mut out = Vec::new();
+        for (module, text) in crate::stdlib::modules() {
+            let mut diags = Diagnostics::new();
+            let lexed = crate::lexer::lex(text, 0, &mut diags);
+            let parsed = crate::parser::parse_module(&lexed, 0, text.len() as u32, &mut diags);
+            for item in &parsed.items {
+                let crate::ast::ItemKind::Pipeline(f) = &item.kind else { continue };
+                for decl in &f.decls {
+                    if let crate::ast::DeclKind::Uniform { name, .. } = &decl.kind {
+                        out.push((module, name.name.clone()));
+                    }
+                }
+            }
+        }
+        out
+    })
 }
 
 fn wrong_value(name: &str, ty: Type, setting: &UniformSetting, why: &str) -> Diagnostic {
@@ -241,6 +296,14 @@ fn unbound(view: &str, u: &super::ir::Uniform, bound: &[(String, Type)]) -> Diag
 mod tests {
     use super::*;
     use UniformValue::{Array, Bool, Float, Int};
+
+    #[test]
+    fn a_uniform_of_a_left_out_standard_module_is_told_from_a_typo() {
+        assert_eq!(std_module_declaring("light_dir_key"), Some("light"), "an instance of `light_dir_$`");
+        assert_eq!(std_module_declaring("exposure"), Some("hdr"));
+        assert_eq!(std_module_declaring("light_dri_key"), None, "a typo");
+        assert_eq!(std_module_declaring("light_dir_"), None, "`$` stands for a non-empty name");
+    }
 
     #[test]
     fn shapes_and_kinds() {
