@@ -155,13 +155,15 @@ impl RangeLearner {
         learner
     }
 
-    /// Level-0 brick `brick` as the source read it (data units).
+    /// Level-0 brick `brick` as the source read it (data units): once the window is known, as
+    /// the loader will normalize it for the pool (a voxel a half float, a brick of one value
+    /// exact).
     fn record_read(&mut self, brick: [u32; 3], data: &BrickData) {
-        let window = self.window;
-        let value = |v: f32| window.map_or(v, |w| in_pool(w, v).0);
-        match data {
-            BrickData::Constant(v) => self.ranges.record(brick, |_| value(*v)),
-            BrickData::Voxels(_) => self.ranges.record(brick, |at| value(data.at(at))),
+        match (self.window, data) {
+            (None, BrickData::Constant(v)) => self.ranges.record(brick, |_| *v),
+            (None, BrickData::Voxels(_)) => self.ranges.record(brick, |at| data.at(at)),
+            (Some(w), BrickData::Constant(v)) => self.ranges.record(brick, |_| w.apply(*v)),
+            (Some(w), BrickData::Voxels(_)) => self.ranges.record(brick, |at| pool_value(w, data.at(at)).to_f32()),
         }
     }
 
@@ -185,12 +187,14 @@ impl RangeLearner {
 
     /// [`LearntRanges::take_changed`], once the window is set (`None` before).
     pub(crate) fn take_changed(&mut self) -> Option<BrickRanges> {
-        self.window.and(self.ranges.take_changed())
+        self.window?;
+        self.ranges.take_changed()
     }
 }
 
-/// Bounds of value `v` (data units) as the pool holds it: a voxel rounded to a half float, a
-/// brick of one value in the page table's fixed point (close to the exact value).
+/// Bounds of value `v` (data units) as the pool holds it, whether it comes as a voxel (rounded
+/// to a half float) or as a brick of one value (close to exact): for ranges learnt before the
+/// window, which do not say which.
 fn in_pool(window: Window, v: f32) -> (f32, f32) {
     let (voxel, exact) = (pool_value(window, v).to_f32(), window.apply(v));
     (voxel.min(exact) - f32::EPSILON, voxel.max(exact) + f32::EPSILON)

@@ -188,17 +188,12 @@ impl MeshLayer {
         let bind_group = self.buffer.bind(gpu, pipelines, &draws)?;
         let doing = "drawing a mesh layer";
         gpu.capture(doing, || {
-            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("mesh layer"),
-                color_attachments: &[
-                    Some(attachment(&self.color_view, wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT))),
-                    Some(attachment(&self.depth_view, wgpu::LoadOp::Clear(wgpu::Color::WHITE))),
-                ],
-                depth_stencil_attachment: Some(depth_attachment(&self.depth_buffer)),
-                timestamp_writes: None,
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
+            let targets = [
+                Some(attachment(&self.color_view, wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT))),
+                Some(attachment(&self.depth_view, wgpu::LoadOp::Clear(wgpu::Color::WHITE))),
+            ];
+            let depth = Some(depth_attachment(&self.depth_buffer));
+            let mut pass = encoder.begin_render_pass(&pass_descriptor("mesh layer", &targets, depth));
             if let (Some(pipelines), Some(bind_group)) = (pipelines, &bind_group) {
                 let by_pass = Pipelines::ByPass(&pipelines.layer, &pipelines.plane);
                 draws::record(&mut pass, by_pass, bind_group, (&draws[..layer_draws], 0));
@@ -220,6 +215,22 @@ fn attachment(view: &wgpu::TextureView, load: wgpu::LoadOp<wgpu::Color>) -> wgpu
         depth_slice: None,
         resolve_target: None,
         ops: wgpu::Operations { load, store: wgpu::StoreOp::Store },
+    }
+}
+
+/// A render pass `label` into `color_attachments` and `depth_stencil_attachment`.
+fn pass_descriptor<'a>(
+    label: &'a str,
+    color_attachments: &'a [Option<wgpu::RenderPassColorAttachment<'a>>],
+    depth_stencil_attachment: Option<wgpu::RenderPassDepthStencilAttachment<'a>>,
+) -> wgpu::RenderPassDescriptor<'a> {
+    wgpu::RenderPassDescriptor {
+        label: Some(label),
+        color_attachments,
+        depth_stencil_attachment,
+        timestamp_writes: None,
+        occlusion_query_set: None,
+        multiview_mask: None,
     }
 }
 

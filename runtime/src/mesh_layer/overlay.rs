@@ -5,7 +5,7 @@
 
 use super::draws::{self, DrawBuffer, Pipelines, Target};
 use super::pipelines::{DEPTH_FORMAT, MeshPipelines};
-use super::{LayerCamera, MeshInstance, attachment, depth_attachment};
+use super::{LayerCamera, MeshInstance, attachment, depth_attachment, pass_descriptor};
 use crate::error::RuntimeError;
 use crate::gpu::Gpu;
 use crate::textures::Image2d;
@@ -42,14 +42,9 @@ impl Overlay {
         let draws = draws::frame_draws(gpu, camera, meshes, self.size, Target::Overlay)?;
         let Some(bind_group) = self.buffer.bind(gpu, Some(pipelines), &draws)? else { return Ok(()) };
         gpu.capture("drawing an overlay", || {
-            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("overlay"),
-                color_attachments: &[Some(attachment(target, wgpu::LoadOp::Load))],
-                depth_stencil_attachment: Some(depth_attachment(&self.depth_buffer)),
-                timestamp_writes: None,
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
+            let targets = [Some(attachment(target, wgpu::LoadOp::Load))];
+            let depth = Some(depth_attachment(&self.depth_buffer));
+            let mut pass = encoder.begin_render_pass(&pass_descriptor("overlay", &targets, depth));
             draws::record(&mut pass, Pipelines::ByPass(&pipelines.overlay, &pipelines.plane), &bind_group, (&draws, 0));
         })?;
         Ok(())

@@ -10,7 +10,7 @@ use vrsc::compose::TRANSLUCENT_LAYERS;
 
 use super::draws::{self, Draw, Pipelines};
 use super::pipelines::{COLOR_FORMAT, DEPTH_FORMAT, DEPTH_IMAGE_FORMAT, MeshPipelines};
-use super::{attachment, depth_attachment};
+use super::{attachment, depth_attachment, pass_descriptor};
 use crate::error::RuntimeError;
 use crate::gpu::Gpu;
 use crate::textures::Image2d;
@@ -96,7 +96,11 @@ impl PeeledLayers {
         let far = wgpu::LoadOp::Clear(wgpu::Color::WHITE);
         // Depth layer 0: in front of everything.
         gpu.capture(doing, || {
-            encoder.begin_render_pass(&pass_descriptor(&[Some(attachment(&self.depth_layers[0], clear))], None));
+            encoder.begin_render_pass(&pass_descriptor(
+                "translucent layer",
+                &[Some(attachment(&self.depth_layers[0], clear))],
+                None,
+            ));
         })?;
         for layer in 0..TRANSLUCENT_LAYERS {
             let group = behind(layer)?;
@@ -105,8 +109,11 @@ impl PeeledLayers {
                     Some(attachment(&self.color_layers[layer], clear)),
                     Some(attachment(&self.depth_layers[layer + 1], far)),
                 ];
-                let mut pass =
-                    encoder.begin_render_pass(&pass_descriptor(&targets, Some(depth_attachment(&self.depth_buffer))));
+                let mut pass = encoder.begin_render_pass(&pass_descriptor(
+                    "translucent layer",
+                    &targets,
+                    Some(depth_attachment(&self.depth_buffer)),
+                ));
                 pass.set_bind_group(2, &group, &[]);
                 draws::record(&mut pass, Pipelines::One(&pipelines.peel), bind_group, (draws, first_slot));
             })?;
@@ -114,24 +121,10 @@ impl PeeledLayers {
         let group = behind(TRANSLUCENT_LAYERS)?;
         gpu.capture(doing, || {
             let last = [Some(attachment(&self.color_layers[TRANSLUCENT_LAYERS - 1], wgpu::LoadOp::Load))];
-            let mut pass = encoder.begin_render_pass(&pass_descriptor(&last, None));
+            let mut pass = encoder.begin_render_pass(&pass_descriptor("translucent layer", &last, None));
             pass.set_bind_group(2, &group, &[]);
             draws::record(&mut pass, Pipelines::One(&pipelines.peel_rest), bind_group, (draws, first_slot));
         })?;
         Ok(())
-    }
-}
-
-fn pass_descriptor<'a>(
-    color_attachments: &'a [Option<wgpu::RenderPassColorAttachment<'a>>],
-    depth_stencil_attachment: Option<wgpu::RenderPassDepthStencilAttachment<'a>>,
-) -> wgpu::RenderPassDescriptor<'a> {
-    wgpu::RenderPassDescriptor {
-        label: Some("translucent layer"),
-        color_attachments,
-        depth_stencil_attachment,
-        timestamp_writes: None,
-        occlusion_query_set: None,
-        multiview_mask: None,
     }
 }
