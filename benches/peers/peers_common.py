@@ -12,10 +12,11 @@ import numpy as np
 def load_prepared(case):
     """The volume (float32, shape (z, y, x)) and the transfer function ((1024, 4) floats in
     [0, 1]) that vrsc's `peer_worker prepare` wrote: the samples normalized by the window and
-    rounded to half floats as vrsc's texture holds them, the table as vrsc uploads it."""
+    rounded to half floats as vrsc's texture holds them, the table as vrsc uploads it (half floats,
+    entry i standing for the value (i + 0.5) / 1024 of the window)."""
     nx, ny, nz = case["dims"]
     volume = np.fromfile(f"{case['dir']}/volume.f32", dtype="<f4").reshape(nz, ny, nx)
-    tf = np.fromfile(f"{case['dir']}/tf.rgba8", dtype=np.uint8).reshape(-1, 4).astype(np.float32) / 255.0
+    tf = np.fromfile(f"{case['dir']}/tf.f32", dtype="<f4").reshape(-1, 4)
     return volume, tf
 
 

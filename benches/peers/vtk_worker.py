@@ -37,7 +37,7 @@ def setup(case):
     color = vtk.vtkColorTransferFunction()
     opacity = vtk.vtkPiecewiseFunction()
     for i, (r, g, b, a) in enumerate(tf):
-        x = i / (len(tf) - 1)
+        x = (i + 0.5) / len(tf)  # vrsc's entries stand for their texel centres
         color.AddRGBPoint(x, r, g, b)
         opacity.AddPoint(x, a)
     prop = vtk.vtkVolumeProperty()

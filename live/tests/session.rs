@@ -194,7 +194,7 @@ fn an_edited_transfer_function_saves_as_a_colormap_that_loads_back_to_the_same_t
     assert!(text.contains("tf = \"v_tf.json\""), "{text}");
     live.rebuild().outcome.expect("the saved colormap loads");
     let loaded = live.renderer().volumes()[0].curve.unwrap().table().over_window(window);
-    assert_eq!(loaded.to_rgba8(), edited.to_rgba8());
+    assert_eq!(loaded.to_rgba16f(), edited.to_rgba16f());
     assert!(live.generation(0) > generation);
 }
 

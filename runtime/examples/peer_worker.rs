@@ -189,7 +189,10 @@ fn prepare(request: &Value) -> Result<Value, String> {
         samples.extend_from_slice(&half::f16::from_f32(t).to_f32().to_le_bytes())
     });
     std::fs::write(out.join("volume.f32"), samples).map_err(|e| e.to_string())?;
-    std::fs::write(out.join("tf.rgba8"), table.over_window(window).to_rgba8()).map_err(|e| e.to_string())?;
+    // The table as the GPU holds it: half floats, written as f32 for the peers.
+    let entries = table.over_window(window).rgba;
+    let rounded = entries.iter().flatten().flat_map(|&c| half::f16::from_f32(c).to_f32().to_le_bytes());
+    std::fs::write(out.join("tf.f32"), rounded.collect::<Vec<u8>>()).map_err(|e| e.to_string())?;
     use vrs_runtime::geometry::{PatientBox, volume_to_world};
     let extent = PatientBox::of(volume_to_world(data.dims, data.grid_to_world)).size();
     Ok(json!({ "dims": data.dims, "extent": extent.to_array(), "window": window }))

@@ -363,8 +363,10 @@ impl VisibleRanges {
         if lo.is_nan() || hi.is_nan() || lo > hi {
             return false;
         }
-        // Lookups interpolate linearly between entries: take the entries on both sides.
-        let entry = |v: f32| v.clamp(0.0, 1.0) * last as f32;
+        // Lookups interpolate linearly between entries (each at its texel's centre, the end
+        // ones held beyond): take the entries on both sides.
+        let entries = (last + 1) as f32;
+        let entry = |v: f32| (v.clamp(0.0, 1.0) * entries - 0.5).clamp(0.0, last as f32);
         let first = entry(lo).floor() as usize;
         let end = (entry(hi).ceil() as usize).min(last) + 1;
         self.prefix[end] > self.prefix[first]

@@ -334,7 +334,8 @@ impl SampleSink for TextureWriter<'_> {
     }
 }
 
-/// A transfer function as a `TF_WIDTH` x 1 `Rgba8Unorm` texture (straight alpha).
+/// A transfer function as a `TF_WIDTH` x 1 `Rgba16Float` texture (straight alpha; see
+/// [`crate::tf::to_rgba16f`] for why 16 bits).
 pub(crate) struct TfTexture {
     pub texture: wgpu::Texture,
     pub view: wgpu::TextureView,
@@ -343,7 +344,7 @@ pub(crate) struct TfTexture {
 impl TfTexture {
     pub(crate) fn upload(gpu: &Gpu, tf: &TransferFunction) -> Result<TfTexture, RuntimeError> {
         let image =
-            Image2d { label: &tf.name, size: [TF_WIDTH, 1], format: wgpu::TextureFormat::Rgba8Unorm, usage: TABLE };
+            Image2d { label: &tf.name, size: [TF_WIDTH, 1], format: wgpu::TextureFormat::Rgba16Float, usage: TABLE };
         let texture = image.create(gpu, &format!("creating the texture of transfer function `{}`", tf.name))?;
         let tf_texture = TfTexture { view: texture.create_view(&Default::default()), texture };
         tf_texture.write(gpu, tf);
@@ -354,8 +355,8 @@ impl TfTexture {
     pub(crate) fn write(&self, gpu: &Gpu, tf: &TransferFunction) {
         gpu.queue.write_texture(
             self.texture.as_image_copy(),
-            &tf.to_rgba8(),
-            wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(TF_WIDTH * 4), rows_per_image: Some(1) },
+            &tf.to_rgba16f(),
+            wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(TF_WIDTH * 8), rows_per_image: Some(1) },
             wgpu::Extent3d { width: TF_WIDTH, height: 1, depth_or_array_layers: 1 },
         );
     }

@@ -1,7 +1,7 @@
 //! Transfer functions: a colour and an opacity for each sample value.
 //!
 //! A transfer function is a table of `TF_WIDTH` RGBA entries with straight (not premultiplied)
-//! alpha, uploaded as a 1D texture, and the [`TfDomain`] its entries stand for: data values
+//! alpha, uploaded as a 1D `Rgba16Float` texture, and the [`TfDomain`] its entries stand for: data values
 //! (Hounsfield units for the CT presets, the file's values for a ParaView colormap), or the
 //! window of the volume it classifies (the MR and generic presets). Before upload the table is
 //! resampled over the volume's window ([`TransferFunction::over_window`]), which is also what
@@ -31,6 +31,47 @@ pub(crate) use labels::{LABEL_WINDOW, label_curve};
 /// Entries in a transfer function table.
 pub(crate) const TF_WIDTH: u32 = 1024;
 
+/// The centre of texel `i` of a table of `n` texels, `(i + 0.5) / n`: where a linear sampler
+/// reads that entry alone.
+pub(crate) fn texel_centre(i: u32, n: u32) -> f64 {
+    (f64::from(i) + 0.5) / f64::from(n)
+}
+
+/// The normalized value a transfer function's entry `i` is made from: its texel's centre, where
+/// the shader's `lookup(tf, x)` (a plain linear sample at `x`) reads it alone, except the first
+/// and last entries, which are the curve's values at 0 and 1. A linear sampler holds those from
+/// their centres to the table's ends, so values at or beyond the window's ends (all the air
+/// clamped to its low end, a ParaView map's values below its first point) read the curve's end
+/// values exactly; otherwise a ramp from 0 would give them an opacity of half an entry's step
+/// (4.9e-4 per reference step: a veil through 200 mm of air). The price: within the first and
+/// last one and a half entries the table bends from the curve by less than one entry's step.
+pub(crate) fn entry_value(i: u32) -> f32 {
+    match i {
+        0 => 0.0,
+        i if i + 1 >= TF_WIDTH => 1.0,
+        i => texel_centre(i, TF_WIDTH) as f32,
+    }
+}
+
+/// What a linear sampler reads from `rows` (texel-centred entries, see [`texel_centre`]) at the
+/// normalized value `x`: the two nearest entries blended, the end entries held beyond their
+/// centres.
+pub(crate) fn sample_rows<const N: usize>(rows: &[[f32; N]], x: f32) -> [f32; N] {
+    let last = rows.len().saturating_sub(1);
+    let at = (x * rows.len() as f32 - 0.5).clamp(0.0, last as f32);
+    let below = (at.floor() as usize).min(last.saturating_sub(1));
+    let t = at - below as f32;
+    let (a, b) = (rows[below], rows[(below + 1).min(last)]);
+    std::array::from_fn(|c| a[c] + (b[c] - a[c]) * t)
+}
+
+/// RGBA entries as little-endian `f16` (8 bytes per entry), for an `Rgba16Float` texture
+/// (filterable on every adapter, unlike `Rgba32Float`): an 11-bit mantissa, so an opacity of
+/// 0.001 is held to 5e-7 where 8 bits rounded it to 0 (and 0.0098 to 0.0118).
+pub(crate) fn to_rgba16f(entries: &[[f32; 4]]) -> Vec<u8> {
+    entries.iter().flatten().flat_map(|&c| half::f16::from_f32(c).to_le_bytes()).collect()
+}
+
 /// What the first and last entries of a transfer function's table stand for.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum TfDomain {
@@ -48,7 +89,8 @@ pub(crate) const CT_DOMAIN: [f32; 2] = [-1024.0, 3071.0];
 pub struct TransferFunction {
     /// The preset's name, the colormap's `Name`, or the file stem.
     pub(crate) name: String,
-    /// `TF_WIDTH` entries evenly over `domain`: r, g, b and straight alpha, each in [0, 1].
+    /// `TF_WIDTH` entries over `domain`, entry i made at [`entry_value`] of it: r, g, b and
+    /// straight alpha, each in [0, 1].
     pub rgba: Vec<[f32; 4]>,
     /// What the first and last entries stand for.
     pub domain: TfDomain,
@@ -56,27 +98,28 @@ pub struct TransferFunction {
 
 impl TransferFunction {
     /// The table over `window` (data units): entry i stands for the value
-    /// `lo + i / (TF_WIDTH - 1) * (hi - lo)`, read from this table by linear interpolation (its
-    /// end entries held beyond its domain). A window-relative function is already over any
+    /// `lo + entry_value(i) * (hi - lo)`, read from this table as the shader's linear sampler
+    /// would (its end entries held beyond their centres). A window-relative function is already over any
     /// window and comes back as it is.
     pub fn over_window(&self, [lo, hi]: [f32; 2]) -> TransferFunction {
         let TfDomain::Data([d0, d1]) = self.domain else { return self.clone() };
-        let last = (TF_WIDTH - 1) as f32;
         let rgba = (0..TF_WIDTH)
             .map(|i| {
-                let value = lo + (hi - lo) * i as f32 / last;
-                let at = ((value - d0) / (d1 - d0)).clamp(0.0, 1.0) * last;
-                let (below, t) = (at.floor() as usize, at.fract());
-                let (a, b) = (self.rgba[below], self.rgba[(below + 1).min(TF_WIDTH as usize - 1)]);
-                std::array::from_fn(|c| a[c] + (b[c] - a[c]) * t)
+                let value = f64::from(lo) + f64::from(hi - lo) * f64::from(entry_value(i));
+                self.sample(((value - f64::from(d0)) / f64::from(d1 - d0)) as f32)
             })
             .collect();
         TransferFunction { name: self.name.clone(), rgba, domain: TfDomain::Window }
     }
 
-    /// The table as 8-bit RGBA (4 bytes per entry), for an `Rgba8Unorm` texture.
-    pub fn to_rgba8(&self) -> Vec<u8> {
-        self.rgba.iter().flatten().map(|&c| (c.clamp(0.0, 1.0) * 255.0).round() as u8).collect()
+    /// What the shader's `lookup` reads at the normalized value `x` (see [`texel_centre`]).
+    pub fn sample(&self, x: f32) -> [f32; 4] {
+        sample_rows(&self.rgba, x)
+    }
+
+    /// The table as little-endian `f16` RGBA (8 bytes per entry), as it is uploaded.
+    pub fn to_rgba16f(&self) -> Vec<u8> {
+        to_rgba16f(&self.rgba)
     }
 }
 
@@ -338,7 +381,7 @@ pub(crate) fn from_points(name: &str, color: &[ColorPoint], opacity: &[OpacityPo
     let alphas = Table::new(&opacity);
     let rgba = (0..TF_WIDTH)
         .map(|i| {
-            let x = i as f32 / (TF_WIDTH - 1) as f32;
+            let x = entry_value(i);
             let [r, g, b] = colors.at(x).unwrap_or([1.0; 3]);
             let [a] = alphas.at(x).unwrap_or([x]);
             [r, g, b, a].map(|c| if c.is_nan() { 0.0 } else { c.clamp(0.0, 1.0) })
@@ -466,9 +509,9 @@ pub(crate) fn did_you_mean<'a>(name: &str, candidates: &[&'a str]) -> Option<&'a
 mod tests {
     use super::*;
 
-    /// The entry for normalized value `x`.
+    /// The entry nearest the normalized value `x`.
     fn at(tf: &TransferFunction, x: f32) -> [f32; 4] {
-        tf.rgba[(x * (TF_WIDTH - 1) as f32).round() as usize]
+        tf.rgba[((x * TF_WIDTH as f32).floor() as usize).min(TF_WIDTH as usize - 1)]
     }
 
     #[test]
@@ -478,7 +521,7 @@ mod tests {
             assert_eq!(tf.name, name);
             assert_eq!(tf.rgba.len(), TF_WIDTH as usize, "{name}");
             assert!(tf.rgba.iter().flatten().all(|c| (0.0..=1.0).contains(c)), "{name}");
-            assert_eq!(tf.to_rgba8().len(), 4 * TF_WIDTH as usize);
+            assert_eq!(tf.to_rgba16f().len(), 8 * TF_WIDTH as usize);
             assert_eq!(at(&tf, 0.0)[3], 0.0, "{name}: the lowest value is transparent");
         }
     }
@@ -514,7 +557,7 @@ mod tests {
     #[test]
     fn over_window_resamples_data_domains_and_keeps_window_ones() {
         let bone = preset("ct_bone").unwrap();
-        // Over a window of [0, 1000] HU, entry i stands for i / 1023 * 1000 HU.
+        // Over a window of [0, 1000] HU, entry i stands for (i + 0.5) / 1024 * 1000 HU.
         let windowed = bone.over_window([0.0, 1000.0]);
         assert_eq!(windowed.domain, TfDomain::Window);
         for hu in [0.0, 250.0, 600.0, 1000.0] {
@@ -569,15 +612,20 @@ mod tests {
     #[test]
     fn from_points_interpolates_sorts_and_clamps() {
         let tf = from_points("t", &[(1.0, [1.0, 0.0, 2.0]), (0.0, [0.0, 1.0, 0.0])], &[(0.5, 0.2), (0.75, f32::NAN)]);
-        assert_eq!(tf.rgba[0], [0.0, 1.0, 0.0, 0.2]);
-        assert_eq!(tf.rgba[1023][..3], [1.0, 0.0, 1.0]);
-        let mid = tf.rgba[511];
-        assert!((mid[0] - 511.0 / 1023.0).abs() < 1e-6);
+        // Entry i is made at x = (i + 0.5) / 1024, the first at 0 and the last at 1: red is x,
+        // green 1 - x, blue 2x clamped.
+        for (i, x) in [(0, 0.0f32), (1, 1.5 / 1024.0), (511, 511.5 / 1024.0), (1023, 1.0)] {
+            let [r, g, b, _] = tf.rgba[i];
+            assert_eq!([r, g, b], [x, 1.0 - x, (2.0 * x).min(1.0)], "entry {i}");
+        }
+        assert_eq!(tf.rgba[0][3], 0.2);
         assert_eq!(tf.rgba[1023][3], 0.0, "NaN opacity becomes 0");
         let defaults = from_points("d", &[], &[]);
-        assert_eq!(defaults.rgba[0], [1.0, 1.0, 1.0, 0.0]);
+        assert_eq!(defaults.rgba[0], [1.0, 1.0, 1.0, 0.0], "the default ramp is clear at the window's low end");
+        assert_eq!(defaults.rgba[1], [1.0, 1.0, 1.0, 1.5 / 1024.0]);
         assert_eq!(defaults.rgba[1023], [1.0; 4]);
-        assert_eq!(from_points("x", &[], &[]).to_rgba8()[4 * 1023..], [255, 255, 255, 255]);
+        let one = half::f16::from_f32(1.0).to_le_bytes();
+        assert_eq!(defaults.to_rgba16f()[8 * 1023..8 * 1023 + 2], one, "f16 little-endian");
     }
 
     fn write(dir: &tempfile::TempDir, text: &str) -> PathBuf {
@@ -601,7 +649,7 @@ mod tests {
         // Over a window of [0, 200]: the value 0 (half opaque) is entry 0, 100 and above opaque.
         let windowed = tf.over_window([0.0, 200.0]);
         assert!((windowed.rgba[0][3] - 0.5).abs() < 0.01);
-        assert_eq!(windowed.rgba[600][3], 1.0);
+        assert_eq!(windowed.rgba[600], tf.rgba[1023], "beyond the domain its last entry holds");
     }
 
     #[test]
@@ -613,7 +661,7 @@ mod tests {
             r#"{"RGBPoints": [300, 0.9, 0.8, 0.7, 1500, 1, 1, 1], "Points": [300, 0, 0.5, 0, 1500, 0.9, 0.5, 0]}"#;
         let tf = from_paraview_json(&write(&dir, text)).unwrap();
         let windowed = tf.over_window([-1000.0, 2000.0]);
-        let entry = |hu: f32| windowed.rgba[((hu + 1000.0) / 3000.0 * 1023.0).round() as usize];
+        let entry = |hu: f32| at(&windowed, (hu + 1000.0) / 3000.0);
         assert_eq!(entry(40.0)[3], 0.0);
         assert!(entry(1000.0)[3] > 0.5);
     }
@@ -626,7 +674,7 @@ mod tests {
         assert_eq!(tf.domain, TfDomain::Data([0.0, 0.5]));
         assert_eq!(tf.rgba[0], [0.0; 4]);
         assert_eq!(tf.rgba[1023], [1.0; 4]);
-        assert!((tf.rgba[256][3] - 256.0 / 1023.0).abs() < 1e-6);
+        assert!((tf.rgba[256][3] - 256.5 / 1024.0).abs() < 1e-6);
     }
 
     #[test]

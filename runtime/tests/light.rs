@@ -1,6 +1,7 @@
 //! Light transport on lavapipe, against what it should be analytically: tone mapping (known
 //! radiance in, known 8-bit value out), shadow rays (the Beer-Lambert transmittance of a slab
-//! of known opacity), and renders of bad input that stay finite.
+//! of known opacity), a faint opacity through a long path, and renders of bad input that stay
+//! finite.
 
 mod common;
 
@@ -107,9 +108,11 @@ position = POSITION
 size = [8, 8]
 "#;
 
-/// The slab's opacity per millimetre: 13/255, which the transfer function's 8-bit table holds
-/// exactly (0.05 would be stored as 13/255 all the same).
-const A: f64 = 13.0 / 255.0;
+/// The slab's opacity per millimetre. The transfer function's table is half floats, which hold
+/// 0.05 to 2.5e-4 of itself: 40 mm of slab change their transmittance by 1e-3 of itself by it,
+/// well inside the step's tolerance. (The 8-bit table this replaced held only multiples of
+/// 1/255, so this test had to pick 13/255.)
+const A: f64 = 0.05;
 
 /// Shadows attenuate as Beer-Lambert says: through L mm of a slab whose opacity per
 /// millimetre is A, the transmittance is (1 - A)^L. Shadow rays step 0.25 mm, so their path in
@@ -307,4 +310,36 @@ fn a_user_function_replaces_the_tone_operator() {
     let image = &renderer.render_all().expect("renders")[0].1;
     let p = image.get_pixel(2, 2);
     assert!(p.0[..3].iter().all(|&c| c.abs_diff(188) <= 1), "{p:?}");
+}
+
+/// A transfer function's faint opacity survives to the image: through 64 mm of a uniform
+/// volume at an opacity of 0.001 per millimetre (the reference step), the ray's opacity is
+/// 1 - 0.999^64 = 0.0620, 15.8/255. An 8-bit table rounded 0.001 to 0 (a clear image); the
+/// half-float table holds it to 5e-7 (and 0.0003, 4.9/255, likewise). The view looks along y
+/// through the centre of a 16 x 64 x 16 box of 1 mm voxels; the centre pixel's opacity must be
+/// the analytic one within the image's rounding (one 255th) and the path's (a step of 0.25 mm:
+/// 2.5e-4).
+#[test]
+fn an_opacity_of_a_thousandth_per_millimetre_survives_to_the_image() {
+    let dir = tempfile::tempdir().expect("a folder");
+    write_nrrd(&dir.path().join("fog.nrrd"), [16, 64, 16], |_, _, _| 1000);
+    for (opacity, name) in [(0.001f64, "thousandth"), (0.0003, "faint")] {
+        let tf = format!(
+            r#"{{"Name": "{name}", "RGBPoints": [0, 1, 1, 1, 1000, 1, 1, 1], "Points": [0, {opacity}, 0.5, 0, 1000, {opacity}, 0.5, 0]}}"#
+        );
+        std::fs::write(dir.path().join("fog.json"), tf).expect("tf written");
+        let scene = "[render]\ncompositing = \"dvr\"\nstep_size = 0.25\njitter = 0.0\n\n\
+            [[volume]]\nname = \"fog\"\nrole = \"primary\"\npath = \"fog.nrrd\"\nwindow = [0.0, 2000.0]\ntf = \"fog.json\"\n\n[uniforms]\nref_step = 1.0\n\n\
+            [[view]]\nname = \"3d\"\nkind = \"raycast\"\nsize = [9, 9]\ncamera = { azimuth = 0.0, elevation = 0.0, distance = 3.0, fov = 5.0 }\n";
+        let mut renderer = open(dir.path(), scene);
+        let image = &renderer.render_all().expect("renders")[0].1;
+        // White over the black background: the red byte is the ray's opacity.
+        let alpha = f64::from(image.get_pixel(4, 4)[0]) / 255.0;
+        let want = 1.0 - (1.0 - opacity).powf(64.0);
+        assert!(
+            (alpha - want).abs() <= 1.0 / 255.0,
+            "{opacity} per mm over 64 mm: opacity {alpha:.4} ({} / 255), analytic {want:.4}",
+            image.get_pixel(4, 4)[0]
+        );
+    }
 }

@@ -120,7 +120,7 @@ fn canvas(ui: &mut egui::Ui, volume: &EditedVolume, curve: &mut TfCurve) -> bool
     let bar = Rect::from_min_size(rect.left_bottom() + Vec2::new(0.0, 2.0), Vec2::new(rect.width(), 8.0));
     let steps = 128;
     for i in 0..steps {
-        let entry = table.rgba[i * (table.rgba.len() - 1) / (steps - 1)];
+        let entry = table.sample((i as f32 + 0.5) / steps as f32);
         let [r, g, b] = [entry[0], entry[1], entry[2]].map(|c| (c * 255.0) as u8);
         let x0 = bar.left() + bar.width() * i as f32 / steps as f32;
         let cell = Rect::from_min_max(
@@ -133,7 +133,8 @@ fn canvas(ui: &mut egui::Ui, volume: &EditedVolume, curve: &mut TfCurve) -> bool
     let line: Vec<Pos2> = (0..table.rgba.len())
         .step_by(4)
         .map(|i| {
-            let t = i as f32 / (table.rgba.len() - 1) as f32;
+            // Entry i stands for the value at its texel's centre.
+            let t = (i as f32 + 0.5) / table.rgba.len() as f32;
             let value = volume.window[0] + t * (volume.window[1] - volume.window[0]);
             axes.point((value, table.rgba[i][3]))
         })

@@ -151,7 +151,7 @@ mod tests {
             assert_eq!(loaded.name, curve.name);
             let (before, after) = (curve.table().over_window(window), loaded.table().over_window(window));
             assert!(max_difference(&before, &after) < 1e-4, "{}: {json}", curve.name);
-            assert_eq!(before.to_rgba8(), after.to_rgba8(), "{}", curve.name);
+            assert_eq!(before.to_rgba16f(), after.to_rgba16f(), "{}", curve.name);
         }
     }
 

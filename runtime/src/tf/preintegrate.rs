@@ -24,8 +24,9 @@
 //! transfer function changes, not when the step does.
 //!
 //! `tau(u)` and `rgb(u)` are what a linear sampler reads from the transfer function's table at
-//! `u`: straight r, g, b, a interpolated between the two nearest entries, then `tau = -ln(1 -
-//! a)`. The integrals are taken over [`SUBSTEPS`] sub-intervals of every interval between two
+//! `u`: straight r, g, b, a interpolated between the two nearest entries (each at its texel's
+//! centre, [`crate::tf::texel_centre`]; the end entries held from their centres to 0 and 1),
+//! then `tau = -ln(1 - a)`. The integrals are taken over [`SUBSTEPS`] sub-intervals of every interval between two
 //! entries, the extinction integral exactly (`-ln` of a linear function has a closed-form
 //! integral), the colour at each sub-interval's middle; so they match compositing many point
 //! samples, also across a one-entry spike, where interpolating `tau` between entries instead of
@@ -73,7 +74,7 @@ pub(crate) struct PreintegratedTable {
 
 /// The value entry `i` of a table of `size` entries per side stands for: its texel's centre.
 pub(crate) fn entry_value(i: u32, size: u32) -> f64 {
-    (f64::from(i) + 0.5) / f64::from(size)
+    crate::tf::texel_centre(i, size)
 }
 
 impl PreintegratedTable {
@@ -119,7 +120,7 @@ impl PreintegratedTable {
     /// `Rgba16Float` texture (filterable everywhere, unlike `Rgba32Float`). Its 11-bit mantissa
     /// keeps `tau` to about 5e-4 of itself.
     pub(crate) fn to_rgba16f(&self) -> Vec<u8> {
-        self.rgba.iter().flatten().flat_map(|&c| half::f16::from_f32(c).to_le_bytes()).collect()
+        crate::tf::to_rgba16f(&self.rgba)
     }
 }
 
@@ -153,9 +154,12 @@ pub(crate) fn segment(tf: &TransferFunction, sf: f32, sb: f32, steps_ratio: f32)
 /// The prefix integrals of a transfer function, in `f64` (differences of prefixes lose what
 /// the prefixes hold beyond the difference).
 struct Integrals {
-    /// The entries, at least 2: r, g, b in [0, 1], a in [0, MAX_OPACITY].
+    /// The entries, at least 2, each at its texel's centre: r, g, b in [0, 1], a in [0,
+    /// MAX_OPACITY].
     entries: Vec<[f64; 4]>,
-    /// `[T, K_r, K_g, K_b]` at the `SUBSTEPS * (entries - 1) + 1` sub-interval bounds.
+    /// `[T, K_r, K_g, K_b]` at the `SUBSTEPS * (entries - 1) + 1` sub-interval bounds between
+    /// the first entry's centre and the last one's (the first: the integral of the first entry
+    /// held from 0 to its centre).
     prefix: Vec<[f64; 4]>,
 }
 
@@ -173,9 +177,10 @@ impl Integrals {
             _ => {}
         }
         let intervals = SUBSTEPS * (entries.len() - 1);
-        let width = 1.0 / intervals as f64;
+        // Entries are 1 / n apart in value: each sub-interval is a SUBSTEPS-th of that.
+        let width = 1.0 / (entries.len() * SUBSTEPS) as f64;
         let mut prefix = Vec::with_capacity(intervals + 1);
-        let mut sum = [0.0; 4];
+        let mut sum = held(entries[0], texel_centre(0, entries.len()));
         prefix.push(sum);
         for pair in entries.windows(2) {
             let (e0, e1) = (pair[0], pair[1]);
@@ -194,15 +199,28 @@ impl Integrals {
         Integrals { entries, prefix }
     }
 
-    /// `[T(v), K(v)]` for `v` in [0, 1], linear between the sub-interval bounds.
+    /// `[T(v), K(v)]` for `v` in [0, 1]: the end entries held before the first centre and after
+    /// the last, linear between the sub-interval bounds in between.
     fn prefix_at(&self, v: f64) -> [f64; 4] {
-        interpolate(&self.prefix, v)
+        let n = self.entries.len();
+        let (first, last) = (texel_centre(0, n), texel_centre(n - 1, n));
+        let v = v.clamp(0.0, 1.0);
+        if v <= first {
+            return held(self.entries[0], v);
+        }
+        let end = self.prefix[self.prefix.len() - 1];
+        if v >= last {
+            let tail = held(self.entries[n - 1], v - last);
+            return std::array::from_fn(|c| end[c] + tail[c]);
+        }
+        at_coordinate(&self.prefix, (v - first) / (last - first) * (self.prefix.len() - 1) as f64)
     }
 
     /// The point-sampled `[r, g, b, tau]` at `v`: the entries interpolated as a linear sampler
     /// does, then `tau = -ln(1 - a)`.
     fn point(&self, v: f64) -> [f64; 4] {
-        let [r, g, b, a] = interpolate(&self.entries, v);
+        let n = self.entries.len() as f64;
+        let [r, g, b, a] = at_coordinate(&self.entries, v.clamp(0.0, 1.0) * n - 0.5);
         [r, g, b, -(-a).ln_1p()]
     }
 
@@ -235,14 +253,25 @@ fn mean_neg_ln(p: f64, q: f64) -> f64 {
     }
 }
 
-/// `rows` (at least two, evenly over [0, 1]) at `v`, linearly between neighbours.
-fn interpolate(rows: &[[f64; 4]], v: f64) -> [f64; 4] {
+/// `rows` (at least two) at the fractional row `at` (clamped to the rows), linearly between
+/// neighbours.
+fn at_coordinate(rows: &[[f64; 4]], at: f64) -> [f64; 4] {
     let last = rows.len() - 1;
-    let at = v.clamp(0.0, 1.0) * last as f64;
+    let at = at.clamp(0.0, last as f64);
     let below = (at.floor() as usize).min(last - 1);
     let t = at - below as f64;
     let (r0, r1) = (rows[below], rows[below + 1]);
     std::array::from_fn(|c| r0[c] + (r1[c] - r0[c]) * t)
+}
+
+/// `[T, K_r, K_g, K_b]` of the constant entry `[r, g, b, a]` over a length `v` of values.
+fn held([r, g, b, a]: [f64; 4], v: f64) -> [f64; 4] {
+    let tau = -(-a).ln_1p();
+    [tau * v, tau * r * v, tau * g * v, tau * b * v]
+}
+
+fn texel_centre(i: usize, n: usize) -> f64 {
+    crate::tf::texel_centre(i as u32, n as u32)
 }
 
 #[cfg(test)]
@@ -257,7 +286,8 @@ mod tests {
     /// What a linear sampler reads from `tf` at `v`, written apart from the code under test.
     fn lookup(tf: &TransferFunction, v: f64) -> [f64; 4] {
         let last = tf.rgba.len() - 1;
-        let x = v.clamp(0.0, 1.0) * last as f64;
+        // Entry i at (i + 0.5) / n; the end entries held beyond.
+        let x = (v.clamp(0.0, 1.0) * tf.rgba.len() as f64 - 0.5).clamp(0.0, last as f64);
         let i = (x as usize).min(last - 1);
         let t = x - i as f64;
         std::array::from_fn(|c| tf.rgba[i][c] as f64 * (1.0 - t) + tf.rgba[i + 1][c] as f64 * t)
