@@ -291,6 +291,15 @@ impl LiveScene {
         self.renderer.views().iter().find_map(|v| v.renderer.uniforms().get(name))
     }
 
+    /// The scene file's value of uniform `name` (in the first view whose scene sets it), as the
+    /// renderer holds values; `None` where the scene leaves it open.
+    pub fn scene_uniform_value(&self, name: &str) -> Option<Value> {
+        self.renderer.views().iter().find_map(|view| {
+            let json = self.scene_uniform(&view.name, name)?.to_json();
+            view.renderer.uniforms().value_from_json(name, &json)
+        })
+    }
+
     /// Whether the user changed uniform `name` (a reset or a save that the file then carries
     /// makes it the scene's again).
     pub fn is_user_uniform(&self, name: &str) -> bool {

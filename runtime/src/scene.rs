@@ -517,8 +517,9 @@ impl SceneRenderer {
                 step * (limit - 2) as f32
             )
         });
-        let defaults: [(&str, crate::uniforms::Value); 3] =
-            [("step_size", step.into()), ("ref_step", spacing.into()), ("max_samples", samples.into())];
+        // In the order of PHYSICAL_DEFAULTS, which says how each is derived.
+        let derived: [crate::uniforms::Value; 3] = [step.into(), spacing.into(), samples.into()];
+        let defaults = PHYSICAL_DEFAULTS.map(|(name, _)| name).into_iter().zip(derived);
         for (name, value) in defaults {
             if renderer.has_uniform(name) && !values.contains_key(name) {
                 renderer.set_uniform(name, value)?;
@@ -639,6 +640,19 @@ fn apply_view_uniforms(view: &mut SceneView, grids: &[VolumeGrid]) -> Result<(),
 
 /// `std::meshes`' matrix from the mesh layer's clip space to normalized volume coordinates.
 const GEOMETRY_INV_PROJ: &str = "geometry_inv_proj";
+
+/// The uniforms the renderer derives from the primary volume where the scene leaves them open
+/// (`set_physical_defaults`), and how, as the parameter panel says it.
+const PHYSICAL_DEFAULTS: [(&str, &str); 3] = [
+    ("step_size", "half the primary volume's smallest voxel spacing"),
+    ("ref_step", "the primary volume's smallest voxel spacing"),
+    ("max_samples", "enough steps of `step_size` to cross the primary volume's longest chord"),
+];
+
+/// How the renderer derives uniform `name` where the scene leaves it open, if it does.
+pub fn derived_default(name: &str) -> Option<&'static str> {
+    PHYSICAL_DEFAULTS.iter().find(|(n, _)| *n == name).map(|(_, how)| *how)
+}
 
 /// Whether the renderer sets uniform `name` itself before every frame (what
 /// `apply_view_uniforms` writes: the camera, the slice plane, the transforms of the primary

@@ -124,6 +124,48 @@ impl Shape {
     }
 }
 
+/// `control` with its slider ranges widened to contain every one of `values` (the value in use
+/// and the scene's), so that a slider shows a value beyond the declared range instead of
+/// clamping it (egui's sliders clamp what they show); with a note that says so, naming the
+/// declared range. Ranges that already contain the values stay as declared.
+pub fn widened(control: Control, values: &[&vrs_runtime::Value]) -> (Control, Option<String>) {
+    let component = |i: usize| values.iter().filter_map(move |v| component_value(v, i));
+    let widen = |(lo, hi): (f64, f64), i: usize| component(i).fold((lo, hi), |(lo, hi), x| (lo.min(x), hi.max(x)));
+    let note = |declared: &[(f64, f64)], now: &[(f64, f64)]| {
+        let beyond: Vec<String> =
+            declared.iter().zip(now).filter(|(d, n)| d != n).map(|(&(lo, hi), _)| format!("{lo} .. {hi}")).collect();
+        let mut ranges = beyond;
+        ranges.dedup();
+        (!ranges.is_empty()).then(|| {
+            format!("a value lies beyond the declared range {}: the slider is widened to show it", ranges.join(", "))
+        })
+    };
+    match control {
+        Control::Slider { lo, hi } => {
+            let (wlo, whi) = widen((lo, hi), 0);
+            let said = note(&[(lo, hi)], &[(wlo, whi)]);
+            (Control::Slider { lo: wlo, hi: whi }, said)
+        }
+        Control::Vector { components, ranges: Some(ranges) } => {
+            let wide: Vec<(f64, f64)> = ranges.iter().enumerate().map(|(i, &r)| widen(r, i)).collect();
+            let said = note(&ranges, &wide);
+            (Control::Vector { components, ranges: Some(wide) }, said)
+        }
+        other => (other, None),
+    }
+}
+
+/// Component `i` of a numeric value, if it has one (and it is finite).
+fn component_value(value: &vrs_runtime::Value, i: usize) -> Option<f64> {
+    let x = match value {
+        vrs_runtime::Value::Float(v) => f64::from(*v.get(i)?),
+        vrs_runtime::Value::Int(v) => f64::from(*v.get(i)?),
+        vrs_runtime::Value::Uint(v) => f64::from(*v.get(i)?),
+        vrs_runtime::Value::Bool(_) => return None,
+    };
+    x.is_finite().then_some(x)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -185,5 +227,30 @@ mod tests {
             control_for(&uniform("radii", "vec2f", r, None)),
             Control::Vector { components: 2, ranges: Some(vec![(0.0, 1.0), (-1.0, 1.0)]) }
         );
+    }
+
+    #[test]
+    fn ranges_widen_to_show_a_value_beyond_them_and_say_so() {
+        use vrs_runtime::Value;
+        let colour = Value::Float(vec![3.2, 3.0, 2.7]);
+        let declared = Control::Vector { components: 3, ranges: Some(vec![(0.0, 2.0); 3]) };
+        let (control, note) = widened(declared.clone(), &[&colour]);
+        let wide = |hi: f32| (0.0, f64::from(hi));
+        assert_eq!(control, Control::Vector { components: 3, ranges: Some(vec![wide(3.2), wide(3.0), wide(2.7)]) });
+        assert_eq!(
+            note.as_deref(),
+            Some("a value lies beyond the declared range 0 .. 2: the slider is widened to show it")
+        );
+        // A value inside the range (here the scene's, while the user's is beyond) keeps it.
+        let (same, none) = widened(declared.clone(), &[&Value::Float(vec![1.0, 0.5, 0.0])]);
+        assert_eq!((same, none), (declared, None));
+        let (slider, note) =
+            widened(Control::Slider { lo: 0.0, hi: 1.0 }, &[&Value::Float(vec![-0.5]), &Value::Float(vec![0.2])]);
+        assert_eq!(slider, Control::Slider { lo: -0.5, hi: 1.0 });
+        assert!(note.is_some_and(|n| n.contains("0 .. 1")));
+        // Not a number, or nothing to widen: unchanged.
+        assert_eq!(widened(Control::Drag, &[&colour]), (Control::Drag, None));
+        let nan = Value::Float(vec![f32::NAN]);
+        assert_eq!(widened(Control::Slider { lo: 0.0, hi: 1.0 }, &[&nan]).0, Control::Slider { lo: 0.0, hi: 1.0 });
     }
 }

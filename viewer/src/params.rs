@@ -3,7 +3,7 @@
 //! ([`crate::controls`]), its doc comment as tooltip and a reset to the scene's value.
 
 use crate::actions::Action;
-use crate::controls::{Control, control_for};
+use crate::controls::{Control, control_for, widened};
 use egui::{DragValue, RichText, Slider};
 use vrs_runtime::Value;
 use vrs_runtime::reflection::{Reflection, UniformInfo};
@@ -19,6 +19,9 @@ pub struct UniformRow {
     pub value: Option<Value>,
     /// Whether the user changed it (it can be reset, and saved).
     pub changed: bool,
+    /// Where its value comes from when that needs saying: a range widened to show it, or a
+    /// value the renderer derives where the scene leaves it open.
+    pub notes: Vec<String>,
 }
 
 /// The uniforms a pipeline function declares first along the pipeline.
@@ -37,17 +40,23 @@ pub struct Group {
 }
 
 /// The groups of every view's uniforms, in pipeline order; a uniform that several functions
-/// or views read appears once, under the first function that declares it.
+/// or views read appears once, under the first function that declares it. `value` gives the
+/// value in use, `scene` the scene file's (its slider's range always shows both).
 pub fn groups(
     reflections: &[&Reflection],
     value: impl Fn(&str) -> Option<Value>,
+    scene: impl Fn(&str) -> Option<Value>,
     changed: impl Fn(&str) -> bool,
 ) -> Vec<Group> {
-    let row = |u: &UniformInfo| UniformRow {
-        info: u.clone(),
-        control: control_for(u),
-        value: value(&u.name),
-        changed: changed(&u.name),
+    let row = |u: &UniformInfo| {
+        let (value, scene, changed) = (value(&u.name), scene(&u.name), changed(&u.name));
+        let shown: Vec<&Value> = value.iter().chain(&scene).collect();
+        let (control, widened) = widened(control_for(u), &shown);
+        let derived = vrs_runtime::scene::derived_default(&u.name)
+            .filter(|_| !changed && scene.is_none())
+            .map(|why| format!("set by the renderer where the scene leaves it open: {why}"));
+        let notes = widened.into_iter().chain(derived).collect();
+        UniformRow { info: u.clone(), control, value, changed, notes }
     };
     let mut shown: Vec<&str> = Vec::new();
     let mut out = Vec::new();
@@ -165,6 +174,9 @@ fn uniform_row(ui: &mut egui::Ui, row: &UniformRow, actions: &mut Vec<Action>) {
     let changed = ui.push_id(name, |ui| edit(ui, &row.control, &mut edited, label)).inner;
     if changed && &edited != value {
         actions.push(Action::SetUniform(name.clone(), edited));
+    }
+    for note in &row.notes {
+        ui.weak(note);
     }
 }
 

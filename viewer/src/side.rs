@@ -119,7 +119,12 @@ impl SidePanel {
 fn parameter_groups(live: &LiveScene) -> Vec<params::Group> {
     let reflections: Vec<&Reflection> =
         live.renderer().views().iter().map(|v| &*v.renderer.shader().reflection).collect();
-    params::groups(&reflections, |name| live.uniform(name), |name| live.is_user_uniform(name))
+    params::groups(
+        &reflections,
+        |name| live.uniform(name),
+        |name| live.scene_uniform_value(name),
+        |name| live.is_user_uniform(name),
+    )
 }
 
 /// Every volume with a transfer function, its curve in data units.

@@ -53,7 +53,7 @@ fn every_uniform_of_every_example_and_fixture_view_gets_a_control_of_its_kind() 
     assert!(all.len() >= 10, "only {} views composed", all.len());
     let mut kinds = std::collections::BTreeSet::new();
     for (file, reflection) in &all {
-        let groups = params::groups(&[reflection], |_| None, |_| false);
+        let groups = params::groups(&[reflection], |_| None, |_| None, |_| false);
         for u in &reflection.uniforms {
             let shown = groups.iter().flat_map(|g| &g.rows).filter(|r| r.info.name == u.name).count();
             assert_eq!(shown, 1, "{}: `{}` is shown {shown} times", file.display(), u.name);
@@ -96,7 +96,7 @@ fn clip_plane_groups() -> Vec<params::Group> {
         };
         u.ty.ends_with('f').then_some(Value::Float(flat))
     };
-    params::groups(&[&reflection], value, |name| name == "clip_plane_gm")
+    params::groups(&[&reflection], value, |_| None, |name| name == "clip_plane_gm")
 }
 
 #[test]
@@ -124,6 +124,36 @@ fn the_parameter_panel_shows_each_function_with_its_uniforms_and_reports_a_reset
     harness.run();
     assert!(harness.state().1.contains(&Action::SaveUniforms));
     harness.get_by_label("inv_view_proj");
+}
+
+/// A scene's value beyond its uniform's declared range widens the slider and says so (a slider
+/// clamps what it shows: the light example's `light_color_key = [3.2, 3.0, 2.7]` read 2.00 when
+/// its range was 0 .. 2), and a value the renderer derives says how.
+#[test]
+fn a_value_beyond_its_range_widens_the_slider_and_derived_values_say_how() {
+    let built = vrsc::compose::build::build_scene(&root().join("examples/clip_plane/basic.toml"), None).unwrap();
+    let reflection = built.views[0].shader.as_ref().unwrap().reflection.clone();
+    let jitter = reflection.uniform("jitter").expect("a raycast view has `jitter`").clone();
+    assert_eq!(control_for(&jitter), Control::Slider { lo: 0.0, hi: 1.0 });
+    let scene = |name: &str| (name == "jitter").then(|| Value::Float(vec![1.5]));
+    let value = |name: &str| match name {
+        "step_size" => Some(Value::Float(vec![0.5])),
+        _ => scene(name),
+    };
+    let groups = params::groups(&[&reflection], value, scene, |_| false);
+    let row = |name: &str| groups.iter().flat_map(|g| &g.rows).find(|r| r.info.name == name).cloned().unwrap();
+    assert_eq!(row("jitter").control, Control::Slider { lo: 0.0, hi: 1.5 });
+    let widened = "a value lies beyond the declared range 0 .. 1: the slider is widened to show it";
+    assert_eq!(row("jitter").notes, [widened]);
+    let derived =
+        "set by the renderer where the scene leaves it open: half the primary volume's smallest voxel spacing";
+    assert_eq!(row("step_size").notes, [derived]);
+    let mut harness = HarnessBuilder::default()
+        .with_size(egui::Vec2::new(600.0, 3000.0))
+        .build_ui_state(|ui, show_all: &mut bool| drop(params::show(ui, &groups, show_all, "")), false);
+    harness.run();
+    harness.get_by_label(widened);
+    harness.get_by_label(derived);
 }
 
 #[test]
