@@ -3,7 +3,8 @@
 //! tone mapping over plain shaded DVR (target 1.15x at most), shadows from light volumes over
 //! the shaded frame at a preview resolution (target 2x at most; the light-volume pass, which
 //! runs once when the light or the transfer function changes, timed on its own), shadow rays
-//! (the reference), and pre-integration over point sampling at the same step.
+//! (the reference), pre-integration over point sampling at the same step, and ambient
+//! occlusion over the shaded frame.
 //!
 //! The volume is the MNI152 T1 of `../shared/data` when it is there, else the built-in head
 //! phantom (said in the output). Run: `cargo bench -p vrs-runtime --bench light`; settings:
@@ -61,6 +62,7 @@ fn main() {
         ("unshaded", "shading = false"),
         ("unshaded + HDR (Reinhard)", "shading = false, tone_mapping = \"reinhard\""),
         ("unshaded + HDR, automatic exposure", "shading = false, tone_mapping = \"reinhard\", auto_exposure = true"),
+        ("shaded + ambient occlusion", "ambient_occlusion = true"),
     ];
     let mut renderers: Vec<SceneRenderer> = variants
         .iter()
@@ -87,6 +89,7 @@ fn main() {
     println!("light-volume shadows over shaded:    {:.3}x (target <= 2)", medians[2] / medians[0]);
     println!("shadow rays over shaded:             {:.3}x", medians[3] / medians[0]);
     println!("pre-integrated over point (2 mm):    {:.3}x", medians[5] / medians[4]);
+    println!("ambient occlusion over shaded:       {:.3}x", medians[9] / medians[0]);
     // The light-volume pass: a frame after the light moved, less a frame.
     let shadowed = &mut renderers[2];
     let mut passes = Vec::new();

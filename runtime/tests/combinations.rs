@@ -143,7 +143,7 @@ fn every_light_option_renders_or_is_refused_at_build() {
     for group in cells.chunk_by(|a, b| a.additional == b.additional) {
         let dir = tempfile::tempdir().expect("a temporary folder");
         let path = dir.path().join("scene.toml");
-        let first = LightCell { shadows: "off", ..group[0] };
+        let first = LightCell { shadows: "off", occlusion: false, ..group[0] };
         std::fs::write(&path, first.scene()).expect("scene written");
         let options = RenderOptions { size: Some([16, 16]), phantom_size: [24, 24, 24], ..RenderOptions::default() };
         let mut renderer = SceneRenderer::open(gpu.clone(), &path, options, &mut |_, _, _| {})

@@ -343,3 +343,61 @@ fn an_opacity_of_a_thousandth_per_millimetre_survives_to_the_image() {
         );
     }
 }
+
+/// A block of 1 mm voxels, solid (1000) below z = 32 mm and air above, with a pit 6 mm wide
+/// and 10 mm deep in the middle of its top, seen from straight above; the transfer function
+/// makes the solid opaque at once. `std::occlusion` looks 8 mm around each lit sample along the
+/// normal and six directions 40 degrees around it.
+const PIT_SCENE: &str = r#"
+[render]
+compositing = "dvr"
+shading = true
+lights = []
+ambient_occlusion = true
+jitter = 0.0
+step_size = 0.25
+
+[[volume]]
+name = "block"
+role = "primary"
+path = "block.nrrd"
+window = [0.0, 1000.0]
+tf = "solid.json"
+
+[[view]]
+name = "top"
+kind = "raycast"
+size = [33, 33]
+camera = { azimuth = 0.0, elevation = 89.9, distance = 3.0, fov = 15.0 }
+"#;
+
+/// Ambient occlusion darkens a cavity and leaves an open surface alone: on the flat top, whose
+/// outward half-space is air, every direction is open (occlusion 1, within the blur of the
+/// surface: 0.95); on the pit's floor the six slanted directions run into the pit's walls within
+/// 2.6 mm of the axis (the pit is 3 mm in radius, the directions leave the axis by 0.64 mm per
+/// mm up), so only the normal and the openings above the walls' rim see air (below 0.6). The
+/// picture follows: with ambient light only (no lights), the floor is darker than the top.
+#[test]
+fn ambient_occlusion_darkens_a_pit_and_leaves_an_open_surface_alone() {
+    let dir = tempfile::tempdir().expect("a folder");
+    let pit = |i: u32, j: u32| (i as f32 - 31.5).hypot(j as f32 - 31.5) < 3.0;
+    write_nrrd(
+        &dir.path().join("block.nrrd"),
+        [64, 64, 64],
+        |i, j, k| {
+            if k < 32 && !(k >= 22 && pit(i, j)) { 1000 } else { 0 }
+        },
+    );
+    let tf = r#"[{"Name": "solid", "RGBPoints": [0, 1, 1, 1, 1000, 1, 1, 1], "Points": [0, 0, 0.5, 0, 400, 0, 0.5, 0, 600, 1, 0.5, 0, 1000, 1, 0.5, 0]}]"#;
+    std::fs::write(dir.path().join("solid.json"), tf).expect("tf written");
+    let mut renderer = open(dir.path(), PIT_SCENE);
+    let spec = ProbeSpec { field: "occlusion".into(), at: None };
+    let probe = renderer.render_probe(0, &spec).expect("the occlusion probes");
+    let floor = probe.values.at(16, 16).expect("the pit's floor has a value")[0];
+    let top = probe.values.at(2, 2).expect("the top has a value")[0];
+    assert!(top > 0.95, "the open top: occlusion {top}");
+    assert!(floor < 0.6, "the pit's floor: occlusion {floor}");
+    let image = &renderer.render_all().expect("renders")[0].1;
+    let (floor_red, top_red) = (f32::from(image.get_pixel(16, 16)[0]), f32::from(image.get_pixel(2, 2)[0]));
+    assert!(floor_red < 0.7 * top_red, "floor {floor_red}, top {top_red}: the pit is darker");
+}

@@ -148,6 +148,10 @@ impl Selection<'_> {
         if r.preintegration && r.compositing.value == Compositing::Dvr {
             self.add("preintegrate", vec![]);
         }
+        // After `lighting`: it replaces `apply_lighting`.
+        if r.ambient_occlusion && r.shading {
+            self.add("occlusion", vec![]);
+        }
         // After `light`: each shadow runs just before its light's substep.
         if let Some(module) = shadow_module(r.shadows)
             && r.shading

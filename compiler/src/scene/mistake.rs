@@ -43,6 +43,7 @@ pub(super) enum Missing {
     WidthNeedsLevel,
     ToneNeedsShading,
     ShadowsNeedShading,
+    OcclusionNeedsShading,
     TfListNeedsChannels,
     SliceAxis {
         view: String,
@@ -335,6 +336,9 @@ impl Missing {
             Missing::WidthNeedsLevel => said(d, "`width` needs `level`").with_help("add `level = L` (data units)"),
             Missing::ToneNeedsShading => needs_shading(d, "tone shading needs", "tone shading modulates the lighting"),
             Missing::ShadowsNeedShading => needs_shading(d, "shadows need", "shadows attenuate the lights"),
+            Missing::OcclusionNeedsShading => {
+                needs_shading(d, "ambient occlusion needs", "ambient occlusion scales the ambient light")
+            }
             Missing::TfListNeedsChannels => {
                 said(d, "a list of `tf` needs a list of `channel`").with_label("one per channel")
             }

@@ -103,6 +103,9 @@ pub struct Render {
     pub preintegration: bool,
     /// Volumetric shadows of the lights (`std::shadow_ray`); needs shading.
     pub shadows: Shadows,
+    /// Local ambient occlusion (`std::occlusion`): the ambient light scaled by how open the
+    /// sample's vicinity is; needs shading.
+    pub ambient_occlusion: bool,
 }
 
 /// `[render] tone_mapping`: how linear radiance is mapped to the display.

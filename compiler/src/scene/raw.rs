@@ -42,6 +42,7 @@ pub(super) struct RawRender {
     pub(super) white_point: Option<Spanned<f32>>,
     pub(super) preintegration: Option<Spanned<bool>>,
     pub(super) shadows: Option<Spanned<Shadows>>,
+    pub(super) ambient_occlusion: Option<Spanned<bool>>,
     pub(super) memory: Option<Spanned<String>>,
     pub(super) host_memory: Option<Spanned<String>>,
 }
@@ -63,6 +64,7 @@ pub(super) const RENDER_KEYS: &[&str] = &[
     "white_point",
     "preintegration",
     "shadows",
+    "ambient_occlusion",
     "memory",
     "host_memory",
 ];

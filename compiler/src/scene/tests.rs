@@ -157,6 +157,26 @@ fn standard_modules_follow_the_configuration() {
 }
 
 #[test]
+fn ambient_occlusion_needs_shading_and_follows_lighting() {
+    let errs = errors(&format!("[render]\nambient_occlusion = true\n{MINIMAL}"));
+    assert_eq!(errs.len(), 1, "{errs:?}");
+    let (code, line, column, message) = &errs[0];
+    assert_eq!((*code, *line, *column), ("E0704", 2, 21), "at the value");
+    assert_eq!(message, "ambient occlusion needs `shading = true`");
+    let (_, result) = parse(&format!("[render]\nshading = true\nambient_occlusion = true\n{MINIMAL}"));
+    let scene = result.unwrap_or_else(|e| panic!("{:?}", e.diagnostics));
+    let names: Vec<&str> = scene.standard_modules(&scene.views[0]).iter().map(|m| m.name).collect();
+    let at = |n: &str| names.iter().position(|m| *m == n).unwrap_or_else(|| panic!("{n} in {names:?}"));
+    assert!(at("lighting") < at("occlusion"), "it replaces `apply_lighting`: {names:?}");
+    // A view without shading does not inherit it.
+    let view = "[[view]]\nname = \"flat\"\nrender = { shading = false }\n";
+    let (_, result) = parse(&format!("[render]\nshading = true\nambient_occlusion = true\n{MINIMAL}\n{view}"));
+    let scene = result.unwrap_or_else(|e| panic!("{:?}", e.diagnostics));
+    let flat = scene.standard_modules(scene.view("flat").expect("view"));
+    assert!(flat.iter().all(|m| m.name != "occlusion"));
+}
+
+#[test]
 fn every_standard_module_exists() {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../stdlib");
     let text = format!(

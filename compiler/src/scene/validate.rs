@@ -136,6 +136,13 @@ impl Cx<'_> {
         {
             self.report(self.span(t), Missing::ToneNeedsShading);
         }
+        let ambient_occlusion = r.ambient_occlusion.as_ref().is_some_and(|a| *a.get_ref());
+        if let Some(a) = &r.ambient_occlusion
+            && ambient_occlusion
+            && !shading
+        {
+            self.report(self.span(a), Missing::OcclusionNeedsShading);
+        }
         let (step_size, max_samples) = (self.located(&r.step_size), self.located(&r.max_samples));
         let (jitter, background) = (self.located(&r.jitter), self.located(&r.background));
         self.check_sampling(&step_size, &max_samples, &jitter, &background);
@@ -162,6 +169,7 @@ impl Cx<'_> {
             white_point: light.white_point,
             preintegration: light.preintegration,
             shadows: light.shadows,
+            ambient_occlusion,
         }
     }
 

@@ -109,6 +109,7 @@ fn merge(shared: Option<&RawRender>, own: &RawRender) -> RawRender {
         white_point: own.white_point.or(base.white_point),
         preintegration: own.preintegration.or(base.preintegration.filter(|_| mode == Compositing::Dvr)),
         shadows: own.shadows.or(base.shadows.filter(|_| shaded)),
+        ambient_occlusion: own.ambient_occlusion.or(base.ambient_occlusion.filter(|_| shaded)),
         // Budgets are the scene's: a view's own is reported as ignored, the shared one not
         // inherited.
         memory: own.memory,

@@ -160,13 +160,15 @@ pub fn volumes(roles: &[Role]) -> String {
     text
 }
 
-/// The light-transport options: tone mapping, pre-integration and shadows, crossed with the
-/// modes, view kinds, shading (one light) and an additional volume.
+/// The light-transport options: tone mapping, pre-integration, shadows and ambient occlusion
+/// (without shadows), crossed with the modes, view kinds, shading (one light) and an additional
+/// volume.
 #[derive(Clone, Copy, Debug)]
 pub struct LightCell {
     pub tone_mapping: &'static str,
     pub preintegration: bool,
     pub shadows: &'static str,
+    pub occlusion: bool,
     pub mode: &'static str,
     pub slice: bool,
     pub shading: bool,
@@ -180,7 +182,8 @@ impl LightCell {
             // "exposure" meters automatically: its operator is a clip, the metering is the risk.
             for tone_mapping in ["off", "exposure", "reinhard", "aces"] {
                 for preintegration in [false, true] {
-                    for shadows in ["off", "rays", "volume"] {
+                    let lighting = [("off", false), ("rays", false), ("volume", false), ("off", true)];
+                    for (shadows, occlusion) in lighting {
                         for mode in MODES {
                             for slice in [false, true] {
                                 for shading in [false, true] {
@@ -188,6 +191,7 @@ impl LightCell {
                                         tone_mapping,
                                         preintegration,
                                         shadows,
+                                        occlusion,
                                         mode,
                                         slice,
                                         shading,
@@ -204,9 +208,13 @@ impl LightCell {
     }
 
     /// Why `build` refuses the cell, for exactly the cells it refuses: shadows (rays or a light
-    /// volume) need shading, and every other combination renders.
+    /// volume) and ambient occlusion need shading, and every other combination renders.
     pub fn refusal(&self) -> Option<&'static str> {
-        (self.shadows != "off" && !self.shading).then_some("shadows without shading")
+        match (self.shadows != "off", self.occlusion, self.shading) {
+            (true, _, false) => Some("shadows without shading"),
+            (_, true, false) => Some("ambient occlusion without shading"),
+            _ => None,
+        }
     }
 
     pub fn scene(&self) -> String {
@@ -223,6 +231,9 @@ impl LightCell {
         }
         if self.shadows != "off" {
             render.push(format!("shadows = \"{}\"", self.shadows));
+        }
+        if self.occlusion {
+            render.push("ambient_occlusion = true".into());
         }
         let roles: &[Role] = if self.additional { &[Role::Additional] } else { &[] };
         let kind = if self.slice { "kind = \"slice\"\naxis = \"axial\"\nslab = 6.0" } else { "kind = \"raycast\"" };
