@@ -529,6 +529,41 @@ impl SceneRenderer {
     }
 }
 
+/// Where a volume's window (the values its texture is normalized over) comes from.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum WindowRule {
+    /// The scene's `window` (or a label volume's fixed one), as it is.
+    Given([f32; 2]),
+    /// The domain of a transfer function in data units (a CT preset's Hounsfield range, a
+    /// ParaView colormap's). A volume read whole into memory (a phantom) widens it to cover its
+    /// automatic window too: a narrow map (the light example's `skin.json`, 0 to 100) would
+    /// otherwise flatten every denser value in the texture, and with them the gradients that
+    /// shade the surface the map shows. A streamed file takes the domain alone (one pass over
+    /// it instead of three).
+    Domain([f32; 2]),
+    /// The data's automatic window (percentiles, or the source's own).
+    Automatic,
+}
+
+impl WindowRule {
+    /// The window known before the data is read, if any.
+    pub(crate) fn known(self) -> Option<[f32; 2]> {
+        match self {
+            WindowRule::Given(window) | WindowRule::Domain(window) => Some(window),
+            WindowRule::Automatic => None,
+        }
+    }
+
+    /// The window of a volume read whole, whose automatic window is `automatic`.
+    pub(crate) fn with_automatic(self, automatic: [f32; 2]) -> [f32; 2] {
+        match self {
+            WindowRule::Given(window) => window,
+            WindowRule::Domain([lo, hi]) => [lo.min(automatic[0]), hi.max(automatic[1])],
+            WindowRule::Automatic => automatic,
+        }
+    }
+}
+
 /// Everything of a scene's volumes that loading reads: equal keys, same textures.
 fn volumes_key(scene: &Scene, feeds: &volume::Feeds) -> String {
     let mut key = format!("skip {}\n", scene.skips_empty_space());
@@ -723,7 +758,7 @@ fn load_volumes(
             continue;
         }
         let (texture, window, bricks) = upload_volume(gpu, v, &plan, fed, options, notices, progress)?;
-        if plan.fixed.is_none() {
+        if plan.window == WindowRule::Automatic {
             notices.push(automatic_window_notice(name, window));
         }
         let grid = VolumeGrid {
@@ -750,9 +785,8 @@ fn load_volumes(
 /// ranges of empty-space skipping are taken from it.
 struct VolumePlan {
     curve: Option<tf::TfCurve>,
-    /// The scene's window, else the domain of a transfer function in data units (a CT preset's
-    /// Hounsfield range, a ParaView colormap's); `None`: percentiles of the data.
-    fixed: Option<[f32; 2]>,
+    /// Where its window comes from.
+    window: WindowRule,
     /// Empty-space skipping needs the brick ranges of the primary volume and of the additional
     /// ones (composited over it), taken from the texels as they are uploaded: every volume file
     /// is streamed into its texture without a copy in memory.
@@ -781,13 +815,14 @@ impl VolumePlan {
             notices.push(labels_notice(&v.name.name, v.labels.is_none(), colours));
         }
         let domain = curve.as_ref().map(|c| c.table().domain);
-        let window = if labels { Some(tf::LABEL_WINDOW) } else { v.window.as_ref().map(|w| w.value) };
-        let fixed = window.or(match domain {
-            Some(TfDomain::Data(domain)) => Some(domain),
-            _ => None,
-        });
+        let given = if labels { Some(tf::LABEL_WINDOW) } else { v.window.as_ref().map(|w| w.value) };
+        let window = match (given, domain) {
+            (Some(window), _) => WindowRule::Given(window),
+            (None, Some(TfDomain::Data(domain))) => WindowRule::Domain(domain),
+            (None, _) => WindowRule::Automatic,
+        };
         let ranges = matches!(v.role.value, Role::Primary | Role::Additional) && scene.skips_empty_space();
-        Ok(VolumePlan { curve, fixed, ranges, labels })
+        Ok(VolumePlan { curve, window, ranges, labels })
     }
 }
 
@@ -863,7 +898,7 @@ fn load_bricked(
         (source, _) => bricked::open_source(source, &v.zarr, building, phantom, report)?,
     };
     let budget = (&scene.memory, bricked::sharing(scene));
-    let (volume, window, histogram) = bricked::load(gpu, name, source, plan.fixed, budget, primary)?;
+    let (volume, window, histogram) = bricked::load(gpu, name, source, plan.window, budget, primary)?;
     let grid = VolumeGrid {
         name: name.clone(),
         dims: volume.levels()[0].dims,
@@ -889,9 +924,9 @@ fn upload_volume(
     progress: Progress,
 ) -> Result<(VolumeTexture, [f32; 2], Option<crate::occupancy::BrickRanges>), RuntimeError> {
     let name = &v.name.name;
-    let (fixed, ranges) = (plan.fixed, plan.ranges);
+    let (fixed, ranges) = (plan.window.known(), plan.ranges);
     let uploaded = |data: volume::Volume| -> Result<_, RuntimeError> {
-        let window = fixed.unwrap_or_else(|| volume::auto_window(&data));
+        let window = plan.window.with_automatic(volume::auto_window(&data));
         let bricks = ranges.then(|| crate::occupancy::BrickRanges::new(&data, Some(window)));
         Ok((VolumeTexture::upload(gpu, name, &data, Some(window))?, window, bricks))
     };

@@ -184,7 +184,11 @@ fn a_streamed_file_renders_like_the_same_volume_uploaded_from_memory() {
     let view = "\n[[view]]\nname = \"3d\"\nkind = \"raycast\"\nsize = [96, 96]\n\
                 camera = { azimuth = 30.0, elevation = 20.0 }\n";
     let render = |source: &str| {
-        let text = format!("[[volume]]\nname = \"head\"\nrole = \"primary\"\n{source}\ntf = \"mr_default\"\n{view}");
+        // One window for both: a phantom's automatic window is its range, a file's its
+        // percentiles.
+        let text = format!(
+            "[[volume]]\nname = \"head\"\nrole = \"primary\"\n{source}\ntf = \"mr_default\"\nwindow = [-1000.0, 700.0]\n{view}"
+        );
         let scene = temp_scene(dir.path(), &text);
         let options = RenderOptions { phantom_size: dims, ..RenderOptions::default() };
         let mut renderer = SceneRenderer::open(common::software_gpu(), &scene, options, &mut |_, _, _| {}).unwrap();

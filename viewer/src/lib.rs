@@ -26,6 +26,7 @@
 //! - [`handles`]: the draggable points of slice views ([`handles::slice_markers`],
 //!   [`handles::grab`], [`handles::drag_to`]).
 //! - [`navigate`]: orbit, pan and zoom of cameras, stepping and turning of slice planes.
+//! - [`notices`]: the renderer's notices as the status bar shows them.
 
 pub mod actions;
 mod app;
@@ -41,3 +42,4 @@ pub mod tf_editor;
 mod window;
 
 pub use app::{ViewerOptions, run};
+pub use panel::notices;

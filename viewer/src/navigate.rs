@@ -68,28 +68,66 @@ pub fn slice_position(plane: &SlicePlane) -> f32 {
 /// the planes one such step apart through the centre of voxel 0 (on an axis-aligned grid, the
 /// voxel centres) and stay between the grid's outermost voxel centres.
 pub fn step_slice(plane: SlicePlane, voxels: i32, dims: [u32; 3], grid_to_world: Mat4) -> SlicePlane {
-    let axis = axis_index(slice_axis(&plane));
-    // The plane's normal in patient space is the patient axis `axis` (planes lie in box
-    // coordinates, whose axes are R, A, S).
-    let normal = Vec3::AXES[axis];
-    let Some(step) = voxel_step_along(normal, grid_to_world) else { return plane };
-    let patient = PatientBox::of(volume_to_world(dims, grid_to_world));
-    let (low, size) = (patient.min[axis], patient.size()[axis]);
-    if !(size.is_finite() && size > 0.0) {
-        return plane;
-    }
-    // Distances along the normal from the centre of voxel 0.
-    let first = grid_to_world.transform_point3(Vec3::ZERO)[axis];
-    let (near, far) = voxel_centre_span(dims, grid_to_world, axis);
-    let (near, far) = (near - first, far - first);
-    let at = low + plane.origin[axis] * size - first;
-    // The tolerance keeps a centre that rounding puts a hair outside the span.
-    let lowest = (near / step - 1e-3).ceil();
-    let highest = (far / step + 1e-3).floor().max(lowest);
-    let index = ((at / step).round() + voxels as f32).clamp(lowest, highest);
+    let Some(grid) = SliceSteps::of(&plane, dims, grid_to_world) else { return plane };
+    let index = (grid.index(&plane).round() + voxels as f32).clamp(grid.lowest, grid.highest);
     let mut origin = plane.origin;
-    origin[axis] = (first + index * step - low) / size;
+    origin[grid.axis] = (grid.first + index * grid.step - grid.low) / grid.size;
     SlicePlane { origin, ..plane }
+}
+
+/// Where a slice view's plane is, as its header says it: the patient coordinate along its
+/// normal in millimetres (RAS: x right, y anterior, z superior) and the slice's number among
+/// the steps [`step_slice`] takes (1-based; on an axis-aligned grid, the voxel index + 1), e.g.
+/// `z 12.5 mm · slice 76 of 189`.
+pub fn slice_position_text(plane: &SlicePlane, dims: [u32; 3], grid_to_world: Mat4) -> Option<String> {
+    let grid = SliceSteps::of(plane, dims, grid_to_world)?;
+    let mm = grid.low + plane.origin[grid.axis] * grid.size;
+    let number = grid.index(plane) - grid.lowest + 1.0;
+    let count = grid.highest - grid.lowest + 1.0;
+    let axis = ["x", "y", "z"][grid.axis];
+    // Between two slices (a plane placed by hand, an oblique grid) the number says so.
+    let number = if (number - number.round()).abs() < 0.01 { format!("{number:.0}") } else { format!("{number:.1}") };
+    Some(format!("{axis} {mm:.1} mm · slice {number} of {count:.0}"))
+}
+
+/// The positions a plane steps through along its normal (see [`step_slice`]), in patient
+/// millimetres: one `step` apart from the centre of voxel 0 (`first`), numbered from `lowest`
+/// to `highest`; the grid's box spans `size` from `low`.
+struct SliceSteps {
+    axis: usize,
+    step: f32,
+    first: f32,
+    low: f32,
+    size: f32,
+    lowest: f32,
+    highest: f32,
+}
+
+impl SliceSteps {
+    fn of(plane: &SlicePlane, dims: [u32; 3], grid_to_world: Mat4) -> Option<SliceSteps> {
+        let axis = axis_index(slice_axis(plane));
+        // The plane's normal in patient space is the patient axis `axis` (planes lie in box
+        // coordinates, whose axes are R, A, S).
+        let step = voxel_step_along(Vec3::AXES[axis], grid_to_world)?;
+        let patient = PatientBox::of(volume_to_world(dims, grid_to_world));
+        let (low, size) = (patient.min[axis], patient.size()[axis]);
+        if !(size.is_finite() && size > 0.0) {
+            return None;
+        }
+        // Distances along the normal from the centre of voxel 0.
+        let first = grid_to_world.transform_point3(Vec3::ZERO)[axis];
+        let (near, far) = voxel_centre_span(dims, grid_to_world, axis);
+        let (near, far) = (near - first, far - first);
+        // The tolerance keeps a centre that rounding puts a hair outside the span.
+        let lowest = (near / step - 1e-3).ceil();
+        let highest = (far / step + 1e-3).floor().max(lowest);
+        Some(SliceSteps { axis, step, first, low, size, lowest, highest })
+    }
+
+    /// The plane's (fractional) step number from the centre of voxel 0.
+    fn index(&self, plane: &SlicePlane) -> f32 {
+        (self.low + plane.origin[self.axis] * self.size - self.first) / self.step
+    }
 }
 
 /// The smallest physical extent of a voxel along the unit patient-space direction `normal`:
@@ -112,6 +150,32 @@ fn voxel_centre_span(dims: [u32; 3], grid_to_world: Mat4, axis: usize) -> (f32, 
             grid_to_world.transform_point3(index)[axis]
         })
         .fold((f32::MAX, f32::MIN), |(lo, hi), c| (lo.min(c), hi.max(c)))
+}
+
+/// What the mouse and the keys do in the views: the keyboard help (F1 or `?`) lists them.
+pub const KEYS: [(&str, &str); 9] = [
+    ("3D: drag", "orbit"),
+    ("3D: right or middle drag", "pan"),
+    ("3D: wheel", "zoom"),
+    ("slice: wheel, Up/Down, PageUp/PageDown", "step one voxel"),
+    ("slice: X / Y / Z", "turn to sagittal / coronal / axial"),
+    ("slice: drag a green ring", "move a mesh point (a needle's tip)"),
+    ("R", "reset the view's camera or plane to the scene's"),
+    ("F1 or ?", "show or hide these keys"),
+    ("Panel (toolbar)", "parameters, transfer functions, meshes, inspector"),
+];
+
+/// The keyboard help: a window listing [`KEYS`], shown while `open`.
+pub fn keys_window(ctx: &egui::Context, open: &mut bool) {
+    egui::Window::new("Keys").open(open).collapsible(false).resizable(false).show(ctx, |ui| {
+        egui::Grid::new("keys").striped(true).show(ui, |ui| {
+            for (input, action) in KEYS {
+                ui.label(egui::RichText::new(input).monospace());
+                ui.label(action);
+                ui.end_row();
+            }
+        });
+    });
 }
 
 /// The plane turned to `axis`, through the volume's centre.
@@ -147,6 +211,20 @@ mod tests {
         let back = zoom(zoom(c, 120.0), -120.0);
         assert!((back.distance - c.distance).abs() < 1e-4);
         assert!(zoom(c, 1e6).distance >= 0.3 && zoom(c, -1e6).distance <= 20.0);
+    }
+
+    #[test]
+    fn the_slice_position_reads_in_millimetres_and_slice_numbers() {
+        // 4 slices of 2.5 mm along z, voxel 0's centre at z = -10 mm: centres at -10, -7.5, -5,
+        // -2.5; the box from -11.25 to -1.25.
+        let g = Mat4::from_translation(Vec3::new(0.0, 0.0, -10.0)) * Mat4::from_scale(Vec3::new(1.0, 1.0, 2.5));
+        let dims = [10, 20, 4];
+        let second = SlicePlane::new(SliceAxis::Z, 1.5 / 4.0);
+        assert_eq!(slice_position_text(&second, dims, g).as_deref(), Some("z -7.5 mm · slice 2 of 4"));
+        let last = step_slice(second, 10, dims, g);
+        assert_eq!(slice_position_text(&last, dims, g).as_deref(), Some("z -2.5 mm · slice 4 of 4"));
+        let sagittal = SlicePlane::new(SliceAxis::X, 0.5);
+        assert_eq!(slice_position_text(&sagittal, dims, g).as_deref(), Some("x 4.5 mm · slice 5.5 of 10"));
     }
 
     #[test]

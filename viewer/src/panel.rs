@@ -95,6 +95,9 @@ impl ViewSlot {
     }
 }
 
+/// The colour of the renderer's notices in the status bar: amber, read before the status.
+const NOTICE_COLOUR: Color32 = Color32::from_rgb(230, 180, 90);
+
 /// Lays out the whole window for one frame and applies the user's input to the views.
 pub fn show(
     ui: &mut egui::Ui,
@@ -108,6 +111,7 @@ pub fn show(
     egui::Panel::top("toolbar").show(ui, |ui| toolbar(ui, slots, layout, side));
     egui::Panel::bottom("status").show(ui, |ui| {
         ui.label(status);
+        notices(ui, &live.renderer().notices);
         if let Some(progress) = live.brick_progress() {
             ui.weak(brick_line(&progress));
         }
@@ -137,6 +141,14 @@ pub fn show(
             slots.iter_mut().for_each(|s| s.frames.input(now));
         }
     });
+}
+
+/// The renderer's notices, each a line: what the terminal says at load (a phantom standing in
+/// for an absent file, an automatic window, rays cut short), in the window too.
+pub fn notices(ui: &mut egui::Ui, notices: &[String]) {
+    for notice in notices {
+        ui.colored_label(NOTICE_COLOUR, format!("note: {notice}"));
+    }
 }
 
 /// The residency of the scene's bricked volumes in one line, e.g. `bricks: 65 of 512 slots
@@ -170,10 +182,16 @@ fn toolbar(ui: &mut egui::Ui, slots: &[ViewSlot], layout: &mut Layout, side: &mu
             ui.selectable_value(layout, Layout::Tab(i), &slot.name);
         }
         ui.separator();
-        ui.weak(
-            "3D: drag to orbit, right-drag to pan, wheel to zoom, R to reset · slices: wheel or Up/Down to step, \
-             X/Y/Z to turn, drag a green ring to move a mesh point",
-        );
+        // The keys are in their own window (F1 or ?): a hint line did not fit the toolbar.
+        let id = ui.id().with("keyboard help");
+        let mut open = ui.ctx().data(|d| d.get_temp::<bool>(id)).unwrap_or(false);
+        let asked = ui.input(|i| {
+            i.key_pressed(egui::Key::F1) || i.events.iter().any(|e| matches!(e, egui::Event::Text(t) if t == "?"))
+        });
+        open ^= asked;
+        ui.toggle_value(&mut open, "Keys (F1)").on_hover_text("The mouse and the keys in the views");
+        navigate::keys_window(ui.ctx(), &mut open);
+        ui.ctx().data_mut(|d| d.insert_temp(id, open));
     });
 }
 
@@ -244,6 +262,14 @@ fn view_cell(
         );
         painter.text(image.center_top() + Vec2::new(0.0, 6.0), egui::Align2::CENTER_TOP, top, font.clone(), colour);
         painter.text(image.center_bottom() - Vec2::new(0.0, 6.0), egui::Align2::CENTER_BOTTOM, bottom, font, colour);
+    }
+    if let (Some(plane), Some((dims, grid_to_world))) = (live.slice(index), live.renderer().primary_grid())
+        && let Some(position) = navigate::slice_position_text(&plane, dims, grid_to_world)
+    {
+        // Where the slice is, in the image's corner as reading software puts it.
+        let at = image.right_bottom() - Vec2::new(6.0, 6.0);
+        let font = egui::FontId::proportional(13.0);
+        ui.painter().text(at, egui::Align2::RIGHT_BOTTOM, position, font, Color32::from_rgb(120, 220, 255));
     }
     if is_slice {
         let grabbed = slot.drag.as_ref().map(|(drag, _)| drag.uniform.as_str());

@@ -230,3 +230,37 @@ fn the_inspector_shows_status_and_the_selected_functions_source() {
     harness.run();
     harness.get_by_label_contains("// from clip.vrs:6");
 }
+
+/// The renderer's notices show in the window (a phantom standing in for an absent file was
+/// said only on the terminal): the light example without its data says so in the status bar.
+#[test]
+fn a_fallback_phantom_is_announced_in_the_window() {
+    let dir = tempfile::tempdir().unwrap();
+    for file in ["scene.toml", "skin.json"] {
+        std::fs::copy(root().join("examples/light").join(file), dir.path().join(file)).unwrap();
+    }
+    let gpu = vrs_runtime::Gpu::headless(vrs_runtime::AdapterChoice::Software).expect("the software adapter");
+    let options = vrs_runtime::RenderOptions { phantom_size: [32; 3], ..Default::default() };
+    let renderer =
+        vrs_runtime::SceneRenderer::open(gpu, &dir.path().join("scene.toml"), options, &mut |_, _, _| {}).unwrap();
+    let fallback = renderer.notices.iter().find(|n| n.contains("phantom")).expect("a notice of the fallback").clone();
+    let notices = renderer.notices.clone();
+    let mut harness = Harness::new_ui(move |ui| vrs_viewer::notices(ui, &notices));
+    harness.run();
+    harness.get_by_label(&format!("note: {fallback}"));
+}
+
+/// The keyboard help lists what the mouse and keys do, and closes.
+#[test]
+fn the_keys_window_lists_the_views_keys() {
+    let mut harness =
+        Harness::new_ui_state(|ui, open: &mut bool| vrs_viewer::navigate::keys_window(ui.ctx(), open), true);
+    harness.run();
+    for (input, action) in vrs_viewer::navigate::KEYS {
+        harness.get_by_label(input);
+        harness.get_by_label(action);
+    }
+    harness.get_by_label("Close window").click();
+    harness.run();
+    assert!(!*harness.state(), "closed");
+}

@@ -278,7 +278,10 @@ mod tests {
         for i in 0..8u32 {
             sum += voxel(&volume, [2 * c[0] + (i & 1), 2 * c[1] + ((i >> 1) & 1), 2 * c[2] + (i >> 2)]);
         }
-        assert!((top.at(c.map(|v| v + 1)) - sum / 8.0).abs() < 1e-3);
+        // Within the half float's rounding (bricks hold half floats; the phantom's smooth
+        // edges reach the centre with values no half float holds exactly).
+        let mean = sum / 8.0;
+        assert!((top.at(c.map(|v| v + 1)) - mean).abs() <= 1e-3 * mean.abs().max(1.0), "{mean}");
         assert_eq!(source.grid_to_world(), volume.grid_to_world);
     }
 }

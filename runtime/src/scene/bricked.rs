@@ -164,7 +164,7 @@ pub(super) fn load(
     gpu: &Gpu,
     name: &str,
     (source, automatic): Opened,
-    fixed: Option<[f32; 2]>,
+    rule: super::WindowRule,
     (memory, share): (&Memory, u64),
     primary: Option<&VolumeGrid>,
 ) -> Result<(BrickedVolume, [f32; 2], Vec<u64>), RuntimeError> {
@@ -172,7 +172,10 @@ pub(super) fn load(
     // 0 for it, and what that pass shows of the values is kept for empty-space skipping.
     let learnt = RangeLearner::of(source.as_ref());
     let top = coarsest(source.as_ref())?;
-    let window = fixed.or(automatic).unwrap_or_else(|| volume::auto_window(&top));
+    let window = match automatic {
+        Some(automatic) => rule.with_automatic(automatic),
+        None => rule.known().unwrap_or_else(|| volume::auto_window(&top)),
+    };
     let dims = source.levels()[0].dims;
     let primary_to = match primary {
         Some(p) => crate::geometry::primary_to((&p.dims, p.grid_to_world), (&dims, source.grid_to_world())),

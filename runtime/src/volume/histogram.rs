@@ -65,8 +65,12 @@ impl Histogram {
     }
 }
 
-/// The automatic window of a volume in memory (`Histogram::auto_window`).
+/// The automatic window of a volume in memory: the one its source gives it (`own_window`), else
+/// `Histogram::auto_window`.
 pub fn auto_window(volume: &Volume) -> [f32; 2] {
+    if let Some(window) = volume.own_window {
+        return window;
+    }
     let mut histogram = Histogram::new(volume.range, volume.scaling);
     volume.samples.for_each(0..volume.samples.len(), |s| histogram.add(s));
     histogram.auto_window()

@@ -93,6 +93,11 @@ pub struct Volume {
     pub(crate) scaling: Scaling,
     /// Minimum and maximum of the finite samples in data units (`[0, 0]` when there are none).
     pub range: [f32; 2],
+    /// The window the source gives its own values, taken instead of the automatic one (the
+    /// percentiles' window, [`auto_window`]): a phantom's whole range, since it has no outliers
+    /// to leave out and clamping its densest values would flatten them (their gradients, hence
+    /// their shading, vanish where the texture saturates).
+    pub(crate) own_window: Option<[f32; 2]>,
 }
 
 impl Volume {
@@ -105,7 +110,7 @@ impl Volume {
     /// Builds a volume from stored samples and their scaling to data units.
     pub(crate) fn from_samples(dims: [u32; 3], grid_to_world: Mat4, samples: Samples, scaling: Scaling) -> Volume {
         let range = scaling.range(samples.finite_range());
-        Volume { dims, spacing: spacing_of(&grid_to_world), grid_to_world, samples, scaling, range }
+        Volume { dims, spacing: spacing_of(&grid_to_world), grid_to_world, samples, scaling, range, own_window: None }
     }
 
     /// The data value of voxel `index` (x fastest); `None` beyond the end.

@@ -2,8 +2,11 @@
 //!
 //! A phantom is a list of shapes painted in order over the box [-1, 1]^3 (x fastest, y down the
 //! image, z up), each with its own value: a later shape replaces what it covers. Edges are
-//! anti-aliased with a smoothstep over one voxel of (approximate) signed distance, so gradients
-//! and iso-surfaces look smooth. Values are Hounsfield units, as in a CT: air -1000 around the
+//! band-limited: a shape covers a voxel by the fraction a Gaussian of [`EDGE_SIGMA`] voxels
+//! around the voxel's centre has inside the surface (of the approximate signed distance), as a
+//! scanner's point-spread function blurs a real edge. One-voxel edges (a smoothstep over one
+//! voxel, before) left the gradient, hence the shading normal, jumping at every voxel: lit
+//! surfaces showed concentric terraces. Values are Hounsfield units, as in a CT: air -1000 around the
 //! body, soft tissue a few tens, bone several hundred, so the CT presets show them as they show
 //! a patient's CT.
 
@@ -67,7 +70,12 @@ pub fn phantom(name: &str, dims: [u32; 3]) -> Result<Volume, UnknownPhantom> {
         mirror_xy(&mut data, dims);
     }
     let centre = Vec3::from_array(dims.map(|d| (d as f32 - 1.0) / 2.0));
-    Ok(Volume::new(dims, Mat4::from_translation(-centre), data))
+    let mut volume = Volume::new(dims, Mat4::from_translation(-centre), data);
+    // Every value is meant: the automatic window is the whole range (the percentiles' window
+    // clipped the head's skull at 820 of its 986 HU, and the lit skull showed rings where the
+    // texture saturated).
+    volume.own_window = Some(volume.range);
+    Ok(volume)
 }
 
 /// Reverses the x and y axes of a grid (a half turn about z).
@@ -142,11 +150,13 @@ impl Grid {
         (Vec3::from_array(index.map(|i| i as f32)) + 0.5) / self.scale - 1.0
     }
 
-    /// The voxel index range (inclusive) covering normalized [lo, hi] plus one voxel of margin
-    /// for the anti-aliased edge, clamped to the grid; `None` when it misses the grid.
+    /// The voxel index range (inclusive) covering normalized [lo, hi] plus the edge's reach,
+    /// clamped to the grid; `None` when it misses the grid.
     fn index_range(&self, lo: Vec3, hi: Vec3) -> Option<[[u32; 2]; 3]> {
-        let lo = ((lo + 1.0) * self.scale - 1.5).floor();
-        let hi = ((hi + 1.0) * self.scale + 0.5).ceil();
+        let margin = EDGE_REACH * EDGE_SIGMA;
+        // Voxel i's centre is at index i + 0.5 of the scaled box.
+        let lo = ((lo + 1.0) * self.scale - 0.5 - margin).floor();
+        let hi = ((hi + 1.0) * self.scale - 0.5 + margin).ceil();
         let mut range = [[0; 2]; 3];
         for axis in 0..3 {
             let max = self.dims[axis] as f32 - 1.0;
@@ -219,11 +229,39 @@ fn ellipse_distance(u: Vec3, gradient: Vec3) -> f32 {
     if r == 0.0 || slope == 0.0 { f32::NEG_INFINITY } else { (r - 1.0) / slope }
 }
 
-/// The fraction of a voxel inside a surface at signed distance `d` (voxels): a smoothstep from
-/// half a voxel outside to half a voxel inside.
+/// The standard deviation, in voxels, of the Gaussian that blurs every edge: wide enough that
+/// central differences of trilinear samples turn smoothly across a surface
+/// (`runtime/tests/phantoms.rs` measures it), narrow enough that the head's skull, 1.8 voxels
+/// thick at 128^3, keeps most of its value.
+pub(crate) const EDGE_SIGMA: f32 = 0.8;
+
+/// How far from a surface, in [`EDGE_SIGMA`]s, its edge reaches: beyond it a voxel is inside or
+/// outside exactly (the Gaussian's tail there is 3e-5, a twentieth of a Hounsfield unit of the
+/// largest step).
+const EDGE_REACH: f32 = 4.0;
+
+/// The fraction of a voxel inside a surface at signed distance `d` (voxels; negative inside):
+/// the Gaussian's mass beyond `d`, `erfc(d / (sigma sqrt 2)) / 2`, exactly 0 or 1 past
+/// [`EDGE_REACH`].
 fn coverage(d: f32) -> f32 {
-    let t = (0.5 - d).clamp(0.0, 1.0);
-    t * t * (3.0 - 2.0 * t)
+    let x = d / EDGE_SIGMA;
+    if x >= EDGE_REACH {
+        0.0
+    } else if x <= -EDGE_REACH {
+        1.0
+    } else {
+        0.5 * erfc(x * std::f32::consts::FRAC_1_SQRT_2)
+    }
+}
+
+/// The complementary error function, by Abramowitz and Stegun's rational approximation 7.1.26
+/// (absolute error below 1.5e-7).
+fn erfc(x: f32) -> f32 {
+    let z = x.abs();
+    let t = 1.0 / (1.0 + 0.327_591_1 * z);
+    let poly = t * (0.254_829_6 + t * (-0.284_496_7 + t * (1.421_413_7 + t * (-1.453_152 + t * 1.061_405_4))));
+    let tail = poly * (-z * z).exp();
+    if x >= 0.0 { tail } else { 2.0 - tail }
 }
 
 /// A normalized-space box around a region (conservative for rotated ellipsoids).
@@ -411,7 +449,10 @@ mod tests {
             assert_eq!(v.dims, [40, 32, 24]);
             assert_eq!(v.samples.len(), 40 * 32 * 24);
             assert_eq!(v.range[0], AIR, "{name}: air around the body");
-            assert!(v.range[1] >= 700.0 && v.range[1] <= 1000.0, "{name}: bone at the top, {:?}", v.range);
+            // Bone at the top; on so small a grid the head's skull, under a voxel thick, keeps
+            // less than half its value (partial volume, as a scanner would see it).
+            assert!(v.range[1] >= 400.0 && v.range[1] <= 1000.0, "{name}: bone at the top, {:?}", v.range);
+            assert_eq!(crate::volume::auto_window(&v), v.range, "{name}: its window is its whole range");
             assert_eq!(v.spacing, [1.0; 3]);
             // The first and last voxel centres are symmetric about the origin.
             let first = v.grid_to_world.transform_point3(Vec3::ZERO);
@@ -434,10 +475,12 @@ mod tests {
 
     #[test]
     fn head_levels() {
-        let v = phantom("head", [64, 64, 64]).unwrap();
+        // At 128^3 the skull at the top is four voxels thick: its middle keeps over 90% of its
+        // 1000 HU within the edges' blur.
+        let v = phantom("head", [128, 128, 128]).unwrap();
         assert_eq!(at(&v, [0.95, 0.95, 0.95]), AIR, "air in the corner");
         assert!((at(&v, [0.0, 0.0, 0.0]) - 35.0).abs() < 1e-3, "brain in the centre");
-        assert!((at(&v, [0.0, -0.9, 0.0]) - 1000.0).abs() < 1e-3, "skull at the top");
+        assert!(at(&v, [0.0, -0.9, 0.0]) > 900.0, "skull at the top: {}", at(&v, [0.0, -0.9, 0.0]));
         assert!((at(&v, [0.22, 0.0, -0.25]) - 5.0).abs() < 1e-3, "ventricle");
         assert!(at(&v, [0.0, -0.1, -0.25]) > 60.0, "hyperdense lesion");
         // Edges are smooth: some voxels lie strictly between air and skull.
@@ -446,7 +489,7 @@ mod tests {
 
     #[test]
     fn abdomen_levels() {
-        let v = phantom("abdomen", [96, 96, 96]).unwrap();
+        let v = phantom("abdomen", [192, 192, 192]).unwrap();
         let close = |p: [f32; 3], want: f32, what: &str| {
             // The shapes' image layout, mirrored into the RAS grid.
             let got = at(&v, [-p[0], -p[1], p[2]]);
@@ -458,11 +501,15 @@ mod tests {
         close([0.3, -0.1, -0.5], level::SOFT_TISSUE, "abdominal cavity");
         close([-0.55, 0.1, 0.55], level::LIVER, "liver");
         close([-0.52, -0.12, 0.3], level::TUMOUR, "tumour centre");
-        close([-0.52, -0.12 + 0.09, 0.3], level::TUMOUR_RIM, "tumour rim");
+        // The rim, three voxels thick at this size, keeps most of its contrast to the tumour.
+        let rim = at(&v, [0.52, 0.12 - 0.09, 0.3]);
+        assert!(rim > level::TUMOUR + 0.8 * (level::TUMOUR_RIM - level::TUMOUR), "tumour rim: {rim}");
         close([-0.34, 0.3, -0.3], level::KIDNEY, "right kidney");
         close([0.36, 0.3, -0.15], level::KIDNEY, "left kidney");
         close([0.0, 0.36, -0.6], level::BONE, "vertebral body");
-        close([0.0, 0.36, -0.75], level::DISC, "disc");
+        // A disc is five voxels thick here, between two vertebrae: within 2% of their contrast.
+        let disc = at(&v, [0.0, -0.36, -0.75]);
+        assert!((disc - level::DISC).abs() < 0.02 * (level::BONE - level::DISC), "disc: {disc}");
         close([0.0, 0.5, 0.0], level::CSF, "spinal canal");
         close([0.06, 0.2, -0.8], level::VESSEL, "aorta");
         // The vessel tree: its first segment's middle, inside the liver.
