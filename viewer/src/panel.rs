@@ -183,7 +183,7 @@ fn toolbar(ui: &mut egui::Ui, slots: &[ViewSlot], layout: &mut Layout, side: &mu
         }
         ui.separator();
         // The keys are in their own window (F1 or ?): a hint line did not fit the toolbar.
-        let id = ui.id().with("keyboard help");
+        let id = egui::Id::NULL.with("keyboard help");
         let mut open = ui.ctx().data(|d| d.get_temp::<bool>(id)).unwrap_or(false);
         let asked = ui.input(|i| {
             i.key_pressed(egui::Key::F1) || i.events.iter().any(|e| matches!(e, egui::Event::Text(t) if t == "?"))
