@@ -299,3 +299,46 @@ fn dragging_the_needle_marker_in_the_axial_view_moves_the_ablation_zone() {
     let along = (zone_shift[0] * drag[0] + zone_shift[1] * drag[1]) / 40.0;
     assert!(along > 28.0 && off(zone_shift) < 12.0, "the zone's fill moves with the needle: {report}");
 }
+
+/// E over a view exports it beside the scene as `SCENE-VIEW.png`, at the scene's size: the very
+/// pixels `vrsc render` writes for the same scene.
+#[test]
+fn e_over_a_view_exports_what_vrsc_render_writes() {
+    if !window_tools() {
+        return;
+    }
+    let scenes = tempfile::tempdir().unwrap();
+    let example: PathBuf = [env!("CARGO_MANIFEST_DIR"), "..", "examples", "basic", "scene.toml"].iter().collect();
+    let scene = scenes.path().join("scene.toml");
+    std::fs::copy(&example, &scene).unwrap();
+    let (_xvfb, display) = start_xvfb();
+    let runtime_dir = tempfile::tempdir().unwrap();
+    let log_path = runtime_dir.path().join("viewer.log");
+    let mut viewer = start_viewer(&scene, &display, runtime_dir.path(), &log_path);
+    let shot = runtime_dir.path().join("shot.png");
+    settled(&display, &shot, Duration::from_secs(90), first_view);
+    still_running(&mut viewer, &log_path);
+    // Over the first view (the 3D one), press E (with the keyboard's focus on the window: no
+    // window manager gives it).
+    xdotool(&display, "search --name vrsc windowfocus");
+    xdotool(&display, &format!("mousemove {} {} sleep 0.3 key e", 1000 / 6, 620 / 2));
+    let exported = scenes.path().join("scene-3d.png");
+    let deadline = Instant::now() + Duration::from_secs(60);
+    while !exported.exists() && Instant::now() < deadline {
+        std::thread::sleep(Duration::from_millis(300));
+    }
+    let printed = || std::fs::read_to_string(&log_path).unwrap_or_default();
+    assert!(exported.exists(), "no {} after E; the viewer printed:\n{}", exported.display(), printed());
+    std::thread::sleep(Duration::from_millis(500));
+    let out = scenes.path().join("rendered");
+    let rendered = Command::new(env!("CARGO_BIN_EXE_vrsc"))
+        .args(["render", &scene.display().to_string(), "-o", &out.display().to_string(), "--software"])
+        .env("XDG_RUNTIME_DIR", runtime_dir.path())
+        .output()
+        .unwrap();
+    assert!(rendered.status.success(), "vrsc render: {}", String::from_utf8_lossy(&rendered.stderr));
+    let (a, b) = (image::open(&exported).unwrap().to_rgba8(), image::open(out.join("3d.png")).unwrap().to_rgba8());
+    assert_eq!(a.dimensions(), (256, 256), "the scene's size");
+    let worst = a.pixels().zip(b.pixels()).flat_map(|(p, q)| (0..4).map(move |c| p[c].abs_diff(q[c]))).max();
+    assert_eq!(worst, Some(0), "the export is `vrsc render`'s image");
+}

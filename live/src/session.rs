@@ -132,6 +132,8 @@ pub struct LiveScene {
     /// Each view's camera and slice plane as the scene file sets them.
     scene_cameras: BTreeMap<String, OrbitCamera>,
     scene_slices: BTreeMap<String, SlicePlane>,
+    /// Each view's size as the scene gives it (what `vrsc render` renders at).
+    scene_sizes: BTreeMap<String, [u32; 2]>,
     /// Bumped whenever something that shapes a view's image changes, per view.
     generations: BTreeMap<String, u64>,
     /// Every file the last two compositions read (the last good one and the last attempt), so
@@ -160,6 +162,7 @@ impl LiveScene {
             scene_values: BTreeMap::new(),
             scene_cameras: BTreeMap::new(),
             scene_slices: BTreeMap::new(),
+            scene_sizes: BTreeMap::new(),
             generations: BTreeMap::new(),
             files: Vec::new(),
             last_error: None,
@@ -521,6 +524,32 @@ impl LiveScene {
         Ok(())
     }
 
+    /// Renders view `index` as `vrsc render` does, at the size the scene gives it, with what the
+    /// user changed here (camera, plane, uniforms, meshes), and writes it to `path` as a PNG:
+    /// the same pixels `vrsc render` writes for the same state. Blocks until the GPU is done.
+    /// Returns the size written.
+    pub fn export_view(&mut self, index: usize, path: &Path) -> Result<[u32; 2], RuntimeError> {
+        let gpu = self.renderer.gpu().clone();
+        let view = self
+            .renderer
+            .views_mut()
+            .get_mut(index)
+            .ok_or_else(|| RuntimeError::Invalid(format!("the scene has no view {index}")))?;
+        let (name, shown) = (view.name.clone(), view.renderer.size());
+        let size = self.scene_sizes.get(&name).copied().unwrap_or(shown);
+        view.renderer.resize(&gpu, size)?;
+        let image = self.renderer.render_view(index);
+        if let Some(view) = self.renderer.views_mut().get_mut(index) {
+            view.renderer.resize(&gpu, shown)?;
+        }
+        self.bump(&name);
+        let image = image?;
+        image
+            .save(path)
+            .map_err(|e| RuntimeError::Invalid(format!("cannot write view `{name}` to {}: {e}", path.display())))?;
+        Ok(size)
+    }
+
     /// Records `region` of view `index` into `target` (a texture of
     /// [`vrs_runtime::view::create_output`], of any size).
     pub fn encode(
@@ -589,7 +618,9 @@ impl LiveScene {
     fn note_scene_state(&mut self) {
         self.scene_cameras.clear();
         self.scene_slices.clear();
+        self.scene_sizes.clear();
         for view in self.renderer.views() {
+            self.scene_sizes.insert(view.name.clone(), view.renderer.size());
             if let Some(camera) = view.camera {
                 self.scene_cameras.insert(view.name.clone(), camera);
             }

@@ -29,6 +29,8 @@ pub struct ViewSlot {
     pub probe: Option<ProbeView>,
     /// The mesh point being dragged in this (slice) view, and where the cursor last set it.
     drag: Option<(HandleDrag, egui::Pos2)>,
+    /// What the last export (E) said, and when: shown in the caption for a while.
+    exported: Option<(Instant, String)>,
 }
 
 /// A probe shown in a view's place: the field, and its image once rendered.
@@ -42,7 +44,7 @@ pub struct ProbeView {
 
 impl ViewSlot {
     pub fn new(name: String, frames: ViewFrames) -> ViewSlot {
-        ViewSlot { name, frames, texture: None, probe: None, drag: None }
+        ViewSlot { name, frames, texture: None, probe: None, drag: None, exported: None }
     }
 
     /// The same view after a reload: the schedule starts again, the texture id and the probe
@@ -51,7 +53,7 @@ impl ViewSlot {
         let budget = self.frames.refiner().budget;
         let probe = self.probe.as_ref().map(|p| ProbeView { field: p.field.clone(), shown: None, error: None });
         let (frames, texture) = (ViewFrames::new(budget), self.texture.clone());
-        ViewSlot { name: name.to_string(), frames, texture, probe, drag: None }
+        ViewSlot { name: name.to_string(), frames, texture, probe, drag: None, exported: None }
     }
 
     /// Renders the probe again when the view changed and the user is not interacting (a probe
@@ -285,9 +287,14 @@ fn view_cell(
         let font = egui::FontId::monospace(11.0);
         ui.painter().text(at, egui::Align2::LEFT_BOTTOM, legend, font, Color32::from_rgb(255, 230, 150));
     }
-    let caption = match refused {
-        Some(e) => format!("{} — {e}", slot.name),
-        None => format!("{} — {}", slot.name, describe(&slot.frames, size)),
+    if response.hovered() && ui.input(|i| i.key_pressed(egui::Key::E)) {
+        slot.exported = Some((now, export(live, index)));
+    }
+    let recent = slot.exported.as_ref().filter(|(at, _)| now.duration_since(*at) < EXPORT_SHOWN);
+    let caption = match (refused, recent) {
+        (Some(e), _) => format!("{} — {e}", slot.name),
+        (None, Some((_, said))) => format!("{} — {said}", slot.name),
+        (None, None) => format!("{} — {}", slot.name, describe(&slot.frames, size)),
     };
     ui.painter().text(cell.min, egui::Align2::LEFT_TOP, caption, egui::FontId::proportional(13.0), Color32::LIGHT_GRAY);
     let menu = Rect::from_min_max(
@@ -296,6 +303,24 @@ fn view_cell(
     );
     ui.scope_builder(egui::UiBuilder::new().max_rect(menu), |ui| probe_menu(ui, live, slot, index));
     moved
+}
+
+/// How long a view's caption says where its export went.
+const EXPORT_SHOWN: std::time::Duration = std::time::Duration::from_secs(6);
+
+/// Exports view `index` as `vrsc render` would write it, beside the scene file as
+/// `SCENE-VIEW.png`; what to say of it.
+fn export(live: &mut LiveScene, index: usize) -> String {
+    let scene = live.renderer().path().to_path_buf();
+    let name = live.renderer().views().get(index).map(|v| v.name.clone()).unwrap_or_default();
+    let stem = scene.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "scene".into());
+    let path = scene.with_file_name(format!("{stem}-{name}.png"));
+    let said = match live.export_view(index, &path) {
+        Ok([w, h]) => format!("exported {w}x{h} to {}", path.display()),
+        Err(e) => format!("export failed: {e}"),
+    };
+    eprintln!("view `{name}`: {said}");
+    said
 }
 
 /// The colour of the markers of mesh points in slice views.
