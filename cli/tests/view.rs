@@ -1,7 +1,8 @@
 //! `vrsc view` in a real window under Xvfb on the software adapter: the picture appears, an
-//! orbit dragged with the mouse changes it, and dragging the ablation needle's marker in a slice
-//! view moves its zone (screenshots with ImageMagick's `import`, the drags with `xdotool`;
-//! `.ci/run` installs all three).
+//! orbit dragged with the mouse changes it, dragging the ablation needle's marker in a slice
+//! view moves its zone, E exports a view as `vrsc render` writes it, and a scene saved with a
+//! renamed uniform is refused with `vrsc build`'s diagnostic (screenshots with ImageMagick's
+//! `import`, the mouse and keys with `xdotool`; `.ci/run` installs all three).
 
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
@@ -341,4 +342,46 @@ fn e_over_a_view_exports_what_vrsc_render_writes() {
     assert_eq!(a.dimensions(), (256, 256), "the scene's size");
     let worst = a.pixels().zip(b.pixels()).flat_map(|(p, q)| (0..4).map(move |c| p[c].abs_diff(q[c]))).max();
     assert_eq!(worst, Some(0), "the export is `vrsc render`'s image");
+}
+
+/// The running viewer validates a saved scene as `vrsc build` does: a `[uniforms]` value renamed
+/// to a name no view reads is refused with the diagnostic `build` prints (E0702 and its
+/// did-you-mean), over the last good picture.
+#[test]
+fn a_renamed_uniform_in_a_running_viewer_is_refused_as_build_refuses_it() {
+    if !window_tools() {
+        return;
+    }
+    let scenes = tempfile::tempdir().unwrap();
+    let example: PathBuf = [env!("CARGO_MANIFEST_DIR"), "..", "examples", "basic", "scene.toml"].iter().collect();
+    let text = std::fs::read_to_string(example).unwrap() + "\n[uniforms]\nambient = 0.3\n";
+    let scene = scenes.path().join("scene.toml");
+    std::fs::write(&scene, &text).unwrap();
+    let (_xvfb, display) = start_xvfb();
+    let runtime_dir = tempfile::tempdir().unwrap();
+    let log_path = runtime_dir.path().join("viewer.log");
+    let mut viewer = start_viewer(&scene, &display, runtime_dir.path(), &log_path);
+    let shot = runtime_dir.path().join("shot.png");
+    settled(&display, &shot, Duration::from_secs(90), first_view);
+    still_running(&mut viewer, &log_path);
+    std::fs::write(&scene, text.replace("ambient = 0.3", "ambeint = 0.3")).unwrap();
+    let printed = || std::fs::read_to_string(&log_path).unwrap_or_default();
+    let deadline = Instant::now() + Duration::from_secs(60);
+    while !printed().contains("E0702") && Instant::now() < deadline {
+        std::thread::sleep(Duration::from_millis(300));
+    }
+    still_running(&mut viewer, &log_path);
+    let build = Command::new(env!("CARGO_BIN_EXE_vrsc"))
+        .args(["build", &scene.display().to_string(), "--color", "never", "-o"])
+        .arg(runtime_dir.path().join("built"))
+        .output()
+        .unwrap();
+    assert!(!build.status.success(), "build refuses the renamed uniform");
+    let said = String::from_utf8_lossy(&build.stderr).into_owned() + &String::from_utf8_lossy(&build.stdout);
+    let lines: Vec<&str> = said.lines().filter(|l| l.contains("E0702") || l.contains("did you mean")).collect();
+    assert!(lines.iter().any(|l| l.contains("did you mean `ambient`")), "build said:\n{said}");
+    let viewer_said = printed();
+    for line in lines {
+        assert!(viewer_said.contains(line.trim()), "the viewer did not say {line:?}; it printed:\n{viewer_said}");
+    }
 }
