@@ -385,3 +385,39 @@ fn a_renamed_uniform_in_a_running_viewer_is_refused_as_build_refuses_it() {
         assert!(viewer_said.contains(line.trim()), "the viewer did not say {line:?}; it printed:\n{viewer_said}");
     }
 }
+
+/// The second view's region (the right tile of two, left of the side panel).
+fn second_view(shot: &image::RgbaImage) -> image::RgbaImage {
+    let (w, h) = shot.dimensions();
+    image::imageops::crop_imm(shot, w / 3, h / 8, w / 3, h * 3 / 4).to_image()
+}
+
+/// The crosshair: a click in the axial view, above its centre, moves the coronal view's plane
+/// through the clicked point (further anterior), and the coronal picture changes.
+#[test]
+fn a_click_in_one_slice_view_moves_the_other_through_the_point() {
+    if !window_tools() {
+        return;
+    }
+    let scenes = tempfile::tempdir().unwrap();
+    let scene = scenes.path().join("scene.toml");
+    let slices = "[[volume]]\nname = \"head\"\nrole = \"primary\"\nphantom = \"head\"\ntf = \"grayscale\"\n\n\
+        [[view]]\nname = \"axial\"\nkind = \"slice\"\naxis = \"axial\"\nposition = 0.5\nsize = [256, 256]\n\n\
+        [[view]]\nname = \"coronal\"\nkind = \"slice\"\naxis = \"coronal\"\nposition = 0.5\nsize = [256, 256]\n";
+    std::fs::write(&scene, slices).unwrap();
+    let (_xvfb, display) = start_xvfb();
+    let runtime_dir = tempfile::tempdir().unwrap();
+    let log_path = runtime_dir.path().join("viewer.log");
+    let mut viewer = start_viewer(&scene, &display, runtime_dir.path(), &log_path);
+    let shot = runtime_dir.path().join("shot.png");
+    settled(&display, &shot, Duration::from_secs(90), first_view);
+    let before = settled(&display, &shot, Duration::from_secs(90), second_view);
+    still_running(&mut viewer, &log_path);
+    // A click (no drag) 70 points above the axial view's centre: anterior of the coronal plane.
+    xdotool(&display, &format!("mousemove {} {} sleep 0.3 click 1", 1000 / 6, 620 / 2 - 70));
+    let after = settled(&display, &shot, Duration::from_secs(90), second_view);
+    still_running(&mut viewer, &log_path);
+    let difference = mean_difference(&before, &after);
+    assert!(difference > 1.0, "the coronal view must move to the clicked point (mean difference {difference:.3})");
+    assert!(distinct_colours(&after) > 20, "the moved coronal view is blank");
+}

@@ -758,9 +758,6 @@ fn load_volumes(
             continue;
         }
         let (texture, window, bricks) = upload_volume(gpu, v, &plan, fed, options, notices, progress)?;
-        if plan.window == WindowRule::Automatic {
-            notices.push(automatic_window_notice(name, window));
-        }
         let grid = VolumeGrid {
             name: name.clone(),
             dims: texture.dims,
@@ -860,11 +857,16 @@ fn fallback_notice(name: &str, file: &Path, fallback: &str) -> String {
 }
 
 /// The notice of a window taken from the data's percentiles.
-fn automatic_window_notice(name: &str, window: [f32; 2]) -> String {
+fn automatic_window_notice(name: &str, window: [f32; 2], whole_range: bool) -> String {
     let [lo, hi] = volume::histogram::AUTO_PERCENTILES;
+    let how = if whole_range {
+        "a phantom's whole range".to_string()
+    } else {
+        format!("the {lo}th to {hi}th percentile of its values")
+    };
     format!(
-        "volume `{name}`: automatic window [{:.4}, {:.4}] (the {lo}th to {hi}th percentile of its values); \
-         `window = [LO, HI]` in its [[volume]] table sets another",
+        "volume `{name}`: automatic window [{:.4}, {:.4}] ({how}); `window = [LO, HI]` in its [[volume]] table \
+         sets another",
         window[0], window[1]
     )
 }
@@ -913,7 +915,7 @@ fn load_bricked(
 
 /// Reads a volume the scene keeps in one texture (fed by the application, from its file or
 /// store, or a phantom) into its texture: the texture, its window and, when `plan.ranges`, the
-/// brick ranges of its texels.
+/// brick ranges of its texels. An automatic window is said in a notice.
 fn upload_volume(
     gpu: &Gpu,
     v: &vscene::Volume,
@@ -925,12 +927,21 @@ fn upload_volume(
 ) -> Result<(VolumeTexture, [f32; 2], Option<crate::occupancy::BrickRanges>), RuntimeError> {
     let name = &v.name.name;
     let (fixed, ranges) = (plan.window.known(), plan.ranges);
-    let uploaded = |data: volume::Volume| -> Result<_, RuntimeError> {
+    let uploaded = |data: volume::Volume, notices: &mut Vec<String>| -> Result<_, RuntimeError> {
         let window = plan.window.with_automatic(volume::auto_window(&data));
+        if plan.window == WindowRule::Automatic {
+            notices.push(automatic_window_notice(name, window, data.own_window.is_some()));
+        }
         let bricks = ranges.then(|| crate::occupancy::BrickRanges::new(&data, Some(window)));
         Ok((VolumeTexture::upload(gpu, name, &data, Some(window))?, window, bricks))
     };
     let report = &mut |done, total| progress(name, done, total);
+    let streamed = |loaded: (VolumeTexture, [f32; 2], _), notices: &mut Vec<String>| {
+        if fixed.is_none() {
+            notices.push(automatic_window_notice(name, loaded.1, false));
+        }
+        Ok(loaded)
+    };
     match (&v.source, &v.fallback) {
         (source, _) if let Some(feed) = fed => {
             let path = match source {
@@ -938,22 +949,24 @@ fn upload_volume(
                 VolumeSource::Url(u) => PathBuf::from(&u.value),
                 VolumeSource::Phantom(p) => PathBuf::from(&p.value),
             };
-            VolumeTexture::stream_feed(gpu, name, &path, feed.as_ref(), fixed, ranges, report)
+            streamed(VolumeTexture::stream_feed(gpu, name, &path, feed.as_ref(), fixed, ranges, report)?, notices)
         }
         (VolumeSource::File(file), Some(fallback)) if !file.resolved.exists() => {
             notices.push(fallback_notice(name, &file.resolved, &fallback.value));
-            uploaded(phantom_of(name, &fallback.value, options)?)
+            uploaded(phantom_of(name, &fallback.value, options)?, notices)
         }
         (VolumeSource::Url(url), _) => {
             let store = crate::bricks::zarr::StoreLocation::Url(url.value.clone());
-            uploaded(bricked::zarr_volume(&store, &v.zarr)?)
+            uploaded(bricked::zarr_volume(&store, &v.zarr)?, notices)
         }
         (VolumeSource::File(file), _) if vscene::is_zarr(&file.resolved) => {
             let store = crate::bricks::zarr::StoreLocation::Path(file.resolved.clone());
-            uploaded(bricked::zarr_volume(&store, &v.zarr)?)
+            uploaded(bricked::zarr_volume(&store, &v.zarr)?, notices)
         }
-        (VolumeSource::File(file), _) => VolumeTexture::stream_file(gpu, name, &file.resolved, fixed, ranges, report),
-        (VolumeSource::Phantom(p), _) => uploaded(phantom_of(name, &p.value, options)?),
+        (VolumeSource::File(file), _) => {
+            streamed(VolumeTexture::stream_file(gpu, name, &file.resolved, fixed, ranges, report)?, notices)
+        }
+        (VolumeSource::Phantom(p), _) => uploaded(phantom_of(name, &p.value, options)?, notices),
     }
 }
 

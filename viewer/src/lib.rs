@@ -26,11 +26,13 @@
 //! - [`handles`]: the draggable points of slice views ([`handles::slice_markers`],
 //!   [`handles::grab`], [`handles::drag_to`]).
 //! - [`navigate`]: orbit, pan and zoom of cameras, stepping and turning of slice planes.
+//! - [`crosshair`]: a click in a slice view moves the others through the point; where they cut it.
 //! - [`notices`]: the renderer's notices as the status bar shows them.
 
 pub mod actions;
 mod app;
 pub mod controls;
+pub mod crosshair;
 pub mod handles;
 pub mod inspector;
 pub mod mesh_panel;

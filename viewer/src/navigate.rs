@@ -153,13 +153,14 @@ fn voxel_centre_span(dims: [u32; 3], grid_to_world: Mat4, axis: usize) -> (f32, 
 }
 
 /// What the mouse and the keys do in the views: the keyboard help (F1 or `?`) lists them.
-pub const KEYS: [(&str, &str); 10] = [
+pub const KEYS: [(&str, &str); 11] = [
     ("3D: drag", "orbit"),
     ("3D: right or middle drag", "pan"),
     ("3D: wheel", "zoom"),
     ("slice: wheel, Up/Down, PageUp/PageDown", "step one voxel"),
     ("slice: X / Y / Z", "turn to sagittal / coronal / axial"),
     ("slice: drag a green ring", "move a mesh point (a needle's tip)"),
+    ("slice: click", "move the other slices through the point (crosshair)"),
     ("R", "reset the view's camera or plane to the scene's"),
     ("E", "export the view as `vrsc render` writes it: SCENE-VIEW.png beside the scene"),
     ("F1 or ?", "show or hide these keys"),

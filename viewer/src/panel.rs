@@ -1,6 +1,7 @@
 //! What the window shows: every view (tiled or in tabs) with its frame time and quality, the
 //! status line, and the diagnostics of a broken edit over the last good picture.
 
+use crate::crosshair;
 use crate::handles::{self, HandleDrag, Marker};
 use crate::navigate;
 use crate::side::SidePanel;
@@ -9,6 +10,7 @@ use egui::{Color32, Rect, Sense, Vec2};
 use std::time::Instant;
 use vrs_live::{LiveScene, Quality, ViewFrames, Work};
 use vrs_runtime::SliceAxis;
+use vrs_runtime::geometry::{PatientBox, volume_to_world};
 use vrs_runtime::scene::BrickProgress;
 
 /// How views share the window.
@@ -233,7 +235,14 @@ fn view_cell(
     // A size the device cannot hold keeps the last size and picture (drawn scaled), and says so.
     let refused = (size[0] >= 8 && size[1] >= 8).then(|| live.set_size(index, size).err()).flatten();
     let response = ui.interact(image, ui.scope_id().with(("view", index)), Sense::click_and_drag());
-    let moved = is_slice && drag_handle(ui, live, slot, index, image, &response);
+    let mut moved = is_slice && drag_handle(ui, live, slot, index, image, &response);
+    if is_slice
+        && slot.drag.is_none()
+        && response.clicked_by(egui::PointerButton::Primary)
+        && let Some(at) = response.interact_pointer_pos()
+    {
+        moved |= cross_at(live, index, image_coords(at, image));
+    }
     if handle_input(ui, live, index, &response) || moved {
         slot.frames.input(now);
     }
@@ -249,6 +258,46 @@ fn view_cell(
         }
         (None, None) => {}
     }
+    paint_slice_labels(ui, live, index, image);
+    if is_slice {
+        paint_cuts(ui, live, index, image);
+        let grabbed = slot.drag.as_ref().map(|(drag, _)| drag.uniform.as_str());
+        paint_markers(ui, &handles::slice_markers(live, index), image, grabbed, &response);
+    }
+    if let Some(p) = &slot.probe {
+        let legend = match (&p.error, &p.shown) {
+            (Some(e), _) => e.clone(),
+            (None, Some((_, legend, _))) => legend.clone(),
+            (None, None) => format!("probing `{}`…", p.field),
+        };
+        let at = image.left_bottom() + Vec2::new(4.0, -4.0);
+        let font = egui::FontId::monospace(11.0);
+        ui.painter().text(at, egui::Align2::LEFT_BOTTOM, legend, font, Color32::from_rgb(255, 230, 150));
+    }
+    if response.hovered() && ui.input(|i| i.key_pressed(egui::Key::E)) {
+        slot.exported = Some((now, export(live, index)));
+    }
+    let recent = slot.exported.as_ref().filter(|(at, _)| now.duration_since(*at) < EXPORT_SHOWN);
+    let caption = match (refused, recent) {
+        (Some(e), _) => format!("{} — {e}", slot.name),
+        (None, Some((_, said))) => format!("{} — {said}", slot.name),
+        (None, None) => format!("{} — {}", slot.name, describe(&slot.frames, size)),
+    };
+    let menu = Rect::from_min_max(
+        egui::pos2(cell.max.x - 150.0, cell.min.y),
+        egui::pos2(cell.max.x, cell.min.y + caption_height),
+    );
+    // Clipped to its own cell, left of the probe menu: two views' captions never run together.
+    let caption_area = Rect::from_min_max(cell.min, egui::pos2(menu.left() - 4.0, menu.bottom()));
+    let font = egui::FontId::proportional(13.0);
+    ui.painter_at(caption_area).text(cell.min, egui::Align2::LEFT_TOP, caption, font, Color32::LIGHT_GRAY);
+    ui.scope_builder(egui::UiBuilder::new().max_rect(menu), |ui| probe_menu(ui, live, slot, index));
+    moved
+}
+
+/// The letters of the patient's directions at a slice view's edges and its position in its
+/// corner (nothing for a raycast view).
+fn paint_slice_labels(ui: &egui::Ui, live: &LiveScene, index: usize, image: Rect) {
     if let Some([left, right, top, bottom]) = live.renderer().slice_edge_labels(index) {
         // The patient's directions at the image's edges (radiological or neurological).
         let font = egui::FontId::proportional(15.0);
@@ -273,36 +322,6 @@ fn view_cell(
         let font = egui::FontId::proportional(13.0);
         ui.painter().text(at, egui::Align2::RIGHT_BOTTOM, position, font, Color32::from_rgb(120, 220, 255));
     }
-    if is_slice {
-        let grabbed = slot.drag.as_ref().map(|(drag, _)| drag.uniform.as_str());
-        paint_markers(ui, &handles::slice_markers(live, index), image, grabbed, &response);
-    }
-    if let Some(p) = &slot.probe {
-        let legend = match (&p.error, &p.shown) {
-            (Some(e), _) => e.clone(),
-            (None, Some((_, legend, _))) => legend.clone(),
-            (None, None) => format!("probing `{}`…", p.field),
-        };
-        let at = image.left_bottom() + Vec2::new(4.0, -4.0);
-        let font = egui::FontId::monospace(11.0);
-        ui.painter().text(at, egui::Align2::LEFT_BOTTOM, legend, font, Color32::from_rgb(255, 230, 150));
-    }
-    if response.hovered() && ui.input(|i| i.key_pressed(egui::Key::E)) {
-        slot.exported = Some((now, export(live, index)));
-    }
-    let recent = slot.exported.as_ref().filter(|(at, _)| now.duration_since(*at) < EXPORT_SHOWN);
-    let caption = match (refused, recent) {
-        (Some(e), _) => format!("{} — {e}", slot.name),
-        (None, Some((_, said))) => format!("{} — {said}", slot.name),
-        (None, None) => format!("{} — {}", slot.name, describe(&slot.frames, size)),
-    };
-    ui.painter().text(cell.min, egui::Align2::LEFT_TOP, caption, egui::FontId::proportional(13.0), Color32::LIGHT_GRAY);
-    let menu = Rect::from_min_max(
-        egui::pos2(cell.max.x - 150.0, cell.min.y),
-        egui::pos2(cell.max.x, cell.min.y + caption_height),
-    );
-    ui.scope_builder(egui::UiBuilder::new().max_rect(menu), |ui| probe_menu(ui, live, slot, index));
-    moved
 }
 
 /// How long a view's caption says where its export went.
@@ -321,6 +340,57 @@ fn export(live: &mut LiveScene, index: usize) -> String {
     };
     eprintln!("view `{name}`: {said}");
     said
+}
+
+/// The colour of the crosshair: where the other slice views cut a slice view.
+const CROSSHAIR: Color32 = Color32::from_rgba_premultiplied(200, 180, 60, 160);
+
+/// Moves every other slice view's plane through the point under `pixel` of slice view `index`
+/// (the crosshair); whether any moved.
+fn cross_at(live: &mut LiveScene, index: usize, pixel: glam::Vec2) -> bool {
+    let Some(point) = live.renderer().slice_pixel_to_world(index, pixel.to_array()) else { return false };
+    let Some((dims, grid_to_world)) = live.renderer().primary_grid() else { return false };
+    let patient = PatientBox::of(volume_to_world(dims, grid_to_world));
+    let others: Vec<(usize, vrs_runtime::SlicePlane)> =
+        (0..live.renderer().views().len()).filter(|&j| j != index).filter_map(|j| Some((j, live.slice(j)?))).collect();
+    let planes: Vec<_> = others.iter().map(|(_, p)| *p).collect();
+    let moved = crosshair::through(point, &planes, &patient);
+    let mut changed = false;
+    for ((j, before), after) in others.into_iter().zip(moved) {
+        if after != before {
+            live.set_slice(j, after);
+            changed = true;
+        }
+    }
+    changed
+}
+
+/// Lines where the other slice views cut slice view `index`'s image.
+fn paint_cuts(ui: &egui::Ui, live: &LiveScene, index: usize, image: Rect) {
+    let corner = |x: f32, y: f32| live.renderer().slice_pixel_to_world(index, [x, y]);
+    let (Some(top_left), Some(top_right), Some(bottom_left), Some((dims, grid_to_world))) =
+        (corner(0.0, 0.0), corner(1.0, 0.0), corner(0.0, 1.0), live.renderer().primary_grid())
+    else {
+        return;
+    };
+    let patient = PatientBox::of(volume_to_world(dims, grid_to_world));
+    let others: Vec<_> =
+        (0..live.renderer().views().len()).filter(|&j| j != index).filter_map(|j| live.slice(j)).collect();
+    let painter = ui.painter_at(image);
+    let stroke = egui::Stroke::new(1.0, CROSSHAIR);
+    for cut in crosshair::cuts([top_left, top_right, bottom_left], &others, &patient) {
+        let points = match cut {
+            crosshair::Cut::Vertical(x) => {
+                let x = image.left() + x * image.width();
+                [egui::pos2(x, image.top()), egui::pos2(x, image.bottom())]
+            }
+            crosshair::Cut::Horizontal(y) => {
+                let y = image.top() + y * image.height();
+                [egui::pos2(image.left(), y), egui::pos2(image.right(), y)]
+            }
+        };
+        painter.line_segment(points, stroke);
+    }
 }
 
 /// The colour of the markers of mesh points in slice views.
