@@ -301,6 +301,47 @@ fn dragging_the_needle_marker_in_the_axial_view_moves_the_ablation_zone() {
     assert!(along > 28.0 && off(zone_shift) < 12.0, "the zone's fill moves with the needle: {report}");
 }
 
+/// A viewer on `scene` in its own Xvfb, its first view settled: the display, the process, and
+/// where it prints (the temporary folder holds the log and the screenshots).
+struct Running {
+    _xvfb: Killed,
+    display: String,
+    viewer: Killed,
+    dir: tempfile::TempDir,
+}
+
+impl Running {
+    fn settled(scene: &Path) -> Running {
+        let (xvfb, display) = start_xvfb();
+        let dir = tempfile::tempdir().unwrap();
+        let viewer = start_viewer(scene, &display, dir.path(), &dir.path().join("viewer.log"));
+        let mut running = Running { _xvfb: xvfb, display, viewer, dir };
+        running.shot(first_view);
+        running
+    }
+
+    /// The settled picture of `region` (see `settled`), the viewer still running.
+    fn shot(&mut self, region: fn(&image::RgbaImage) -> image::RgbaImage) -> image::RgbaImage {
+        let view = settled(&self.display, &self.dir.path().join("shot.png"), Duration::from_secs(90), region);
+        still_running(&mut self.viewer, &self.dir.path().join("viewer.log"));
+        view
+    }
+
+    /// What the viewer printed so far.
+    fn printed(&self) -> String {
+        std::fs::read_to_string(self.dir.path().join("viewer.log")).unwrap_or_default()
+    }
+}
+
+/// Waits up to a minute for `done`; whether it came.
+fn within_a_minute(done: impl Fn() -> bool) -> bool {
+    let deadline = Instant::now() + Duration::from_secs(60);
+    while !done() && Instant::now() < deadline {
+        std::thread::sleep(Duration::from_millis(300));
+    }
+    done()
+}
+
 /// E over a view exports it beside the scene as `SCENE-VIEW.png`, at the scene's size: the very
 /// pixels `vrsc render` writes for the same scene.
 #[test]
@@ -312,29 +353,19 @@ fn e_over_a_view_exports_what_vrsc_render_writes() {
     let example: PathBuf = [env!("CARGO_MANIFEST_DIR"), "..", "examples", "basic", "scene.toml"].iter().collect();
     let scene = scenes.path().join("scene.toml");
     std::fs::copy(&example, &scene).unwrap();
-    let (_xvfb, display) = start_xvfb();
-    let runtime_dir = tempfile::tempdir().unwrap();
-    let log_path = runtime_dir.path().join("viewer.log");
-    let mut viewer = start_viewer(&scene, &display, runtime_dir.path(), &log_path);
-    let shot = runtime_dir.path().join("shot.png");
-    settled(&display, &shot, Duration::from_secs(90), first_view);
-    still_running(&mut viewer, &log_path);
+    let viewer = Running::settled(&scene);
     // Over the first view (the 3D one), press E (with the keyboard's focus on the window: no
     // window manager gives it).
-    xdotool(&display, "search --name vrsc windowfocus");
-    xdotool(&display, &format!("mousemove {} {} sleep 0.3 key e", 1000 / 6, 620 / 2));
+    xdotool(&viewer.display, "search --name vrsc windowfocus");
+    xdotool(&viewer.display, &format!("mousemove {} {} sleep 0.3 key e", 1000 / 6, 620 / 2));
     let exported = scenes.path().join("scene-3d.png");
-    let deadline = Instant::now() + Duration::from_secs(60);
-    while !exported.exists() && Instant::now() < deadline {
-        std::thread::sleep(Duration::from_millis(300));
-    }
-    let printed = || std::fs::read_to_string(&log_path).unwrap_or_default();
-    assert!(exported.exists(), "no {} after E; the viewer printed:\n{}", exported.display(), printed());
+    let written = within_a_minute(|| exported.exists());
+    assert!(written, "no {} after E; the viewer printed:\n{}", exported.display(), viewer.printed());
     std::thread::sleep(Duration::from_millis(500));
     let out = scenes.path().join("rendered");
     let rendered = Command::new(env!("CARGO_BIN_EXE_vrsc"))
         .args(["render", &scene.display().to_string(), "-o", &out.display().to_string(), "--software"])
-        .env("XDG_RUNTIME_DIR", runtime_dir.path())
+        .env("XDG_RUNTIME_DIR", viewer.dir.path())
         .output()
         .unwrap();
     assert!(rendered.status.success(), "vrsc render: {}", String::from_utf8_lossy(&rendered.stderr));
@@ -357,30 +388,20 @@ fn a_renamed_uniform_in_a_running_viewer_is_refused_as_build_refuses_it() {
     let text = std::fs::read_to_string(example).unwrap() + "\n[uniforms]\nambient = 0.3\n";
     let scene = scenes.path().join("scene.toml");
     std::fs::write(&scene, &text).unwrap();
-    let (_xvfb, display) = start_xvfb();
-    let runtime_dir = tempfile::tempdir().unwrap();
-    let log_path = runtime_dir.path().join("viewer.log");
-    let mut viewer = start_viewer(&scene, &display, runtime_dir.path(), &log_path);
-    let shot = runtime_dir.path().join("shot.png");
-    settled(&display, &shot, Duration::from_secs(90), first_view);
-    still_running(&mut viewer, &log_path);
+    let mut viewer = Running::settled(&scene);
     std::fs::write(&scene, text.replace("ambient = 0.3", "ambeint = 0.3")).unwrap();
-    let printed = || std::fs::read_to_string(&log_path).unwrap_or_default();
-    let deadline = Instant::now() + Duration::from_secs(60);
-    while !printed().contains("E0702") && Instant::now() < deadline {
-        std::thread::sleep(Duration::from_millis(300));
-    }
-    still_running(&mut viewer, &log_path);
+    within_a_minute(|| viewer.printed().contains("E0702"));
+    still_running(&mut viewer.viewer, &viewer.dir.path().join("viewer.log"));
     let build = Command::new(env!("CARGO_BIN_EXE_vrsc"))
         .args(["build", &scene.display().to_string(), "--color", "never", "-o"])
-        .arg(runtime_dir.path().join("built"))
+        .arg(viewer.dir.path().join("built"))
         .output()
         .unwrap();
     assert!(!build.status.success(), "build refuses the renamed uniform");
     let said = String::from_utf8_lossy(&build.stderr).into_owned() + &String::from_utf8_lossy(&build.stdout);
     let lines: Vec<&str> = said.lines().filter(|l| l.contains("E0702") || l.contains("did you mean")).collect();
     assert!(lines.iter().any(|l| l.contains("did you mean `ambient`")), "build said:\n{said}");
-    let viewer_said = printed();
+    let viewer_said = viewer.printed();
     for line in lines {
         assert!(viewer_said.contains(line.trim()), "the viewer did not say {line:?}; it printed:\n{viewer_said}");
     }
@@ -405,18 +426,11 @@ fn a_click_in_one_slice_view_moves_the_other_through_the_point() {
         [[view]]\nname = \"axial\"\nkind = \"slice\"\naxis = \"axial\"\nposition = 0.5\nsize = [256, 256]\n\n\
         [[view]]\nname = \"coronal\"\nkind = \"slice\"\naxis = \"coronal\"\nposition = 0.5\nsize = [256, 256]\n";
     std::fs::write(&scene, slices).unwrap();
-    let (_xvfb, display) = start_xvfb();
-    let runtime_dir = tempfile::tempdir().unwrap();
-    let log_path = runtime_dir.path().join("viewer.log");
-    let mut viewer = start_viewer(&scene, &display, runtime_dir.path(), &log_path);
-    let shot = runtime_dir.path().join("shot.png");
-    settled(&display, &shot, Duration::from_secs(90), first_view);
-    let before = settled(&display, &shot, Duration::from_secs(90), second_view);
-    still_running(&mut viewer, &log_path);
+    let mut viewer = Running::settled(&scene);
+    let before = viewer.shot(second_view);
     // A click (no drag) 70 points above the axial view's centre: anterior of the coronal plane.
-    xdotool(&display, &format!("mousemove {} {} sleep 0.3 click 1", 1000 / 6, 620 / 2 - 70));
-    let after = settled(&display, &shot, Duration::from_secs(90), second_view);
-    still_running(&mut viewer, &log_path);
+    xdotool(&viewer.display, &format!("mousemove {} {} sleep 0.3 click 1", 1000 / 6, 620 / 2 - 70));
+    let after = viewer.shot(second_view);
     let difference = mean_difference(&before, &after);
     assert!(difference > 1.0, "the coronal view must move to the clicked point (mean difference {difference:.3})");
     assert!(distinct_colours(&after) > 20, "the moved coronal view is blank");
