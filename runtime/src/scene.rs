@@ -856,7 +856,7 @@ fn fallback_notice(name: &str, file: &Path, fallback: &str) -> String {
     format!("volume `{name}`: `{}` is absent; using the built-in `{fallback}` phantom instead", file.display())
 }
 
-/// The notice of a window taken from the data's percentiles.
+/// The notice of a window taken from the data: its percentiles, or a phantom's whole range.
 fn automatic_window_notice(name: &str, window: [f32; 2], whole_range: bool) -> String {
     let [lo, hi] = volume::histogram::AUTO_PERCENTILES;
     let how = if whole_range {
