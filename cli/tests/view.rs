@@ -435,3 +435,30 @@ fn a_click_in_one_slice_view_moves_the_other_through_the_point() {
     assert!(difference > 1.0, "the coronal view must move to the clicked point (mean difference {difference:.3})");
     assert!(distinct_colours(&after) > 20, "the moved coronal view is blank");
 }
+
+/// Window/level: a right drag across the axial slice (a grey ramp over the phantom) narrows the
+/// window, and the slice's picture changes.
+#[test]
+fn a_right_drag_in_a_slice_view_changes_its_window() {
+    if !window_tools() {
+        return;
+    }
+    let scenes = tempfile::tempdir().unwrap();
+    let scene = scenes.path().join("scene.toml");
+    let axial = "[[volume]]\nname = \"head\"\nrole = \"primary\"\nphantom = \"head\"\ntf = \"grayscale\"\n\n\
+        [[view]]\nname = \"axial\"\nkind = \"slice\"\naxis = \"axial\"\nposition = 0.5\nsize = [256, 256]\n";
+    std::fs::write(&scene, axial).unwrap();
+    let mut viewer = Running::settled(&scene);
+    let before = viewer.shot(whole);
+    let (x, y) = (300, 310);
+    let drag = format!(
+        "mousemove {x} {y} mousedown 3 sleep 0.4 mousemove {} {y} sleep 0.4 mousemove {} {} sleep 0.4 mouseup 3",
+        x - 60,
+        x - 120,
+        y - 20
+    );
+    xdotool(&viewer.display, &drag);
+    let after = viewer.shot(whole);
+    let difference = mean_difference(&before, &after);
+    assert!(difference > 1.0, "window/level must change the slice (mean difference {difference:.3})");
+}

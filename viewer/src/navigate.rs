@@ -152,8 +152,15 @@ fn voxel_centre_span(dims: [u32; 3], grid_to_world: Mat4, axis: usize) -> (f32, 
         .fold((f32::MAX, f32::MIN), |(lo, hi), c| (lo.min(c), hi.max(c)))
 }
 
+/// The window/level change of a drag of `drag` points in a slice view of `height` points over
+/// a transfer function `width` data units wide: the level's shift (down raises it; the view's
+/// height is one width) and the width's scale (right widens it, doubling every 200 points).
+pub fn window_level_change(drag: Vec2, height: f32, width: f32) -> (f32, f32) {
+    (drag.y / height.max(1.0) * width, (drag.x / 200.0).exp2())
+}
+
 /// What the mouse and the keys do in the views: the keyboard help (F1 or `?`) lists them.
-pub const KEYS: [(&str, &str); 11] = [
+pub const KEYS: [(&str, &str); 12] = [
     ("3D: drag", "orbit"),
     ("3D: right or middle drag", "pan"),
     ("3D: wheel", "zoom"),
@@ -161,6 +168,7 @@ pub const KEYS: [(&str, &str); 11] = [
     ("slice: X / Y / Z", "turn to sagittal / coronal / axial"),
     ("slice: drag a green ring", "move a mesh point (a needle's tip)"),
     ("slice: click", "move the other slices through the point (crosshair)"),
+    ("slice: right drag", "window (across) and level (up and down) of the primary volume"),
     ("R", "reset the view's camera or plane to the scene's"),
     ("E", "export the view as `vrsc render` writes it: SCENE-VIEW.png beside the scene"),
     ("F1 or ?", "show or hide these keys"),
@@ -301,5 +309,13 @@ mod tests {
         let s = step_slice(SlicePlane::new(SliceAxis::Z, 0.5), 0, dims, tilted);
         let moved = moved_mm(&s, &step_slice(s, 1, dims, tilted), dims, tilted);
         assert!((moved - 4.0).abs() < 0.3, "moved {moved} mm");
+    }
+
+    #[test]
+    fn a_right_drag_across_scales_the_width_and_down_moves_the_level() {
+        let (shift, scale) = window_level_change(Vec2::new(200.0, 0.0), 400.0, 1000.0);
+        assert_eq!((shift, scale), (0.0, 2.0), "200 points right double the width");
+        let (shift, scale) = window_level_change(Vec2::new(-200.0, 100.0), 400.0, 1000.0);
+        assert_eq!((shift, scale), (250.0, 0.5), "a quarter of the height down: a quarter width up");
     }
 }

@@ -324,6 +324,21 @@ fn paint_slice_labels(ui: &egui::Ui, live: &LiveScene, index: usize, image: Rect
     }
 }
 
+/// Window/level by a right (or middle) drag in a slice view, as in 3D Slicer's window/level
+/// mode: across widens (right) or narrows (left) the primary volume's transfer function, down
+/// raises its level (a drag over the view's height moves it by its width). The transfer function
+/// is the volume's, so every view of the volume follows. Whether it changed.
+fn window_level(live: &mut LiveScene, drag: glam::Vec2, height: f32) -> bool {
+    let Some(primary) = live.renderer().volumes().into_iter().next() else { return false };
+    let (name, window) = (primary.name.to_string(), primary.window);
+    let Some(curve) = primary.curve.cloned().or_else(|| vrs_runtime::tf::preset_curve("grayscale").ok()) else {
+        return false;
+    };
+    let width = window[1] - window[0];
+    let (shift, scale) = navigate::window_level_change(drag, height, width);
+    live.set_tf_curve(&name, curve.window_levelled(window, shift, scale)).is_ok()
+}
+
 /// How long a view's caption says where its export went.
 const EXPORT_SHOWN: std::time::Duration = std::time::Duration::from_secs(6);
 
@@ -568,6 +583,10 @@ fn handle_input(ui: &egui::Ui, live: &mut LiveScene, index: usize, response: &eg
         }
         if steps != 0 {
             next = navigate::step_slice(next, steps, dims, grid_to_world);
+        }
+        if response.dragged_by(egui::PointerButton::Secondary) || response.dragged_by(egui::PointerButton::Middle) {
+            let delta = response.drag_delta();
+            changed |= window_level(live, glam::Vec2::new(delta.x, delta.y), response.rect.height());
         }
         if next != plane {
             live.set_slice(index, next);

@@ -44,6 +44,28 @@ impl TfCurve {
         }
     }
 
+    /// The curve in data units (placed on `window` if window-relative, as [`in_data_units`]
+    /// does) with its level (the middle of its domain) moved by `level_shift` data units and its
+    /// width (the domain's length) scaled by `width_scale` around the level: what dragging
+    /// window/level in a slice view does (3D Slicer's window/level mode). Every point keeps its
+    /// place relative to the domain, so a grey ramp stays a ramp over the new window.
+    ///
+    /// [`in_data_units`]: TfCurve::in_data_units
+    pub fn window_levelled(&self, window: [f32; 2], level_shift: f32, width_scale: f32) -> TfCurve {
+        let curve = self.in_data_units(window);
+        let TfDomain::Data([lo, hi]) = curve.domain else { return curve };
+        let (level, width) = (0.5 * (lo + hi), hi - lo);
+        let new_width = (width * width_scale).max(width.abs() * 1e-3).max(f32::MIN_POSITIVE);
+        let new_level = level + level_shift;
+        let at = |x: f32| new_level + (x - level) * new_width / width;
+        TfCurve {
+            name: curve.name.clone(),
+            color: curve.color.iter().map(|&(x, c)| (at(x), c)).collect(),
+            opacity: curve.opacity.iter().map(|&(x, a)| (at(x), a)).collect(),
+            domain: TfDomain::Data([at(lo), at(hi)]),
+        }
+    }
+
     /// The curve as a ParaView colormap (the JSON of `File > Export` in ParaView's colour map
     /// editor) in data units; `window` places a window-relative curve. Points are added at the
     /// domain's ends with the values held there, so the colormap spans the same domain and
@@ -108,7 +130,7 @@ fn numbers(values: &[f32]) -> Value {
 
 #[cfg(test)]
 mod tests {
-    use super::super::{PRESETS, TF_WIDTH, parse_paraview, preset, preset_curve};
+    use super::super::{PRESETS, TF_WIDTH, TfDomain, parse_paraview, preset, preset_curve};
     use super::*;
 
     fn max_difference(a: &TransferFunction, b: &TransferFunction) -> f32 {
@@ -165,5 +187,20 @@ mod tests {
         assert_eq!(rgb[0].as_f64(), Some(-1024.0), "the domain's low end, in Hounsfield units");
         assert_eq!(map["Points"].as_array().unwrap().len() % 4, 0);
         assert_eq!(TF_WIDTH, 1024);
+    }
+
+    #[test]
+    fn window_level_moves_and_scales_the_domain_around_its_middle() {
+        let grey = preset_curve("grayscale").unwrap();
+        // Over a window of [0, 100]: level 50, width 100; level +10 and half the width.
+        let levelled = grey.window_levelled([0.0, 100.0], 10.0, 0.5);
+        assert_eq!(levelled.domain, TfDomain::Data([35.0, 85.0]));
+        let table = levelled.table().over_window([0.0, 100.0]);
+        let at = |v: f32| table.sample(v / 100.0)[0];
+        assert!(at(30.0) < 1e-3 && at(90.0) > 0.999, "black below the window, white above");
+        assert!((at(60.0) - 0.5).abs() < 0.01, "grey at the level: {}", at(60.0));
+        // Twice: the moves add up, the scales multiply.
+        let again = levelled.window_levelled([0.0, 100.0], -10.0, 2.0);
+        assert_eq!(again.domain, TfDomain::Data([0.0, 100.0]));
     }
 }
