@@ -53,7 +53,8 @@ pub fn show(ui: &mut egui::Ui, state: &mut TfEditorState, volumes: &[EditedVolum
     let mut curve = volume.curve.clone();
     let mut changed = false;
     ui.horizontal(|ui| {
-        egui::ComboBox::from_label("preset").selected_text("choose…").show_ui(ui, |ui| {
+        // The curve's own name: a preset's, a colormap file's, or an edited curve's origin.
+        egui::ComboBox::from_label("preset").selected_text(curve.name.clone()).show_ui(ui, |ui| {
             for &preset in PRESETS {
                 if ui.selectable_label(curve.name == preset, preset).clicked()
                     && let Ok(p) = preset_curve(preset)
@@ -118,6 +119,10 @@ fn canvas(ui: &mut egui::Ui, volume: &EditedVolume, curve: &mut TfCurve) -> bool
     histogram(&painter, rect, &volume.histogram);
     let table = curve.table().over_window(volume.window);
     let bar = Rect::from_min_size(rect.left_bottom() + Vec2::new(0.0, 2.0), Vec2::new(rect.width(), 8.0));
+    // The colour bar and the value axis lie under the canvas: a painter of their own (the
+    // canvas's clips them).
+    let below = Rect::from_min_max(bar.left_top() - Vec2::new(24.0, 0.0), bar.right_bottom() + Vec2::new(24.0, 16.0));
+    let axis_painter = ui.painter_at(below);
     let steps = 128;
     for i in 0..steps {
         let entry = table.sample((i as f32 + 0.5) / steps as f32);
@@ -127,9 +132,16 @@ fn canvas(ui: &mut egui::Ui, volume: &EditedVolume, curve: &mut TfCurve) -> bool
             Pos2::new(x0, bar.top()),
             Pos2::new(x0 + bar.width() / steps as f32 + 0.5, bar.bottom()),
         );
-        painter.rect_filled(cell, 0.0, Color32::from_rgb(r, g, b));
+        axis_painter.rect_filled(cell, 0.0, Color32::from_rgb(r, g, b));
     }
-    ui.add_space(12.0);
+    // The value axis under the colour bar, in the volume's data units.
+    let font = egui::FontId::proportional(10.0);
+    for value in nice_ticks(volume.window, 6) {
+        let tick = [Pos2::new(axes.x(value), bar.bottom()), Pos2::new(axes.x(value), bar.bottom() + 3.0)];
+        axis_painter.line_segment(tick, (1.0, Color32::GRAY));
+        axis_painter.text(tick[1], egui::Align2::CENTER_TOP, tick_text(value), font.clone(), Color32::GRAY);
+    }
+    ui.add_space(24.0);
     let line: Vec<Pos2> = (0..table.rgba.len())
         .step_by(4)
         .map(|i| {
@@ -185,6 +197,27 @@ fn histogram(painter: &egui::Painter, rect: Rect, bins: &[u64]) {
         let bar = Rect::from_min_max(Pos2::new(x, rect.bottom() - h), Pos2::new(x + width, rect.bottom()));
         painter.rect_filled(bar, 0.0, Color32::from_gray(70));
     }
+}
+
+/// At most `most` round values (1, 2 or 5 times a power of ten apart) within `[lo, hi]`, for
+/// the value axis.
+pub fn nice_ticks([lo, hi]: [f32; 2], most: usize) -> Vec<f32> {
+    let span = hi - lo;
+    if !(span.is_finite() && span > 0.0) || most == 0 {
+        return Vec::new();
+    }
+    let rough = span / most as f32;
+    let power = 10f32.powf(rough.log10().floor());
+    let step =
+        [1.0, 2.0, 5.0, 10.0].into_iter().map(|m| m * power).find(|&s| span / s <= most as f32).unwrap_or(10.0 * power);
+    let first = (lo / step).ceil() as i64;
+    let last = (hi / step).floor() as i64;
+    (first..=last).map(|k| k as f32 * step).collect()
+}
+
+/// A tick's label: no decimals where the value is whole.
+fn tick_text(value: f32) -> String {
+    if value.fract() == 0.0 { format!("{value:.0}") } else { format!("{value}") }
 }
 
 /// The colour stops as rows: value, colour, delete; and a button adding one.

@@ -175,6 +175,13 @@ fn the_transfer_function_editor_adds_a_colour_stop_and_resets() {
     );
     harness.run();
     harness.get_by_label("ct_bone over [-1024, 3071]");
+    // The preset menu names the curve in use (it said "choose…").
+    let menu = harness.get_by_label("preset");
+    let shown = format!("{:?} {:?}", menu.accesskit_node().value(), menu.accesskit_node().label());
+    assert!(shown.contains("ct_bone"), "the preset menu shows `ct_bone`: {shown}");
+    assert_eq!(tf_editor::nice_ticks([-1024.0, 3071.0], 6), [-1000.0, 0.0, 1000.0, 2000.0, 3000.0]);
+    assert_eq!(tf_editor::nice_ticks([0.0, 1.0], 6), [0.0, 0.2, 0.4, 0.6, 0.8, 1.0]);
+    assert!(tf_editor::nice_ticks([5.0, 5.0], 6).is_empty());
     harness.get_by_label("+ colour stop").click();
     harness.run();
     let added = harness.state().1.iter().find_map(|a| match a {
