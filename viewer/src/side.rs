@@ -28,8 +28,8 @@ pub struct SidePanel {
     inspected: usize,
     /// The annotated WGSL, by the structural hash of the shader it explains.
     explained: Option<(String, Result<String, String>)>,
-    /// What the last action did, for the panel.
-    pub message: String,
+    /// What the last action did, and the tab it was done in (where it is shown).
+    message: (Tab, String),
     /// List every uniform, not only the editable ones.
     show_all: bool,
 }
@@ -43,7 +43,7 @@ impl Default for SidePanel {
             inspector: InspectorState::default(),
             inspected: 0,
             explained: None,
-            message: String::new(),
+            message: (Tab::Parameters, String::new()),
             show_all: false,
         }
     }
@@ -71,16 +71,18 @@ impl SidePanel {
                 ui.selectable_value(&mut self.tab, Tab::Inspector, "Inspector");
             });
             ui.separator();
+            // The last action's message belongs to the tab it came from.
+            let message = if self.message.0 == self.tab { self.message.1.as_str() } else { "" };
             todo = match self.tab {
-                Tab::Parameters => params::show(ui, &parameter_groups(live), &mut self.show_all, &self.message),
+                Tab::Parameters => params::show(ui, &parameter_groups(live), &mut self.show_all, message),
                 Tab::TransferFunctions => {
                     let volumes = edited_volumes(live);
                     let scene = live.renderer().path().to_path_buf();
                     let actions = tf_editor::show(ui, &mut self.tf, &volumes, &scene);
-                    ui.weak(&self.message);
+                    ui.weak(message);
                     actions
                 }
-                Tab::Meshes => mesh_panel::show(ui, &meshes, &self.message),
+                Tab::Meshes => mesh_panel::show(ui, &meshes, message),
                 Tab::Inspector => {
                     self.show_inspector(ui, live);
                     Vec::new()
@@ -91,7 +93,7 @@ impl SidePanel {
         for action in todo {
             match actions::apply(live, action) {
                 Ok(message) if message.is_empty() => {}
-                Ok(message) | Err(message) => self.message = message,
+                Ok(message) | Err(message) => self.message = (self.tab, message),
             }
         }
         changed
