@@ -413,6 +413,11 @@ fn second_view(shot: &image::RgbaImage) -> image::RgbaImage {
     image::imageops::crop_imm(shot, w / 3, h / 8, w / 3, h * 3 / 4).to_image()
 }
 
+/// The head phantom under a grey ramp in two slice views, axial then coronal.
+const HEAD_SLICES: &str = "[[volume]]\nname = \"head\"\nrole = \"primary\"\nphantom = \"head\"\ntf = \"grayscale\"\n\n\
+    [[view]]\nname = \"axial\"\nkind = \"slice\"\naxis = \"axial\"\nposition = 0.5\nsize = [256, 256]\n\n\
+    [[view]]\nname = \"coronal\"\nkind = \"slice\"\naxis = \"coronal\"\nposition = 0.5\nsize = [256, 256]\n";
+
 /// The crosshair: a click in the axial view, above its centre, moves the coronal view's plane
 /// through the clicked point (further anterior), and the coronal picture changes.
 #[test]
@@ -422,10 +427,7 @@ fn a_click_in_one_slice_view_moves_the_other_through_the_point() {
     }
     let scenes = tempfile::tempdir().unwrap();
     let scene = scenes.path().join("scene.toml");
-    let slices = "[[volume]]\nname = \"head\"\nrole = \"primary\"\nphantom = \"head\"\ntf = \"grayscale\"\n\n\
-        [[view]]\nname = \"axial\"\nkind = \"slice\"\naxis = \"axial\"\nposition = 0.5\nsize = [256, 256]\n\n\
-        [[view]]\nname = \"coronal\"\nkind = \"slice\"\naxis = \"coronal\"\nposition = 0.5\nsize = [256, 256]\n";
-    std::fs::write(&scene, slices).unwrap();
+    std::fs::write(&scene, HEAD_SLICES).unwrap();
     let mut viewer = Running::settled(&scene);
     let before = viewer.shot(second_view);
     // A click (no drag) 70 points above the axial view's centre: anterior of the coronal plane.
@@ -436,8 +438,8 @@ fn a_click_in_one_slice_view_moves_the_other_through_the_point() {
     assert!(distinct_colours(&after) > 20, "the moved coronal view is blank");
 }
 
-/// Window/level: a right drag across the axial slice (a grey ramp over the phantom) narrows the
-/// window, and the slice's picture changes.
+/// Window/level: a right drag across the axial slice (the first view; a grey ramp over the
+/// phantom) narrows the window, and the slices' picture changes.
 #[test]
 fn a_right_drag_in_a_slice_view_changes_its_window() {
     if !window_tools() {
@@ -445,9 +447,7 @@ fn a_right_drag_in_a_slice_view_changes_its_window() {
     }
     let scenes = tempfile::tempdir().unwrap();
     let scene = scenes.path().join("scene.toml");
-    let axial = "[[volume]]\nname = \"head\"\nrole = \"primary\"\nphantom = \"head\"\ntf = \"grayscale\"\n\n\
-        [[view]]\nname = \"axial\"\nkind = \"slice\"\naxis = \"axial\"\nposition = 0.5\nsize = [256, 256]\n";
-    std::fs::write(&scene, axial).unwrap();
+    std::fs::write(&scene, HEAD_SLICES).unwrap();
     let mut viewer = Running::settled(&scene);
     let before = viewer.shot(whole);
     let (x, y) = (300, 310);

@@ -937,7 +937,7 @@ fn upload_volume(
     };
     let report = &mut |done, total| progress(name, done, total);
     let streamed = |loaded: (VolumeTexture, [f32; 2], _), notices: &mut Vec<String>| {
-        if fixed.is_none() {
+        if plan.window == WindowRule::Automatic {
             notices.push(automatic_window_notice(name, loaded.1, false));
         }
         Ok(loaded)

@@ -33,8 +33,8 @@ pub(crate) const TF_WIDTH: u32 = 1024;
 
 /// The centre of texel `i` of a table of `n` texels, `(i + 0.5) / n`: where a linear sampler
 /// reads that entry alone.
-pub(crate) fn texel_centre(i: u32, n: u32) -> f64 {
-    (f64::from(i) + 0.5) / f64::from(n)
+pub(crate) fn texel_centre(i: usize, n: usize) -> f64 {
+    (i as f64 + 0.5) / n as f64
 }
 
 /// The normalized value a transfer function's entry `i` is made from: its texel's centre, where
@@ -49,14 +49,14 @@ pub(crate) fn entry_value(i: u32) -> f32 {
     match i {
         0 => 0.0,
         i if i + 1 >= TF_WIDTH => 1.0,
-        i => texel_centre(i, TF_WIDTH) as f32,
+        i => texel_centre(i as usize, TF_WIDTH as usize) as f32,
     }
 }
 
 /// What a linear sampler reads from `rows` (texel-centred entries, see [`texel_centre`]) at the
 /// normalized value `x`: the two nearest entries blended, the end entries held beyond their
 /// centres.
-pub(crate) fn sample_rows<const N: usize>(rows: &[[f32; N]], x: f32) -> [f32; N] {
+pub(crate) fn sample_rows(rows: &[[f32; 4]], x: f32) -> [f32; 4] {
     let last = rows.len().saturating_sub(1);
     let at = (x * rows.len() as f32 - 0.5).clamp(0.0, last as f32);
     let below = (at.floor() as usize).min(last.saturating_sub(1));

@@ -132,9 +132,8 @@ pub fn widened(control: Control, values: &[&vrs_runtime::Value]) -> (Control, Op
     let component = |i: usize| values.iter().filter_map(move |v| component_value(v, i));
     let widen = |(lo, hi): (f64, f64), i: usize| component(i).fold((lo, hi), |(lo, hi), x| (lo.min(x), hi.max(x)));
     let note = |declared: &[(f64, f64)], now: &[(f64, f64)]| {
-        let beyond: Vec<String> =
+        let mut ranges: Vec<String> =
             declared.iter().zip(now).filter(|(d, n)| d != n).map(|(&(lo, hi), _)| format!("{lo} .. {hi}")).collect();
-        let mut ranges = beyond;
         ranges.dedup();
         (!ranges.is_empty()).then(|| {
             format!("a value lies beyond the declared range {}: the slider is widened to show it", ranges.join(", "))

@@ -363,15 +363,15 @@ const CROSSHAIR: Color32 = Color32::from_rgba_premultiplied(200, 180, 60, 160);
 /// Moves every other slice view's plane through the point under `pixel` of slice view `index`
 /// (the crosshair); whether any moved.
 fn cross_at(live: &mut LiveScene, index: usize, pixel: glam::Vec2) -> bool {
-    let Some(point) = live.renderer().slice_pixel_to_world(index, pixel.to_array()) else { return false };
-    let Some((dims, grid_to_world)) = live.renderer().primary_grid() else { return false };
-    let patient = PatientBox::of(volume_to_world(dims, grid_to_world));
-    let others: Vec<(usize, vrs_runtime::SlicePlane)> =
-        (0..live.renderer().views().len()).filter(|&j| j != index).filter_map(|j| Some((j, live.slice(j)?))).collect();
+    let (Some(point), Some(patient)) =
+        (live.renderer().slice_pixel_to_world(index, pixel.to_array()), primary_box(live))
+    else {
+        return false;
+    };
+    let others = other_slices(live, index);
     let planes: Vec<_> = others.iter().map(|(_, p)| *p).collect();
-    let moved = crosshair::through(point, &planes, &patient);
     let mut changed = false;
-    for ((j, before), after) in others.into_iter().zip(moved) {
+    for ((j, before), after) in others.into_iter().zip(crosshair::through(point, &planes, &patient)) {
         if after != before {
             live.set_slice(j, after);
             changed = true;
@@ -380,17 +380,26 @@ fn cross_at(live: &mut LiveScene, index: usize, pixel: glam::Vec2) -> bool {
     changed
 }
 
+/// The planes of the slice views other than view `index`, with their view indices.
+fn other_slices(live: &LiveScene, index: usize) -> Vec<(usize, vrs_runtime::SlicePlane)> {
+    (0..live.renderer().views().len()).filter(|&j| j != index).filter_map(|j| Some((j, live.slice(j)?))).collect()
+}
+
+/// The primary volume's box in patient space, which slice planes are placed in.
+fn primary_box(live: &LiveScene) -> Option<PatientBox> {
+    let (dims, grid_to_world) = live.renderer().primary_grid()?;
+    Some(PatientBox::of(volume_to_world(dims, grid_to_world)))
+}
+
 /// Lines where the other slice views cut slice view `index`'s image.
 fn paint_cuts(ui: &egui::Ui, live: &LiveScene, index: usize, image: Rect) {
     let corner = |x: f32, y: f32| live.renderer().slice_pixel_to_world(index, [x, y]);
-    let (Some(top_left), Some(top_right), Some(bottom_left), Some((dims, grid_to_world))) =
-        (corner(0.0, 0.0), corner(1.0, 0.0), corner(0.0, 1.0), live.renderer().primary_grid())
+    let (Some(top_left), Some(top_right), Some(bottom_left), Some(patient)) =
+        (corner(0.0, 0.0), corner(1.0, 0.0), corner(0.0, 1.0), primary_box(live))
     else {
         return;
     };
-    let patient = PatientBox::of(volume_to_world(dims, grid_to_world));
-    let others: Vec<_> =
-        (0..live.renderer().views().len()).filter(|&j| j != index).filter_map(|j| live.slice(j)).collect();
+    let others: Vec<_> = other_slices(live, index).into_iter().map(|(_, plane)| plane).collect();
     let painter = ui.painter_at(image);
     let stroke = egui::Stroke::new(1.0, CROSSHAIR);
     for cut in crosshair::cuts([top_left, top_right, bottom_left], &others, &patient) {

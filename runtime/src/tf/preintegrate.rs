@@ -32,7 +32,7 @@
 //! samples, also across a one-entry spike, where interpolating `tau` between entries instead of
 //! `a` would overestimate the extinction by up to half.
 
-use super::TransferFunction;
+use super::{TransferFunction, texel_centre};
 
 /// The side of a [`PreintegratedTable`] unless the caller picks another.
 pub(crate) const DEFAULT_SIZE: u32 = 256;
@@ -58,7 +58,7 @@ pub(crate) const POINT_SEGMENT: f64 = 1e-6;
 ///
 /// Entry `(x, y)` (column `x`, row `y`, stored at `rgba[y * size + x]`) classifies the segment
 /// from the front value `sf = (x + 0.5) / size` to the back value `sb = (y + 0.5) / size`
-/// ([`entry_value`]: each entry stands for the value at its texel's centre, so a shader reads
+/// ([`texel_centre`]: each entry stands for the value at its texel's centre, so a shader reads
 /// the segment `(sf, sb)` at the texture coordinate `(sf, sb)` itself), as `[r, g, b, tau]`: `rgb_mean` (straight colour, in [0, 1]) and `tau_mean`,
 /// the mean extinction per reference step, which is not clamped: it is at least 0 and can
 /// exceed 1 (up to about 13.8, see [`MAX_OPACITY`]), which a float texture holds. The diagonal
@@ -70,11 +70,6 @@ pub(crate) struct PreintegratedTable {
     pub size: u32,
     /// `size * size` entries `[r_mean, g_mean, b_mean, tau_mean]`, row by row (rows: back value).
     pub rgba: Vec<[f32; 4]>,
-}
-
-/// The value entry `i` of a table of `size` entries per side stands for: its texel's centre.
-pub(crate) fn entry_value(i: u32, size: u32) -> f64 {
-    crate::tf::texel_centre(i, size)
 }
 
 impl PreintegratedTable {
@@ -93,7 +88,7 @@ impl PreintegratedTable {
         assert!(size >= 2, "a pre-integrated table needs at least 2 entries per side, not {size}");
         let integrals = Integrals::new(tf);
         let n = size as usize;
-        let values: Vec<f64> = (0..size).map(|i| entry_value(i, size)).collect();
+        let values: Vec<f64> = (0..n).map(|i| texel_centre(i, n)).collect();
         let prefix: Vec<[f64; 4]> = values.iter().map(|&v| integrals.prefix_at(v)).collect();
         let points: Vec<[f64; 4]> = values.iter().map(|&v| integrals.point(v)).collect();
         let mut rgba = Vec::with_capacity(n * n);
@@ -270,10 +265,6 @@ fn held([r, g, b, a]: [f64; 4], v: f64) -> [f64; 4] {
     [tau * v, tau * r * v, tau * g * v, tau * b * v]
 }
 
-fn texel_centre(i: usize, n: usize) -> f64 {
-    crate::tf::texel_centre(i as u32, n as u32)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -350,7 +341,7 @@ mod tests {
             for size in [256, 100, 1500] {
                 let table = PreintegratedTable::with_size(tf, size);
                 for i in 0..size {
-                    let point = lookup(tf, entry_value(i, size));
+                    let point = lookup(tf, texel_centre(i as usize, size as usize));
                     let expected = [point[0], point[1], point[2], extinction(point[3])];
                     let e = table.entry(i, i);
                     assert!(
@@ -417,7 +408,7 @@ mod tests {
             // One colour: premultiplied, it is that colour times the opacity.
             assert!((r - alpha).abs() < 1e-6 && (g - 0.5 * alpha).abs() < 1e-6 && (b - 0.25 * alpha).abs() < 1e-6);
             // The table's corner is the segment between its entries' values, either way round.
-            let (first, last) = (entry_value(0, 256) as f32, entry_value(255, 256) as f32);
+            let (first, last) = (texel_centre(0, 256) as f32, texel_centre(255, 256) as f32);
             let between = segment(&tf, first, last, steps_ratio as f32)[3];
             for (front, back) in [(0, 255), (255, 0)] {
                 let corner = premultiplied(table.entry(front, back), steps_ratio as f32);
@@ -506,7 +497,7 @@ mod tests {
                 if front == back {
                     continue;
                 }
-                let value = |i| entry_value(i, size) as f32;
+                let value = |i: u32| texel_centre(i as usize, size as usize) as f32;
                 let expected = segment(&tf, value(front), value(back), 0.5);
                 let got = premultiplied(table.entry(front, back), 0.5);
                 assert!(
