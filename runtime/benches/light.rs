@@ -3,8 +3,8 @@
 //! tone mapping over plain shaded DVR (target 1.15x at most), shadows from light volumes over
 //! the shaded frame at a preview resolution (target 2x at most; the light-volume pass, which
 //! runs once when the light or the transfer function changes, timed on its own), shadow rays
-//! (the reference), pre-integration over point sampling at the same step, and ambient
-//! occlusion over the shaded frame.
+//! (the reference), pre-integration over point sampling at the same step, pre-integrated
+//! lighting over pre-integrated classification, and ambient occlusion over the shaded frame.
 //!
 //! The volume is the MNI152 T1 of `../shared/data` when it is there, else the built-in head
 //! phantom (said in the output). Run: `cargo bench -p vrs-runtime --bench light`; settings:
@@ -63,6 +63,7 @@ fn main() {
         ("unshaded + HDR (Reinhard)", "shading = false, tone_mapping = \"reinhard\""),
         ("unshaded + HDR, automatic exposure", "shading = false, tone_mapping = \"reinhard\", auto_exposure = true"),
         ("shaded + ambient occlusion", "ambient_occlusion = true"),
+        ("shaded, step 2 mm, pre-integrated lighting", "step_size = 2.0, preintegration = \"lighting\""),
     ];
     let mut renderers: Vec<SceneRenderer> = variants
         .iter()
@@ -81,7 +82,7 @@ fn main() {
     }
     let medians: Vec<f64> = times.into_iter().map(median).collect();
     for ((name, _), ms) in variants.iter().zip(&medians) {
-        println!("{name:<36} {ms:8.1} ms");
+        println!("{name:<44} {ms:8.1} ms");
     }
     println!("HDR over shaded:                     {:.3}x (target <= 1.15)", medians[1] / medians[0]);
     println!("HDR over unshaded DVR:               {:.3}x (target <= 1.15)", medians[7] / medians[6]);
@@ -90,6 +91,8 @@ fn main() {
     println!("shadow rays over shaded:             {:.3}x", medians[3] / medians[0]);
     println!("pre-integrated over point (2 mm):    {:.3}x", medians[5] / medians[4]);
     println!("ambient occlusion over shaded:       {:.3}x", medians[9] / medians[0]);
+    println!("pre-integrated lighting over classification only (2 mm): {:.3}x", medians[10] / medians[5]);
+    println!("pre-integrated lighting over point (2 mm):               {:.3}x", medians[10] / medians[4]);
     // The light-volume pass: a frame after the light moved, less a frame.
     let shadowed = &mut renderers[2];
     let mut passes = Vec::new();

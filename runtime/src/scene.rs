@@ -30,8 +30,6 @@ pub use meshes::{MeshHandle, mesh_surface};
 pub use probe::{ProbeAt, ProbeImage, ProbeSpec};
 pub use tf_edit::VolumeStatus;
 
-use derived::PREINTEGRATED;
-
 /// Choices a scene file does not make.
 #[derive(Clone, Debug)]
 pub struct RenderOptions {
@@ -353,9 +351,7 @@ impl SceneRenderer {
         }
         if is_primary {
             self.derived.generation += 1;
-            if let Some(table) = self.resources.tfs.get(PREINTEGRATED) {
-                table.write_table(&self.gpu, &crate::tf::preintegrate::PreintegratedTable::new(tf).to_rgba16f());
-            }
+            self.rewrite_preintegration(tf);
         }
         Ok(())
     }

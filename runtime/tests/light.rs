@@ -226,6 +226,81 @@ fn preintegration_renders_a_thin_feature_at_a_coarse_step_without_slab_artifacts
     assert!(fine <= 1.0, "at 0.25 mm pre-integration differs by {fine:.2}");
 }
 
+/// A ball of smooth data lit from the side: the value falls from 1000 inside to 0 outside over
+/// about 12 mm around a radius of 20 mm (`500 erfc((r - 20) / 6)`, 1 mm voxels), so every
+/// gradient is smooth; `shell.json` shows a shell about 5 mm thick around the value 500.
+const SHELL_SCENE: &str = r#"
+[render]
+compositing = "dvr"
+shading = true
+preintegration = PREINTEGRATION
+step_size = STEP
+jitter = 0.0
+empty_space_skipping = false
+
+[[volume]]
+name = "ball"
+role = "primary"
+path = "ball.nrrd"
+window = [0.0, 1000.0]
+tf = "shell.json"
+
+[uniforms]
+ref_step = 1.0
+light_dir_key = [1.0, 0.2, 0.3]
+
+[[view]]
+name = "3d"
+kind = "raycast"
+size = [96, 96]
+camera = { azimuth = 20.0, elevation = 20.0, distance = 1.6 }
+"#;
+
+/// Pre-integrated lighting (Lum et al.'s interpolated variant) at a coarse step is closer to a
+/// fine point-sampled render than pre-integrated classification lit at each segment's back
+/// sample: on the smooth ball above at 4 mm steps, against 0.25 mm point sampling, its mean
+/// absolute difference over the RGBA bytes must be at most 0.8 of the back-sample lighting's
+/// (measured when written: 1.39 against 2.12, and 11.4 for point sampling at 4 mm). At the fine
+/// step both pre-integrations agree with the reference.
+#[test]
+fn preintegrated_lighting_at_a_coarse_step_is_closer_to_a_fine_render_than_lighting_at_the_back_sample() {
+    let dir = tempfile::tempdir().expect("a folder");
+    let centre = 31.5;
+    write_nrrd(&dir.path().join("ball.nrrd"), [64, 64, 64], |i, j, k| {
+        let d = [i, j, k].map(|c| f64::from(c) - centre);
+        let r = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+        (500.0 * erfc((r - 20.0) / 6.0)).round() as i16
+    });
+    let shell = r#"[{"Name": "shell", "RGBPoints": [0, 1, 0.9, 0.8, 1000, 1, 0.9, 0.8],
+        "Points": [0, 0, 0.5, 0, 400, 0, 0.5, 0, 500, 0.5, 0.5, 0, 600, 0, 0.5, 0, 1000, 0, 0.5, 0]}]"#;
+    std::fs::write(dir.path().join("shell.json"), shell).expect("tf written");
+    let render = |preintegration: &str, step: f32| {
+        let scene = SHELL_SCENE.replace("PREINTEGRATION", preintegration).replace("STEP", &step.to_string());
+        open(dir.path(), &scene).render_all().expect("renders").remove(0).1
+    };
+    let reference = render("false", 0.25);
+    assert!(reference.pixels().filter(|p| p[3] > 0).count() > 3000, "the ball shows in the reference");
+    let back = mean_difference(&render("true", 4.0), &reference);
+    let interpolated = mean_difference(&render("\"lighting\"", 4.0), &reference);
+    eprintln!(
+        "mean difference to 0.25 mm point sampling at 4 mm: lit at the back {back:.2}, interpolated {interpolated:.2}"
+    );
+    assert!(
+        interpolated <= 0.8 * back,
+        "interpolated lighting {interpolated:.2} is not closer than back-sample lighting {back:.2}"
+    );
+    let fine = mean_difference(&render("\"lighting\"", 0.25), &reference);
+    assert!(fine <= 0.5, "at 0.25 mm pre-integrated lighting differs by {fine:.2}");
+}
+
+/// The complementary error function (Abramowitz and Stegun 7.1.26, error below 1.5e-7).
+fn erfc(x: f64) -> f64 {
+    let t = 1.0 / (1.0 + 0.3275911 * x.abs());
+    let poly = t * (0.254829592 + t * (-0.284496736 + t * (1.421413741 + t * (-1.453152027 + t * 1.061405429))));
+    let e = poly * (-x * x).exp();
+    if x >= 0.0 { e } else { 2.0 - e }
+}
+
 /// Bad input to light transport is refused by `build` at its value, or renders finite pixels:
 /// negative exposure, a light of zero intensity, a transfer function of zero opacity, one of a
 /// single point (a pre-integration table of one entry), a white point of zero.

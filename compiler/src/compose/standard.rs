@@ -1,7 +1,7 @@
 //! The standard modules a view is composed with: the selection policy of `stdlib/README.md`,
 //! owned by the composer (the scene only says what the user asked for).
 
-use crate::scene::{Compositing, Role, Scene, Shadows, ToneMapping, View, ViewKind};
+use crate::scene::{Compositing, Preintegration, Role, Scene, Shadows, ToneMapping, View, ViewKind};
 
 /// A standard module chosen by configuration: `std::NAME`, with instances for a template.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -145,7 +145,7 @@ impl Selection<'_> {
             self.add(module, vec![]);
         }
         // After `classify`: it replaces `classify_primary`.
-        if r.preintegration && r.compositing.value == Compositing::Dvr {
+        if r.preintegration != Preintegration::Off && r.compositing.value == Compositing::Dvr {
             self.add("preintegrate", vec![]);
         }
         // After `lighting`: it replaces `apply_lighting`.
@@ -158,6 +158,11 @@ impl Selection<'_> {
             && !r.lights.is_empty()
         {
             self.add(module, r.lights.iter().map(|l| l.name.clone()).collect());
+        }
+        // After `preintegrate` (it reads the segment's front value) and after every light and
+        // shadow (it follows the last substep of `shading.lights`).
+        if r.preintegration == Preintegration::Lighting && r.shading && r.compositing.value == Compositing::Dvr {
+            self.add("preintegrate_lighting", vec![]);
         }
         // Last: `linear_color` follows every classification function, and `expose`, the
         // operator and `encode_srgb` run in that order just before `blend_background` (after

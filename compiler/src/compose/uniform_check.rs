@@ -232,12 +232,13 @@ fn scalar_mismatch(scalar: Scalar, v: &UniformValue) -> Option<String> {
 
 /// The `volume` and `tf` uniforms the runtime binds for `scene`: `volume` and `tf` (the primary
 /// volume), `volume_NAME` for every other volume and `tf_NAME` for those with a transfer
-/// function (all but masks), `tf_preint` (built from the primary's transfer function when a
-/// view reads it), and the grids of empty-space skipping, `occupancy` and `brick_max`, when
+/// function (all but masks), `tf_preint` and `tf_preint_back` (built from the primary's
+/// transfer function when a view reads them), and the grids of empty-space skipping, `occupancy` and `brick_max`, when
 /// some raycast view skips.
 pub fn bound_resources(scene: &Scene) -> Vec<(String, Type)> {
     let mut out = vec![("volume".to_string(), Type::Volume), ("tf".to_string(), Type::Tf)];
     out.push((PREINTEGRATION_TABLE.to_string(), Type::Tf));
+    out.push((PREINTEGRATION_WEIGHTS.to_string(), Type::Tf));
     for v in scene.volumes.iter().filter(|v| v.role.value != Role::Primary) {
         out.push((format!("volume_{}", v.name.name), Type::Volume));
         if v.role.value != Role::Mask {
@@ -258,6 +259,9 @@ pub const LIGHT_VOLUME_PREFIX: &str = "shadow_volume_";
 
 /// The uniform of `std::preintegrate`'s table.
 pub const PREINTEGRATION_TABLE: &str = "tf_preint";
+
+/// The uniform of `std::preintegrate_lighting`'s table of segment weights.
+pub const PREINTEGRATION_WEIGHTS: &str = "tf_preint_back";
 
 /// Checks that every resource uniform of each composed view (named) is one the runtime binds.
 pub fn check_resources(scene: &Scene, views: &[(&str, &Composition)], diags: &mut Diagnostics) {

@@ -99,13 +99,53 @@ pub struct Render {
     pub auto_exposure: bool,
     /// Initial value of the `white_point` uniform; only with Reinhard's operator.
     pub white_point: Option<Located<f32>>,
-    /// Pre-integrated classification of the primary volume (`std::preintegrate`); DVR only.
-    pub preintegration: bool,
+    /// Pre-integration of the primary volume over each ray segment (`std::preintegrate`, and
+    /// with lighting `std::preintegrate_lighting`); DVR only.
+    pub preintegration: Preintegration,
     /// Volumetric shadows of the lights (`std::shadow_ray`); needs shading.
     pub shadows: Shadows,
     /// Local ambient occlusion (`std::occlusion`): the ambient light scaled by how open the
     /// sample's vicinity is; needs shading.
     pub ambient_occlusion: bool,
+}
+
+/// `[render] preintegration`: what is integrated over the ray segment between two samples
+/// rather than taken at the sample. Written `false`, `true` (the same as `"classification"`)
+/// or `"lighting"`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Preintegration {
+    /// Every sample is classified and lit on its own (point sampling).
+    #[default]
+    Off,
+    /// The segment's colour and opacity from a pre-integrated table (Engel et al. 2001); it is
+    /// lit at its back sample.
+    Classification,
+    /// Classification as above, and the segment's light interpolated between its front and
+    /// back samples' (Lum, Wilson and Ma 2004); needs shading.
+    Lighting,
+}
+
+impl<'de> Deserialize<'de> for Preintegration {
+    fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        struct Visitor;
+        impl serde::de::Visitor<'_> for Visitor {
+            type Value = Preintegration;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("`true`, `false`, \"classification\" or \"lighting\"")
+            }
+            fn visit_bool<E: serde::de::Error>(self, on: bool) -> Result<Preintegration, E> {
+                Ok(if on { Preintegration::Classification } else { Preintegration::Off })
+            }
+            fn visit_str<E: serde::de::Error>(self, text: &str) -> Result<Preintegration, E> {
+                match text {
+                    "classification" => Ok(Preintegration::Classification),
+                    "lighting" => Ok(Preintegration::Lighting),
+                    _ => Err(E::unknown_variant(text, &["true", "false", "classification", "lighting"])),
+                }
+            }
+        }
+        deserializer.deserialize_any(Visitor)
+    }
 }
 
 /// `[render] tone_mapping`: how linear radiance is mapped to the display.

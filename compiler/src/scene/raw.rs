@@ -40,7 +40,7 @@ pub(super) struct RawRender {
     pub(super) exposure: Option<Spanned<f32>>,
     pub(super) auto_exposure: Option<Spanned<bool>>,
     pub(super) white_point: Option<Spanned<f32>>,
-    pub(super) preintegration: Option<Spanned<bool>>,
+    pub(super) preintegration: Option<Spanned<Preintegration>>,
     pub(super) shadows: Option<Spanned<Shadows>>,
     pub(super) ambient_occlusion: Option<Spanned<bool>>,
     pub(super) memory: Option<Spanned<String>>,

@@ -568,3 +568,33 @@ fn a_channel_list_makes_one_volume_per_channel() {
     let e = errors(&store.replace("channel = [0, 2, \"DAPI\"]", "channel = 1"));
     assert_eq!((e[0].0, e[0].3.as_str()), ("E0704", "a list of `tf` needs a list of `channel`"));
 }
+
+#[test]
+fn preintegration_is_a_flag_or_what_it_integrates() {
+    let with =
+        |value: &str, shading: bool| format!("[render]\nshading = {shading}\npreintegration = {value}\n{MINIMAL}");
+    for (value, expected) in [
+        ("false", Preintegration::Off),
+        ("true", Preintegration::Classification),
+        ("\"classification\"", Preintegration::Classification),
+        ("\"lighting\"", Preintegration::Lighting),
+    ] {
+        let (_, scene, warnings) = parse_reporting(&with(value, true));
+        let scene = scene.unwrap_or_else(|| panic!("{value}: {warnings:?}"));
+        assert!(warnings.is_empty(), "{value}: {warnings:?}");
+        assert_eq!(scene.render.preintegration, expected, "{value}");
+    }
+    // Lighting without shading: the segments are still classified, and a warning says so.
+    let (_, scene, warnings) = parse_reporting(&with("\"lighting\"", false));
+    assert_eq!(scene.map(|s| s.render.preintegration), Some(Preintegration::Classification));
+    let w: Vec<_> = warnings.iter().map(|d| (d.code.as_str(), d.message.as_str())).collect();
+    assert_eq!(
+        w,
+        [("W0701", "`preintegration = \"lighting\"` lights nothing without shading: the segments are classified only")]
+    );
+    // Anything else is refused at the value.
+    let e = errors(&with("\"shading\"", true));
+    assert_eq!(e.len(), 1, "{e:?}");
+    assert_eq!((e[0].1, e[0].2), (3, 18), "{e:?}");
+    assert_eq!(e[0].3, "`shading` is not one of `true`, `false`, `classification`, `lighting`");
+}

@@ -270,17 +270,42 @@ impl Cx<'_> {
                 self.report(w.span, RenderRange::WhitePoint);
             }
         }
-        let mut preintegration = false;
-        if let Some(p) = &r.preintegration
-            && *p.get_ref()
-        {
-            match compositing {
-                Compositing::Dvr => preintegration = true,
-                _ => self.ignored(p, "preintegration", "unless compositing is \"dvr\""),
-            }
-        }
+        let preintegration = self.preintegration(&r.preintegration, compositing, shading);
         let shadows = self.shadows(&r.shadows, shading, no_lights);
         Light { tone_mapping, exposure, auto_exposure, white_point, preintegration, shadows }
+    }
+
+    /// `preintegration`: DVR only; its lighting needs shading (without, the segment is still
+    /// classified).
+    fn preintegration(
+        &mut self,
+        raw: &Option<Spanned<Preintegration>>,
+        mode: Compositing,
+        shading: bool,
+    ) -> Preintegration {
+        let Some(p) = raw else { return Preintegration::Off };
+        let asked = *p.get_ref();
+        if asked == Preintegration::Off {
+            return asked;
+        }
+        if mode != Compositing::Dvr {
+            self.ignored(p, "preintegration", "unless compositing is \"dvr\"");
+            return Preintegration::Off;
+        }
+        if asked == Preintegration::Lighting && !shading {
+            let span = self.span(p);
+            self.warnings.push(
+                Diagnostic::new(
+                    Code::SceneIgnored,
+                    span,
+                    "`preintegration = \"lighting\"` lights nothing without shading: the segments are classified only",
+                )
+                .with_label("its lighting is ignored")
+                .with_help("turn `shading` on, or write `preintegration = true`"),
+            );
+            return Preintegration::Classification;
+        }
+        asked
     }
 
     /// `shadows`: they need shading, and have no effect without lights.
@@ -842,7 +867,7 @@ struct Light {
     exposure: Option<Located<f32>>,
     auto_exposure: bool,
     white_point: Option<Located<f32>>,
-    preintegration: bool,
+    preintegration: Preintegration,
     shadows: Shadows,
 }
 

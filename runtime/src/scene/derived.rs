@@ -1,5 +1,6 @@
 //! Resources made from the primary volume and its transfer function for the views that read
-//! them: the pre-integration table of `std::preintegrate` (`tf_preint`) and the light volumes
+//! them: the pre-integration tables of `std::preintegrate` (`tf_preint`) and
+//! `std::preintegrate_lighting` (`tf_preint_back`) and the light volumes
 //! of `std::shadow_volume` (`shadow_volume_NAME`). Each is made when some view binds it and made
 //! again when what it was made from changes (the transfer function, a light's direction,
 //! `ref_step`); nothing is made for views that do not read it.
@@ -9,17 +10,24 @@ use crate::error::RuntimeError;
 use crate::geometry;
 use crate::light_volume::{LightKey, LightVolumePass, Primary};
 use crate::textures::{TfTexture, VolumeTexture};
-use crate::tf::{self, preintegrate::PreintegratedTable};
+use crate::tf::{self, TransferFunction, preintegrate::PreintegratedTable};
 use crate::uniforms::Value;
 use glam::Vec3;
 use std::collections::HashMap;
 use std::sync::Arc;
-use vrsc::compose::uniform_check::{LIGHT_VOLUME_PREFIX, PREINTEGRATION_TABLE};
+use vrsc::compose::uniform_check::{LIGHT_VOLUME_PREFIX, PREINTEGRATION_TABLE, PREINTEGRATION_WEIGHTS};
 use vrsc::scene as vscene;
 
 /// The binding of `std::preintegrate`'s table (the compiler's name: its build checks what the
-/// runtime binds).
-pub(super) const PREINTEGRATED: &str = PREINTEGRATION_TABLE;
+/// runtime binds); `std::preintegrate_lighting`'s starts with it too.
+const PREINTEGRATED: &str = PREINTEGRATION_TABLE;
+
+/// How a pre-integration table is made from the (windowed) transfer function.
+type MakeTable = fn(&TransferFunction) -> PreintegratedTable;
+
+/// The pre-integration tables by binding, each with how it is made.
+const PREINTEGRATION_TABLES: [(&str, MakeTable); 2] =
+    [(PREINTEGRATION_TABLE, PreintegratedTable::new), (PREINTEGRATION_WEIGHTS, PreintegratedTable::segment_weights)];
 
 /// What the derived resources were made from.
 #[derive(Default)]
@@ -54,29 +62,43 @@ impl SceneRenderer {
         self.update_light_volumes()
     }
 
-    /// Makes the pre-integration table of the primary volume's transfer function when some
-    /// view binds it, from the function as it is now; drops it when none does.
+    /// Makes the pre-integration tables of the primary volume's transfer function that some view
+    /// binds, from the function as it is now; drops those none binds.
     fn update_preintegration(&mut self) -> Result<(), RuntimeError> {
-        if bound_with_prefix(&self.views, PREINTEGRATED).iter().all(|n| n != PREINTEGRATED) {
-            self.resources.tfs.remove(PREINTEGRATED);
-            return Ok(());
-        }
+        let bound = bound_with_prefix(&self.views, PREINTEGRATED);
         let Some(primary) = self.grids.first() else { return Ok(()) };
         let tf = match &primary.curve {
             Some(curve) => curve.table(),
             None => tf::preset(vscene::DEFAULT_TF)?,
         };
-        let table = PreintegratedTable::new(&tf.over_window(primary.window));
-        let bytes = table.to_rgba16f();
-        match self.resources.tfs.get(PREINTEGRATED) {
-            Some(texture) => texture.write_table(&self.gpu, &bytes),
-            None => {
-                let size = [table.size, table.size];
-                let texture = TfTexture::upload_table(&self.gpu, PREINTEGRATED, size, &bytes)?;
-                self.resources.tfs.insert(PREINTEGRATED.into(), Arc::new(texture));
+        let tf = tf.over_window(primary.window);
+        for (name, make) in PREINTEGRATION_TABLES {
+            if !bound.iter().any(|b| b == name) {
+                self.resources.tfs.remove(name);
+                continue;
+            }
+            let table = make(&tf);
+            let bytes = table.to_rgba16f();
+            match self.resources.tfs.get(name) {
+                Some(texture) => texture.write_table(&self.gpu, &bytes),
+                None => {
+                    let size = [table.size, table.size];
+                    let texture = TfTexture::upload_table(&self.gpu, name, size, &bytes)?;
+                    self.resources.tfs.insert(name.into(), Arc::new(texture));
+                }
             }
         }
         Ok(())
+    }
+
+    /// Writes the pre-integration tables that exist again for the primary's new transfer
+    /// function `tf` (over its window).
+    pub(super) fn rewrite_preintegration(&self, tf: &TransferFunction) {
+        for (name, make) in PREINTEGRATION_TABLES {
+            if let Some(texture) = self.resources.tfs.get(name) {
+                texture.write_table(&self.gpu, &make(tf).to_rgba16f());
+            }
+        }
     }
 
     /// Computes the light volume of every light some view reads one of, whose light direction,

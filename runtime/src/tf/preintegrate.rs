@@ -85,21 +85,38 @@ impl PreintegratedTable {
     ///
     /// If `size` is less than 2.
     pub(crate) fn with_size(tf: &TransferFunction, size: u32) -> Self {
+        Self::tabulate(tf, size, Integrals::mean)
+    }
+
+    /// The segment weights of `tf` for interpolated pre-integrated lighting
+    /// (`std::preintegrate_lighting`'s `tf_preint_back`), laid out as the table of [`Self::new`]:
+    /// entry `(x, y)` holds, for the segment from `sf` to `sb` with the value running linearly
+    /// between them and `s` going from 0 at the front to 1 at the back, the mean of `s`
+    /// weighted by each channel's emission `tau(u) rgb(u)` (r, g, b) and by the extinction
+    /// `tau(u)` (a). A shader mixes the front sample's light with the back sample's by them:
+    /// with the light running linearly along the segment, `∫ tau rgb L ds / ∫ tau rgb ds =
+    /// mix(L_front, L_back, w)`. Where a segment emits nothing (and on the diagonal, where its
+    /// two ends are one point) the weight is 1/2.
+    pub(crate) fn segment_weights(tf: &TransferFunction) -> Self {
+        Self::tabulate(tf, DEFAULT_SIZE, Integrals::weights)
+    }
+
+    /// A `size` x `size` table of `entry(integrals, front prefix, back prefix, sf, sb)`.
+    fn tabulate(
+        tf: &TransferFunction,
+        size: u32,
+        entry: fn(&Integrals, &Prefix, &Prefix, f64, f64) -> [f64; 4],
+    ) -> Self {
         assert!(size >= 2, "a pre-integrated table needs at least 2 entries per side, not {size}");
         let integrals = Integrals::new(tf);
         let n = size as usize;
         let values: Vec<f64> = (0..n).map(|i| texel_centre(i, n)).collect();
-        let prefix: Vec<[f64; 4]> = values.iter().map(|&v| integrals.prefix_at(v)).collect();
-        let points: Vec<[f64; 4]> = values.iter().map(|&v| integrals.point(v)).collect();
+        let prefix: Vec<Prefix> = values.iter().map(|&v| integrals.prefix_at(v)).collect();
         let mut rgba = Vec::with_capacity(n * n);
         for back in 0..n {
             for front in 0..n {
-                let mean = if front == back {
-                    points[front]
-                } else {
-                    integrals.mean_from_prefix(prefix[front], prefix[back], values[front], values[back])
-                };
-                rgba.push(mean.map(|c| c as f32));
+                let e = entry(&integrals, &prefix[front], &prefix[back], values[front], values[back]);
+                rgba.push(e.map(|c| c as f32));
             }
         }
         PreintegratedTable { size, rgba }
@@ -141,10 +158,15 @@ pub(crate) fn segment(tf: &TransferFunction, sf: f32, sb: f32, steps_ratio: f32)
     let mean = if (sb - sf).abs() < POINT_SEGMENT {
         integrals.point(0.5 * (sf + sb))
     } else {
-        integrals.mean_from_prefix(integrals.prefix_at(sf), integrals.prefix_at(sb), sf, sb)
+        integrals.mean(&integrals.prefix_at(sf), &integrals.prefix_at(sb), sf, sb)
     };
     premultiplied(mean.map(|c| c as f32), steps_ratio)
 }
+
+/// The prefix integrals at one value `v`: `[T, K_r, K_g, K_b]` (`T(v) = ∫0^v tau(u) du`,
+/// `K(v) = ∫0^v tau(u) rgb(u) du`) and their first moments `[M_T, M_r, M_g, M_b]` (the same
+/// integrands times `u`), which weigh where along a segment its extinction and emission lie.
+type Prefix = [f64; 8];
 
 /// The prefix integrals of a transfer function, in `f64` (differences of prefixes lose what
 /// the prefixes hold beyond the difference).
@@ -152,10 +174,10 @@ struct Integrals {
     /// The entries, at least 2, each at its texel's centre: r, g, b in [0, 1], a in [0,
     /// MAX_OPACITY].
     entries: Vec<[f64; 4]>,
-    /// `[T, K_r, K_g, K_b]` at the `SUBSTEPS * (entries - 1) + 1` sub-interval bounds between
-    /// the first entry's centre and the last one's (the first: the integral of the first entry
-    /// held from 0 to its centre).
-    prefix: Vec<[f64; 4]>,
+    /// The [`Prefix`] at the `SUBSTEPS * (entries - 1) + 1` sub-interval bounds between the
+    /// first entry's centre and the last one's (the first: the integral of the first entry held
+    /// from 0 to its centre).
+    prefix: Vec<Prefix>,
 }
 
 impl Integrals {
@@ -171,22 +193,26 @@ impl Integrals {
             1 => entries.push(entries[0]),
             _ => {}
         }
-        let intervals = SUBSTEPS * (entries.len() - 1);
+        let n = entries.len();
+        let intervals = SUBSTEPS * (n - 1);
         // Entries are 1 / n apart in value: each sub-interval is a SUBSTEPS-th of that.
-        let width = 1.0 / (entries.len() * SUBSTEPS) as f64;
+        let width = 1.0 / (n * SUBSTEPS) as f64;
         let mut prefix = Vec::with_capacity(intervals + 1);
-        let mut sum = held(entries[0], texel_centre(0, entries.len()));
+        let mut sum = held(entries[0], 0.0, texel_centre(0, n));
         prefix.push(sum);
-        for pair in entries.windows(2) {
+        for (i, pair) in entries.windows(2).enumerate() {
             let (e0, e1) = (pair[0], pair[1]);
             let at = |t: f64, c: usize| e0[c] + (e1[c] - e0[c]) * t;
             for k in 0..SUBSTEPS {
                 let (t0, t1) = (k as f64 / SUBSTEPS as f64, (k + 1) as f64 / SUBSTEPS as f64);
                 let extinction = width * mean_neg_ln(1.0 - at(t0, 3), 1.0 - at(t1, 3));
                 let mid = 0.5 * (t0 + t1);
-                sum[0] += extinction;
-                for c in 0..3 {
-                    sum[c + 1] += extinction * at(mid, c);
+                // The sub-interval's middle, in values.
+                let u = (i as f64 + 0.5 + mid) / n as f64;
+                let emitted = [1.0, at(mid, 0), at(mid, 1), at(mid, 2)];
+                for c in 0..4 {
+                    sum[c] += extinction * emitted[c];
+                    sum[c + 4] += extinction * emitted[c] * u;
                 }
                 prefix.push(sum);
             }
@@ -194,18 +220,18 @@ impl Integrals {
         Integrals { entries, prefix }
     }
 
-    /// `[T(v), K(v)]` for `v` in [0, 1]: the end entries held before the first centre and after
+    /// The [`Prefix`] at `v` in [0, 1]: the end entries held before the first centre and after
     /// the last, linear between the sub-interval bounds in between.
-    fn prefix_at(&self, v: f64) -> [f64; 4] {
+    fn prefix_at(&self, v: f64) -> Prefix {
         let n = self.entries.len();
         let (first, last) = (texel_centre(0, n), texel_centre(n - 1, n));
         let v = v.clamp(0.0, 1.0);
         if v <= first {
-            return held(self.entries[0], v);
+            return held(self.entries[0], 0.0, v);
         }
         let end = self.prefix[self.prefix.len() - 1];
         if v >= last {
-            let tail = held(self.entries[n - 1], v - last);
+            let tail = held(self.entries[n - 1], last, v);
             return std::array::from_fn(|c| end[c] + tail[c]);
         }
         at_coordinate(&self.prefix, (v - first) / (last - first) * (self.prefix.len() - 1) as f64)
@@ -219,20 +245,46 @@ impl Integrals {
         [r, g, b, -(-a).ln_1p()]
     }
 
-    /// `[rgb_mean, tau_mean]` of the segment from `sf` to `sb` (not equal) from the prefixes
-    /// there; the colour at the middle where the segment is transparent.
-    fn mean_from_prefix(&self, front: [f64; 4], back: [f64; 4], sf: f64, sb: f64) -> [f64; 4] {
+    /// `[rgb_mean, tau_mean]` of the segment from `sf` to `sb` from the prefixes there: the
+    /// point-sampled function where they are equal, the colour at the middle where the segment
+    /// is transparent.
+    fn mean(&self, front: &Prefix, back: &Prefix, sf: f64, sb: f64) -> [f64; 4] {
+        if sf == sb {
+            return self.point(sf);
+        }
         let extinction = back[0] - front[0];
         let tau = (extinction / (sb - sf)).max(0.0);
-        // Prefixes only grow, and are equal where the transfer function is transparent; below
-        // this the ratio would be rounding noise (and the segment is invisible anyway).
-        if extinction.abs() <= 1e-12 * (1.0 + back[0].abs().max(front[0].abs())) {
+        if negligible(extinction, front[0], back[0]) {
             let [r, g, b, _] = self.point(0.5 * (sf + sb));
             return [r, g, b, tau];
         }
         let colour = |c: usize| ((back[c] - front[c]) / extinction).clamp(0.0, 1.0);
         [colour(1), colour(2), colour(3), tau]
     }
+
+    /// The segment weights `[w_r, w_g, w_b, w_tau]` of the segment from `sf` to `sb` (see
+    /// [`PreintegratedTable::segment_weights`]): `(M - sf I) / ((sb - sf) I)` for each integral
+    /// `I` and its moment `M` over the segment, 1/2 where `I` vanishes.
+    fn weights(&self, front: &Prefix, back: &Prefix, sf: f64, sb: f64) -> [f64; 4] {
+        if sf == sb {
+            return [0.5; 4];
+        }
+        let weight = |c: usize| {
+            let integral = back[c] - front[c];
+            if negligible(integral, front[c], back[c]) {
+                return 0.5;
+            }
+            let moment = back[c + 4] - front[c + 4];
+            ((moment - sf * integral) / ((sb - sf) * integral)).clamp(0.0, 1.0)
+        };
+        [weight(1), weight(2), weight(3), weight(0)]
+    }
+}
+
+/// Whether the difference `d` of two prefixes `p` and `q` is rounding noise: prefixes only grow,
+/// and are equal where the transfer function is transparent (the segment is invisible then).
+fn negligible(d: f64, p: f64, q: f64) -> bool {
+    d.abs() <= 1e-12 * (1.0 + p.abs().max(q.abs()))
 }
 
 /// The mean of `-ln(b)` over an interval where `b` goes linearly from `p` to `q` (both in
@@ -250,7 +302,7 @@ fn mean_neg_ln(p: f64, q: f64) -> f64 {
 
 /// `rows` (at least two) at the fractional row `at` (clamped to the rows), linearly between
 /// neighbours.
-fn at_coordinate(rows: &[[f64; 4]], at: f64) -> [f64; 4] {
+fn at_coordinate<const N: usize>(rows: &[[f64; N]], at: f64) -> [f64; N] {
     let last = rows.len() - 1;
     let at = at.clamp(0.0, last as f64);
     let below = (at.floor() as usize).min(last - 1);
@@ -259,10 +311,13 @@ fn at_coordinate(rows: &[[f64; 4]], at: f64) -> [f64; 4] {
     std::array::from_fn(|c| r0[c] + (r1[c] - r0[c]) * t)
 }
 
-/// `[T, K_r, K_g, K_b]` of the constant entry `[r, g, b, a]` over a length `v` of values.
-fn held([r, g, b, a]: [f64; 4], v: f64) -> [f64; 4] {
+/// The [`Prefix`] increments of the constant entry `[r, g, b, a]` held over the values from
+/// `from` to `to`.
+fn held([r, g, b, a]: [f64; 4], from: f64, to: f64) -> Prefix {
     let tau = -(-a).ln_1p();
-    [tau * v, tau * r * v, tau * g * v, tau * b * v]
+    let (length, moment) = (to - from, 0.5 * (to * to - from * from));
+    let emitted = [tau, tau * r, tau * g, tau * b];
+    std::array::from_fn(|c| if c < 4 { emitted[c] * length } else { emitted[c - 4] * moment })
 }
 
 #[cfg(test)]
@@ -506,5 +561,71 @@ mod tests {
                 );
             }
         }
+    }
+
+    /// The segment weights by brute force: the segment from `sf` to `sb` in `steps` point
+    /// samples of what a linear sampler reads, each weighted by its emission (per channel) or
+    /// extinction, averaging `s` from 0 (front) to 1 (back).
+    fn weights_by_sampling(tf: &TransferFunction, sf: f64, sb: f64, steps: usize) -> [f64; 4] {
+        let (mut sum, mut weighted) = ([0.0f64; 4], [0.0f64; 4]);
+        for k in 0..steps {
+            let s = (k as f64 + 0.5) / steps as f64;
+            let [r, g, b, a] = lookup(tf, sf + (sb - sf) * s);
+            let tau = extinction(a);
+            for (c, w) in [tau * r, tau * g, tau * b, tau].into_iter().enumerate() {
+                sum[c] += w;
+                weighted[c] += w * s;
+            }
+        }
+        std::array::from_fn(|c| if sum[c] > 1e-12 { weighted[c] / sum[c] } else { 0.5 })
+    }
+
+    #[test]
+    fn segment_weights_are_where_a_segment_emits_on_average() {
+        let tfs = [
+            preset("ct_soft_tissue").unwrap().over_window([-300.0, 900.0]),
+            from_points("steep", &[(0.0, [0.0, 0.3, 1.0]), (1.0, [1.0, 0.7, 0.0])], &[(0.4, 0.0), (0.41, 1.0)]),
+            from_points("ramp", &[(0.0, [1.0, 0.0, 0.0]), (1.0, [0.0, 0.0, 1.0])], &[(0.0, 0.0), (1.0, 0.5)]),
+        ];
+        let mut rng = XorShift(0x5eed);
+        for tf in &tfs {
+            let table = PreintegratedTable::segment_weights(tf);
+            assert_finite(&table, &tf.name);
+            for _ in 0..300 {
+                let (front, back) = ((rng.next() * 256.0) as u32 % 256, (rng.next() * 256.0) as u32 % 256);
+                let (sf, sb) = (texel_centre(front as usize, 256), texel_centre(back as usize, 256));
+                let e = table.entry(front, back);
+                if front == back {
+                    assert_eq!(e, [0.5; 4], "{} diagonal {front}", tf.name);
+                    continue;
+                }
+                let expected = weights_by_sampling(tf, sf, sb, 20_000);
+                assert!(
+                    e.iter().zip(&expected).all(|(&a, &b)| (a as f64 - b).abs() < 2e-3),
+                    "{} ({front}, {back}): {e:?} vs {expected:?}",
+                    tf.name
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn a_segment_entering_an_opaque_range_is_weighted_towards_that_end() {
+        // Transparent below 0.5, uniform above: the emission of a segment from 0.25 to 0.75 lies
+        // in its back half, evenly, so its mean position is 3/4 (1/4 running the other way).
+        let tf = from_points(
+            "step",
+            &[(0.0, [1.0; 3]), (1.0, [1.0; 3])],
+            &[(0.0, 0.0), (0.4999, 0.0), (0.5, 0.3), (1.0, 0.3)],
+        );
+        let table = PreintegratedTable::segment_weights(&tf);
+        let (lo, hi) = (63, 191); // the entries at 0.25 and 0.75 (texel centres 0.248 and 0.748)
+        for c in 0..4 {
+            assert!((table.entry(lo, hi)[c] - 0.75).abs() < 0.01, "{:?}", table.entry(lo, hi));
+            assert!((table.entry(hi, lo)[c] - 0.25).abs() < 0.01, "{:?}", table.entry(hi, lo));
+        }
+        // A uniform segment emits evenly: its mean position is the middle.
+        let uniform = table.entry(140, 250);
+        assert!(uniform.iter().all(|w| (w - 0.5).abs() < 1e-3), "{uniform:?}");
     }
 }

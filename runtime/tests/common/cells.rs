@@ -166,7 +166,8 @@ pub fn volumes(roles: &[Role]) -> String {
 #[derive(Clone, Copy, Debug)]
 pub struct LightCell {
     pub tone_mapping: &'static str,
-    pub preintegration: bool,
+    /// `preintegration`'s value as written: `false`, `true` or `"lighting"`.
+    pub preintegration: &'static str,
     pub shadows: &'static str,
     pub occlusion: bool,
     pub mode: &'static str,
@@ -181,12 +182,16 @@ impl LightCell {
         for additional in [false, true] {
             // "exposure" meters automatically: its operator is a clip, the metering is the risk.
             for tone_mapping in ["off", "exposure", "reinhard", "aces"] {
-                for preintegration in [false, true] {
+                for preintegration in ["false", "true", "\"lighting\""] {
                     let lighting = [("off", false), ("rays", false), ("volume", false), ("off", true)];
                     for (shadows, occlusion) in lighting {
                         for mode in MODES {
                             for slice in [false, true] {
                                 for shading in [false, true] {
+                                    // Its lighting needs shaded DVR: elsewhere it is `true`.
+                                    if preintegration == "\"lighting\"" && !(shading && mode == "dvr") {
+                                        continue;
+                                    }
                                     cells.push(LightCell {
                                         tone_mapping,
                                         preintegration,
@@ -226,9 +231,7 @@ impl LightCell {
         if self.tone_mapping == "exposure" {
             render.push("auto_exposure = true".into());
         }
-        if self.preintegration {
-            render.push("preintegration = true".into());
-        }
+        render.push(format!("preintegration = {}", self.preintegration));
         if self.shadows != "off" {
             render.push(format!("shadows = \"{}\"", self.shadows));
         }
