@@ -1,8 +1,10 @@
-//! Carrying out a view's [`Refiner`] schedule on the GPU without ever waiting for it: one piece
-//! of work in flight per view, its completion noticed by a thread that waits on the device in
-//! the window's stead, and the newest complete picture always ready to draw.
+//! Carrying out the views' [`Refiner`] schedules on the GPU without ever waiting for it: one
+//! piece of work in flight at a time, of the view that needs it most ([`crate::schedule`]), its
+//! completion noticed by a thread that waits on the device in the window's stead, and the
+//! newest complete picture of every view always ready to draw.
 
 use crate::refine::{Quality, Refiner, Work};
+use crate::schedule::{self, Candidate};
 use crate::session::LiveScene;
 use std::sync::mpsc::{Sender, channel};
 use std::sync::{Arc, Mutex};
@@ -93,21 +95,55 @@ impl ViewFrames {
         self.pending.is_some() || self.refiner.quality() != Quality::Full
     }
 
-    /// Notes finished work, then submits the next piece of the schedule, if any. Never waits.
-    /// Returns whether something was submitted.
-    pub fn step(
+    /// Drives the frames of every view (`views[i]` is view `i` of `live`): notes finished work
+    /// and, when no view has work on the GPU, submits the most urgent next piece of any view
+    /// (see [`crate::schedule`]: previews first, then the view that settles soonest), so that
+    /// each piece's measured time is its own. Never waits. Returns the view whose piece could
+    /// not be encoded or submitted, with the error; its schedule may ask for it again.
+    pub fn step_views(
+        views: &mut [&mut ViewFrames],
+        live: &mut LiveScene,
+        waiter: &GpuWaiter,
+        now: Instant,
+    ) -> Option<(usize, RuntimeError)> {
+        for (index, frames) in views.iter_mut().enumerate() {
+            frames.collect();
+            frames.follow_output(live, index);
+        }
+        if views.iter().any(|f| f.pending.is_some()) {
+            return None;
+        }
+        let candidates: Vec<Option<Candidate>> =
+            views.iter().enumerate().map(|(index, f)| f.candidate(live.generation(index), now)).collect();
+        let index = schedule::pick(&candidates)?;
+        views[index].submit(live, index, waiter, now).err().map(|e| (index, e))
+    }
+
+    /// This view's next piece of work, with what orders it among the views'.
+    fn candidate(&self, generation: u64, now: Instant) -> Option<Candidate> {
+        let work = self.refiner.peek(generation, now)?;
+        let first_picture = match work {
+            Work::Preview { .. } => true,
+            Work::Tile { region, .. } => region == Region::whole(self.refiner.full_size()),
+        };
+        Some(Candidate {
+            work,
+            interacting: self.refiner.interacting(now),
+            first_picture,
+            piece: self.refiner.estimate(&work),
+            remaining: self.refiner.remaining_estimate(generation),
+        })
+    }
+
+    /// Encodes and submits the next piece of the schedule.
+    fn submit(
         &mut self,
         live: &mut LiveScene,
         index: usize,
         waiter: &GpuWaiter,
         now: Instant,
-    ) -> Result<bool, RuntimeError> {
-        self.collect();
-        if self.pending.is_some() {
-            return Ok(false);
-        }
-        self.follow_output(live, index);
-        let Some(work) = self.refiner.next(live.generation(index), now) else { return Ok(false) };
+    ) -> Result<(), RuntimeError> {
+        let Some(work) = self.refiner.next(live.generation(index), now) else { return Ok(()) };
         let gpu = live.renderer().gpu().clone();
         let mut encoder = gpu.device.create_command_encoder(&Default::default());
         let encoded = match work {
@@ -139,9 +175,9 @@ impl ViewFrames {
             self.refiner.abandoned();
             return Err(fault.into());
         }
-        let Ok(submission) = submission else { return Ok(false) };
+        let Ok(submission) = submission else { return Ok(()) };
         self.pending = Some((work, submitted, waiter.watch(submission)));
-        Ok(true)
+        Ok(())
     }
 
     /// The newest complete picture, or `None` before the first one.

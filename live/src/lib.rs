@@ -14,13 +14,15 @@
 //! - [`FileWatcher`]: the scene file and every module file it reads, watched with a debouncer.
 //! - [`Refiner`]: progressive refinement as a pure schedule (preview at a reduced resolution
 //!   while the user interacts, full resolution in tiles when input stops; [`Work`] to do next,
-//!   [`Quality`] reached), and [`ViewFrames`], which carries the schedule out on the GPU without
-//!   ever waiting for it ([`GpuWaiter`] waits on another thread) and gives the picture to draw
+//!   [`Quality`] reached), and [`ViewFrames`], which carries the views' schedules out on the GPU
+//!   one piece at a time, the most urgent view's first ([`ViewFrames::step_views`]), without
+//!   ever waiting for it ([`GpuWaiter`] waits on another thread), and gives the picture to draw
 //!   ([`Shown`]).
 
 mod frames;
 mod refine;
 mod save;
+mod schedule;
 mod session;
 mod streaming;
 mod watch;

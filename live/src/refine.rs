@@ -76,8 +76,14 @@ pub struct Refiner {
     pub tile_budget: Duration,
     /// How long input must be quiet before refining.
     pub settle: Duration,
-    /// Measured seconds per pixel (running average); `None` before the first measurement.
+    /// Measured seconds per pixel (running average, so it follows what the last pieces
+    /// covered); `None` before the first measurement.
     cost: Option<f64>,
+    /// The time of the current generation's tiles so far, from its first row.
+    picture_time: Duration,
+    /// The summed time of the tiles of the last complete full-resolution picture: the view's
+    /// measured cost of a full frame (rows differ in cost, so no one tile's rate gives it).
+    full_time: Option<Duration>,
     generation: Option<u64>,
     preview: Option<(u64, f32)>,
     /// The generation whose full image is complete and intact (no newer tile written over it).
@@ -103,6 +109,8 @@ impl Refiner {
             tile_budget: Duration::from_millis(40),
             settle: Duration::from_millis(150),
             cost: None,
+            picture_time: Duration::ZERO,
+            full_time: None,
             generation: None,
             preview: None,
             full_done: None,
@@ -166,6 +174,38 @@ impl Refiner {
         Some(work)
     }
 
+    /// What [`Refiner::next`] would hand out now, without handing it out.
+    pub fn peek(&self, generation: u64, now: Instant) -> Option<Work> {
+        self.clone().next(generation, now)
+    }
+
+    /// The view's full size (the full-resolution image's pixels).
+    pub fn full_size(&self) -> [u32; 2] {
+        self.full
+    }
+
+    /// The estimated time of `work`: the measured cost per pixel times its pixels; `None` before
+    /// anything was measured.
+    pub fn estimate(&self, work: &Work) -> Option<Duration> {
+        self.cost.map(|cost| Duration::from_secs_f64(cost * work.pixels() as f64))
+    }
+
+    /// The estimated time to complete the full picture of `generation`: the measured cost per
+    /// pixel times the rows it has left; `None` before anything was measured.
+    pub fn remaining_estimate(&self, generation: u64) -> Option<Duration> {
+        let whole = Region::whole(self.full).pixels().max(1) as f64;
+        let cost = self.full_time.map(|t| t.as_secs_f64() / whole).or(self.cost)?;
+        let rows_done = if self.full_done == Some(generation) {
+            self.full[1]
+        } else if self.generation == Some(generation) {
+            self.next_row
+        } else {
+            0
+        };
+        let pixels = u64::from(self.full[1].saturating_sub(rows_done)) * u64::from(self.full[0]);
+        Some(Duration::from_secs_f64(cost * pixels as f64))
+    }
+
     /// A preview, or the whole full image at once when it fits the budget.
     fn first_work(&mut self, generation: u64) -> Work {
         let divisor = self.preview_divisor();
@@ -213,8 +253,10 @@ impl Refiner {
             Work::Preview { scale, .. } => self.preview = Some((generation, scale)),
             Work::Tile { region, .. } => {
                 self.next_row = region.y1;
+                self.picture_time = if region.y0 == 0 { elapsed } else { self.picture_time + elapsed };
                 if region.y1 >= self.full[1] {
                     self.full_done = Some(generation);
+                    self.full_time = Some(self.picture_time);
                 }
             }
         }
@@ -250,9 +292,11 @@ impl Refiner {
         }
     }
 
-    /// The measured cost of a full-resolution frame, once known.
+    /// The cost of a full-resolution frame: the tiles of the last complete one summed, or before
+    /// there is one, the measured cost per pixel times the pixels.
     pub fn full_frame_estimate(&self) -> Option<Duration> {
-        self.cost.map(|c| Duration::from_secs_f64(c * Region::whole(self.full).pixels() as f64))
+        let extrapolated = || self.cost.map(|c| Duration::from_secs_f64(c * Region::whole(self.full).pixels() as f64));
+        self.full_time.or_else(extrapolated)
     }
 }
 
@@ -335,6 +379,28 @@ mod tests {
         let work = settle(&mut r, 9, later, 2000);
         assert!(!work.is_empty() && work.iter().all(|w| matches!(w, Work::Tile { .. })));
         assert_eq!(r.quality(), Quality::Full);
+    }
+
+    #[test]
+    fn a_full_frame_costs_what_its_tiles_took_together() {
+        let now = Instant::now();
+        let mut r = Refiner::new([64, 64], 100 * MS);
+        let preview = r.next(1, now).expect("a preview");
+        r.finished(&preview, 5 * MS);
+        // Rows in the middle cost ten times the edges'; the running rate follows the last tile.
+        let mut total = Duration::ZERO;
+        while let Some(work) = r.next(1, now) {
+            let Work::Tile { region, .. } = work else { panic!("tiles after the preview") };
+            let per_row = if (16..48).contains(&region.y0) { 10 * MS } else { MS };
+            let took = per_row * (region.y1 - region.y0);
+            total += took;
+            r.finished(&work, took);
+        }
+        assert_eq!(r.quality(), Quality::Full);
+        assert_eq!(r.full_frame_estimate(), Some(total));
+        assert_eq!(r.remaining_estimate(2), Some(total), "a new state has every row left");
+        assert_eq!(r.remaining_estimate(1), Some(Duration::ZERO), "the picture is complete");
+        assert_eq!(r.peek(2, now), r.clone().next(2, now), "peeking hands out nothing");
     }
 
     #[test]

@@ -67,8 +67,9 @@ fn bricks_stream_in_between_frames_and_the_views_draw_again_with_them() {
     for _ in 0..MAX_REDRAWS {
         redraws += 1;
         let now = Instant::now();
-        for (index, f) in frames.iter_mut().enumerate() {
-            f.step(&mut live, index, &waiter, now).unwrap_or_else(|e| panic!("{e}"));
+        let mut all: Vec<&mut ViewFrames> = frames.iter_mut().collect();
+        if let Some((index, e)) = ViewFrames::step_views(&mut all, &mut live, &waiter, now) {
+            panic!("view {index}: {e}");
         }
         let generations: Vec<u64> = (0..views).map(|i| live.generation(i)).collect();
         let progress = live.stream_bricks().unwrap_or_else(|e| panic!("{e}")).expect("a bricked scene");

@@ -67,6 +67,9 @@ struct Running {
     status: String,
     /// When to draw again without an event (bricks loading).
     wake_at: Option<Instant>,
+    /// When the scene was last loaded, and which views have not shown its full picture yet
+    /// (each says so on the terminal when it does).
+    loaded: (Instant, Vec<bool>),
 }
 
 impl ApplicationHandler<Wake> for App {
@@ -165,6 +168,7 @@ impl App {
             side: SidePanel::default(),
             status: "watching the scene's files".into(),
             wake_at: None,
+            loaded: (Instant::now(), Vec::new()),
         };
         running.sync_slots(self.options.budget);
         Ok(running)
@@ -200,14 +204,16 @@ impl Running {
             slot.update_probe(&self.egui, &mut self.live, index, now);
         }
         self.input.handle_platform_output(&self.surface.window, output.platform_output.clone());
+        let mut frames: Vec<&mut ViewFrames> = self.slots.iter_mut().map(|s| &mut s.frames).collect();
+        if let Some((index, e)) = ViewFrames::step_views(&mut frames, &mut self.live, &self.waiter, now) {
+            self.status = format!("view `{}`: {e}", self.slots[index].name);
+        }
         let mut busy = false;
         for (index, slot) in self.slots.iter_mut().enumerate() {
-            if let Err(e) = slot.frames.step(&mut self.live, index, &self.waiter, now) {
-                self.status = format!("view `{}`: {e}", slot.name);
-            }
             slot.show(&mut self.surface, &self.live, index);
             busy |= slot.frames.busy();
         }
+        self.announce_full_pictures(now);
         self.stream_bricks(now);
         self.surface.paint(&self.egui, output);
         // Work in flight wakes the loop when it finishes; work held back while the user
@@ -216,6 +222,22 @@ impl Running {
             let settle = self.slots.iter().map(|s| s.frames.refiner().settle).max().unwrap_or_default();
             self.egui.request_repaint_after(settle);
             self.surface.window.request_redraw();
+        }
+    }
+
+    /// Says on the terminal when each view first shows the full picture of the scene as loaded:
+    /// how long after the load it took, so that a user (and the window test) sees cheap views
+    /// settle first.
+    fn announce_full_pictures(&mut self, now: Instant) {
+        let (loaded_at, waiting) = &mut self.loaded;
+        waiting.resize(self.slots.len(), true);
+        for (slot, waiting) in self.slots.iter().zip(waiting.iter_mut()) {
+            if *waiting && slot.frames.refiner().quality() == vrs_live::Quality::Full {
+                *waiting = false;
+                let [w, h] = slot.frames.refiner().full_size();
+                let ms = now.saturating_duration_since(*loaded_at).as_secs_f64() * 1e3;
+                eprintln!("view `{}`: full {w}×{h} picture {ms:.0} ms after the scene loaded", slot.name);
+            }
         }
     }
 
@@ -256,6 +278,9 @@ impl Running {
         }
         let budget: Duration = self.slots.iter().map(|s| s.frames.refiner().budget).sum();
         self.sync_slots(budget);
+        if rebuild.outcome.is_ok() {
+            self.loaded = (Instant::now(), Vec::new());
+        }
         let _ = self.watcher.watch(self.live.files());
     }
 }
