@@ -41,13 +41,26 @@ FLAG_WRITERS = {
 # Variants of the vrsc under test: a line added to [render], and a module (per compositing).
 VARIANTS = {
     "noskip": ("empty_space_skipping = false", None),
-    "noflag": (None, lambda compositing: FLAG_WRITERS.get(compositing)),
+    "noflag": (None, lambda mode: FLAG_WRITERS.get(MODES[mode]["compositing"])),
+    "onefetch": (None, lambda mode: ONE_FETCH_GRADIENT if MODES[mode]["shading"] else None),
 }
+# Not a gradient (the image differs): one fetch where the gradient takes six, the floor of
+# any gradient kept in a texture (shaded modes only).
+ONE_FETCH_GRADIENT = """pipeline one_fetch_gradient replace sampling.gradient[sample_gradient] {
+    uniform volume: volume;
+    state pos: vec3f = vec3f(0.0);
+    state gradient: vec3f = vec3f(0.0);
+    state.gradient = vec3f(sample(volume, state.pos + vec3f(0.001)) - 0.5, 0.5, 0.5);
+}"""
 VOLUMES = {
     # The MNI152 T1 (uint8 MRI, 197 x 233 x 189 at 1 mm) with the MR preset over its automatic
     # window; the head phantom at 256^3 in Hounsfield units with the bone preset.
     "mni_t1": {"volume": {"file": str(MNI_T1)}, "tf": "mr_default", "window": None},
     "phantom256": {"volume": {"phantom": "head", "size": 256}, "tf": "ct_bone", "window": None},
+    # The T1 under a linear ramp over its whole range (0-255): grey, opacity 0 to 0.05 per
+    # reference step (visible_ramp.json), so every sample but the air's is visible and shaded and
+    # few rays end early: the case where shading's cost shows.
+    "mni_t1_ramp": {"volume": {"file": str(MNI_T1)}, "tf": str(HERE / "visible_ramp.json"), "window": [0.0, 255.0]},
 }
 
 
@@ -179,6 +192,7 @@ def main():
         default="vrsc,noskip,bricked,before,vtk,pygfx",
         help="vrsc, before (--before's shaders), vtk, pygfx, and the variants of vrsc: noskip (empty-space "
         "skipping off), noflag (the writer of `contributes` removed: every function runs for every sample), "
+        "onefetch (shaded modes: the gradient replaced by one fetch, the floor of a gradient texture), "
         "bricked (the volume kept in bricks, every brick resident: compare with noskip, as bricked volumes "
         "skip no empty space)",
     )
@@ -260,13 +274,13 @@ def run_case(label, case, volume, workers, wanted, args, out):
     for name, (render_line, module) in VARIANTS.items():
         if name not in wanted:
             continue
-        if module and MODES[case["mode"]]["compositing"] not in FLAG_WRITERS:
+        item = module(case["mode"]) if module else None
+        if module and item is None:
             continue
         text = scene.read_text()
         if render_line:
             text = text.replace("[render]\n", f"[render]\n{render_line}\n", 1)
-        if module:
-            item = module(MODES[case["mode"]]["compositing"])
+        if item:
             (folder / f"{name}.vrs").write_text(item + "\n")
             text += f'\n[[module]]\npath = "{name}.vrs"\n'
         variant = folder / f"{name}.toml"

@@ -174,7 +174,11 @@ fn prepare(request: &Value) -> Result<Value, String> {
         let n = spec["size"].as_u64().unwrap_or(128) as u32;
         volume::phantom::phantom(name, [n; 3]).map_err(|e| e.to_string())?
     };
-    let table = tf::preset(text(request, "tf")?).map_err(|e| e.to_string())?;
+    // A preset's name, or a ParaView colormap file (`.json`).
+    let tf_name = text(request, "tf")?;
+    let table =
+        if tf_name.ends_with(".json") { tf::from_paraview_json(Path::new(tf_name)) } else { tf::preset(tf_name) };
+    let table = table.map_err(|e| e.to_string())?;
     let window = match request["window"].as_array() {
         Some(w) => [w[0].as_f64().unwrap_or(0.0) as f32, w[1].as_f64().unwrap_or(1.0) as f32],
         None => match table.domain {
