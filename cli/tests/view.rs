@@ -438,8 +438,9 @@ fn a_click_in_one_slice_view_moves_the_other_through_the_point() {
     assert!(distinct_colours(&after) > 20, "the moved coronal view is blank");
 }
 
-/// Window/level: a right drag across the axial slice (the first view; a grey ramp over the
-/// phantom) narrows the window, and the slices' picture changes.
+/// Window/level, per view: a right drag across the axial slice (the first view; a grey ramp
+/// over the phantom) narrows its window, and its picture changes while the coronal one's does
+/// not.
 #[test]
 fn a_right_drag_in_a_slice_view_changes_its_window() {
     if !window_tools() {
@@ -449,8 +450,8 @@ fn a_right_drag_in_a_slice_view_changes_its_window() {
     let scene = scenes.path().join("scene.toml");
     std::fs::write(&scene, HEAD_SLICES).unwrap();
     let mut viewer = Running::settled(&scene);
-    let before = viewer.shot(whole);
-    let (x, y) = (300, 310);
+    let (before, coronal_before) = (viewer.shot(first_view), viewer.shot(second_view));
+    let (x, y) = (1000 / 6, 620 / 2);
     let drag = format!(
         "mousemove {x} {y} mousedown 3 sleep 0.4 mousemove {} {y} sleep 0.4 mousemove {} {} sleep 0.4 mouseup 3",
         x - 60,
@@ -458,9 +459,36 @@ fn a_right_drag_in_a_slice_view_changes_its_window() {
         y - 20
     );
     xdotool(&viewer.display, &drag);
-    let after = viewer.shot(whole);
+    let (after, coronal_after) = (viewer.shot(first_view), viewer.shot(second_view));
     let difference = mean_difference(&before, &after);
     assert!(difference > 1.0, "window/level must change the slice (mean difference {difference:.3})");
+    let other = mean_difference(&coronal_before, &coronal_after);
+    assert!(other < 0.5, "the other view keeps its window (mean difference {other:.3})");
+}
+
+/// CT window presets, per view: over the axial slice, 4 (bone: W 1800 L 400) changes its
+/// picture and not the coronal one's; 0 gives it the volume's window back.
+#[test]
+fn a_ct_window_key_sets_the_view_under_the_mouse() {
+    if !window_tools() {
+        return;
+    }
+    let scenes = tempfile::tempdir().unwrap();
+    let scene = scenes.path().join("scene.toml");
+    std::fs::write(&scene, HEAD_SLICES).unwrap();
+    let mut viewer = Running::settled(&scene);
+    let (before, coronal_before) = (viewer.shot(first_view), viewer.shot(second_view));
+    xdotool(&viewer.display, "search --name vrsc windowfocus");
+    xdotool(&viewer.display, &format!("mousemove {} {} sleep 0.3 key 4", 1000 / 6, 620 / 2));
+    let (bone, coronal_after) = (viewer.shot(first_view), viewer.shot(second_view));
+    let difference = mean_difference(&before, &bone);
+    assert!(difference > 1.0, "the bone window must change the slice (mean difference {difference:.3})");
+    let other = mean_difference(&coronal_before, &coronal_after);
+    assert!(other < 0.5, "the other view keeps its window (mean difference {other:.3})");
+    xdotool(&viewer.display, &format!("mousemove {} {} sleep 0.3 key 0", 1000 / 6, 620 / 2 + 10));
+    let back = viewer.shot(first_view);
+    let restored = mean_difference(&before, &back);
+    assert!(restored < 0.5, "0 gives the view the volume's window again (mean difference {restored:.3})");
 }
 
 /// With a heavy 3D view beside a cheap slice (the ablation example), the slice shows its full
@@ -503,4 +531,86 @@ fn the_cheap_slice_settles_before_the_heavy_3d_view() {
         4.0 * axial < heavy,
         "after the save, the slice ({axial} ms) completes long before the 3D view ({heavy} ms)"
     );
+}
+
+/// The head phantom in two 3D views of one size, seen from different sides.
+const TWO_CAMERAS: &str = "[render]\njitter = 0.0\n\n[[volume]]\nname = \"head\"\nrole = \"primary\"\nphantom = \"head\"\ntf = \"ct_bone\"\n\n\
+    [[view]]\nname = \"front\"\nkind = \"raycast\"\nsize = [256, 256]\ncamera = { azimuth = 0.0, elevation = 10.0, distance = 2.5 }\n\n\
+    [[view]]\nname = \"side\"\nkind = \"raycast\"\nsize = [256, 256]\ncamera = { azimuth = 90.0, elevation = 10.0, distance = 2.5 }\n";
+
+/// Linked 3D cameras: unlinked, orbiting the first view leaves the second alone; after L, an
+/// orbit of the first view gives the second its camera, so the two (same volume, same size)
+/// export the same picture (E over each view: `vrsc render`'s pixels at the scene's size).
+#[test]
+fn linked_3d_cameras_follow_the_view_that_moves() {
+    if !window_tools() {
+        return;
+    }
+    let scenes = tempfile::tempdir().unwrap();
+    let scene = scenes.path().join("scene.toml");
+    std::fs::write(&scene, TWO_CAMERAS).unwrap();
+    let mut viewer = Running::settled(&scene);
+    xdotool(&viewer.display, "search --name vrsc windowfocus");
+    // Over each view (the left and the right tile), E writes SCENE-VIEW.png.
+    let over = [(1000 / 6, 620 / 2), (1000 / 2, 620 / 2)];
+    let export = |viewer: &Running, view: usize, name: &str| -> image::RgbaImage {
+        let path = scenes.path().join(format!("scene-{name}.png"));
+        let _ = std::fs::remove_file(&path);
+        let (x, y) = over[view];
+        xdotool(&viewer.display, &format!("mousemove {x} {y} sleep 0.3 key e"));
+        assert!(within_a_minute(|| path.exists()), "no {} after E:\n{}", path.display(), viewer.printed());
+        std::thread::sleep(Duration::from_millis(500));
+        image::open(&path).unwrap().to_rgba8()
+    };
+    let orbit = |viewer: &Running, dx: i32| {
+        let (x, y) = over[0];
+        let drag = format!("mousemove {x} {y} mousedown 1 sleep 0.3 mousemove {} {y} sleep 0.3 mouseup 1", x + dx);
+        xdotool(&viewer.display, &drag);
+    };
+    let side_before = export(&viewer, 1, "side");
+    orbit(&viewer, 40);
+    viewer.shot(first_view);
+    let (front, side) = (export(&viewer, 0, "front"), export(&viewer, 1, "side"));
+    assert_eq!(mean_difference(&side_before, &side), 0.0, "unlinked, the second view stays");
+    assert!(mean_difference(&front, &side) > 2.0, "the views show different sides");
+    xdotool(&viewer.display, &format!("mousemove {} {} sleep 0.3 key l sleep 0.3", over[0].0, over[0].1));
+    orbit(&viewer, 30);
+    viewer.shot(second_view);
+    let (front, side) = (export(&viewer, 0, "front"), export(&viewer, 1, "side"));
+    let same = mean_difference(&front, &side);
+    assert!(same < 0.01, "linked, the second view has the first one's camera (mean difference {same:.3})");
+    assert!(mean_difference(&side_before, &side) > 2.0, "the second view moved");
+}
+
+/// Shift+E exports the whole window as it is on screen, beside the scene as
+/// `SCENE-window.png`: the window's pixels (the screen of Xvfb shows the window at its top-left
+/// corner, so the screenshot's overlap with it must agree).
+#[test]
+fn shift_e_exports_the_window_as_shown() {
+    if !window_tools() {
+        return;
+    }
+    let scenes = tempfile::tempdir().unwrap();
+    let example: PathBuf = [env!("CARGO_MANIFEST_DIR"), "..", "examples", "basic", "scene.toml"].iter().collect();
+    let scene = scenes.path().join("scene.toml");
+    std::fs::copy(&example, &scene).unwrap();
+    let mut viewer = Running::settled(&scene);
+    viewer.shot(second_view);
+    xdotool(&viewer.display, "search --name vrsc windowfocus");
+    xdotool(&viewer.display, &format!("mousemove {} {} sleep 0.3 key shift+e", 1000 / 6, 620 / 2));
+    let exported = scenes.path().join("scene-window.png");
+    assert!(within_a_minute(|| exported.exists()), "no {} after Shift+E:\n{}", exported.display(), viewer.printed());
+    std::thread::sleep(Duration::from_millis(500));
+    let window = image::open(&exported).unwrap().to_rgba8();
+    if let Ok(keep) = std::env::var("VRS_KEEP_WINDOW_EXPORT") {
+        std::fs::copy(&exported, keep).unwrap();
+    }
+    let shot = screenshot(&viewer.display, &viewer.dir.path().join("now.png")).expect("a screenshot");
+    let (w, h) = (window.width().min(shot.width()), window.height().min(shot.height()));
+    assert!(w >= 900 && h >= 560, "the export is the window ({}x{})", window.width(), window.height());
+    let overlap = |img: &image::RgbaImage| image::imageops::crop_imm(img, 0, 0, w, h).to_image();
+    let difference = mean_difference(&overlap(&window), &overlap(&shot));
+    // The caption's last-action text and the cost figures may differ between the two moments.
+    assert!(difference < 2.0, "the export shows what the screen shows (mean difference {difference:.3})");
+    assert!(distinct_colours(&window) > 50, "the export holds the window's pictures");
 }

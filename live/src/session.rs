@@ -72,6 +72,9 @@ pub struct UserState {
     sizes: BTreeMap<String, [u32; 2]>,
     /// Transfer functions by volume, with the curve the scene gave it then.
     curves: BTreeMap<String, (TfCurve, Option<TfCurve>)>,
+    /// Views' own transfer functions (a slice view's window/level), by view and volume; they
+    /// last until reset or until the view or volume is gone.
+    view_curves: BTreeMap<(String, String), TfCurve>,
     /// Mesh colours, opacities and placements by mesh, with the scene's style of it then.
     meshes: BTreeMap<String, (MeshStyle, Option<MeshStyle>)>,
 }
@@ -352,6 +355,32 @@ impl LiveScene {
         let folder = scene.parent().unwrap_or(Path::new("."));
         let shown = path.strip_prefix(folder).unwrap_or(path).to_string_lossy().into_owned();
         save::set_volume_tf(scene, volume, &shown)
+    }
+
+    /// Gives view `index` a transfer function of its own for volume `volume` (a slice view's
+    /// window/level or window preset); the volume's, which the other views keep, is unchanged.
+    /// It survives reloads.
+    pub fn set_view_tf_curve(&mut self, index: usize, volume: &str, curve: TfCurve) -> Result<(), RuntimeError> {
+        self.renderer.set_view_tf_curve(index, volume, Some(&curve))?;
+        let name = self.view_names().get(index).cloned().unwrap_or_default();
+        self.user.view_curves.insert((name.clone(), volume.to_string()), curve);
+        self.bump(&name);
+        Ok(())
+    }
+
+    /// View `index`'s own transfer function for volume `volume`, if it has one.
+    pub fn view_tf_curve(&self, index: usize, volume: &str) -> Option<&TfCurve> {
+        let name = self.view_names().get(index).cloned()?;
+        self.user.view_curves.get(&(name, volume.to_string()))
+    }
+
+    /// View `index` shows volume `volume` with the volume's transfer function again.
+    pub fn reset_view_tf_curve(&mut self, index: usize, volume: &str) -> Result<(), RuntimeError> {
+        self.renderer.set_view_tf_curve(index, volume, None)?;
+        let name = self.view_names().get(index).cloned().unwrap_or_default();
+        self.user.view_curves.remove(&(name.clone(), volume.to_string()));
+        self.bump(&name);
+        Ok(())
     }
 
     /// Puts volume `volume`'s transfer function back to the scene file's.
@@ -703,6 +732,17 @@ impl LiveScene {
                 && self.renderer.set_tf_curve(&volume, curve.clone()).is_ok()
             {
                 self.user.curves.insert(volume, (curve, then));
+            }
+        }
+        let view_curves = std::mem::take(&mut self.user.view_curves);
+        let names = self.view_names();
+        for ((view, volume), curve) in view_curves {
+            let applied = names
+                .iter()
+                .position(|n| *n == view)
+                .map(|index| self.renderer.set_view_tf_curve(index, &volume, Some(&curve)).is_ok());
+            if applied == Some(true) {
+                self.user.view_curves.insert((view, volume), curve);
             }
         }
         let meshes = std::mem::take(&mut self.user.meshes);

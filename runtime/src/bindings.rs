@@ -98,6 +98,8 @@ pub(crate) struct DispatchResources<'a> {
     pub luminance: Option<&'a wgpu::TextureView>,
     /// The images of the view's mesh layer (`crate::mesh_layer`).
     pub mesh_layer: Option<LayerViews<'a>>,
+    /// The view's own transfer-function tables, bound in place of the scene's of the same name.
+    pub tfs: &'a std::collections::HashMap<String, crate::textures::TfTexture>,
     /// The view's `BrickLayout` buffer of each bricked volume it reads, by binding name.
     pub brick_layouts: &'a std::collections::HashMap<String, wgpu::Buffer>,
 }
@@ -139,9 +141,10 @@ pub(crate) fn group_entries<'a>(
                 BindingKind::VolumeTexture => wgpu::BindingResource::TextureView(
                     &shared.volumes.get(&b.name).ok_or_else(|| missing("volume", &b.name))?.view,
                 ),
-                BindingKind::TfTexture => wgpu::BindingResource::TextureView(
-                    &shared.tfs.get(&b.name).ok_or_else(|| missing("transfer function", &b.name))?.view,
-                ),
+                BindingKind::TfTexture => wgpu::BindingResource::TextureView(match own.tfs.get(&b.name) {
+                    Some(own) => &own.view,
+                    None => &shared.tfs.get(&b.name).ok_or_else(|| missing("transfer function", &b.name))?.view,
+                }),
                 BindingKind::VolumeSampler | BindingKind::TfSampler => wgpu::BindingResource::Sampler(&shared.sampler),
                 BindingKind::BrickPool => wgpu::BindingResource::TextureView(&bricked()?.pool_view),
                 BindingKind::PageTable => bricked()?.pages.as_entire_binding(),

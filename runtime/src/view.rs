@@ -10,7 +10,7 @@ use crate::metering::Metering;
 use crate::reflection::BindingKind;
 use crate::resources::Resources;
 use crate::shader::{PipelineCache, ViewPipeline, ViewShader};
-use crate::textures::Image2d;
+use crate::textures::{Image2d, TfTexture};
 use crate::uniforms::{UniformBlock, Value};
 use std::collections::HashMap;
 use std::sync::Arc;
@@ -44,6 +44,9 @@ pub struct ViewRenderer {
     brick_view: Option<BrickView>,
     brick_finest: u32,
     brick_layouts: HashMap<String, wgpu::Buffer>,
+    /// Transfer-function tables of the view's own, bound in place of the scene's of the same
+    /// name (a slice view's window/level).
+    own_tfs: HashMap<String, TfTexture>,
 }
 
 /// Mesh layers and overlays kept per view: one for previews and one for the full image.
@@ -71,6 +74,12 @@ fn for_size<T>(
 const ROW_ALIGNMENT: u32 = wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
 
 impl ViewRenderer {
+    /// The view's own transfer-function tables by binding name
+    /// ([`crate::SceneRenderer::set_view_tf_curve`]).
+    pub(crate) fn own_tfs_mut(&mut self) -> &mut HashMap<String, TfTexture> {
+        &mut self.own_tfs
+    }
+
     /// A renderer of `shader` at `size` pixels; the pipeline comes from `cache`.
     pub fn new(
         gpu: &Gpu,
@@ -109,6 +118,7 @@ impl ViewRenderer {
             brick_view: None,
             brick_finest: 0,
             brick_layouts: HashMap::new(),
+            own_tfs: HashMap::new(),
         })
     }
 
@@ -362,6 +372,7 @@ impl ViewRenderer {
             luminance,
             mesh_layer,
             brick_layouts: &self.brick_layouts,
+            tfs: &self.own_tfs,
         };
         let mut groups = Vec::with_capacity(self.pipeline.groups.len());
         for (group, layout) in (0u32..).zip(&self.pipeline.groups) {

@@ -215,7 +215,14 @@ impl Running {
         }
         self.announce_full_pictures(now);
         self.stream_bricks(now);
-        self.surface.paint(&self.egui, output);
+        let capture = self.egui.input(|i| panel::pressed(i, egui::Key::E, true)).then(|| self.window_png());
+        if let (Some(path), Some(result)) = (&capture, self.surface.paint(&self.egui, output, capture.as_deref())) {
+            self.status = match result {
+                Ok([w, h]) => format!("window exported ({w}x{h}) to {}", path.display()),
+                Err(e) => format!("window export failed: {e}"),
+            };
+            eprintln!("{}", self.status);
+        }
         // Work in flight wakes the loop when it finishes; work held back while the user
         // interacts needs a look once input has settled.
         if busy {
@@ -223,6 +230,13 @@ impl Running {
             self.egui.request_repaint_after(settle);
             self.surface.window.request_redraw();
         }
+    }
+
+    /// Where Shift+E writes the window: `SCENE-window.png` beside the scene.
+    fn window_png(&self) -> std::path::PathBuf {
+        let scene = self.live.renderer().path();
+        let stem = scene.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "scene".into());
+        scene.with_file_name(format!("{stem}-window.png"))
     }
 
     /// Says on the terminal when each view first shows the full picture of the scene as loaded:

@@ -3,6 +3,7 @@
 
 use glam::{Mat4, Vec2, Vec3};
 use vrs_runtime::geometry::{PatientBox, volume_to_world};
+use vrs_runtime::tf::TfCurve;
 use vrs_runtime::{OrbitCamera, SliceAxis, SlicePlane};
 
 /// Degrees of orbit per pixel dragged.
@@ -159,8 +160,31 @@ pub fn window_level_change(drag: Vec2, height: f32, width: f32) -> (f32, f32) {
     (drag.y / height.max(1.0) * width, (drag.x / 200.0).exp2())
 }
 
+/// Radiology's CT windows (Hounsfield units), the keys 1 to 5 over a slice view and its
+/// right-click menu: name, level, width.
+pub const CT_WINDOWS: [(&str, f32, f32); 5] = [
+    ("Brain", 40.0, 80.0),
+    ("Soft tissue", 50.0, 400.0),
+    ("Lung", -600.0, 1500.0),
+    ("Bone", 400.0, 1800.0),
+    ("Mediastinum", 50.0, 350.0),
+];
+
+/// `curve` (over the volume's `window`) with its domain moved to the window of `level` and
+/// `width` data units: a CT window preset, every point kept in its place relative to the domain.
+pub fn windowed_at(curve: &TfCurve, window: [f32; 2], level: f32, width: f32) -> TfCurve {
+    let [lo, hi] = curve.data_domain(window);
+    curve.window_levelled(window, level - 0.5 * (lo + hi), width / (hi - lo).max(f32::MIN_POSITIVE))
+}
+
+/// A curve's window as reading software shows it: `W 80 L 40` (data units).
+pub fn window_text(curve: &TfCurve, window: [f32; 2]) -> String {
+    let [lo, hi] = curve.data_domain(window);
+    format!("W {:.0} L {:.0}", hi - lo, 0.5 * (lo + hi))
+}
+
 /// What the mouse and the keys do in the views: the keyboard help (F1 or `?`) lists them.
-pub const KEYS: [(&str, &str); 12] = [
+pub const KEYS: [(&str, &str); 16] = [
     ("3D: drag", "orbit"),
     ("3D: right or middle drag", "pan"),
     ("3D: wheel", "zoom"),
@@ -168,9 +192,13 @@ pub const KEYS: [(&str, &str); 12] = [
     ("slice: X / Y / Z", "turn to sagittal / coronal / axial"),
     ("slice: drag a green ring", "move a mesh point (a needle's tip)"),
     ("slice: click", "move the other slices through the point (crosshair)"),
-    ("slice: right drag", "window (across) and level (up and down) of the primary volume"),
+    ("slice: right drag", "this view's window (across) and level (up and down) of the primary volume"),
+    ("slice: 1 to 5, or right-click", "CT window: brain, soft tissue, lung, bone, mediastinum"),
+    ("slice: 0", "the volume's own window again (as the other views)"),
     ("R", "reset the view's camera or plane to the scene's"),
     ("E", "export the view as `vrsc render` writes it: SCENE-VIEW.png beside the scene"),
+    ("Shift+E", "export the whole window as it is on screen: SCENE-window.png beside the scene"),
+    ("L (Link 3D in the toolbar)", "link the 3D views' cameras: moving one moves them all"),
     ("F1 or ?", "show or hide these keys"),
     ("Panel (toolbar)", "parameters, transfer functions, meshes, inspector"),
 ];
@@ -317,5 +345,19 @@ mod tests {
         assert_eq!((shift, scale), (0.0, 2.0), "200 points right double the width");
         let (shift, scale) = window_level_change(Vec2::new(-200.0, 100.0), 400.0, 1000.0);
         assert_eq!((shift, scale), (250.0, 0.5), "a quarter of the height down: a quarter width up");
+    }
+
+    #[test]
+    fn a_ct_window_preset_puts_the_curve_on_its_window() {
+        let grey = vrs_runtime::tf::preset_curve("grayscale").unwrap();
+        let volume_window = [-1000.0, 2000.0];
+        let (_, level, width) = CT_WINDOWS[0];
+        let brain = windowed_at(&grey, volume_window, level, width);
+        assert_eq!(brain.data_domain(volume_window), [0.0, 80.0]);
+        assert_eq!(window_text(&brain, volume_window), "W 80 L 40");
+        // The ramp keeps its shape over the new window: its first and last points at its ends.
+        assert_eq!(brain.color.first().map(|c| c.0), Some(0.0));
+        assert_eq!(brain.color.last().map(|c| c.0), Some(80.0));
+        assert_eq!(window_text(&grey, volume_window), "W 3000 L 500");
     }
 }

@@ -112,7 +112,8 @@ pub fn show(
     status: &str,
     now: Instant,
 ) {
-    egui::Panel::top("toolbar").show(ui, |ui| toolbar(ui, slots, layout, side));
+    let raycast_views = (0..slots.len()).filter(|&i| live.camera(i).is_some()).count();
+    egui::Panel::top("toolbar").show(ui, |ui| toolbar(ui, slots, layout, side, raycast_views > 1));
     egui::Panel::bottom("status").show(ui, |ui| {
         ui.label(status);
         notices(ui, &live.renderer().notices);
@@ -177,13 +178,48 @@ pub fn brick_line(progress: &BrickProgress) -> String {
     line
 }
 
-fn toolbar(ui: &mut egui::Ui, slots: &[ViewSlot], layout: &mut Layout, side: &mut SidePanel) {
+/// Where the window keeps whether the 3D views' cameras are linked (toolbar, L).
+fn linked_cameras_id() -> egui::Id {
+    egui::Id::NULL.with("linked 3D cameras")
+}
+
+/// Whether a camera change in one 3D view moves every 3D view.
+fn cameras_linked(ctx: &egui::Context) -> bool {
+    ctx.data(|d| d.get_temp::<bool>(linked_cameras_id())).unwrap_or(false)
+}
+
+/// Gives every other 3D view the camera of view `index` (linked cameras); whether any changed.
+fn follow_camera(live: &mut LiveScene, index: usize) -> bool {
+    let Some(camera) = live.camera(index) else { return false };
+    let mut moved = false;
+    for other in (0..live.view_names().len()).filter(|&j| j != index) {
+        if live.camera(other).is_some_and(|c| c != camera) {
+            live.set_camera(other, camera);
+            moved = true;
+        }
+    }
+    moved
+}
+
+/// The toolbar: the panel, the layout, linked cameras (`linkable`: the scene has several 3D
+/// views) and the keys.
+fn toolbar(ui: &mut egui::Ui, slots: &[ViewSlot], layout: &mut Layout, side: &mut SidePanel, linkable: bool) {
     ui.horizontal(|ui| {
         ui.toggle_value(&mut side.open, "Panel");
         ui.separator();
         ui.selectable_value(layout, Layout::Tiles, "All views");
         for (i, slot) in slots.iter().enumerate() {
             ui.selectable_value(layout, Layout::Tab(i), &slot.name);
+        }
+        if linkable {
+            ui.separator();
+            let mut linked = cameras_linked(ui.ctx());
+            // L toggles it, unless a text field has the keyboard.
+            let typing = ui.ctx().memory(|m| m.focused().is_some());
+            linked ^= !typing && ui.input(|i| i.key_pressed(egui::Key::L));
+            ui.toggle_value(&mut linked, "Link 3D (L)")
+                .on_hover_text("Orbiting, panning or zooming one 3D view moves every 3D view the same way");
+            ui.ctx().data_mut(|d| d.insert_temp(linked_cameras_id(), linked));
         }
         ui.separator();
         // The keys are in their own window (F1 or ?): a hint line did not fit the toolbar.
@@ -243,9 +279,15 @@ fn view_cell(
     {
         moved |= cross_at(live, index, image_coords(at, image));
     }
-    if handle_input(ui, live, index, &response) || moved {
+    let mut changed = handle_input(ui, live, index, &response);
+    if is_slice {
+        response.context_menu(|ui| changed |= window_menu(ui, live, index));
+    }
+    if changed || moved {
         slot.frames.input(now);
     }
+    // Linked cameras: the other 3D views follow, and are interacted with too.
+    moved |= changed && cameras_linked(ui.ctx()) && follow_camera(live, index);
     ui.painter().rect_filled(image, 0.0, Color32::from_gray(12));
     let uv = Rect::from_min_max(egui::pos2(0.0, 0.0), egui::pos2(1.0, 1.0));
     let probe = slot.probe.as_ref().and_then(|p| p.shown.as_ref());
@@ -274,7 +316,8 @@ fn view_cell(
         let font = egui::FontId::monospace(11.0);
         ui.painter().text(at, egui::Align2::LEFT_BOTTOM, legend, font, Color32::from_rgb(255, 230, 150));
     }
-    if response.hovered() && ui.input(|i| i.key_pressed(egui::Key::E)) {
+    // E exports the view under the mouse; Shift+E, the whole window (app.rs).
+    if response.hovered() && ui.input(|i| pressed(i, egui::Key::E, false)) {
         slot.exported = Some((now, export(live, index)));
     }
     let recent = slot.exported.as_ref().filter(|(at, _)| now.duration_since(*at) < EXPORT_SHOWN);
@@ -317,10 +360,15 @@ fn paint_slice_labels(ui: &egui::Ui, live: &LiveScene, index: usize, image: Rect
     if let (Some(plane), Some((dims, grid_to_world))) = (live.slice(index), live.renderer().primary_grid())
         && let Some(position) = navigate::slice_position_text(&plane, dims, grid_to_world)
     {
-        // Where the slice is, in the image's corner as reading software puts it.
+        // Where the slice is, in the image's corner as reading software puts it, and the
+        // view's window above it.
         let at = image.right_bottom() - Vec2::new(6.0, 6.0);
         let font = egui::FontId::proportional(13.0);
-        ui.painter().text(at, egui::Align2::RIGHT_BOTTOM, position, font, Color32::from_rgb(120, 220, 255));
+        let text = match view_curve(live, index) {
+            Some((_, window, curve)) => format!("{}\n{position}", navigate::window_text(&curve, window)),
+            None => position,
+        };
+        ui.painter().text(at, egui::Align2::RIGHT_BOTTOM, text, font, Color32::from_rgb(120, 220, 255));
     }
 }
 
@@ -328,15 +376,61 @@ fn paint_slice_labels(ui: &egui::Ui, live: &LiveScene, index: usize, image: Rect
 /// mode: across widens (right) or narrows (left) the primary volume's transfer function, down
 /// raises its level (a drag over the view's height moves it by its width). The transfer function
 /// is the volume's, so every view of the volume follows. Whether it changed.
-fn window_level(live: &mut LiveScene, drag: glam::Vec2, height: f32) -> bool {
+fn window_level(live: &mut LiveScene, index: usize, drag: glam::Vec2, height: f32) -> bool {
+    let Some((name, window, curve)) = view_curve(live, index) else { return false };
+    let (shift, scale) = navigate::window_level_change(drag, height, window[1] - window[0]);
+    live.set_view_tf_curve(index, &name, curve.window_levelled(window, shift, scale)).is_ok()
+}
+
+/// The primary volume as view `index` shows it: its name, its window (the data values of its
+/// texture) and the curve the view uses (its own, else the volume's, else a grey ramp).
+fn view_curve(live: &LiveScene, index: usize) -> Option<(String, [f32; 2], vrs_runtime::tf::TfCurve)> {
+    let primary = live.renderer().volumes().into_iter().next()?;
+    let name = primary.name.to_string();
+    let curve = live
+        .view_tf_curve(index, &name)
+        .or(primary.curve)
+        .cloned()
+        .or_else(|| vrs_runtime::tf::preset_curve("grayscale").ok())?;
+    Some((name, primary.window, curve))
+}
+
+/// Puts slice view `index` on CT window `preset` of [`navigate::CT_WINDOWS`] (from the volume's
+/// curve), or with `None` back on the volume's own transfer function; whether it changed.
+fn window_preset(live: &mut LiveScene, index: usize, preset: Option<usize>) -> bool {
     let Some(primary) = live.renderer().volumes().into_iter().next() else { return false };
     let (name, window) = (primary.name.to_string(), primary.window);
-    let Some(curve) = primary.curve.cloned().or_else(|| vrs_runtime::tf::preset_curve("grayscale").ok()) else {
-        return false;
-    };
-    let width = window[1] - window[0];
-    let (shift, scale) = navigate::window_level_change(drag, height, width);
-    live.set_tf_curve(&name, curve.window_levelled(window, shift, scale)).is_ok()
+    let Some(preset) = preset else { return live.reset_view_tf_curve(index, &name).is_ok() };
+    let base = primary.curve.cloned().or_else(|| vrs_runtime::tf::preset_curve("grayscale").ok());
+    let (Some(base), Some(&(_, level, width))) = (base, navigate::CT_WINDOWS.get(preset)) else { return false };
+    live.set_view_tf_curve(index, &name, navigate::windowed_at(&base, window, level, width)).is_ok()
+}
+
+/// The right-click menu of a slice view: the CT windows and the volume's own.
+fn window_menu(ui: &mut egui::Ui, live: &mut LiveScene, index: usize) -> bool {
+    let mut changed = false;
+    for (k, (label, level, width)) in navigate::CT_WINDOWS.iter().enumerate() {
+        if ui.button(format!("{}  {label} (W {width} L {level})", k + 1)).clicked() {
+            changed |= window_preset(live, index, Some(k));
+            ui.close();
+        }
+    }
+    ui.separator();
+    if ui.button("0  The volume's window").clicked() {
+        changed |= window_preset(live, index, None);
+        ui.close();
+    }
+    changed
+}
+
+/// Whether `key` went down this frame with Shift held (`shift`) or not: the modifiers the key
+/// event carries, which a synthetic event (xdotool's `shift+e`) sets without a separate
+/// modifier change.
+pub fn pressed(input: &egui::InputState, key: egui::Key, shift: bool) -> bool {
+    input.events.iter().any(|e| {
+        matches!(e, egui::Event::Key { key: k, pressed: true, repeat: false, modifiers, .. }
+            if *k == key && modifiers.shift == shift)
+    })
 }
 
 /// How long a view's caption says where its export went.
@@ -595,7 +689,14 @@ fn handle_input(ui: &egui::Ui, live: &mut LiveScene, index: usize, response: &eg
         }
         if response.dragged_by(egui::PointerButton::Secondary) || response.dragged_by(egui::PointerButton::Middle) {
             let delta = response.drag_delta();
-            changed |= window_level(live, glam::Vec2::new(delta.x, delta.y), response.rect.height());
+            changed |= window_level(live, index, glam::Vec2::new(delta.x, delta.y), response.rect.height());
+        }
+        if hovered {
+            let digits =
+                [egui::Key::Num0, egui::Key::Num1, egui::Key::Num2, egui::Key::Num3, egui::Key::Num4, egui::Key::Num5];
+            if let Some(digit) = digits.iter().position(|d| keys.contains(d)) {
+                changed |= window_preset(live, index, digit.checked_sub(1));
+            }
         }
         if next != plane {
             live.set_slice(index, next);

@@ -1,8 +1,10 @@
 //! Transfer-function editing: each volume's curve, window and histogram as an editor shows
-//! them, and an edited curve put in place by rewriting one table (no pipeline changes).
+//! them, and an edited curve put in place by rewriting one table (no pipeline changes), for
+//! every view or for one view of its own (a slice view's window/level).
 
 use super::SceneRenderer;
 use crate::error::RuntimeError;
+use crate::textures::TfTexture;
 use crate::tf::TfCurve;
 
 /// A volume of the scene as a transfer-function editor sees it.
@@ -33,6 +35,42 @@ impl SceneRenderer {
         self.set_transfer_function(volume, &curve.table())?;
         if let Some(grid) = self.grids.iter_mut().find(|g| g.name == volume) {
             grid.curve = Some(curve);
+        }
+        Ok(())
+    }
+
+    /// Gives view `index` a transfer function of its own for volume `volume` (`None`: the
+    /// volume's again). Only that view's 1D table changes; the volume's table, its
+    /// pre-integration tables and the occupancy grid of empty-space skipping stay the volume's
+    /// (a slice view, where window/level is set, skips nothing).
+    pub fn set_view_tf_curve(
+        &mut self,
+        index: usize,
+        volume: &str,
+        curve: Option<&TfCurve>,
+    ) -> Result<(), RuntimeError> {
+        let grid = self
+            .grids
+            .iter()
+            .find(|g| g.name == volume)
+            .ok_or_else(|| RuntimeError::Invalid(format!("the scene has no volume `{volume}`")))?;
+        let binding = if self.grids.first().is_some_and(|g| g.name == volume) {
+            "tf".to_string()
+        } else {
+            format!("tf_{volume}")
+        };
+        let table = curve.map(|c| c.table().over_window(grid.window));
+        let view = self.views.get_mut(index).ok_or_else(|| RuntimeError::Invalid(format!("no view {index}")))?;
+        let own = view.renderer.own_tfs_mut();
+        match (table, own.get(&binding)) {
+            (None, _) => {
+                own.remove(&binding);
+            }
+            (Some(table), Some(texture)) => texture.write(&self.gpu, &table),
+            (Some(table), None) => {
+                let texture = TfTexture::upload(&self.gpu, &table)?;
+                own.insert(binding, texture);
+            }
         }
         Ok(())
     }

@@ -44,6 +44,15 @@ impl TfCurve {
         }
     }
 
+    /// The data values the curve's domain spans: its own, or `window` for a window-relative
+    /// curve (what reading software shows as its window: width `hi - lo`, level the middle).
+    pub fn data_domain(&self, window: [f32; 2]) -> [f32; 2] {
+        match self.domain {
+            TfDomain::Data(domain) => domain,
+            TfDomain::Window => window,
+        }
+    }
+
     /// The curve in data units (placed on `window` if window-relative, as [`in_data_units`]
     /// does) with its level (the middle of its domain) moved by `level_shift` data units and its
     /// width (the domain's length) scaled by `width_scale` around the level: what dragging
