@@ -389,9 +389,14 @@ fn a_renamed_uniform_in_a_running_viewer_is_refused_as_build_refuses_it() {
     let scene = scenes.path().join("scene.toml");
     std::fs::write(&scene, &text).unwrap();
     let mut viewer = Running::settled(&scene);
+    let upper = viewer.shot(upper_first_view);
     std::fs::write(&scene, text.replace("ambient = 0.3", "ambeint = 0.3")).unwrap();
     within_a_minute(|| viewer.printed().contains("E0702"));
     still_running(&mut viewer.viewer, &viewer.dir.path().join("viewer.log"));
+    // The diagnostics lie over the views' lower left: the views keep their size (a view made
+    // smaller for a panel would show its picture smaller), so their upper part is unchanged.
+    let kept = mean_difference(&upper, &viewer.shot(upper_first_view));
+    assert!(kept < 0.5, "the view kept its size and picture (mean difference {kept:.3})");
     let build = Command::new(env!("CARGO_BIN_EXE_vrsc"))
         .args(["build", &scene.display().to_string(), "--color", "never", "-o"])
         .arg(viewer.dir.path().join("built"))
@@ -405,6 +410,12 @@ fn a_renamed_uniform_in_a_running_viewer_is_refused_as_build_refuses_it() {
     for line in lines {
         assert!(viewer_said.contains(line.trim()), "the viewer did not say {line:?}; it printed:\n{viewer_said}");
     }
+}
+
+/// The upper half of the first view's region.
+fn upper_first_view(shot: &image::RgbaImage) -> image::RgbaImage {
+    let (w, h) = shot.dimensions();
+    image::imageops::crop_imm(shot, 0, h / 8, w / 3, h * 3 / 8).to_image()
 }
 
 /// The second view's region (the right tile of two, left of the side panel).

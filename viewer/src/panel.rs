@@ -120,12 +120,10 @@ pub fn show(
         if let Some(progress) = live.brick_progress() {
             ui.weak(brick_line(&progress));
         }
-        if let Some(error) = live.last_error() {
-            egui::ScrollArea::vertical().max_height(220.0).show(ui, |ui| {
-                ui.label(egui::RichText::new(error).monospace().color(Color32::from_rgb(255, 110, 100)));
-            });
-        }
     });
+    if let Some(error) = live.last_error() {
+        diagnostics(ui.ctx(), error);
+    }
     if side.show(ui, live) {
         slots.iter_mut().for_each(|s| s.frames.input(now));
     }
@@ -146,6 +144,22 @@ pub fn show(
             slots.iter_mut().for_each(|s| s.frames.input(now));
         }
     });
+}
+
+/// A broken edit's diagnostics, whole (up to a scrolled height), over the lower left of the
+/// views: the views keep their size, so nothing renders again for it, and no line (the caret's)
+/// is cut off by a panel's height.
+fn diagnostics(ctx: &egui::Context, error: &str) {
+    egui::Area::new(egui::Id::NULL.with("diagnostics"))
+        .anchor(egui::Align2::LEFT_BOTTOM, Vec2::new(8.0, -34.0))
+        .order(egui::Order::Foreground)
+        .show(ctx, |ui| {
+            egui::Frame::popup(ui.style()).show(ui, |ui| {
+                egui::ScrollArea::vertical().max_height(ctx.content_rect().height() * 0.5).show(ui, |ui| {
+                    ui.label(egui::RichText::new(error).monospace().color(Color32::from_rgb(255, 110, 100)));
+                });
+            });
+        });
 }
 
 /// The renderer's notices, each a line: what the terminal says at load (a phantom standing in

@@ -1,5 +1,5 @@
 //! The transfer-function editor: a volume's opacity curve as draggable points over its
-//! histogram (log counts), its colour stops, the presets as a menu, and saving as a ParaView
+//! histogram (log counts by default, linear on request), its colour stops, the presets as a menu, and saving as a ParaView
 //! colormap. Values are data units over the volume's window; the opacity axis is square-root
 //! scaled so the small opacities of see-through tissue (a few hundredths) can be set.
 
@@ -28,6 +28,9 @@ pub struct TfEditorState {
     pub volume: Option<String>,
     /// Where "Save" writes, per volume (defaults next to the scene).
     pub save_paths: Vec<(String, String)>,
+    /// The histogram's counts on a linear scale (the default is logarithmic, so the few voxels
+    /// of dense structures show beside the many of air and soft tissue).
+    pub linear_histogram: bool,
 }
 
 /// Height of the curve's canvas, in points.
@@ -67,9 +70,13 @@ pub fn show(ui: &mut egui::Ui, state: &mut TfEditorState, volumes: &[EditedVolum
         if ui.button("reset").on_hover_text("Back to the scene's transfer function").clicked() {
             actions.push(Action::ResetCurve(volume.name.clone()));
         }
+        let mut log = !state.linear_histogram;
+        ui.checkbox(&mut log, "log histogram")
+            .on_hover_text("Voxel counts on a logarithmic scale (off: linear, the largest bin full height)");
+        state.linear_histogram = !log;
     });
     ui.weak(format!("{} over [{}, {}]", curve.name, volume.window[0], volume.window[1]));
-    changed |= canvas(ui, volume, &mut curve);
+    changed |= canvas(ui, volume, &mut curve, !state.linear_histogram);
     changed |= colour_stops(ui, volume.window, &mut curve);
     if changed {
         actions.push(Action::SetCurve(volume.name.clone(), curve));
@@ -110,13 +117,13 @@ impl Axes {
 
 /// The histogram, the colour bar, the opacity curve and its points. Drag a point to move it,
 /// double-click to add one, right-click a point to delete it.
-fn canvas(ui: &mut egui::Ui, volume: &EditedVolume, curve: &mut TfCurve) -> bool {
+fn canvas(ui: &mut egui::Ui, volume: &EditedVolume, curve: &mut TfCurve, log: bool) -> bool {
     let width = ui.available_width().max(120.0);
     let (rect, background) = ui.allocate_exact_size(Vec2::new(width, CANVAS_HEIGHT), Sense::click());
     let axes = Axes { rect, window: volume.window };
     let painter = ui.painter_at(rect.expand(4.0));
     painter.rect_filled(rect, 2.0, Color32::from_gray(24));
-    histogram(&painter, rect, &volume.histogram);
+    histogram(&painter, rect, &volume.histogram, log);
     let table = curve.table().over_window(volume.window);
     let bar = Rect::from_min_size(rect.left_bottom() + Vec2::new(0.0, 2.0), Vec2::new(rect.width(), 8.0));
     // The colour bar and the value axis lie under the canvas: a painter of their own (the
@@ -184,19 +191,23 @@ fn canvas(ui: &mut egui::Ui, volume: &EditedVolume, curve: &mut TfCurve) -> bool
     changed
 }
 
-/// Bars of log(1 + count), scaled to the highest bin.
-fn histogram(painter: &egui::Painter, rect: Rect, bins: &[u64]) {
-    let top = bins.iter().map(|&c| (c as f32).ln_1p()).fold(0.0, f32::max);
-    if top <= 0.0 {
-        return;
-    }
-    let width = rect.width() / bins.len() as f32;
-    for (i, &count) in bins.iter().enumerate() {
-        let h = (count as f32).ln_1p() / top * rect.height();
+/// Bars of each bin's height (see [`bar_heights`]).
+fn histogram(painter: &egui::Painter, rect: Rect, bins: &[u64], log: bool) {
+    let width = rect.width() / bins.len().max(1) as f32;
+    for (i, share) in bar_heights(bins, log).into_iter().enumerate() {
+        let h = share * rect.height();
         let x = rect.left() + i as f32 * width;
         let bar = Rect::from_min_max(Pos2::new(x, rect.bottom() - h), Pos2::new(x + width, rect.bottom()));
         painter.rect_filled(bar, 0.0, Color32::from_gray(70));
     }
+}
+
+/// Each bin's bar as a share of the canvas's height: log(1 + count) (or the count, when not
+/// `log`) over the highest bin's; all 0 for an empty histogram.
+fn bar_heights(bins: &[u64], log: bool) -> Vec<f32> {
+    let scale = |c: u64| if log { (c as f32).ln_1p() } else { c as f32 };
+    let top = bins.iter().map(|&c| scale(c)).fold(0.0, f32::max);
+    bins.iter().map(|&c| if top > 0.0 { scale(c) / top } else { 0.0 }).collect()
 }
 
 /// At most `most` round values (1, 2 or 5 times a power of ten apart) within `[lo, hi]`, for
@@ -278,5 +289,22 @@ fn save_row(
     let save = ui.button("Save as ParaView JSON");
     if save.on_hover_text("Write the colormap and point the volume's `tf` in the scene at it").clicked() {
         actions.push(Action::SaveCurve(volume.name.clone(), PathBuf::from(path.as_str())));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::bar_heights;
+
+    #[test]
+    fn the_histogram_is_log_scaled_unless_asked_for_linear_counts() {
+        let bins = [0, 9, 99, 999];
+        let linear = bar_heights(&bins, false);
+        assert_eq!(linear, [0.0, 9.0 / 999.0, 99.0 / 999.0, 1.0]);
+        // log(1 + count): a bin of 9 voxels stands a third as high as one of 999.
+        let log = bar_heights(&bins, true);
+        assert_eq!(log[3], 1.0);
+        assert!((log[1] - 10f32.ln() / 1000f32.ln()).abs() < 1e-6, "{log:?}");
+        assert!(bar_heights(&[0, 0], true).iter().all(|&h| h == 0.0));
     }
 }

@@ -182,6 +182,11 @@ fn the_transfer_function_editor_adds_a_colour_stop_and_resets() {
     assert_eq!(tf_editor::nice_ticks([-1024.0, 3071.0], 6), [-1000.0, 0.0, 1000.0, 2000.0, 3000.0]);
     assert_eq!(tf_editor::nice_ticks([0.0, 1.0], 6), [0.0, 0.2, 0.4, 0.6, 0.8, 1.0]);
     assert!(tf_editor::nice_ticks([5.0, 5.0], 6).is_empty());
+    // The histogram is log-scaled unless the box is cleared.
+    assert!(!harness.state().0.linear_histogram);
+    harness.get_by_label("log histogram").click();
+    harness.run();
+    assert!(harness.state().0.linear_histogram, "clearing `log histogram` shows linear counts");
     harness.get_by_label("+ colour stop").click();
     harness.run();
     let added = harness.state().1.iter().find_map(|a| match a {
