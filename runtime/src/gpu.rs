@@ -146,6 +146,11 @@ impl Gpu {
             .map_err(|e| GpuError(format!("cannot open a device on {}: {e}", info.name)))?;
         let mut gpu = Gpu::from_device(device, queue);
         gpu.adapter = format!("{} ({:?})", info.name, info.backend);
+        if info.device_type == wgpu::DeviceType::Cpu && info.backend == wgpu::Backend::Gl {
+            // Said wherever the adapter is printed: the picture may be wrong here.
+            gpu.adapter += " — Mesa's OpenGL software driver, on which light volumes came out wrong; \
+                            vrsc is tested on lavapipe (apt-get install mesa-vulkan-drivers)";
+        }
         gpu.software = info.device_type == wgpu::DeviceType::Cpu;
         Ok(gpu)
     }
@@ -194,6 +199,17 @@ impl Gpu {
     }
 }
 
+/// A CPU adapter behind Vulkan (Mesa's lavapipe) that can draw into `surface`, if there is
+/// one. Asked for the fallback adapter, wgpu may hand out Mesa's OpenGL llvmpipe instead; the
+/// renderer is tested on lavapipe, and on the GL one a compute pass (the light volumes) came
+/// out wrong with no error, so the software choice takes Vulkan's whenever it is there (and
+/// the adapter's description says so when only the GL one is).
+fn vulkan_software_adapter(instance: &wgpu::Instance, surface: Option<&wgpu::Surface<'_>>) -> Option<wgpu::Adapter> {
+    pollster::block_on(instance.enumerate_adapters(wgpu::Backends::VULKAN)).into_iter().find(|a| {
+        a.get_info().device_type == wgpu::DeviceType::Cpu && surface.is_none_or(|s| a.is_surface_supported(s))
+    })
+}
+
 /// The adapter to render with: a high-performance one (only a CPU one when `software`), able to
 /// present to `surface` when there is one; a software adapter when nothing else is found.
 pub fn request_adapter(
@@ -201,6 +217,9 @@ pub fn request_adapter(
     surface: Option<&wgpu::Surface<'_>>,
     software: bool,
 ) -> Result<wgpu::Adapter, GpuError> {
+    if software && let Some(lavapipe) = vulkan_software_adapter(instance, surface) {
+        return Ok(lavapipe);
+    }
     let options = wgpu::RequestAdapterOptions {
         power_preference: wgpu::PowerPreference::HighPerformance,
         force_fallback_adapter: software,
