@@ -333,6 +333,26 @@ impl Running {
     }
 }
 
+/// A viewer on a scene of `text`, written as `scene.toml` in a folder of its own (kept with
+/// the viewer: exports land beside the scene), settled; `None` when the window tools are
+/// missing and the test is skipped on request.
+fn viewer_on(text: &str) -> Option<(tempfile::TempDir, PathBuf, Running)> {
+    if !window_tools() {
+        return None;
+    }
+    let scenes = tempfile::tempdir().unwrap();
+    let scene = scenes.path().join("scene.toml");
+    std::fs::write(&scene, text).unwrap();
+    let viewer = Running::settled(&scene);
+    Some((scenes, scene, viewer))
+}
+
+/// The basic example's scene text.
+fn basic_example() -> String {
+    let example: PathBuf = [env!("CARGO_MANIFEST_DIR"), "..", "examples", "basic", "scene.toml"].iter().collect();
+    std::fs::read_to_string(example).unwrap()
+}
+
 /// Waits up to a minute for `done`; whether it came.
 fn within_a_minute(done: impl Fn() -> bool) -> bool {
     let deadline = Instant::now() + Duration::from_secs(60);
@@ -346,14 +366,7 @@ fn within_a_minute(done: impl Fn() -> bool) -> bool {
 /// pixels `vrsc render` writes for the same scene.
 #[test]
 fn e_over_a_view_exports_what_vrsc_render_writes() {
-    if !window_tools() {
-        return;
-    }
-    let scenes = tempfile::tempdir().unwrap();
-    let example: PathBuf = [env!("CARGO_MANIFEST_DIR"), "..", "examples", "basic", "scene.toml"].iter().collect();
-    let scene = scenes.path().join("scene.toml");
-    std::fs::copy(&example, &scene).unwrap();
-    let viewer = Running::settled(&scene);
+    let Some((scenes, scene, viewer)) = viewer_on(&basic_example()) else { return };
     // Over the first view (the 3D one), press E (with the keyboard's focus on the window: no
     // window manager gives it).
     xdotool(&viewer.display, "search --name vrsc windowfocus");
@@ -380,15 +393,8 @@ fn e_over_a_view_exports_what_vrsc_render_writes() {
 /// did-you-mean), over the last good picture.
 #[test]
 fn a_renamed_uniform_in_a_running_viewer_is_refused_as_build_refuses_it() {
-    if !window_tools() {
-        return;
-    }
-    let scenes = tempfile::tempdir().unwrap();
-    let example: PathBuf = [env!("CARGO_MANIFEST_DIR"), "..", "examples", "basic", "scene.toml"].iter().collect();
-    let text = std::fs::read_to_string(example).unwrap() + "\n[uniforms]\nambient = 0.3\n";
-    let scene = scenes.path().join("scene.toml");
-    std::fs::write(&scene, &text).unwrap();
-    let mut viewer = Running::settled(&scene);
+    let text = basic_example() + "\n[uniforms]\nambient = 0.3\n";
+    let Some((_scenes, scene, mut viewer)) = viewer_on(&text) else { return };
     let upper = viewer.shot(upper_first_view);
     std::fs::write(&scene, text.replace("ambient = 0.3", "ambeint = 0.3")).unwrap();
     within_a_minute(|| viewer.printed().contains("E0702"));
@@ -433,13 +439,7 @@ const HEAD_SLICES: &str = "[[volume]]\nname = \"head\"\nrole = \"primary\"\nphan
 /// through the clicked point (further anterior), and the coronal picture changes.
 #[test]
 fn a_click_in_one_slice_view_moves_the_other_through_the_point() {
-    if !window_tools() {
-        return;
-    }
-    let scenes = tempfile::tempdir().unwrap();
-    let scene = scenes.path().join("scene.toml");
-    std::fs::write(&scene, HEAD_SLICES).unwrap();
-    let mut viewer = Running::settled(&scene);
+    let Some((_scenes, _scene, mut viewer)) = viewer_on(HEAD_SLICES) else { return };
     let before = viewer.shot(second_view);
     // A click (no drag) 70 points above the axial view's centre: anterior of the coronal plane.
     xdotool(&viewer.display, &format!("mousemove {} {} sleep 0.3 click 1", 1000 / 6, 620 / 2 - 70));
@@ -454,13 +454,7 @@ fn a_click_in_one_slice_view_moves_the_other_through_the_point() {
 /// not.
 #[test]
 fn a_right_drag_in_a_slice_view_changes_its_window() {
-    if !window_tools() {
-        return;
-    }
-    let scenes = tempfile::tempdir().unwrap();
-    let scene = scenes.path().join("scene.toml");
-    std::fs::write(&scene, HEAD_SLICES).unwrap();
-    let mut viewer = Running::settled(&scene);
+    let Some((_scenes, _scene, mut viewer)) = viewer_on(HEAD_SLICES) else { return };
     let (before, coronal_before) = (viewer.shot(first_view), viewer.shot(second_view));
     let (x, y) = (1000 / 6, 620 / 2);
     let drag = format!(
@@ -481,13 +475,7 @@ fn a_right_drag_in_a_slice_view_changes_its_window() {
 /// picture and not the coronal one's; 0 gives it the volume's window back.
 #[test]
 fn a_ct_window_key_sets_the_view_under_the_mouse() {
-    if !window_tools() {
-        return;
-    }
-    let scenes = tempfile::tempdir().unwrap();
-    let scene = scenes.path().join("scene.toml");
-    std::fs::write(&scene, HEAD_SLICES).unwrap();
-    let mut viewer = Running::settled(&scene);
+    let Some((_scenes, _scene, mut viewer)) = viewer_on(HEAD_SLICES) else { return };
     let (before, coronal_before) = (viewer.shot(first_view), viewer.shot(second_view));
     xdotool(&viewer.display, "search --name vrsc windowfocus");
     xdotool(&viewer.display, &format!("mousemove {} {} sleep 0.3 key 4", 1000 / 6, 620 / 2));
@@ -554,13 +542,7 @@ const TWO_CAMERAS: &str = "[render]\njitter = 0.0\n\n[[volume]]\nname = \"head\"
 /// export the same picture (E over each view: `vrsc render`'s pixels at the scene's size).
 #[test]
 fn linked_3d_cameras_follow_the_view_that_moves() {
-    if !window_tools() {
-        return;
-    }
-    let scenes = tempfile::tempdir().unwrap();
-    let scene = scenes.path().join("scene.toml");
-    std::fs::write(&scene, TWO_CAMERAS).unwrap();
-    let mut viewer = Running::settled(&scene);
+    let Some((scenes, _scene, mut viewer)) = viewer_on(TWO_CAMERAS) else { return };
     xdotool(&viewer.display, "search --name vrsc windowfocus");
     // Over each view (the left and the right tile), E writes SCENE-VIEW.png.
     let over = [(1000 / 6, 620 / 2), (1000 / 2, 620 / 2)];
@@ -598,14 +580,7 @@ fn linked_3d_cameras_follow_the_view_that_moves() {
 /// corner, so the screenshot's overlap with it must agree).
 #[test]
 fn shift_e_exports_the_window_as_shown() {
-    if !window_tools() {
-        return;
-    }
-    let scenes = tempfile::tempdir().unwrap();
-    let example: PathBuf = [env!("CARGO_MANIFEST_DIR"), "..", "examples", "basic", "scene.toml"].iter().collect();
-    let scene = scenes.path().join("scene.toml");
-    std::fs::copy(&example, &scene).unwrap();
-    let mut viewer = Running::settled(&scene);
+    let Some((scenes, _scene, mut viewer)) = viewer_on(&basic_example()) else { return };
     viewer.shot(second_view);
     xdotool(&viewer.display, "search --name vrsc windowfocus");
     xdotool(&viewer.display, &format!("mousemove {} {} sleep 0.3 key shift+e", 1000 / 6, 620 / 2));
