@@ -360,3 +360,29 @@ fn dragging_a_followed_point_moves_its_meshes_and_keeps_the_users_style() {
     assert_eq!(style_of(&live, "ball"), red_moved());
     assert_eq!(live.mesh_handles()[1].point.to_array(), [20.0, 2.0, 3.0]);
 }
+
+/// A view's own window (a slice view's window/level) changes that view's picture only, stays
+/// through a reload, and a reset gives it the volume's transfer function again.
+#[test]
+fn a_views_own_window_changes_its_picture_only_and_survives_a_reload() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut live = open(dir.path());
+    std::fs::write(dir.path().join("scene.toml"), scene(0.5, true)).unwrap();
+    assert!(live.rebuild().succeeded());
+    let before = live.render_all().unwrap();
+    let volume = live.renderer().volumes()[0];
+    let (name, window, curve) = (volume.name.to_string(), volume.window, volume.curve.cloned().unwrap());
+    // The axial view (1) narrowed to half the width around the same level.
+    live.set_view_tf_curve(1, &name, curve.window_levelled(window, 0.0, 0.5)).unwrap();
+    let own = live.render_all().unwrap();
+    assert_eq!(own[0].1, before[0].1, "the 3D view keeps the volume's transfer function");
+    assert_ne!(own[1].1, before[1].1, "the axial view shows its own window");
+    // A structural edit reloads the scene: the view's window stays.
+    std::fs::write(dir.path().join("dim.vrs"), MODULE.replace("* k;", "* k * 1.0;")).unwrap();
+    assert!(live.rebuild().succeeded());
+    assert!(live.view_tf_curve(1, &name).is_some());
+    assert_eq!(live.render_all().unwrap()[1].1, own[1].1, "the window survives the reload");
+    live.reset_view_tf_curve(1, &name).unwrap();
+    assert!(live.view_tf_curve(1, &name).is_none());
+    assert_eq!(live.render_all().unwrap()[1].1, before[1].1, "reset: the volume's transfer function again");
+}
