@@ -131,6 +131,11 @@ impl Surface {
         path: &Path,
     ) -> Result<[u32; 2], String> {
         let [w, h] = screen.size_in_pixels;
+        let bgra = match self.config.format {
+            wgpu::TextureFormat::Bgra8Unorm | wgpu::TextureFormat::Bgra8UnormSrgb => true,
+            wgpu::TextureFormat::Rgba8Unorm | wgpu::TextureFormat::Rgba8UnormSrgb => false,
+            other => return Err(format!("the window's pixels ({other:?}) cannot be written as an 8-bit PNG")),
+        };
         let (device, queue) = (&self.gpu.device, &self.gpu.queue);
         let target = device.create_texture(&wgpu::TextureDescriptor {
             label: Some("window capture"),
@@ -164,7 +169,6 @@ impl Surface {
         slice.map_async(wgpu::MapMode::Read, |_| {});
         self.gpu.wait();
         let mapped = slice.get_mapped_range().map_err(|e| format!("cannot read the window back: {e}"))?;
-        let bgra = matches!(self.config.format, wgpu::TextureFormat::Bgra8Unorm | wgpu::TextureFormat::Bgra8UnormSrgb);
         let mut pixels = Vec::with_capacity((w * h * 4) as usize);
         for line in mapped.chunks(row as usize) {
             for p in line[..(w * 4) as usize].chunks_exact(4) {
