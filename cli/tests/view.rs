@@ -600,3 +600,74 @@ fn shift_e_exports_the_window_as_shown() {
     assert!(difference < 2.0, "the export shows what the screen shows (mean difference {difference:.3})");
     assert!(distinct_colours(&window) > 50, "the export holds the window's pictures");
 }
+
+/// F1 opens the keys window over the views and F1 again closes it: the screen shows it, then
+/// shows what it showed before.
+#[test]
+fn f1_shows_and_hides_the_keys() {
+    let Some((_scenes, _scene, mut viewer)) = viewer_on(HEAD_SLICES) else { return };
+    let before = viewer.shot(whole);
+    xdotool(&viewer.display, "search --name vrsc windowfocus");
+    xdotool(&viewer.display, &format!("mousemove {} {} sleep 0.3 key F1", 1000 / 6, 620 / 2));
+    let open = viewer.shot(whole);
+    let shown = mean_difference(&before, &open);
+    assert!(shown > 2.0, "the keys window must appear (mean difference {shown:.3})");
+    xdotool(&viewer.display, "key F1");
+    let closed = viewer.shot(whole);
+    let gone = mean_difference(&before, &closed);
+    assert!(gone < 0.5, "F1 again must close it (mean difference {gone:.3})");
+}
+
+/// A small ball (radius 16 of 64 voxels, `ball.nrrd` beside the scene) in two slice views: the
+/// corners of each slice are empty, so what changes there is the text the view paints.
+const BALL_SLICES: &str = "[[volume]]\nname = \"ball\"\nrole = \"primary\"\npath = \"ball.nrrd\"\ntf = \"grayscale\"\n\n\
+    [[view]]\nname = \"axial\"\nkind = \"slice\"\naxis = \"axial\"\nposition = 0.5\nsize = [256, 256]\n\n\
+    [[view]]\nname = \"coronal\"\nkind = \"slice\"\naxis = \"coronal\"\nposition = 0.5\nsize = [256, 256]\n";
+
+/// Writes `ball.nrrd` into `dir`: 64^3 int16 voxels of 1 mm, 1000 within 16 voxels of the
+/// centre, 0 elsewhere.
+fn write_ball(dir: &Path) {
+    let n = 64u32;
+    let mut bytes = format!(
+        "NRRD0004\ntype: short\ndimension: 3\nsizes: {n} {n} {n}\nspace directions: (1,0,0) (0,1,0) (0,0,1)\n\
+         space origin: (0,0,0)\nendian: little\nencoding: raw\n\n"
+    )
+    .into_bytes();
+    for k in 0..n {
+        for j in 0..n {
+            for i in 0..n {
+                let d = [i, j, k].map(|c| c as f32 - 31.5);
+                let inside = d.iter().map(|c| c * c).sum::<f32>() < 16.0 * 16.0;
+                bytes.extend(if inside { 1000i16 } else { 0 }.to_le_bytes());
+            }
+        }
+    }
+    std::fs::write(dir.join("ball.nrrd"), bytes).unwrap();
+}
+
+/// The lower right corner of the first slice view's image, where its position is written
+/// (`z 44.0 mm · slice 45 of 64`: the line's right part, with the numbers): the two square
+/// views of the default window lie at y 143-501, the first at x 10-368.
+fn first_slice_corner(shot: &image::RgbaImage) -> image::RgbaImage {
+    image::imageops::crop_imm(shot, 250, 478, 114, 20).to_image()
+}
+
+/// The slice's position is written in its corner (`z 12.5 mm · slice 76 of 189`): scrolling
+/// the axial view moves the slice, and the text there changes.
+#[test]
+fn the_slice_position_in_the_corner_follows_the_wheel() {
+    if !window_tools() {
+        return;
+    }
+    let scenes = tempfile::tempdir().unwrap();
+    write_ball(scenes.path());
+    let scene = scenes.path().join("scene.toml");
+    std::fs::write(&scene, BALL_SLICES).unwrap();
+    let mut viewer = Running::settled(&scene);
+    let before = viewer.shot(first_slice_corner);
+    assert!(distinct_colours(&before) > 1, "text in the corner");
+    xdotool(&viewer.display, &format!("mousemove {} {} sleep 0.3 click --repeat 6 4", 1000 / 6, 620 / 2));
+    let after = viewer.shot(first_slice_corner);
+    let changed = mean_difference(&before, &after);
+    assert!(changed > 1.0, "the position text changes with the slice (mean difference {changed:.3})");
+}
