@@ -341,7 +341,7 @@ impl SceneRenderer {
         let grid = self.grids.iter().find(|g| g.name == volume);
         let tf = &grid.map_or_else(|| tf.clone(), |g| tf.over_window(g.window));
         let is_primary = self.grids.first().is_some_and(|g| g.name == volume);
-        let binding = if is_primary { "tf".to_string() } else { format!("tf_{volume}") };
+        let binding = tf_binding(volume, is_primary);
         let texture = self.resources.tfs.get(&binding).ok_or_else(|| {
             RuntimeError::Invalid(format!("the scene has no volume `{volume}` with a transfer function"))
         })?;
@@ -966,8 +966,14 @@ fn upload_volume(
     }
 }
 
+/// The uniform a volume's transfer-function table is bound as: `tf` for the primary volume,
+/// `tf_NAME` for another (the compiler's `bound_resources` names them so).
+pub(crate) fn tf_binding(volume: &str, primary: bool) -> String {
+    if primary { "tf".to_string() } else { format!("tf_{volume}") }
+}
+
 /// Uploads volume `v`'s transfer function, its curve resampled over `window`, under the
-/// binding its shaders read (`tf` for the primary volume, `tf_NAME` for another): the table.
+/// binding its shaders read ([`tf_binding`]): the table.
 fn insert_tf(
     gpu: &Gpu,
     resources: &mut Resources,
@@ -976,7 +982,7 @@ fn insert_tf(
     window: [f32; 2],
 ) -> Result<Option<tf::TransferFunction>, RuntimeError> {
     let Some(table) = curve.map(|c| c.table().over_window(window)) else { return Ok(None) };
-    let binding = if v.role.value == Role::Primary { "tf".to_string() } else { format!("tf_{}", v.name.name) };
+    let binding = tf_binding(&v.name.name, v.role.value == Role::Primary);
     resources.tfs.insert(binding, Arc::new(TfTexture::upload(gpu, &table)?));
     Ok(Some(table))
 }

@@ -177,9 +177,8 @@ pub fn windowed_at(curve: &TfCurve, window: [f32; 2], level: f32, width: f32) ->
     curve.window_levelled(window, level - 0.5 * (lo + hi), width / (hi - lo).max(f32::MIN_POSITIVE))
 }
 
-/// A curve's window as reading software shows it: `W 80 L 40` (data units).
-pub fn window_text(curve: &TfCurve, window: [f32; 2]) -> String {
-    let [lo, hi] = curve.data_domain(window);
+/// A window of data values `[lo, hi]` as reading software shows it: `W 80 L 40`.
+pub fn window_text([lo, hi]: [f32; 2]) -> String {
     format!("W {:.0} L {:.0}", hi - lo, 0.5 * (lo + hi))
 }
 
@@ -354,10 +353,10 @@ mod tests {
         let (_, level, width) = CT_WINDOWS[0];
         let brain = windowed_at(&grey, volume_window, level, width);
         assert_eq!(brain.data_domain(volume_window), [0.0, 80.0]);
-        assert_eq!(window_text(&brain, volume_window), "W 80 L 40");
+        assert_eq!(window_text(brain.data_domain(volume_window)), "W 80 L 40");
         // The ramp keeps its shape over the new window: its first and last points at its ends.
         assert_eq!(brain.color.first().map(|c| c.0), Some(0.0));
         assert_eq!(brain.color.last().map(|c| c.0), Some(80.0));
-        assert_eq!(window_text(&grey, volume_window), "W 3000 L 500");
+        assert_eq!(window_text(grey.data_domain(volume_window)), "W 3000 L 500");
     }
 }

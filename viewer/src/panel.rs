@@ -378,8 +378,8 @@ fn paint_slice_labels(ui: &egui::Ui, live: &LiveScene, index: usize, image: Rect
         // view's window above it.
         let at = image.right_bottom() - Vec2::new(6.0, 6.0);
         let font = egui::FontId::proportional(13.0);
-        let text = match view_curve(live, index) {
-            Some((_, window, curve)) => format!("{}\n{position}", navigate::window_text(&curve, window)),
+        let text = match view_window_text(live, index) {
+            Some(window) => format!("{window}\n{position}"),
             None => position,
         };
         ui.painter().text(at, egui::Align2::RIGHT_BOTTOM, text, font, Color32::from_rgb(120, 220, 255));
@@ -391,32 +391,40 @@ fn paint_slice_labels(ui: &egui::Ui, live: &LiveScene, index: usize, image: Rect
 /// raises its level (a drag over the view's height moves it by its width). The transfer function
 /// is the volume's, so every view of the volume follows. Whether it changed.
 fn window_level(live: &mut LiveScene, index: usize, drag: glam::Vec2, height: f32) -> bool {
-    let Some((name, window, curve)) = view_curve(live, index) else { return false };
+    let Some((name, window, curve)) = view_curve(live, index, true) else { return false };
     let (shift, scale) = navigate::window_level_change(drag, height, window[1] - window[0]);
     live.set_view_tf_curve(index, &name, curve.window_levelled(window, shift, scale)).is_ok()
 }
 
 /// The primary volume as view `index` shows it: its name, its window (the data values of its
-/// texture) and the curve the view uses (its own, else the volume's, else a grey ramp).
-fn view_curve(live: &LiveScene, index: usize) -> Option<(String, [f32; 2], vrs_runtime::tf::TfCurve)> {
+/// texture) and the curve the view uses: its own (unless `own` is false), else the volume's,
+/// else a grey ramp.
+fn view_curve(live: &LiveScene, index: usize, own: bool) -> Option<(String, [f32; 2], vrs_runtime::tf::TfCurve)> {
     let primary = live.renderer().volumes().into_iter().next()?;
     let name = primary.name.to_string();
     let curve = live
         .view_tf_curve(index, &name)
+        .filter(|_| own)
         .or(primary.curve)
         .cloned()
         .or_else(|| vrs_runtime::tf::preset_curve("grayscale").ok())?;
     Some((name, primary.window, curve))
 }
 
+/// The window view `index` shows the primary volume through, as reading software writes it.
+fn view_window_text(live: &LiveScene, index: usize) -> Option<String> {
+    let primary = live.renderer().volumes().into_iter().next()?;
+    // No curve: the grey ramp over the volume's window.
+    let curve = live.view_tf_curve(index, primary.name).or(primary.curve);
+    Some(navigate::window_text(curve.map_or(primary.window, |c| c.data_domain(primary.window))))
+}
+
 /// Puts slice view `index` on CT window `preset` of [`navigate::CT_WINDOWS`] (from the volume's
 /// curve), or with `None` back on the volume's own transfer function; whether it changed.
 fn window_preset(live: &mut LiveScene, index: usize, preset: Option<usize>) -> bool {
-    let Some(primary) = live.renderer().volumes().into_iter().next() else { return false };
-    let (name, window) = (primary.name.to_string(), primary.window);
+    let Some((name, window, base)) = view_curve(live, index, false) else { return false };
     let Some(preset) = preset else { return live.reset_view_tf_curve(index, &name).is_ok() };
-    let base = primary.curve.cloned().or_else(|| vrs_runtime::tf::preset_curve("grayscale").ok());
-    let (Some(base), Some(&(_, level, width))) = (base, navigate::CT_WINDOWS.get(preset)) else { return false };
+    let Some(&(_, level, width)) = navigate::CT_WINDOWS.get(preset) else { return false };
     live.set_view_tf_curve(index, &name, navigate::windowed_at(&base, window, level, width)).is_ok()
 }
 

@@ -66,7 +66,12 @@ impl SceneRenderer {
     /// binds, from the function as it is now; drops those none binds.
     fn update_preintegration(&mut self) -> Result<(), RuntimeError> {
         let bound = bound_with_prefix(&self.views, PREINTEGRATED);
-        let Some(primary) = self.grids.first() else { return Ok(()) };
+        let Some(primary) = self.grids.first().filter(|_| !bound.is_empty()) else {
+            for (name, _) in PREINTEGRATION_TABLES {
+                self.resources.tfs.remove(name);
+            }
+            return Ok(());
+        };
         let tf = match &primary.curve {
             Some(curve) => curve.table(),
             None => tf::preset(vscene::DEFAULT_TF)?,

@@ -54,11 +54,7 @@ impl SceneRenderer {
             .iter()
             .find(|g| g.name == volume)
             .ok_or_else(|| RuntimeError::Invalid(format!("the scene has no volume `{volume}`")))?;
-        let binding = if self.grids.first().is_some_and(|g| g.name == volume) {
-            "tf".to_string()
-        } else {
-            format!("tf_{volume}")
-        };
+        let binding = super::tf_binding(volume, self.grids.first().is_some_and(|g| g.name == volume));
         let table = curve.map(|c| c.table().over_window(grid.window));
         let view = self.views.get_mut(index).ok_or_else(|| RuntimeError::Invalid(format!("no view {index}")))?;
         let own = view.renderer.own_tfs_mut();
