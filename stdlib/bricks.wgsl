@@ -39,15 +39,15 @@ struct BrickLayout {
 @group(0) @binding(3) var<uniform> NAME_layout: BrickLayout;
 @group(0) @binding(4) var<storage, read_write> NAME_requests: array<u32>;
 
-// The ray's segment, in the voxels of the level that answers it: the box its samples may read
-// (the wanted brick widened by what its apron holds), what turns a normalized position into
-// those voxels (`scale`, clamped to the edge voxels' centres at `top`) and into pool texels
-// (`shift`), and the value of a brick of one value (x, when y is 1).
+// The ray's segment, in normalized volume coordinates: the box its samples may read (the
+// wanted brick widened by what its apron holds), what turns a normalized position into pool
+// texel coordinates (`to_pool`, `pool_at`) and the value of a brick of one value (x, when y is
+// 1). A segment read needs no clamp to the volume: beyond the volume's last voxel a brick's
+// apron and voxels repeat it, as the sampler clamps a single texture.
 var<private> NAME_segment_lo: vec3f;
 var<private> NAME_segment_hi: vec3f;
-var<private> NAME_segment_scale: vec3f;
-var<private> NAME_segment_top: vec3f;
-var<private> NAME_segment_shift: vec3f;
+var<private> NAME_segment_to_pool: vec3f;
+var<private> NAME_segment_pool_at: vec3f;
 var<private> NAME_segment_value: vec2f;
 // Whether the next full lookup opens a segment, and whether a sample read outside it.
 var<private> NAME_segment_open: bool;
@@ -104,12 +104,12 @@ fn NAME_sample(p: vec3f) -> f32 {
         // The samples of the segment may read up to half a voxel short of the apron's end.
         let scale = bitcast<f32>((127 - level) << 23);
         let margin = apron - 0.5;
+        let to_level = NAME_layout.grid.xyz * scale;
         NAME_segment_open = false;
-        NAME_segment_lo = wanted_lo * scale - margin;
-        NAME_segment_hi = (wanted_lo + edge / wanted_scale) * scale + margin;
-        NAME_segment_scale = NAME_layout.grid.xyz * scale;
-        NAME_segment_top = ceil(NAME_layout.grid.xyz * scale) - 0.5;
-        NAME_segment_shift = shift;
+        NAME_segment_lo = (wanted_lo * scale - margin) / to_level;
+        NAME_segment_hi = ((wanted_lo + edge / wanted_scale) * scale + margin) / to_level;
+        NAME_segment_to_pool = to_level * NAME_layout.pool.xyz;
+        NAME_segment_pool_at = shift * NAME_layout.pool.xyz;
         NAME_segment_value = vec2f(select(0.0, constant, kind == 2u), select(1.0, 0.0, kind == 1u));
     }
     return select(select(0.0, value, kind == 1u), constant, kind == 2u);
@@ -132,9 +132,8 @@ fn NAME_segment_start() {
 // The value of bricked volume NAME at `p` read from the ray's segment, without the page table;
 // a position outside the segment reads a wrong value and is noted (`NAME_segment_missed`).
 fn NAME_sample_in_segment(p: vec3f) -> f32 {
-    let x = clamp(p * NAME_segment_scale, vec3f(0.5), NAME_segment_top);
-    NAME_segment_out = NAME_segment_out || any(x < NAME_segment_lo) || any(x > NAME_segment_hi);
-    let value = textureSampleLevel(NAME, NAME_sampler, (x + NAME_segment_shift) * NAME_layout.pool.xyz, 0.0).x;
+    NAME_segment_out = NAME_segment_out || any(p < NAME_segment_lo) || any(p > NAME_segment_hi);
+    let value = textureSampleLevel(NAME, NAME_sampler, p * NAME_segment_to_pool + NAME_segment_pool_at, 0.0).x;
     return select(value, NAME_segment_value.x, NAME_segment_value.y != 0.0);
 }
 

@@ -77,6 +77,10 @@ enum Command {
         /// Use the software adapter (lavapipe) even when a GPU is present.
         #[arg(long)]
         software: bool,
+        /// Samples per pixel of a path-traced view (`compositing = "pathtrace"`): the frames
+        /// its picture is the mean of. Other views render once.
+        #[arg(long, default_value_t = vrs_runtime::view::DEFAULT_SAMPLES, value_parser = clap::value_parser!(u32).range(1..=65536))]
+        samples: u32,
         #[command(flatten)]
         probe: ProbeArgs,
     },
@@ -221,8 +225,8 @@ fn run(cli: &Cli) -> Outcome {
     let printer = Printer { format: cli.message_format, color: cli.color };
     match &cli.command {
         Command::Build { scene, output, emit } => build(&printer, scene, output, emit),
-        Command::Render { scene, output, size, software, probe } => {
-            render(&printer, scene, output, RenderArgs { size: *size, software: *software, probe })
+        Command::Render { scene, output, size, software, samples, probe } => {
+            render(&printer, scene, output, RenderArgs { size: *size, software: *software, samples: *samples, probe })
         }
         Command::View { scene, software, budget_ms } => view(scene, *software, *budget_ms),
         Command::Watch { scene, output, size, software } => {
@@ -366,6 +370,7 @@ fn parse_size(text: &str) -> Result<[u32; 2], String> {
 struct RenderArgs<'a> {
     size: Option<[u32; 2]>,
     software: bool,
+    samples: u32,
     probe: &'a ProbeArgs,
 }
 
@@ -395,7 +400,7 @@ fn render(printer: &Printer, scene_path: &Path, dir: &Path, args: RenderArgs) ->
         Err(e) => return printer.fail(Diagnostic::new(Code::Device, Span::DUMMY, e.to_string())),
     };
     eprintln!("rendering on {}", gpu.adapter);
-    let options = RenderOptions { size: args.size, ..RenderOptions::default() };
+    let options = RenderOptions { size: args.size, samples: args.samples, ..RenderOptions::default() };
     let mut bar = ProgressBar::default();
     let renderer = SceneRenderer::from_built(gpu, scene_path, scene, &built, options, &mut |name, done, total| {
         bar.update(name, done, total)

@@ -58,6 +58,10 @@ pub struct Shown<'a> {
     pub last: Option<(Work, Duration)>,
 }
 
+/// The frames a progressive view's picture (the path tracer's) is refined to while it is left
+/// alone: samples per pixel.
+pub const PROGRESSIVE_FRAMES: u32 = 256;
+
 /// The frames of one view: its schedule, its preview target and the work in flight.
 pub struct ViewFrames {
     refiner: Refiner,
@@ -92,7 +96,7 @@ impl ViewFrames {
 
     /// Whether work is in flight or waiting to be submitted.
     pub fn busy(&self) -> bool {
-        self.pending.is_some() || self.refiner.quality() != Quality::Full
+        self.pending.is_some() || self.refiner.quality() != Quality::Full || self.refiner.wants_more()
     }
 
     /// Drives the frames of every view (`views[i]` is view `i` of `live`): notes finished work
@@ -209,6 +213,8 @@ impl ViewFrames {
         if let Some(size) = live.size(index) {
             self.refiner.resize(size);
         }
+        let progressive = live.renderer().views().get(index).is_some_and(|v| v.renderer.is_progressive());
+        self.refiner.set_frames(if progressive { PROGRESSIVE_FRAMES } else { 1 });
         let output = live.output(index);
         if output != self.output.as_ref() {
             self.refiner.output_replaced();

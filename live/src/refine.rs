@@ -91,6 +91,10 @@ pub struct Refiner {
     next_row: u32,
     last_input: Option<Instant>,
     in_flight: bool,
+    /// The full-resolution frames a picture is the mean of when complete (a progressive view:
+    /// the path tracer; 1 for the others), and those the current generation's holds.
+    frames: u32,
+    frames_done: u32,
 }
 
 /// The smallest preview scale: 1/8 of the resolution on each axis.
@@ -117,7 +121,26 @@ impl Refiner {
             next_row: 0,
             last_input: None,
             in_flight: false,
+            frames: 1,
+            frames_done: 0,
         }
+    }
+
+    /// Sets the frames the view's complete picture is the mean of: above 1, the full image is
+    /// rendered again, tile by tile, until it holds that many (each frame adds one sample per
+    /// pixel to a progressive view's history).
+    pub fn set_frames(&mut self, frames: u32) {
+        self.frames = frames.max(1);
+    }
+
+    /// The full-resolution frames the current generation's picture holds.
+    pub fn frames_done(&self) -> u32 {
+        if self.full_done == self.generation { self.frames_done } else { 0 }
+    }
+
+    /// Whether the full picture of the current generation is shown but is to hold more frames.
+    pub fn wants_more(&self) -> bool {
+        self.full_done.is_some() && self.full_done == self.generation && self.frames_done < self.frames
     }
 
     /// The view's full size changed (the window was resized): everything starts again.
@@ -134,6 +157,7 @@ impl Refiner {
     pub fn output_replaced(&mut self) {
         self.full_done = None;
         self.next_row = 0;
+        self.frames_done = 0;
     }
 
     /// The user is interacting with the view now (dragging, scrolling).
@@ -155,10 +179,17 @@ impl Refiner {
         if self.generation != Some(generation) {
             self.generation = Some(generation);
             self.next_row = 0;
+            self.frames_done = 0;
         }
         let has_preview = self.preview.is_some_and(|(g, _)| g == generation);
-        let work = if self.full_done == Some(generation) {
+        let work = if self.full_done == Some(generation) && self.frames_done >= self.frames {
             return None;
+        } else if self.full_done == Some(generation) {
+            // A progressive view's next frame, once the user lets go.
+            if self.interacting(now) {
+                return None;
+            }
+            self.tile(generation)
         } else if !has_preview && self.next_row == 0 {
             self.first_work(generation)
         } else if self.interacting(now) {
@@ -195,14 +226,18 @@ impl Refiner {
     pub fn remaining_estimate(&self, generation: u64) -> Option<Duration> {
         let whole = Region::whole(self.full).pixels().max(1) as f64;
         let cost = self.full_time.map(|t| t.as_secs_f64() / whole).or(self.cost)?;
-        let rows_done = if self.full_done == Some(generation) {
+        let current = self.generation == Some(generation);
+        let rows_done = if self.full_done == Some(generation) && !self.wants_more() {
             self.full[1]
-        } else if self.generation == Some(generation) {
+        } else if current {
             self.next_row
         } else {
             0
         };
-        let pixels = u64::from(self.full[1].saturating_sub(rows_done)) * u64::from(self.full[0]);
+        // A progressive view's frames after this one.
+        let frames_after = if current { self.frames.saturating_sub(self.frames_done + 1) } else { self.frames - 1 };
+        let rows = u64::from(self.full[1].saturating_sub(rows_done)) + u64::from(frames_after) * u64::from(self.full[1]);
+        let pixels = rows * u64::from(self.full[0]);
         Some(Duration::from_secs_f64(cost * pixels as f64))
     }
 
@@ -257,6 +292,11 @@ impl Refiner {
                 if region.y1 >= self.full[1] {
                     self.full_done = Some(generation);
                     self.full_time = Some(self.picture_time);
+                    self.frames_done += 1;
+                    if self.frames_done < self.frames {
+                        // The next frame starts again from the first row.
+                        self.next_row = 0;
+                    }
                 }
             }
         }

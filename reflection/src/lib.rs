@@ -138,6 +138,13 @@ pub enum BindingKind {
     /// `array<u32>` storage buffer (read-write), one word per page-table word: the bricks rays
     /// used, and those they needed and did not find resident (the feedback the runtime loads bricks from).
     BrickRequests,
+    /// `array<vec4f>` storage buffer (read-write), two elements per pixel of the target, row
+    /// after row: the pixel's mean `accum` over the frames since the view last changed, and
+    /// their number in the next element's first component. The entry point loads them into
+    /// `history` and `history_samples` before ray setup and stores them after ray finish; the
+    /// runtime clears the buffer whenever the picture changes (a progressive view: the path
+    /// tracer).
+    History,
 }
 
 /// Bytes of the `BrickLayout` uniform the runtime writes for a bricked volume (five `vec4f`,

@@ -54,7 +54,7 @@ fn binding_type(kind: BindingKind) -> wgpu::BindingType {
             has_dynamic_offset: false,
             min_binding_size: None,
         },
-        BindingKind::BrickRequests => wgpu::BindingType::Buffer {
+        BindingKind::BrickRequests | BindingKind::History => wgpu::BindingType::Buffer {
             ty: wgpu::BufferBindingType::Storage { read_only: false },
             has_dynamic_offset: false,
             min_binding_size: None,
@@ -102,6 +102,8 @@ pub(crate) struct DispatchResources<'a> {
     pub tfs: &'a std::collections::HashMap<String, crate::textures::TfTexture>,
     /// The view's `BrickLayout` buffer of each bricked volume it reads, by binding name.
     pub brick_layouts: &'a std::collections::HashMap<String, wgpu::Buffer>,
+    /// The pixels' history of a progressive view (`crate::history`), for the target.
+    pub history: Option<&'a wgpu::Buffer>,
 }
 
 /// The entries of group `group` for one dispatch: the same bindings, in the same order, as
@@ -149,6 +151,9 @@ pub(crate) fn group_entries<'a>(
                 BindingKind::BrickPool => wgpu::BindingResource::TextureView(&bricked()?.pool_view),
                 BindingKind::PageTable => bricked()?.pages.as_entire_binding(),
                 BindingKind::BrickRequests => bricked()?.requests.as_entire_binding(),
+                BindingKind::History => {
+                    own.history.ok_or_else(|| missing("a history", "history"))?.as_entire_binding()
+                }
                 BindingKind::BrickLayout => {
                     own.brick_layouts.get(&b.name).ok_or_else(|| missing("brick layout", &b.name))?.as_entire_binding()
                 }

@@ -73,6 +73,7 @@ pub mod bricks;
 pub(crate) mod error;
 pub mod geometry;
 pub mod gpu;
+pub(crate) mod history;
 pub(crate) mod light_volume;
 pub mod mesh;
 pub mod mesh_layer;

@@ -26,6 +26,10 @@ pub struct Resources {
     mesh_generation: u64,
     /// Made with the first mesh.
     pub(crate) mesh_pipelines: Option<MeshPipelines>,
+    /// What the content is at: a fresh value at every change of a texture, table, brick or
+    /// mesh (`crate::history::content_generation`), so a progressive view's history made
+    /// before it is cleared.
+    content: u64,
 }
 
 impl Resources {
@@ -39,6 +43,7 @@ impl Resources {
             meshes: Vec::new(),
             mesh_generation: 0,
             mesh_pipelines: None,
+            content: crate::history::content_generation(),
         }
     }
 
@@ -53,12 +58,14 @@ impl Resources {
     ) -> Result<(), RuntimeError> {
         let texture = VolumeTexture::upload(gpu, binding, volume, window)?;
         self.volumes.insert(binding.to_string(), Arc::new(texture));
+        self.content_changed();
         Ok(())
     }
 
     /// Uploads `tf` as the transfer function views bind as `binding` (`tf`, `tf_gm`, ...).
     pub fn bind_tf(&mut self, gpu: &Gpu, binding: &str, tf: &TransferFunction) -> Result<(), RuntimeError> {
         self.tfs.insert(binding.to_string(), Arc::new(TfTexture::upload(gpu, tf)?));
+        self.content_changed();
         Ok(())
     }
 
@@ -71,5 +78,17 @@ impl Resources {
     /// Records that `meshes`' surfaces changed (every mesh layer is drawn again).
     pub(crate) fn meshes_changed(&mut self) {
         self.mesh_generation += 1;
+        self.content_changed();
+    }
+
+    /// What the shared content is at (see `content_changed`).
+    pub(crate) fn content(&self) -> u64 {
+        self.content
+    }
+
+    /// Records that something views render from changed in place (a table rewritten, bricks
+    /// uploaded): progressive views start their histories again.
+    pub(crate) fn content_changed(&mut self) {
+        self.content = crate::history::content_generation();
     }
 }

@@ -40,11 +40,20 @@ pub struct RenderOptions {
     /// Volumes the application holds in memory, by their names in the scene: each is read from
     /// its feed instead of its `path` or `phantom` (see [`crate::volume::VolumeFeed`]).
     pub feeds: volume::Feeds,
+    /// Frames each picture of a progressive view (the path tracer) holds when
+    /// [`SceneRenderer::render_all`] or [`SceneRenderer::render_view`] returns it: its samples
+    /// per pixel.
+    pub samples: u32,
 }
 
 impl Default for RenderOptions {
     fn default() -> RenderOptions {
-        RenderOptions { size: None, phantom_size: [128, 128, 128], feeds: volume::Feeds::new() }
+        RenderOptions {
+            size: None,
+            phantom_size: [128, 128, 128],
+            feeds: volume::Feeds::new(),
+            samples: crate::view::DEFAULT_SAMPLES,
+        }
     }
 }
 
@@ -346,6 +355,7 @@ impl SceneRenderer {
             RuntimeError::Invalid(format!("the scene has no volume `{volume}` with a transfer function"))
         })?;
         texture.write(&self.gpu, tf);
+        self.resources.content_changed();
         if self.skipping.as_mut().is_some_and(|s| s.set_tf(volume, is_primary, tf)) {
             self.update_occupancy();
         }
@@ -427,6 +437,7 @@ impl SceneRenderer {
             let shader = ViewShader::new(shader.wgsl.clone(), shader.reflection.clone(), &self.path)?;
             let size = self.options.size.unwrap_or(view.size);
             let mut renderer = ViewRenderer::new(&self.gpu, &mut self.pipelines, shader, size)?;
+            renderer.set_samples(self.options.samples);
             for (name, value) in &values {
                 if renderer.has_uniform(name)
                     && let Some(value) = renderer.uniforms().value_from_json(name, &value.to_json())
@@ -499,7 +510,10 @@ impl SceneRenderer {
             _ => 0.5 * spacing,
         };
         let chord = geometry::longest_chord(geometry::volume_to_world(primary.dims, primary.grid_to_world));
-        let needed = (chord / step).ceil() + 2.0;
+        // A progressive view's path continues after each scattering: room for four flights
+        // along the longest chord (most are far shorter: a scattered path soon leaves or ends).
+        let flights = if renderer.is_progressive() { PATH_FLIGHTS } else { 1.0 };
+        let needed = (chord / step).ceil() * flights + 2.0;
         let limit = vscene::MAX_SAMPLES_LIMIT;
         let samples = if needed.is_finite() { needed.min(limit as f32) as u32 } else { 1 };
         let cut = needed.is_finite()
@@ -524,6 +538,10 @@ impl SceneRenderer {
         Ok(note)
     }
 }
+
+/// Flights along the primary volume's longest chord that a progressive view's `max_samples`
+/// leaves room for (`set_physical_defaults`).
+const PATH_FLIGHTS: f32 = 4.0;
 
 /// Where a volume's window (the values its texture is normalized over) comes from.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -677,7 +695,7 @@ const GEOMETRY_INV_PROJ: &str = "geometry_inv_proj";
 const PHYSICAL_DEFAULTS: [(&str, &str); 3] = [
     ("step_size", "half the primary volume's smallest voxel spacing"),
     ("ref_step", "the primary volume's smallest voxel spacing"),
-    ("max_samples", "enough steps of `step_size` to cross the primary volume's longest chord"),
+    ("max_samples", "enough steps of `step_size` to cross the primary volume's longest chord (four times, for the paths of a path-traced view)"),
 ];
 
 /// How the renderer derives uniform `name` where the scene leaves it open, if it does.

@@ -6,6 +6,7 @@ use crate::bricks::BrickView;
 use crate::error::RuntimeError;
 use crate::gpu::Gpu;
 use crate::mesh_layer::{LayerCamera, LayerContent, MeshInstance, MeshLayer, Overlay, PlanePicture};
+use crate::history::History;
 use crate::metering::Metering;
 use crate::reflection::BindingKind;
 use crate::resources::Resources;
@@ -47,7 +48,15 @@ pub struct ViewRenderer {
     /// Transfer-function tables of the view's own, bound in place of the scene's of the same
     /// name (a slice view's window/level).
     own_tfs: HashMap<String, TfTexture>,
+    /// The pixels' history of a progressive view (the path tracer), and the frames
+    /// [`Self::render`] makes it hold.
+    history: Option<History>,
+    samples: u32,
 }
+
+/// Frames a progressive view's picture holds when [`ViewRenderer::render`] returns it, unless
+/// [`ViewRenderer::set_samples`] says otherwise.
+pub const DEFAULT_SAMPLES: u32 = 16;
 
 /// Mesh layers and overlays kept per view: one for previews and one for the full image.
 const MESH_LAYER_SIZES: usize = 2;
@@ -100,6 +109,7 @@ impl ViewRenderer {
         })?;
         let output = create_output(gpu, size)?;
         let metering = Metering::of(gpu, &shader.reflection).transpose()?;
+        let history = shader.reflection.bindings.iter().any(|b| b.kind == BindingKind::History).then(History::default);
         Ok(ViewRenderer {
             shader,
             pipeline,
@@ -119,7 +129,46 @@ impl ViewRenderer {
             brick_finest: 0,
             brick_layouts: HashMap::new(),
             own_tfs: HashMap::new(),
+            history,
+            samples: DEFAULT_SAMPLES,
         })
+    }
+
+    /// Whether the view is progressive: its picture is the mean of the frames rendered since it
+    /// last changed (the path tracer), so rendering it again refines it.
+    pub fn is_progressive(&self) -> bool {
+        self.history.is_some()
+    }
+
+    /// Sets the frames a progressive view's picture holds when [`Self::render`] returns it (at
+    /// least 1).
+    pub fn set_samples(&mut self, samples: u32) {
+        self.samples = samples.max(1);
+    }
+
+    /// The frames [`Self::render`] makes a progressive view's picture hold.
+    pub fn samples(&self) -> u32 {
+        self.samples
+    }
+
+    /// The whole frames in the picture of `size` pixels as the view now stands (0 when
+    /// anything changed since it was rendered; 1 for a view that is not progressive and was
+    /// rendered).
+    pub fn frames(&self, size: [u32; 2], resources: &Resources) -> u32 {
+        match &self.history {
+            Some(history) => history.frames(size, self.history_key(resources)),
+            None => 1,
+        }
+    }
+
+    /// What the picture is rendered from: the uniforms, the shared content, and what the view
+    /// draws besides (its finest brick level, its planes' pictures).
+    fn history_key(&self, resources: &Resources) -> u64 {
+        use std::hash::{Hash, Hasher};
+        let mut hasher = std::collections::hash_map::DefaultHasher::new();
+        self.uniforms.bytes().hash(&mut hasher);
+        (resources.content(), self.brick_finest, self.planes_generation).hash(&mut hasher);
+        hasher.finish()
     }
 
     /// The WGSL and reflection the view renders with.
@@ -291,7 +340,9 @@ impl ViewRenderer {
         cache: &mut PipelineCache,
         shader: ViewShader,
     ) -> Result<(), RuntimeError> {
+        let samples = self.samples;
         *self = ViewRenderer::new(gpu, cache, shader, self.size)?;
+        self.samples = samples;
         Ok(())
     }
 
@@ -357,6 +408,7 @@ impl ViewRenderer {
             )
         })?;
         let target_size = target.texture().size();
+        let key = self.history_key(resources);
         let luminance = match &mut self.metering {
             Some(metering) => {
                 metering.before_pass(encoder, &self.uniform_buffer);
@@ -364,8 +416,13 @@ impl ViewRenderer {
             }
             None => None,
         };
+        let history = match &mut self.history {
+            Some(h) => Some(h.prepare(gpu, encoder, [target_size.width, target_size.height], key, region)?),
+            None => None,
+        };
         let mesh_layer = self.mesh_layers.first().filter(|_| reads_layer).map(MeshLayer::views);
         let own = DispatchResources {
+            history,
             uniforms: &self.uniform_buffer,
             region: &region_buffer,
             output: target,
@@ -406,8 +463,19 @@ impl ViewRenderer {
 
     /// Renders and reads the image back (straight alpha RGBA8).
     /// A view that meters its exposure renders twice: the first pass meters the picture the
-    /// second one is exposed for.
+    /// second one is exposed for. A progressive view first renders the frames its picture
+    /// lacks of [`Self::samples`] (one submission each, so that no submission runs long), and
+    /// then one more.
     pub fn render(&mut self, gpu: &Gpu, resources: &Resources) -> Result<image::RgbaImage, RuntimeError> {
+        if self.is_progressive() {
+            let have = self.frames(self.size, resources);
+            let doing = format!("rendering the frames of view `{}`", self.shader.reflection.view);
+            for _ in have.saturating_add(1)..self.samples {
+                let mut encoder = gpu.device.create_command_encoder(&Default::default());
+                self.encode(gpu, resources, &mut encoder)?;
+                gpu.capture(&doing, || gpu.queue.submit([encoder.finish()]))?;
+            }
+        }
         let mut encoder = gpu.device.create_command_encoder(&Default::default());
         if self.metering.is_some() {
             self.encode(gpu, resources, &mut encoder)?;

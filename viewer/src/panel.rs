@@ -617,6 +617,9 @@ fn probe_menu(ui: &mut egui::Ui, live: &LiveScene, slot: &mut ViewSlot, index: u
 fn describe(frames: &ViewFrames, size: [u32; 2]) -> String {
     let quality = match frames.refiner().quality() {
         Quality::None => "rendering…".to_string(),
+        Quality::Full if frames.refiner().wants_more() || frames.refiner().frames_done() > 1 => {
+            format!("full {}×{}, {} samples", size[0], size[1], frames.refiner().frames_done())
+        }
         Quality::Full => format!("full {}×{}", size[0], size[1]),
         Quality::Stale => "full (updating)".to_string(),
         Quality::Preview { scale, refined } if refined > 0.0 => {

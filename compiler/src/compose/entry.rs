@@ -110,6 +110,20 @@ pub struct EntryPlan {
     /// (`geometry_depth`, `geometry_color`, the translucent layers), for the fields the
     /// composition has.
     pub geometry: Vec<LayerLoad>,
+    /// The pixel's history across frames, when the composition keeps one (a progressive view).
+    pub history: Option<HistoryPlan>,
+}
+
+/// The `State` members the entry point loads from the pixel's history before `ray.setup` and
+/// stores back after `ray.finish`: [`HISTORY`] from element `2 i` of the buffer and
+/// [`HISTORY_SAMPLES`] from the first component of element `2 i + 1`, `i` the pixel's index in
+/// the target (row after row).
+#[derive(Clone, Copy, Debug)]
+pub struct HistoryPlan {
+    /// `var<storage, read_write> history: array<vec4f>`.
+    pub buffer: Handle<naga::GlobalVariable>,
+    pub mean: u32,
+    pub samples: Option<u32>,
 }
 
 /// A `State` member the entry point loads from a texel of a mesh layer's image.
@@ -159,6 +173,13 @@ pub const TRANSLUCENT_DEPTH: [&str; TRANSLUCENT_LAYERS] =
 /// translucent layers, nearest first (a binding only views with one of them get).
 pub const TRANSLUCENT_COLOR: [&str; TRANSLUCENT_LAYERS] =
     ["translucent_color_0", "translucent_color_1", "translucent_color_2", "translucent_color_3"];
+/// The `vec4f` state field the entry point loads from the pixel's history before ray setup and
+/// stores back after ray finish (a binding only views with this field get): what a progressive
+/// view (the path tracer) averages over frames.
+pub const HISTORY: &str = "history";
+/// The `f32` state field kept beside [`HISTORY`]: the number of frames in it (0 after the
+/// runtime cleared the history).
+pub const HISTORY_SAMPLES: &str = "history_samples";
 /// How many layers of translucent surfaces the mesh layer peels for the volume layer.
 pub const TRANSLUCENT_LAYERS: usize = 4;
 /// The fields the entry point reads or writes itself: kept whenever a placed function declares
@@ -178,6 +199,8 @@ pub(crate) const ENTRY_FIELDS: &[&str] = &[
     TRANSLUCENT_COLOR[1],
     TRANSLUCENT_COLOR[2],
     TRANSLUCENT_COLOR[3],
+    HISTORY,
+    HISTORY_SAMPLES,
     super::contribution::CONTRIBUTES,
     super::contribution::SELECTED,
 ];
@@ -272,6 +295,10 @@ pub fn build(module: &mut naga::Module, plan: &EntryPlan) -> naga::EntryPoint {
     for load in &plan.geometry {
         b.load_layer_texel(&mut body, state, load, p, size);
     }
+    let history = plan.history.map(|h| (h, b.history_index(p, size)));
+    if let Some((h, index)) = history {
+        b.move_history(&mut body, state, h, index, HistoryMove::Load);
+    }
     for &f in &plan.ray_setup {
         b.call(&mut body, f, state);
     }
@@ -307,6 +334,9 @@ pub fn build(module: &mut naga::Module, plan: &EntryPlan) -> naga::EntryPoint {
         b.call(&mut body, f, state);
     }
     write_outputs(&mut b, module, &mut body, plan, state, p, output);
+    if let Some((h, index)) = history {
+        b.move_history(&mut body, state, h, index, HistoryMove::Store);
+    }
     b.push(&mut body, S::Return { value: None });
 
     let mut function = b.func;
@@ -602,6 +632,13 @@ fn add_type(module: &mut naga::Module, inner: naga::TypeInner) -> Handle<naga::T
     module.types.insert(naga::Type { name: None, inner }, naga::Span::UNDEFINED)
 }
 
+/// Which way [`Body::move_history`] moves the pixel's history.
+#[derive(Clone, Copy)]
+enum HistoryMove {
+    Load,
+    Store,
+}
+
 /// The locals of a ray that keeps its selected sample ([`EntryGate::Once`]).
 struct Kept {
     /// `kept: State`: the saved fields of the last selected sample.
@@ -747,6 +784,39 @@ impl Body {
             self.exit_if(body, outside, S::Return { value: None });
         }
         Pixel { p, size, output }
+    }
+
+    /// `2u * (p.y * size.x + p.x)`: the first of the pixel's two elements of the history.
+    fn history_index(&mut self, p: Handle<E>, size: Handle<E>) -> Handle<E> {
+        use naga::BinaryOperator as Bo;
+        let (x, y, width) = (self.component(p, 0), self.component(p, 1), self.component(size, 0));
+        let row = self.binary(Bo::Multiply, y, width);
+        let pixel = self.binary(Bo::Add, row, x);
+        let two = self.literal(naga::Literal::U32(2));
+        self.binary(Bo::Multiply, two, pixel)
+    }
+
+    /// Loads `state.history` and `state.history_samples` from the pixel's elements of the
+    /// history, or stores them there.
+    fn move_history(&mut self, body: &mut naga::Block, state: Handle<E>, h: HistoryPlan, index: Handle<E>, way: HistoryMove) {
+        let buffer = self.expr(E::GlobalVariable(h.buffer));
+        let one = self.literal(naga::Literal::U32(1));
+        let next = self.binary(naga::BinaryOperator::Add, index, one);
+        let mean_texel = self.expr(E::Access { base: buffer, index });
+        let samples_texel = self.expr(E::Access { base: buffer, index: next });
+        let samples_pointer = self.component(samples_texel, 0);
+        let mut pairs = vec![(self.component(state, h.mean), mean_texel)];
+        if let Some(member) = h.samples {
+            pairs.push((self.component(state, member), samples_pointer));
+        }
+        for (field, texel) in pairs {
+            let (to, from) = match way {
+                HistoryMove::Load => (field, texel),
+                HistoryMove::Store => (texel, field),
+            };
+            let value = self.expr(E::Load { pointer: from });
+            self.push(body, S::Store { pointer: to, value });
+        }
     }
 
     /// `state.pixel = (vec2f(p) + 0.5) / vec2f(size);`

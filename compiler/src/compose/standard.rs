@@ -81,12 +81,14 @@ impl Selection<'_> {
         if let Some(volumes) = self.per_additional() {
             self.add("sample_volume", volumes);
         }
-        if r.shading || r.boundary {
+        // The path tracer scatters off surfaces along the gradient, lit or not.
+        let traced = r.compositing.value == Compositing::Pathtrace;
+        if r.shading || r.boundary || traced {
             self.add("gradient", vec![]);
         }
         // After `gradient`, before `light` and `tone`: its `ray.setup` and `sampling.gradient`
         // functions must run before theirs and after `sample_gradient`.
-        if r.shading {
+        if r.shading || traced {
             self.add("normal", vec![]);
         }
         self.add("classify", vec![]);
@@ -117,7 +119,7 @@ impl Selection<'_> {
     fn compositing(&mut self) {
         let r = &self.view.render;
         self.add("composite", vec![]);
-        if r.shading {
+        if r.shading && r.compositing.value != Compositing::Pathtrace {
             self.add("lighting", vec![]);
         }
         match r.compositing.value {
@@ -131,6 +133,16 @@ impl Selection<'_> {
             Compositing::Iso => self.add("composite_iso", vec![]),
             Compositing::Minip => self.add("composite_minip", vec![]),
             Compositing::Average => self.add("composite_average", vec![]),
+            Compositing::Pathtrace => {
+                self.add("pathtrace", vec![]);
+                // After `light`: every light casts shadow rays, which run just before its
+                // substep, and then each light's substep is replaced by the path tracer's.
+                if r.shading && !r.lights.is_empty() {
+                    let lights: Vec<String> = r.lights.iter().map(|l| l.name.clone()).collect();
+                    self.add("shadow_ray", lights.clone());
+                    self.add("path_light", lights);
+                }
+            }
         }
     }
 
@@ -208,6 +220,6 @@ fn skip_module(compositing: Compositing) -> Option<&'static str> {
         Compositing::Dvr => Some("skip"),
         Compositing::Mip => Some("skip_mip"),
         Compositing::Iso => Some("skip_iso"),
-        Compositing::Minip | Compositing::Average => None,
+        Compositing::Minip | Compositing::Average | Compositing::Pathtrace => None,
     }
 }

@@ -17,7 +17,7 @@ use crate::hir::{self, ConstValue, ScalarValue};
 use crate::lower::{self, LookupSource, ModuleBuilder, PipelineEnv, StructLayout, UniformAccess};
 use crate::source::{SourceMap, Span};
 use crate::steps::Step;
-use crate::types::Type;
+use crate::types::{Scalar, Type};
 use naga::{Handle, ResourceBinding};
 pub use vrs_reflection::{BindingInfo, BindingKind};
 
@@ -64,6 +64,7 @@ pub fn emit(
     // Last of the bindings, so a view that does not meter keeps its numbering.
     let metering = add_metering_image(&mut b, &mut bindings, comp);
     let geometry = add_geometry_images(&mut b, &mut bindings, comp);
+    let history = add_history_buffer(&mut b, &mut bindings, comp);
 
     let steps = StepLowering { program, comp, state_type, access: &access };
     let ray_setup = steps.lower(&mut b, &[Step::RaySetup])?;
@@ -114,6 +115,7 @@ pub fn emit(
         region,
         metering,
         geometry,
+        history,
     };
     let state_layout = b.struct_layout(state_type).unwrap_or_else(empty_layout);
     let block_type = b.module.global_variables[block].ty;
@@ -255,6 +257,30 @@ fn add_geometry_images(b: &mut ModuleBuilder, bindings: &mut Bindings, comp: &Co
         }));
     }
     loads
+}
+
+/// After the mesh layer's images: the pixels' history across frames, when the composition has a
+/// `history: vec4f` field (and, beside it, `history_samples: f32`): `var<storage, read_write>
+/// history: array<vec4f>`, two elements per pixel of the target.
+fn add_history_buffer(b: &mut ModuleBuilder, bindings: &mut Bindings, comp: &Composition) -> Option<entry::HistoryPlan> {
+    let typed = |name: &str, ty: Type| comp.field(name).filter(|&i| comp.fields[i].ty == ty).map(|i| i as u32);
+    let mean = typed(entry::HISTORY, Type::Vector { size: 4, scalar: Scalar::F32 })?;
+    let samples = typed(entry::HISTORY_SAMPLES, Type::Scalar(Scalar::F32));
+    let binding = bindings.next("history", BindingKind::History);
+    let vec4f = naga::TypeInner::Vector { size: naga::VectorSize::Quad, scalar: naga::Scalar::F32 };
+    let vec4f = b.module.types.insert(naga::Type { name: None, inner: vec4f }, naga::Span::UNDEFINED);
+    let array = naga::TypeInner::Array { base: vec4f, size: naga::ArraySize::Dynamic, stride: 16 };
+    let ty = b.module.types.insert(naga::Type { name: None, inner: array }, naga::Span::UNDEFINED);
+    let var = naga::GlobalVariable {
+        name: Some("history".into()),
+        space: naga::AddressSpace::Storage { access: naga::StorageAccess::LOAD | naga::StorageAccess::STORE },
+        binding: Some(binding),
+        ty,
+        init: None,
+        memory_decorations: naga::MemoryDecorations::empty(),
+    };
+    let buffer = b.module.global_variables.append(var, naga::Span::UNDEFINED);
+    Some(entry::HistoryPlan { buffer, mean, samples })
 }
 
 /// What lowering the placed pipeline functions of a step needs.

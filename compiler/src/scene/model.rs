@@ -191,6 +191,8 @@ pub enum Compositing {
     Minip,
     /// Average intensity along the ray (a radiograph-like projection).
     Average,
+    /// A progressive Monte Carlo path tracer (cinematic rendering): raycast views only.
+    Pathtrace,
 }
 
 /// A volume's `role`.

@@ -147,6 +147,10 @@ impl Cx<'_> {
         let (jitter, background) = (self.located(&r.jitter), self.located(&r.background));
         self.check_sampling(&step_size, &max_samples, &jitter, &background);
         let light = self.light_settings(&r, compositing.value, shading, lights.is_empty());
+        let traced = compositing.value == Compositing::Pathtrace;
+        if traced {
+            self.ignored_by_path_tracing(&r);
+        }
         // On by default wherever skipping is exact; MinIP and average read every sample: they
         // never skip.
         let exact = matches!(compositing.value, Compositing::Dvr | Compositing::Mip | Compositing::Iso);
@@ -156,8 +160,8 @@ impl Cx<'_> {
             iso_value,
             shading,
             lights,
-            boundary,
-            tone,
+            boundary: boundary && !traced,
+            tone: tone && !traced,
             empty_space_skipping,
             step_size,
             max_samples,
@@ -168,8 +172,23 @@ impl Cx<'_> {
             auto_exposure: light.auto_exposure,
             white_point: light.white_point,
             preintegration: light.preintegration,
-            shadows: light.shadows,
-            ambient_occlusion,
+            shadows: if traced { Shadows::Off } else { light.shadows },
+            ambient_occlusion: ambient_occlusion && !traced,
+        }
+    }
+
+    /// The keys path tracing has no use for: its lights always cast shadow rays, its scattered
+    /// light is its ambient occlusion, and tone shading and boundary enhancement would change
+    /// a collision after the free flight chose it.
+    fn ignored_by_path_tracing(&mut self, r: &RawRender) {
+        let why = "with `compositing = \"pathtrace\"`";
+        if let Some(s) = r.shadows.as_ref().filter(|s| *s.get_ref() != Shadows::Off) {
+            self.ignored(s, "shadows", "with `compositing = \"pathtrace\"`: its lights always cast shadow rays");
+        }
+        for (value, key) in [(&r.ambient_occlusion, "ambient_occlusion"), (&r.tone, "tone"), (&r.boundary, "boundary")] {
+            if let Some(v) = value.as_ref().filter(|v| *v.get_ref()) {
+                self.ignored(v, key, why);
+            }
         }
     }
 
@@ -807,6 +826,15 @@ impl Cx<'_> {
     /// A slice view's `axis` (needed), `position`, `slab` and `convention`; a `camera` has no
     /// effect on it.
     fn slice_keys(&mut self, v: &RawView, view: &mut View) {
+        if view.render.compositing.value == Compositing::Pathtrace {
+            // The path tracer is for 3D views; a slice shown with the scene's path-traced views
+            // is composited as DVR, and says so only where its own table asked for it.
+            let own = v.render.as_ref().and_then(|r| r.get_ref().compositing.as_ref());
+            if let Some(c) = own {
+                self.ignored(c, "compositing = \"pathtrace\"", "on a slice view: it is composited by DVR");
+            }
+            view.render.compositing.value = Compositing::Dvr;
+        }
         if let Some(c) = &v.camera {
             self.ignored(c, "camera", "on a slice view");
         }

@@ -34,6 +34,7 @@ impl Compositing {
             Compositing::Iso => "iso",
             Compositing::Minip => "minip",
             Compositing::Average => "average",
+            Compositing::Pathtrace => "pathtrace",
         }
     }
 }

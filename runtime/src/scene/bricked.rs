@@ -253,6 +253,9 @@ impl SceneRenderer {
             progress.arrived += volume.receive(&self.gpu, wait)?;
             progress.residency = sum(progress.residency, volume.residency());
         }
+        if progress.arrived > 0 {
+            self.resources.content_changed();
+        }
         self.skip_what_bricks_showed();
         Ok(progress)
     }

@@ -153,6 +153,7 @@ impl SceneRenderer {
         mesh.color = color;
         mesh.opacity = opacity.clamp(0.0, 1.0);
         mesh.model = model;
+        self.resources.content_changed();
         Ok(())
     }
 

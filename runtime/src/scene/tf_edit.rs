@@ -68,6 +68,7 @@ impl SceneRenderer {
                 own.insert(binding, texture);
             }
         }
+        self.resources.content_changed();
         Ok(())
     }
 }
