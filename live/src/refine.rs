@@ -444,6 +444,47 @@ mod tests {
     }
 
     #[test]
+    fn a_progressive_view_renders_whole_frames_until_its_picture_holds_enough() {
+        let start = Instant::now();
+        let mut r = Refiner::new([64, 64], 100 * MS);
+        r.set_frames(3);
+        // 50 µs per pixel: 205 ms a frame, so a preview and then tiles of each frame.
+        let work = settle(&mut r, 1, start, 50_000);
+        let frames = work.iter().filter(|w| matches!(w, Work::Tile { region, .. } if region.y1 == 64)).count();
+        assert_eq!(frames, 3, "three whole frames: {work:?}");
+        assert_eq!(work.iter().filter(|w| matches!(w, Work::Preview { .. })).count(), 1, "one preview first");
+        assert_eq!((r.quality(), r.frames_done(), r.wants_more()), (Quality::Full, 3, false));
+        assert_eq!(r.remaining_estimate(1), Some(Duration::ZERO));
+        // A change starts again; while the user interacts only previews come, and the picture
+        // shown between frames stays the full one.
+        let now = start + Duration::from_secs(1);
+        let first = settle(&mut r, 2, now, 50_000);
+        assert_eq!(r.frames_done(), 3);
+        assert!(first.iter().all(|w| w.generation() == 2));
+        r.input(now);
+        let _ = settle(&mut r, 3, now, 50_000);
+        assert_eq!((r.frames_done(), r.wants_more()), (0, false), "a preview of generation 3 only");
+    }
+
+    #[test]
+    fn between_frames_a_progressive_view_shows_its_full_picture_and_counts_what_is_left() {
+        let now = Instant::now();
+        let mut r = Refiner::new([64, 64], 100 * MS);
+        r.set_frames(4);
+        while r.frames_done() < 1 {
+            let work = r.next(1, now).expect("work until the first frame");
+            r.finished(&work, Duration::from_nanos(50_000 * work.pixels()));
+        }
+        assert!(r.wants_more() && r.full_shown() && r.quality() == Quality::Full);
+        let frame = r.full_frame_estimate().expect("measured");
+        let left = r.remaining_estimate(1).expect("measured");
+        assert!(left.abs_diff(frame * 3) < Duration::from_micros(1), "three frames left: {left:?} against {frame:?}");
+        let tile = r.next(1, now).expect("the next frame's first tile");
+        assert!(matches!(tile, Work::Tile { region, .. } if region.y0 == 0));
+        assert!(r.full_shown(), "a frame of the same state written over the last is still a picture of it");
+    }
+
+    #[test]
     fn one_piece_of_work_is_in_flight_at_a_time() {
         let now = Instant::now();
         let mut r = Refiner::new([64, 64], 100 * MS);

@@ -172,17 +172,22 @@ impl SceneHandle {
     }
 
     /// Renders view `view` (the first when `None`) at `size` (its own when `None`): an
-    /// H x W x 4 `uint8` array, straight alpha.
-    #[pyo3(signature = (view=None, size=None))]
+    /// H x W x 4 `uint8` array, straight alpha; a progressive view (the path tracer) holds
+    /// `samples` frames (its setting, 16 unless set, when `None`).
+    #[pyo3(signature = (view=None, size=None, samples=None))]
     fn render<'py>(
         &self,
         py: Python<'py>,
         view: Option<String>,
         size: Option<(u32, u32)>,
+        samples: Option<u32>,
     ) -> PyResult<Bound<'py, PyAny>> {
         let image = self.with_state(py, |state| {
             let index = view_index(state, view.as_deref())?;
             resize(state, index, size)?;
+            if let Some(samples) = samples {
+                state.renderer.views_mut()[index].renderer.set_samples(samples);
+            }
             Ok(state.renderer.render_view(index)?)
         })?;
         let (w, h) = image.dimensions();

@@ -114,6 +114,19 @@ def test_transfer_functions_from_points_and_compositing(sphere):
         vrsc.Scene.from_array(sphere, compositing="sideways")
 
 
+def test_a_path_traced_picture_is_the_mean_of_its_samples(sphere):
+    scene = vrsc.Scene.from_array(sphere, tf=[[0, 0.2], [100, 1]], compositing="pathtrace")
+    one = scene.render(size=SIZE, samples=1).astype(float)
+    fresh = vrsc.Scene.from_array(sphere, tf=[[0, 0.2], [100, 1]], compositing="pathtrace")
+    many = fresh.render(size=SIZE, samples=32).astype(float)
+    # One sample per pixel is noise around the mean that 32 converge to: neighbours differ more.
+    roughness = lambda image: np.abs(np.diff(image[..., :3], axis=1)).mean()
+    assert roughness(one) > 2 * roughness(many) > 0
+    for bad in (0, -3, 2.5, True):
+        with pytest.raises(ValueError, match="samples"):
+            scene.render(size=SIZE, samples=bad)
+
+
 def test_a_module_from_a_string_tints_the_picture(sphere):
     plain = vrsc.Scene.from_array(sphere).render(size=SIZE)
     scene = vrsc.Scene.from_array(sphere, modules=[TINT])

@@ -245,9 +245,11 @@ class Scene:
 
     # -- rendering ---------------------------------------------------------------------------
 
-    def render(self, view=None, size=None, probe=None, *, probe_threshold=None, probe_sample=None):
+    def render(self, view=None, size=None, probe=None, *, probe_threshold=None, probe_sample=None, samples=None):
         """Renders ``view`` (the first when ``None``) at ``size`` = (width, height) (the view's
-        own when ``None``): an H x W x 4 ``uint8`` array (straight alpha). With ``probe``, the
+        own when ``None``): an H x W x 4 ``uint8`` array (straight alpha). A path-traced view
+        (``compositing = "pathtrace"``) is the mean of ``samples`` frames (16 when ``None``;
+        frames already rendered of the same picture count). With ``probe``, the
         values of that state field instead: ``float32``, H x W for a scalar, H x W x N for a
         vector, NaN where a pixel has none (read where the field's lifetime says, or at an
         opacity ``probe_threshold`` or sample ``probe_sample``)."""
@@ -256,7 +258,9 @@ class Scene:
         if probe is None:
             if probe_threshold is not None or probe_sample is not None:
                 raise ValueError("probe_threshold and probe_sample need a probe")
-            return handle.render(view, size)
+            if samples is not None and (isinstance(samples, bool) or not isinstance(samples, int) or samples < 1):
+                raise ValueError(f"samples must be a whole number of at least 1, not {samples!r}")
+            return handle.render(view, size, samples)
         values, _legend = handle.probe(probe, view, size, probe_threshold, probe_sample)
         return values
 

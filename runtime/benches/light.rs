@@ -4,7 +4,8 @@
 //! the shaded frame at a preview resolution (target 2x at most; the light-volume pass, which
 //! runs once when the light or the transfer function changes, timed on its own), shadow rays
 //! (the reference), pre-integration over point sampling at the same step, pre-integrated
-//! lighting over pre-integrated classification, and ambient occlusion over the shaded frame.
+//! lighting over pre-integrated classification, ambient occlusion over the shaded frame, and
+//! one frame of the path tracer (one sample per pixel, its lights' shadow rays included).
 //!
 //! The volume is the MNI152 T1 of `../shared/data` when it is there, else the built-in head
 //! phantom (said in the output). Run: `cargo bench -p vrs-runtime --bench light`; settings:
@@ -64,6 +65,7 @@ fn main() {
         ("unshaded + HDR, automatic exposure", "shading = false, tone_mapping = \"reinhard\", auto_exposure = true"),
         ("shaded + ambient occlusion", "ambient_occlusion = true"),
         ("shaded, step 2 mm, pre-integrated lighting", "step_size = 2.0, preintegration = \"lighting\""),
+        ("path-traced, one sample per pixel", "compositing = \"pathtrace\""),
     ];
     let mut renderers: Vec<SceneRenderer> = variants
         .iter()
@@ -93,6 +95,7 @@ fn main() {
     println!("ambient occlusion over shaded:       {:.3}x", medians[9] / medians[0]);
     println!("pre-integrated lighting over classification only (2 mm): {:.3}x", medians[10] / medians[5]);
     println!("pre-integrated lighting over point (2 mm):               {:.3}x", medians[10] / medians[4]);
+    println!("one path-traced sample per pixel over shaded:            {:.3}x", medians[11] / medians[0]);
     // The light-volume pass: a frame after the light moved, less a frame.
     let shadowed = &mut renderers[2];
     let mut passes = Vec::new();

@@ -47,7 +47,7 @@ fn differing(a: &RgbaImage, b: &RgbaImage) -> Vec<(u32, u32)> {
 #[test]
 fn every_example_scene_renders_its_golden_images() {
     let mut failures = Vec::new();
-    for example in ["clip_plane", "ablation", "light", "meshes"] {
+    for example in ["clip_plane", "ablation", "light", "meshes", "cinematic"] {
         let dir = tempfile::tempdir().unwrap();
         copy_example(example, dir.path());
         let mut scenes: Vec<PathBuf> = std::fs::read_dir(dir.path())

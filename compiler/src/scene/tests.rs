@@ -274,7 +274,7 @@ fn bad_enum_values_point_at_the_value() {
     let errs = errors(&EXAMPLE.replace("compositing = \"dvr\"", "compositing = \"dvrr\""));
     assert_eq!(errs.len(), 1, "{errs:?}");
     assert_eq!((errs[0].0, errs[0].1, errs[0].2), ("E0715", 2, 15));
-    assert_eq!(errs[0].3, "`dvrr` is not one of `dvr`, `mip`, `iso`, `minip`, `average`");
+    assert_eq!(errs[0].3, "`dvrr` is not one of `dvr`, `mip`, `iso`, `minip`, `average`, `pathtrace`");
 
     let errs = errors(&EXAMPLE.replace("axis = \"z\"", "axis = \"w\""));
     assert_eq!(

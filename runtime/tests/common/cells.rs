@@ -4,7 +4,7 @@
 use std::fmt::Write;
 
 /// The compositing modes of `[render] compositing`.
-pub const MODES: [&str; 5] = ["dvr", "mip", "minip", "average", "iso"];
+pub const MODES: [&str; 6] = ["dvr", "mip", "minip", "average", "iso", "pathtrace"];
 
 /// Where the cell's render settings are written: the shared `[render]` table; the view's own
 /// `render` table over a shared one that says something else in every key; or the shared
