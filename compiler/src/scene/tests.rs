@@ -177,12 +177,45 @@ fn ambient_occlusion_needs_shading_and_follows_lighting() {
 }
 
 #[test]
+fn path_tracing_selects_its_modules_and_says_which_keys_it_ignores() {
+    let text = format!(
+        "[render]\ncompositing = \"pathtrace\"\nshading = true\nlights = [\"key\", \"fill\"]\nshadows = \"volume\"\n\
+         ambient_occlusion = true\ntone = true\n{MINIMAL}\n\
+         [[view]]\nname = \"axial\"\nkind = \"slice\"\naxis = \"axial\"\nrender = {{ compositing = \"pathtrace\" }}\n"
+    );
+    let (_, scene, diagnostics) = parse_reporting(&text);
+    let scene = scene.unwrap_or_else(|| panic!("{diagnostics:?}"));
+    let ignored: Vec<String> = diagnostics.iter().filter(|d| d.code.as_str() == "W0701").map(|d| d.message.clone()).collect();
+    for key in ["shadows", "ambient_occlusion", "tone", "compositing = \"pathtrace\""] {
+        assert!(ignored.iter().any(|m| m.starts_with(&format!("`{key}`"))), "{key}: {ignored:?}");
+    }
+    let modules = scene.standard_modules(&scene.views[0]);
+    let names: Vec<&str> = modules.iter().map(|m| m.name).collect();
+    for wanted in ["gradient", "normal", "light", "pathtrace", "shadow_ray", "path_light"] {
+        assert!(names.contains(&wanted), "{wanted} in {names:?}");
+    }
+    for unwanted in ["lighting", "composite_dvr", "skip", "occlusion", "shadow_volume", "tone"] {
+        assert!(!names.contains(&unwanted), "{unwanted} in {names:?}");
+    }
+    let at = |n: &str| names.iter().position(|m| *m == n).unwrap_or(usize::MAX);
+    assert!(at("light") < at("shadow_ray") && at("shadow_ray") < at("path_light"), "{names:?}");
+    let lights = modules.iter().find(|m| m.name == "path_light").map(|m| m.instances.clone());
+    assert_eq!(lights, Some(vec!["key".to_string(), "fill".to_string()]));
+    // The slice view is composited by DVR; unlit, the path tracer keeps its gradient (surfaces).
+    assert_eq!(scene.view("axial").map(|v| v.render.compositing.value), Some(Compositing::Dvr));
+    let (_, result) = parse(&format!("[render]\ncompositing = \"pathtrace\"\n{MINIMAL}"));
+    let scene = result.unwrap_or_else(|e| panic!("{:?}", e.diagnostics));
+    let names: Vec<&str> = scene.standard_modules(&scene.views[0]).iter().map(|m| m.name).collect();
+    assert!(names.contains(&"gradient") && names.contains(&"pathtrace") && !names.contains(&"path_light"));
+}
+
+#[test]
 fn every_standard_module_exists() {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../stdlib");
     let text = format!(
         "[render]\nshading = true\nboundary = true\ntone = true\n{MINIMAL}\n[[volume]]\nname = \"a\"\nrole = \"additional\"\nphantom = \"p\"\n[[volume]]\nname = \"m\"\nrole = \"mask\"\nphantom = \"p\"\n[[volume]]\nname = \"t\"\nrole = \"tag\"\nphantom = \"p\"\n"
     );
-    for mode in ["dvr", "mip", "iso"] {
+    for mode in ["dvr", "mip", "iso", "pathtrace"] {
         let text =
             text.replace("shading = true", &format!("shading = true\ncompositing = \"{mode}\"\niso_value = 0.5"));
         let (_, result) = parse(&text);
