@@ -4,26 +4,16 @@
 //!
 //! The history is cleared whenever what the picture is rendered from changes: the view's
 //! uniforms (camera, slice plane, every value), or the scene's content (transfer functions,
-//! volumes, bricks that arrived, meshes), as [`content_generation`] counts it. One history is
+//! volumes, bricks that arrived, meshes), as `Resources::content` counts it. One history is
 //! kept per target size in use (a preview and the whole image), like the mesh layers.
 
 use crate::error::RuntimeError;
 use crate::gpu::Gpu;
-use crate::view::Region;
-use std::sync::atomic::{AtomicU64, Ordering};
 
 /// Bytes one pixel takes: two `vec4f`.
 const PIXEL_BYTES: u64 = 32;
 /// Histories kept per view: one for previews and one for the whole image.
 const SIZES: usize = 2;
-
-/// A fresh value of the scene's content generation: every change of what views render from
-/// (a transfer function written, bricks uploaded, volumes loaded) takes one, so a history made
-/// before it is never taken for one made after (values are unique across renderers).
-pub(crate) fn content_generation() -> u64 {
-    static NEXT: AtomicU64 = AtomicU64::new(1);
-    NEXT.fetch_add(1, Ordering::Relaxed)
-}
 
 /// The histories of one progressive view.
 #[derive(Default)]
@@ -43,16 +33,16 @@ struct Target {
 }
 
 impl History {
-    /// The buffer of `size`'s history for a dispatch of `region` rendered from `key`: cleared
-    /// (into `encoder`, before the dispatch) when `key` differs from the last one; the region's
-    /// pixels are counted towards its frames.
+    /// The buffer of `size`'s history for a dispatch of `pixels` (of the target) rendered from
+    /// `key`: cleared (into `encoder`, before the dispatch) when `key` differs from the last
+    /// one; the pixels are counted towards its frames.
     pub(crate) fn prepare(
         &mut self,
         gpu: &Gpu,
         encoder: &mut wgpu::CommandEncoder,
         size: [u32; 2],
         key: u64,
-        region: Region,
+        pixels: u64,
     ) -> Result<&wgpu::Buffer, RuntimeError> {
         match self.targets.iter().position(|t| t.size == size) {
             Some(i) => self.targets[..=i].rotate_right(1),
@@ -67,9 +57,7 @@ impl History {
             target.key = Some(key);
             target.covered = 0;
         }
-        let [w, h] = size;
-        let inside = Region { x0: region.x0.min(w), y0: region.y0.min(h), x1: region.x1.min(w), y1: region.y1.min(h) };
-        target.covered += inside.pixels();
+        target.covered += pixels;
         Ok(&target.buffer)
     }
 

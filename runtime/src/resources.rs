@@ -27,8 +27,7 @@ pub struct Resources {
     /// Made with the first mesh.
     pub(crate) mesh_pipelines: Option<MeshPipelines>,
     /// What the content is at: a fresh value at every change of a texture, table, brick or
-    /// mesh (`crate::history::content_generation`), so a progressive view's history made
-    /// before it is cleared.
+    /// mesh (`content_generation`), so a progressive view's history made before it is cleared.
     content: u64,
 }
 
@@ -43,7 +42,7 @@ impl Resources {
             meshes: Vec::new(),
             mesh_generation: 0,
             mesh_pipelines: None,
-            content: crate::history::content_generation(),
+            content: content_generation(),
         }
     }
 
@@ -89,6 +88,14 @@ impl Resources {
     /// Records that something views render from changed in place (a table rewritten, bricks
     /// uploaded): progressive views start their histories again.
     pub(crate) fn content_changed(&mut self) {
-        self.content = crate::history::content_generation();
+        self.content = content_generation();
     }
+}
+
+/// A fresh value of the content generation: every change of what views render from (a transfer
+/// function written, bricks uploaded, volumes loaded) takes one, so a progressive view's history
+/// made before it is never taken for one made after (values are unique across renderers).
+fn content_generation() -> u64 {
+    static NEXT: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(1);
+    NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
 }

@@ -417,7 +417,10 @@ impl ViewRenderer {
             None => None,
         };
         let history = match &mut self.history {
-            Some(h) => Some(h.prepare(gpu, encoder, [target_size.width, target_size.height], key, region)?),
+            Some(history) => {
+                let size = [target_size.width, target_size.height];
+                Some(history.prepare(gpu, encoder, size, key, region.within(size).pixels())?)
+            }
             None => None,
         };
         let mesh_layer = self.mesh_layers.first().filter(|_| reads_layer).map(MeshLayer::views);
@@ -542,6 +545,11 @@ impl Region {
     /// The whole of an image of `size` pixels.
     pub fn whole([w, h]: [u32; 2]) -> Region {
         Region { x0: 0, y0: 0, x1: w, y1: h }
+    }
+
+    /// The part of the region inside an image of `size` pixels.
+    pub fn within(&self, [w, h]: [u32; 2]) -> Region {
+        Region { x0: self.x0.min(w), y0: self.y0.min(h), x1: self.x1.min(w), y1: self.y1.min(h) }
     }
 
     /// The number of pixels in the region.
