@@ -1,8 +1,9 @@
 //! `vrsc view` in a real window under Xvfb on the software adapter: the picture appears, an
 //! orbit dragged with the mouse changes it, dragging the ablation needle's marker in a slice
-//! view moves its zone, E exports a view as `vrsc render` writes it, and a scene saved with a
-//! renamed uniform is refused with `vrsc build`'s diagnostic, and a path-traced view converges while left alone (screenshots with ImageMagick's
-//! `import`, the mouse and keys with `xdotool`; `.ci/run` installs all three).
+//! view moves its zone, E exports a view as `vrsc render` writes it, a scene saved with a
+//! renamed uniform is refused with `vrsc build`'s diagnostic, and a path-traced view converges
+//! while left alone (screenshots with ImageMagick's `import`, the mouse and keys with
+//! `xdotool`; `.ci/run` installs all three).
 
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};

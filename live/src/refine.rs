@@ -236,7 +236,8 @@ impl Refiner {
         };
         // A progressive view's frames after this one.
         let frames_after = if current { self.frames.saturating_sub(self.frames_done + 1) } else { self.frames - 1 };
-        let rows = u64::from(self.full[1].saturating_sub(rows_done)) + u64::from(frames_after) * u64::from(self.full[1]);
+        let rows =
+            u64::from(self.full[1].saturating_sub(rows_done)) + u64::from(frames_after) * u64::from(self.full[1]);
         let pixels = rows * u64::from(self.full[0]);
         Some(Duration::from_secs_f64(cost * pixels as f64))
     }

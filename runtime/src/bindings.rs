@@ -151,9 +151,7 @@ pub(crate) fn group_entries<'a>(
                 BindingKind::BrickPool => wgpu::BindingResource::TextureView(&bricked()?.pool_view),
                 BindingKind::PageTable => bricked()?.pages.as_entire_binding(),
                 BindingKind::BrickRequests => bricked()?.requests.as_entire_binding(),
-                BindingKind::History => {
-                    own.history.ok_or_else(|| missing("a history", "history"))?.as_entire_binding()
-                }
+                BindingKind::History => own.history.ok_or_else(|| missing("a history", "history"))?.as_entire_binding(),
                 BindingKind::BrickLayout => {
                     own.brick_layouts.get(&b.name).ok_or_else(|| missing("brick layout", &b.name))?.as_entire_binding()
                 }

@@ -695,7 +695,10 @@ const GEOMETRY_INV_PROJ: &str = "geometry_inv_proj";
 const PHYSICAL_DEFAULTS: [(&str, &str); 3] = [
     ("step_size", "half the primary volume's smallest voxel spacing"),
     ("ref_step", "the primary volume's smallest voxel spacing"),
-    ("max_samples", "enough steps of `step_size` to cross the primary volume's longest chord (four times, for the paths of a path-traced view)"),
+    (
+        "max_samples",
+        "enough steps of `step_size` to cross the primary volume's longest chord (four times, for the paths of a path-traced view)",
+    ),
 ];
 
 /// How the renderer derives uniform `name` where the scene leaves it open, if it does.

@@ -1,9 +1,9 @@
 //! Every combination of the options a scene documents renders or is refused at build: each
 //! cell of the product of compositing mode (in the shared `[render]` table or the view's own
-//! `render` table; the path tracer at one sample), the volumes beside the primary one, view kind, shading and lights,
-//! empty-space skipping and probing either composes and renders a 16x16 image on lavapipe
-//! with no wgpu error (and, probed, no NaN or infinite value in its output colour), or `build`
-//! refuses it with an error at a scene value. Which cells are refused is stated, not accepted:
+//! `render` table; the path tracer at one sample), the volumes beside the primary one, view
+//! kind, shading and lights, empty-space skipping and probing either composes and renders a
+//! 16x16 image on lavapipe with no wgpu error (and, probed, no NaN or infinite value in its
+//! output colour), or `build` refuses it with an error at a scene value. Which cells are refused is stated, not accepted:
 //! none of the scene-option cells (bricked or not), and exactly the light cells with shadows
 //! but no shading (`LightCell::refusal`); the set refused must equal the set stated. The cells
 //! come from `common::cells`.
@@ -50,7 +50,8 @@ fn every_combination_renders_or_is_refused_at_build() {
         let dir = tempfile::tempdir().expect("a temporary folder");
         let path = dir.path().join("scene.toml");
         std::fs::write(&path, group[0].scene()).expect("scene written");
-        let options = RenderOptions { size: Some([16, 16]), phantom_size: [24, 24, 24], samples: 1, ..RenderOptions::default() };
+        let options =
+            RenderOptions { size: Some([16, 16]), phantom_size: [24, 24, 24], samples: 1, ..RenderOptions::default() };
         let mut renderer = SceneRenderer::open(gpu.clone(), &path, options, &mut |_, _, _| {})
             .unwrap_or_else(|e| panic!("{}: {e}", group[0].describe()));
         for cell in group {
@@ -110,7 +111,8 @@ fn every_combination_with_bricked_volumes_renders_or_is_refused_at_build() {
         let dir = tempfile::tempdir().expect("a temporary folder");
         let path = dir.path().join("scene.toml");
         std::fs::write(&path, bricked(&group[0])).expect("scene written");
-        let options = RenderOptions { size: Some([16, 16]), phantom_size: [24, 24, 24], samples: 1, ..RenderOptions::default() };
+        let options =
+            RenderOptions { size: Some([16, 16]), phantom_size: [24, 24, 24], samples: 1, ..RenderOptions::default() };
         let mut renderer = SceneRenderer::open(gpu.clone(), &path, options, &mut |_, _, _| {})
             .unwrap_or_else(|e| panic!("{} (bricked): {e}", group[0].describe()));
         assert!(renderer.has_bricked(), "{}: no bricked volume", group[0].describe());
@@ -145,7 +147,8 @@ fn every_light_option_renders_or_is_refused_at_build() {
         let path = dir.path().join("scene.toml");
         let first = LightCell { shadows: "off", occlusion: false, ..group[0] };
         std::fs::write(&path, first.scene()).expect("scene written");
-        let options = RenderOptions { size: Some([16, 16]), phantom_size: [24, 24, 24], samples: 1, ..RenderOptions::default() };
+        let options =
+            RenderOptions { size: Some([16, 16]), phantom_size: [24, 24, 24], samples: 1, ..RenderOptions::default() };
         let mut renderer = SceneRenderer::open(gpu.clone(), &path, options, &mut |_, _, _| {})
             .unwrap_or_else(|e| panic!("{}: {e}", first.describe()));
         for cell in group {
@@ -189,7 +192,8 @@ fn every_mesh_option_renders() {
         let path = dir.path().join("scene.toml");
         std::fs::write(dir.path().join("target.vrs"), MeshCell::TARGET_MODULE).expect("module written");
         std::fs::write(&path, group[0].scene()).expect("scene written");
-        let options = RenderOptions { size: Some([16, 16]), phantom_size: [24, 24, 24], samples: 1, ..RenderOptions::default() };
+        let options =
+            RenderOptions { size: Some([16, 16]), phantom_size: [24, 24, 24], samples: 1, ..RenderOptions::default() };
         let mut renderer = SceneRenderer::open(gpu.clone(), &path, options, &mut |_, _, _| {})
             .unwrap_or_else(|e| panic!("{}: {e}", group[0].describe()));
         for cell in group {

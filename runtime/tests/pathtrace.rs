@@ -78,7 +78,12 @@ fn converges(traced: &RgbaImage, marched: &RgbaImage, largest: f64) -> f64 {
             let variance = largest * (expected + 0.5 / 255.0) / n;
             let diff = f64::from(p[c]) / 255.0 - expected;
             let allowed = 5.0 * variance.sqrt() + 1.5 / 255.0;
-            assert!(diff.abs() <= allowed, "pixel ({x}, {y}) channel {c}: {} against {} (allowed {allowed:.4})", p[c], q[c]);
+            assert!(
+                diff.abs() <= allowed,
+                "pixel ({x}, {y}) channel {c}: {} against {} (allowed {allowed:.4})",
+                p[c],
+                q[c]
+            );
             sum_diff += diff;
             sum_var += variance;
             count += 1.0;
@@ -96,10 +101,8 @@ fn converges(traced: &RgbaImage, marched: &RgbaImage, largest: f64) -> f64 {
 fn absorption_only_converges_to_the_ray_marched_dvr() {
     let dir = tempfile::tempdir().expect("a folder");
     write_ball(dir.path());
-    let marched = render(
-        dir.path(),
-        &scene("compositing = \"dvr\"\nempty_space_skipping = false", "ert_threshold = 1.01", ""),
-    );
+    let marched =
+        render(dir.path(), &scene("compositing = \"dvr\"\nempty_space_skipping = false", "ert_threshold = 1.01", ""));
     let traced = render(dir.path(), &scene("compositing = \"pathtrace\"", "albedo = 0.0", ""));
     assert!(marched.pixels().filter(|p| p[0] > 40).count() > 400, "the ball shows");
     let mean = converges(&traced, &marched, 1.0);

@@ -798,7 +798,14 @@ impl Body {
 
     /// Loads `state.history` and `state.history_samples` from the pixel's elements of the
     /// history, or stores them there.
-    fn move_history(&mut self, body: &mut naga::Block, state: Handle<E>, h: HistoryPlan, index: Handle<E>, way: HistoryMove) {
+    fn move_history(
+        &mut self,
+        body: &mut naga::Block,
+        state: Handle<E>,
+        h: HistoryPlan,
+        index: Handle<E>,
+        way: HistoryMove,
+    ) {
         let buffer = self.expr(E::GlobalVariable(h.buffer));
         let one = self.literal(naga::Literal::U32(1));
         let next = self.binary(naga::BinaryOperator::Add, index, one);

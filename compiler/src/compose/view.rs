@@ -262,7 +262,11 @@ fn add_geometry_images(b: &mut ModuleBuilder, bindings: &mut Bindings, comp: &Co
 /// After the mesh layer's images: the pixels' history across frames, when the composition has a
 /// `history: vec4f` field (and, beside it, `history_samples: f32`): `var<storage, read_write>
 /// history: array<vec4f>`, two elements per pixel of the target.
-fn add_history_buffer(b: &mut ModuleBuilder, bindings: &mut Bindings, comp: &Composition) -> Option<entry::HistoryPlan> {
+fn add_history_buffer(
+    b: &mut ModuleBuilder,
+    bindings: &mut Bindings,
+    comp: &Composition,
+) -> Option<entry::HistoryPlan> {
     let typed = |name: &str, ty: Type| comp.field(name).filter(|&i| comp.fields[i].ty == ty).map(|i| i as u32);
     let mean = typed(entry::HISTORY, Type::Vector { size: 4, scalar: Scalar::F32 })?;
     let samples = typed(entry::HISTORY_SAMPLES, Type::Scalar(Scalar::F32));

@@ -185,7 +185,8 @@ fn path_tracing_selects_its_modules_and_says_which_keys_it_ignores() {
     );
     let (_, scene, diagnostics) = parse_reporting(&text);
     let scene = scene.unwrap_or_else(|| panic!("{diagnostics:?}"));
-    let ignored: Vec<String> = diagnostics.iter().filter(|d| d.code.as_str() == "W0701").map(|d| d.message.clone()).collect();
+    let ignored: Vec<String> =
+        diagnostics.iter().filter(|d| d.code.as_str() == "W0701").map(|d| d.message.clone()).collect();
     for key in ["shadows", "ambient_occlusion", "tone", "compositing = \"pathtrace\""] {
         assert!(ignored.iter().any(|m| m.starts_with(&format!("`{key}`"))), "{key}: {ignored:?}");
     }

@@ -185,7 +185,8 @@ impl Cx<'_> {
         if let Some(s) = r.shadows.as_ref().filter(|s| *s.get_ref() != Shadows::Off) {
             self.ignored(s, "shadows", "with `compositing = \"pathtrace\"`: its lights always cast shadow rays");
         }
-        for (value, key) in [(&r.ambient_occlusion, "ambient_occlusion"), (&r.tone, "tone"), (&r.boundary, "boundary")] {
+        for (value, key) in [(&r.ambient_occlusion, "ambient_occlusion"), (&r.tone, "tone"), (&r.boundary, "boundary")]
+        {
             if let Some(v) = value.as_ref().filter(|v| *v.get_ref()) {
                 self.ignored(v, key, why);
             }
