@@ -409,7 +409,7 @@ fn render(printer: &Printer, scene_path: &Path, dir: &Path, args: RenderArgs) ->
     let result = renderer.and_then(|mut r| {
         let images = match probed {
             Some((field, views)) => render_probes(&mut r, field, &views, args.probe.at()),
-            None => r.render_all(),
+            None => trace_paths(&mut r, args.samples, &mut bar).and_then(|()| r.render_all()),
         };
         r.notices.iter().for_each(|n| eprintln!("note: {n}"));
         images
@@ -431,6 +431,33 @@ fn render(printer: &Printer, scene_path: &Path, dir: &Path, args: RenderArgs) ->
     Outcome::Ok
 }
 
+/// Renders the frames of each path-traced view up to `samples` in sixteen parts, saying how far
+/// it got (a picture of many samples takes minutes on a software adapter); `render_all` then
+/// adds the last frames and reads the pictures back.
+fn trace_paths(
+    renderer: &mut vrs_runtime::SceneRenderer,
+    samples: u32,
+    bar: &mut ProgressBar,
+) -> Result<(), vrs_runtime::RuntimeError> {
+    let step = (samples / 16).max(1);
+    for index in 0..renderer.views().len() {
+        if !renderer.views()[index].renderer.is_progressive() {
+            continue;
+        }
+        let name = format!("view `{}`", renderer.views()[index].name);
+        let mut done = 0;
+        while done + step < samples {
+            done += step;
+            renderer.views_mut()[index].renderer.set_samples(done);
+            renderer.render_view(index)?;
+            bar.samples(&name, done, samples);
+        }
+        renderer.views_mut()[index].renderer.set_samples(samples);
+        bar.samples(&name, samples, samples);
+    }
+    Ok(())
+}
+
 /// Probes of `field` in the views with these indices, named `VIEW.FIELD`; prints each legend.
 fn render_probes(
     renderer: &mut vrs_runtime::SceneRenderer,
@@ -448,7 +475,8 @@ fn render_probes(
     Ok(images)
 }
 
-/// A one-line progress bar on stderr for volumes large enough to take a while to read.
+/// A one-line progress bar on stderr (a terminal only) for volumes large enough to take a while
+/// to read and for the frames of path-traced views.
 #[derive(Default)]
 struct ProgressBar {
     shown: Option<(String, u64)>,
@@ -457,20 +485,33 @@ struct ProgressBar {
 impl ProgressBar {
     const MIN_BYTES: u64 = 4 << 20;
 
+    /// `done` of `total` bytes of volume `name` read.
     fn update(&mut self, name: &str, done: u64, total: u64) {
-        if total < Self::MIN_BYTES || !std::io::IsTerminal::is_terminal(&std::io::stderr()) {
+        if total >= Self::MIN_BYTES {
+            self.show(&format!("loading {name}"), done, total, "");
+        }
+    }
+
+    /// `done` of `total` samples per pixel of a path-traced view rendered.
+    fn samples(&mut self, view: &str, done: u32, total: u32) {
+        let count = format!(" {done} of {total} samples");
+        self.show(&format!("path tracing {view}"), u64::from(done), u64::from(total), &count);
+    }
+
+    fn show(&mut self, what: &str, done: u64, total: u64, after: &str) {
+        if !std::io::IsTerminal::is_terminal(&std::io::stderr()) {
             return;
         }
         let percent = done.saturating_mul(100) / total.max(1);
-        if self.shown.as_ref().is_some_and(|(n, p)| n == name && *p == percent) {
+        if self.shown.as_ref().is_some_and(|(n, p)| n == what && *p == percent) {
             return;
         }
-        let filled = (percent / 5) as usize;
-        eprint!("\rloading {name} [{}{}] {percent:>3}%", "#".repeat(filled), " ".repeat(20 - filled));
+        let filled = (percent / 5).min(20) as usize;
+        eprint!("\r{what} [{}{}] {percent:>3}%{after}", "#".repeat(filled), " ".repeat(20 - filled));
         if done >= total {
             eprintln!();
         }
-        self.shown = Some((name.to_string(), percent));
+        self.shown = Some((what.to_string(), percent));
     }
 }
 

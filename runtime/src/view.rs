@@ -152,8 +152,7 @@ impl ViewRenderer {
     }
 
     /// The whole frames in the picture of `size` pixels as the view now stands (0 when
-    /// anything changed since it was rendered; 1 for a view that is not progressive and was
-    /// rendered).
+    /// anything changed since it was rendered); 1 for a view that is not progressive.
     pub fn frames(&self, size: [u32; 2], resources: &Resources) -> u32 {
         match &self.history {
             Some(history) => history.frames(size, self.history_key(resources)),
