@@ -10,6 +10,7 @@
 //!     var state: State;                 // zero, then `init_state` writes every default
 //!     init_state(&state);
 //!     state.pixel = (vec2f(p) + 0.5) / vec2f(size);
+//!     /* the mesh layer's texels; the pixel's history: state.history = history[2i], ... */
 //!     /* ray.setup functions */
 //!     var i = 0u;
 //!     loop {
@@ -20,6 +21,7 @@
 //!     }
 //!     /* ray.finish functions */
 //!     textureStore(output, p, state.out_color);
+//!     /* the history stored back (a progressive view: `HistoryPlan`) */
 //! }
 //! ```
 //! The defaults are written by two synthetic pipeline functions lowered like any other, so the
