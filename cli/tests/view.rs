@@ -696,7 +696,7 @@ fn a_path_traced_view_converges_while_left_alone() {
     let shown = within_a_minute(|| printed().lines().any(|l| l.starts_with("view `3d`: full ")));
     assert!(shown, "the first full picture; the viewer printed:\n{}", printed());
     let path = dir.path().join("shot.png");
-    let mut shot = |wait: u64| {
+    let shot = |wait: u64| {
         std::thread::sleep(Duration::from_secs(wait));
         first_view(&screenshot(&display, &path).expect("a screenshot"))
     };
