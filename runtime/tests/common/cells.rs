@@ -60,6 +60,11 @@ impl Cell {
                 for mode in MODES {
                     for placement in PLACEMENTS {
                         for slice in [false, true] {
+                            // The path tracer never skips (the key changes nothing) and a slice
+                            // view composites its scene by DVR: those cells would repeat others.
+                            if mode == "pathtrace" && (slice || !skipping) {
+                                continue;
+                            }
                             for lighting in LIGHTINGS {
                                 for probe in [false, true] {
                                     cells.push(Cell { mode, placement, roles, slice, lighting, skipping, probe });
@@ -176,6 +181,14 @@ pub struct LightCell {
     pub additional: bool,
 }
 
+/// Whether the path tracer is crossed with these light options: of them it uses tone mapping
+/// only (pre-integration, shadows and ambient occlusion have no effect on it, W0701, and a slice
+/// view composites its scene by DVR), so its cells are those without them, which keeps the
+/// matrix from compiling its large shaders for settings that change nothing.
+fn traced_light(preintegration: &str, shadows: &str, occlusion: bool, slice: bool) -> bool {
+    preintegration == "false" && shadows == "off" && !occlusion && !slice
+}
+
 impl LightCell {
     pub fn all() -> Vec<LightCell> {
         let mut cells = Vec::new();
@@ -190,6 +203,9 @@ impl LightCell {
                                 for shading in [false, true] {
                                     // Its lighting needs shaded DVR: elsewhere it is `true`.
                                     if preintegration == "\"lighting\"" && !(shading && mode == "dvr") {
+                                        continue;
+                                    }
+                                    if mode == "pathtrace" && !traced_light(preintegration, shadows, occlusion, slice) {
                                         continue;
                                     }
                                     cells.push(LightCell {
@@ -280,6 +296,12 @@ impl MeshCell {
                     for slice in [false, true] {
                         for shading in [false, true] {
                             for tone_mapping in [false, true] {
+                                // The path tracer with meshes: its primary rays end at them. Its
+                                // tone mapping and additional volumes are crossed in the other
+                                // matrices, and a slice view composites its scene by DVR.
+                                if mode == "pathtrace" && (slice || tone_mapping || additional) {
+                                    continue;
+                                }
                                 cells.push(MeshCell { meshes, mode, slice, shading, tone_mapping, additional });
                             }
                         }
