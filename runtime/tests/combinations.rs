@@ -1,13 +1,12 @@
-//! Every combination of the options a scene documents renders or is refused at build: each
-//! cell of the product of compositing mode (in the shared `[render]` table or the view's own
-//! `render` table; the path tracer at one sample, without the settings it ignores: see
-//! `common::cells`), the volumes beside the primary one, view
-//! kind, shading and lights, empty-space skipping and probing either composes and renders a
-//! 16x16 image on lavapipe with no wgpu error (and, probed, no NaN or infinite value in its
-//! output colour), or `build` refuses it with an error at a scene value. Which cells are refused is stated, not accepted:
-//! none of the scene-option cells (bricked or not), and exactly the light cells with shadows
-//! but no shading (`LightCell::refusal`); the set refused must equal the set stated. The cells
-//! come from `common::cells`.
+//! Every combination of the options a scene documents renders or is refused at build: each cell of
+//! the product of compositing mode (in the shared `[render]` table or the view's own `render`
+//! table; the path tracer at one sample, without the settings it ignores: see `common::cells`), the
+//! volumes beside the primary one, view kind, shading and lights, empty-space skipping and probing
+//! either composes and renders a 16x16 image on lavapipe with no wgpu error (and, probed, no NaN or
+//! infinite value in its output colour), or `build` refuses it with an error at a scene value.
+//! Which cells are refused is stated, not accepted: none of the scene-option cells (bricked or
+//! not), and exactly the light cells with shadows but no shading (`LightCell::refusal`); the set
+//! refused must equal the set stated. The cells come from `common::cells`.
 
 mod common;
 
