@@ -146,11 +146,6 @@ impl ViewRenderer {
         self.samples = samples.max(1);
     }
 
-    /// The frames [`Self::render`] makes a progressive view's picture hold.
-    pub fn samples(&self) -> u32 {
-        self.samples
-    }
-
     /// The whole frames in the picture of `size` pixels as the view now stands (0 when
     /// anything changed since it was rendered); 1 for a view that is not progressive.
     pub fn frames(&self, size: [u32; 2], resources: &Resources) -> u32 {
@@ -407,7 +402,8 @@ impl ViewRenderer {
             )
         })?;
         let target_size = target.texture().size();
-        let key = self.history_key(resources);
+        // Only a progressive view hashes its uniforms: every other dispatch skips it.
+        let key = self.history.as_ref().map(|_| self.history_key(resources));
         let luminance = match &mut self.metering {
             Some(metering) => {
                 metering.before_pass(encoder, &self.uniform_buffer);
@@ -415,12 +411,12 @@ impl ViewRenderer {
             }
             None => None,
         };
-        let history = match &mut self.history {
-            Some(history) => {
+        let history = match (&mut self.history, key) {
+            (Some(history), Some(key)) => {
                 let size = [target_size.width, target_size.height];
                 Some(history.prepare(gpu, encoder, size, key, region.within(size).pixels())?)
             }
-            None => None,
+            _ => None,
         };
         let mesh_layer = self.mesh_layers.first().filter(|_| reads_layer).map(MeshLayer::views);
         let own = DispatchResources {

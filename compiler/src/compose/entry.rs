@@ -809,13 +809,13 @@ impl Body {
         way: HistoryMove,
     ) {
         let buffer = self.expr(E::GlobalVariable(h.buffer));
-        let one = self.literal(naga::Literal::U32(1));
-        let next = self.binary(naga::BinaryOperator::Add, index, one);
         let mean_texel = self.expr(E::Access { base: buffer, index });
-        let samples_texel = self.expr(E::Access { base: buffer, index: next });
-        let samples_pointer = self.component(samples_texel, 0);
         let mut pairs = vec![(self.component(state, h.mean), mean_texel)];
         if let Some(member) = h.samples {
+            let one = self.literal(naga::Literal::U32(1));
+            let next = self.binary(naga::BinaryOperator::Add, index, one);
+            let samples_texel = self.expr(E::Access { base: buffer, index: next });
+            let samples_pointer = self.component(samples_texel, 0);
             pairs.push((self.component(state, member), samples_pointer));
         }
         for (field, texel) in pairs {
