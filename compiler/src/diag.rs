@@ -122,6 +122,9 @@ codes! {
     SceneTfCount = "E0717", Error, "a list of transfer functions whose length is not the number of channels";
     SceneUrlScheme = "E0718", Error, "a remote store whose URL is not `http://` or `https://`";
     SceneInput = "E0719", Error, "a volume, transfer function, phantom or mesh of the scene that cannot be read or made";
+    TreeFewChildren = "E0720", Error, "a group of a renderer tree without children, or an occlusion group with one";
+    TreeCycle = "E0721", Error, "a group of a renderer tree that contains itself";
+    TreePictureVolume = "E0722", Error, "a view's `picture` that lists its volume other than once, or a group or slice view after it";
     // Probes.
     ProbeUnknownField = "E0801", Error, "a probe of a state field that the view does not declare";
     ProbeUnshowable = "E0802", Error, "a probe of a field whose type an image cannot show (a matrix)";

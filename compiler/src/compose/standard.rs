@@ -1,7 +1,7 @@
 //! The standard modules a view is composed with: the selection policy of `stdlib/README.md`,
 //! owned by the composer (the scene only says what the user asked for).
 
-use crate::scene::{Compositing, Preintegration, Role, Scene, Shadows, ToneMapping, View, ViewKind};
+use crate::scene::{Compositing, Node, Preintegration, Role, Scene, Shadows, ToneMapping, View, ViewKind};
 
 /// A standard module chosen by configuration: `std::NAME`, with instances for a template.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -40,13 +40,14 @@ impl Scene {
 
 impl Scene {
     /// Whether `view` blends its translucent meshes into the rays in depth order
-    /// (std::translucent): a DVR raycast view that draws meshes, whatever their opacity now (a
-    /// viewer's panel changes it while the scene is shown, without composing again). Other
-    /// views blend them into the mesh layer's colour, behind the volume.
+    /// (std::translucent): a DVR raycast view with meshes directly under its volume, whatever
+    /// their opacity now (a viewer's panel changes it while the scene is shown, without
+    /// composing again). Other views blend them into the mesh layer's colour, behind the volume,
+    /// as a group blends its own into its picture.
     pub fn peels_translucent_meshes(view: &View) -> bool {
         view.kind.value == ViewKind::Raycast
             && view.render.compositing.value == Compositing::Dvr
-            && !view.meshes.is_empty()
+            && view.picture.under.iter().any(|node| matches!(node, Node::Mesh(_)))
     }
 }
 

@@ -76,6 +76,8 @@ impl Cx<'_> {
             "[[view]]".into()
         } else if is(super::mesh::MESH_KEYS) {
             "[[mesh]]".into()
+        } else if is(GROUP_KEYS) {
+            "[[group]]".into()
         } else if is(CAMERA_KEYS) {
             "the `camera` of a [[view]]".into()
         } else if is(MODULE_KEYS) {

@@ -5,7 +5,8 @@
 //!
 //! Variants are grouped in families, one enum per family; each family is one diagnostic code,
 //! since its mistakes are fixed the same way (add the key, remove one of two keys, give a value
-//! in range, ...) and the message names the key. The families' codes are E0704 to E0718.
+//! in range, ...) and the message names the key. The families' codes are E0704 to E0722, but
+//! for E0719 (a file that cannot be read, found after composing).
 
 use super::*;
 
@@ -28,6 +29,17 @@ pub(super) enum SceneError {
     WrongType(WrongType),
     TfCount { tfs: usize, channels: usize, list: Span },
     UrlScheme { scheme: String },
+    TooFewChildren { group: String, kind: &'static str, needs: usize },
+    GroupCycle { path: Vec<String> },
+    PictureVolume(PictureVolume),
+}
+
+/// E0722: the view's volume in its `picture`: listed once, with only meshes after it.
+#[derive(Clone, Debug, PartialEq)]
+pub(super) enum PictureVolume {
+    Missing,
+    Twice { first: Span },
+    AfterIt { name: String, what: &'static str },
 }
 
 /// E0704: a key that the table or another key needs.
@@ -75,6 +87,7 @@ pub(super) enum Conflict {
     PathAndShape { path: Span },
     SurfaceAndSource { key: &'static str, volume: Span },
     RenderAndUniforms { name: String, render: Span },
+    PictureAndList { key: &'static str, picture: Span },
 }
 
 /// E0708: a number of `[render]` or `[[volume]]` outside the range its key allows.
@@ -176,14 +189,37 @@ pub(super) enum Twice {
     ViewListed {
         name: String,
     },
+    /// A group named as an earlier group or a mesh.
+    GroupNamed {
+        name: String,
+        first: Span,
+        what: &'static str,
+    },
+    GroupListed {
+        name: String,
+    },
 }
 
 /// E0713: a name that names no volume, mesh or view of the scene.
 #[derive(Clone, Debug, PartialEq)]
 pub(super) enum NoSuch {
-    Volume { name: String, suggestion: Option<String> },
-    Mesh { name: String, suggestion: Option<String> },
-    View { name: String, suggestion: Option<String> },
+    Volume {
+        name: String,
+        suggestion: Option<String>,
+    },
+    Mesh {
+        name: String,
+        suggestion: Option<String>,
+    },
+    View {
+        name: String,
+        suggestion: Option<String>,
+    },
+    /// A child of a group or a view's `picture`.
+    Node {
+        name: String,
+        suggestion: Option<String>,
+    },
 }
 
 /// E0715: a value that is not one of its key's choices.
@@ -226,6 +262,7 @@ macro_rules! from_family {
     )*};
 }
 from_family!(
+    PictureVolume,
     Missing,
     NoTable,
     Conflict,
@@ -264,6 +301,9 @@ impl SceneError {
             SceneError::WrongType(_) => Code::SceneWrongType,
             SceneError::TfCount { .. } => Code::SceneTfCount,
             SceneError::UrlScheme { .. } => Code::SceneUrlScheme,
+            SceneError::TooFewChildren { .. } => Code::TreeFewChildren,
+            SceneError::GroupCycle { .. } => Code::TreeCycle,
+            SceneError::PictureVolume(_) => Code::TreePictureVolume,
         }
     }
 
@@ -302,6 +342,22 @@ impl SceneError {
                 .with_help(
                     "a remote Zarr store is read over `https://` or `http://` (an S3 or GCS bucket by its HTTPS address)",
                 ),
+            SceneError::TooFewChildren { group, kind, needs } => {
+                let children = if needs == 1 { "a child" } else { "two children" };
+                said(d, format!("the {kind} group `{group}` needs at least {children}"))
+                    .with_label("too few children")
+                    .with_help(match needs {
+                        1 => "list meshes, groups or slice views in `children`, or leave the group out",
+                        _ => "the first child is what hides the others: list it and what it hides",
+                    })
+            }
+            SceneError::GroupCycle { path } => {
+                said(d, format!("the group `{}` contains itself", path[0]))
+                    .with_label("this child leads back to it")
+                    .with_note(format!("through {}", path.iter().map(|p| format!("`{p}`")).collect::<Vec<_>>().join(" -> ")))
+                    .with_help("a renderer tree has no cycles: take one of these children out")
+            }
+            SceneError::PictureVolume(e) => e.words(d),
         }
     }
 }
@@ -398,6 +454,32 @@ impl Conflict {
                     .with_secondary(render, "set in [render]")
                     .with_help("keep one of them")
             }
+            Conflict::PictureAndList { key, picture } => {
+                said(d, format!("a view has either `picture` or `{key}`, not both"))
+                    .with_secondary(picture, "the view's renderer tree")
+                    .with_help(format!("list what `{key}` lists in `picture` (the reference's \"Renderer trees\")"))
+            }
+        }
+    }
+}
+
+impl PictureVolume {
+    fn words(self, d: Diagnostic) -> Diagnostic {
+        match self {
+            PictureVolume::Missing => said(d, "a view's `picture` lists its volume, `\"volume\"`, once")
+                .with_label("no `\"volume\"` here")
+                .with_help("add `\"volume\"` after what the rays end at and before what is drawn over the picture"),
+            PictureVolume::Twice { first } => said(d, "the view's volume is listed twice")
+                .with_label("listed again")
+                .with_secondary(first, "first here"),
+            PictureVolume::AfterIt { name, what } => said(
+                d,
+                format!("only meshes follow `\"volume\"` in a `picture`, and `{name}` is a {what}"),
+            )
+            .with_label("drawn over the picture")
+            .with_help(
+                "what follows the volume is drawn over the finished picture: list groups and slice views before it",
+            ),
         }
     }
 }
@@ -509,6 +591,11 @@ impl Twice {
                 .with_secondary(first, "first here"),
             Twice::MeshListed { name } => said(d, format!("the mesh `{name}` is listed twice")),
             Twice::ViewListed { name } => said(d, format!("the view `{name}` is listed twice")),
+            Twice::GroupNamed { name, first, what } => said(d, format!("a group and a {what} are named `{name}`"))
+                .with_label("a group with this name")
+                .with_secondary(first, format!("the {what}"))
+                .with_help("a group's children name meshes and groups alike: give it a name of its own"),
+            Twice::GroupListed { name } => said(d, format!("`{name}` is listed twice in the same list")),
         }
     }
 }
@@ -519,6 +606,13 @@ impl NoSuch {
             NoSuch::Volume { name, suggestion } => ("volume", name, suggestion),
             NoSuch::Mesh { name, suggestion } => ("mesh", name, suggestion),
             NoSuch::View { name, suggestion } => ("view", name, suggestion),
+            NoSuch::Node { name, suggestion } => {
+                return maybe(
+                    said(d, format!("the scene has no mesh, group or slice view `{name}`"))
+                        .with_label("not a [[mesh]], [[group]] or [[view]] name"),
+                    suggestion,
+                );
+            }
         };
         maybe(
             said(d, format!("the scene has no {what} `{name}`")).with_label(format!("not a [[{what}]] name")),

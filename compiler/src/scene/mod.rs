@@ -77,6 +77,7 @@ mod model;
 mod raw;
 #[cfg(test)]
 mod tests;
+mod tree;
 mod validate;
 mod view_render;
 
@@ -84,6 +85,8 @@ pub use mesh::{Coordinates, DEFAULT_MESH_COLOR, Mesh, MeshSource, Point, SHAPES}
 use mistake::*;
 pub use model::*;
 use raw::RawScene;
+pub use tree::DEFAULT_HIDDEN_OPACITY;
+use tree::ViewLists;
 use validate::Cx;
 pub use validate::is_view_name;
 pub use view_render::Convention;

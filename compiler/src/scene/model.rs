@@ -32,6 +32,8 @@ pub struct Scene {
     pub views: Vec<View>,
     /// `[[mesh]]` tables, in file order.
     pub meshes: Vec<Mesh>,
+    /// `[[group]]` tables, in file order: the inner nodes of the views' renderer trees.
+    pub groups: Vec<Group>,
     /// `[render] memory` and `host_memory`: what bricked volumes may hold.
     pub memory: Memory,
     /// The directory that relative paths were resolved against.
@@ -424,18 +426,82 @@ pub struct View {
     pub render: Render,
     /// Modules of this view only, composed after the shared ones.
     pub modules: Vec<ModuleRef>,
-    /// The meshes this view draws (indices into `Scene::meshes`, in scene order): its `meshes`
-    /// list, else every mesh of the scene. With any, the view has a mesh layer under its volume
-    /// layer (`std::meshes`).
-    pub meshes: Vec<usize>,
-    /// The meshes drawn over the finished picture (its `overlay` list; none without it): the
-    /// view's overlay layer, which no layer reads.
-    pub overlay: Vec<usize>,
-    /// Raycast views only: the slice views whose pictures this view shows in its mesh layer,
-    /// each on its plane in patient space (indices into `Scene::views`; its `planes` list).
-    pub planes: Vec<usize>,
+    /// The view's renderer tree: its `picture` list, or the one its `meshes`, `planes` and
+    /// `overlay` lists make.
+    pub picture: Picture,
     /// The whole `[[view]]` table.
     pub span: Span,
+}
+
+/// A view's picture: the root of its renderer tree, a depth group whose children are the view's
+/// volume (its composed pipeline) and the nodes around it.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Picture {
+    /// The nodes listed before `"volume"`, combined by depth into the mesh layer that the volume
+    /// layer reads (`std::meshes`): its rays end at their opaque surfaces.
+    pub under: Vec<Node>,
+    /// The meshes listed after `"volume"` (indices into `Scene::meshes`): drawn over the
+    /// finished picture, depth-tested among themselves only (the overlay).
+    pub over: Vec<usize>,
+}
+
+/// A node of a renderer tree other than the view's volume.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Node {
+    /// A `[[mesh]]` (index into `Scene::meshes`).
+    Mesh(usize),
+    /// A `[[group]]` (index into `Scene::groups`).
+    Group(usize),
+    /// A slice view's picture on its plane in patient space (index into `Scene::views`).
+    Plane(usize),
+}
+
+/// `[[group]]`: an inner node of renderer trees, which combines its children's pictures (colour
+/// and depth).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Group {
+    /// `name`: an identifier, unique among groups and meshes.
+    pub name: Ident,
+    /// `kind`, with `show` and `opacity`.
+    pub kind: GroupKind,
+    /// `children`: meshes, groups and slice views, in order.
+    pub children: Vec<Node>,
+    /// The whole table.
+    pub span: Span,
+}
+
+/// How a group combines its children.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum GroupKind {
+    /// `kind = "depth"` (the default): the nearest surface of any child at each pixel.
+    Depth,
+    /// `kind = "occlusion"`: the first child hides the others as a depth group would, except
+    /// that where it hides them they show through it with `hidden_opacity`.
+    Occlusion {
+        /// 1 for `show = "visible"`; `opacity` (0.5 by default) for `show =
+        /// "semi_transparent"`, the default.
+        hidden_opacity: f32,
+    },
+}
+
+/// `show` of an occlusion group: how the children it hides are shown.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Show {
+    /// As if nothing hid them.
+    Visible,
+    /// Blended over what hides them with the group's `opacity`.
+    SemiTransparent,
+}
+
+/// The `kind` of a `[[group]]`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum GroupKindName {
+    /// Combined by depth.
+    Depth,
+    /// What the first child hides shows through it.
+    Occlusion,
 }
 
 /// A `[uniforms]` entry.
@@ -589,9 +655,33 @@ impl Scene {
         self.views.iter().find(|v| v.name.name == name)
     }
 
-    /// Whether `view` has a mesh layer: meshes, or slice views' pictures on their planes.
+    /// Whether `view` has a mesh layer: meshes, groups, or slice views' pictures on their planes
+    /// under its volume.
     pub fn has_mesh_layer(view: &View) -> bool {
-        !view.meshes.is_empty() || !view.planes.is_empty()
+        !view.picture.under.is_empty()
+    }
+
+    /// The leaves under `view`'s volume, through its groups, each once, in the tree's order:
+    /// its meshes (indices into `Scene::meshes`) and the slice views on its planes (indices into
+    /// `Scene::views`).
+    pub fn leaves_under(&self, view: &View) -> (Vec<usize>, Vec<usize>) {
+        let (mut meshes, mut planes) = (Vec::new(), Vec::new());
+        let mut stack: Vec<Node> = view.picture.under.iter().rev().copied().collect();
+        let mut seen_groups = Vec::new();
+        while let Some(node) = stack.pop() {
+            match node {
+                Node::Mesh(i) if !meshes.contains(&i) => meshes.push(i),
+                Node::Plane(i) if !planes.contains(&i) => planes.push(i),
+                // Validation refuses cycles; a scene made by hand with one still ends.
+                Node::Group(g) if !seen_groups.contains(&g) => {
+                    seen_groups.push(g);
+                    let children = self.groups.get(g).map_or(&[][..], |g| &g.children[..]);
+                    stack.extend(children.iter().rev().copied());
+                }
+                _ => {}
+            }
+        }
+        (meshes, planes)
     }
 
     /// Initial uniform values of views without their own `render` table: `[uniforms]`, plus

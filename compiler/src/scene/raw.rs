@@ -19,8 +19,10 @@ pub(super) struct RawScene {
     pub(super) views: Vec<Spanned<RawView>>,
     #[serde(default, rename = "mesh")]
     pub(super) meshes: Vec<Spanned<super::mesh::RawMesh>>,
+    #[serde(default, rename = "group")]
+    pub(super) groups: Vec<Spanned<RawGroup>>,
 }
-pub(super) const SCENE_KEYS: &[&str] = &["render", "volume", "module", "uniforms", "view", "mesh"];
+pub(super) const SCENE_KEYS: &[&str] = &["render", "volume", "module", "uniforms", "view", "mesh", "group"];
 
 #[derive(Deserialize, Default, Clone)]
 #[serde(deny_unknown_fields)]
@@ -155,6 +157,7 @@ pub(super) struct RawView {
     pub(super) meshes: Option<Spanned<Vec<Spanned<String>>>>,
     pub(super) overlay: Option<Spanned<Vec<Spanned<String>>>>,
     pub(super) planes: Option<Spanned<Vec<Spanned<String>>>>,
+    pub(super) picture: Option<Spanned<Vec<Spanned<String>>>>,
 }
 pub(super) const VIEW_KEYS: &[&str] = &[
     "name",
@@ -170,7 +173,19 @@ pub(super) const VIEW_KEYS: &[&str] = &[
     "meshes",
     "overlay",
     "planes",
+    "picture",
 ];
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawGroup {
+    pub(super) name: Spanned<String>,
+    pub(super) kind: Option<Spanned<GroupKindName>>,
+    pub(super) children: Spanned<Vec<Spanned<String>>>,
+    pub(super) show: Option<Spanned<Show>>,
+    pub(super) opacity: Option<Spanned<f32>>,
+}
+pub(super) const GROUP_KEYS: &[&str] = &["name", "kind", "children", "show", "opacity"];
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(super) struct RawCamera {

@@ -461,9 +461,10 @@ fn meshes_overlays_and_planes_name_what_the_scene_has() {
     );
     let (_, parsed) = parse(&scene);
     let parsed = parsed.unwrap_or_else(|e| panic!("{:?}", e.diagnostics));
-    assert_eq!((parsed.views[0].meshes.clone(), parsed.views[0].overlay.clone()), (vec![0], vec![0]));
-    assert_eq!(parsed.views[0].planes, vec![1]);
-    assert!(parsed.views[1].meshes.is_empty() && Scene::has_mesh_layer(&parsed.views[0]));
+    let picture = Picture { under: vec![Node::Mesh(0), Node::Plane(1)], over: vec![0] };
+    assert_eq!(parsed.views[0].picture, picture);
+    assert!(parsed.views[1].picture.under.is_empty() && Scene::has_mesh_layer(&parsed.views[0]));
+    assert!(!Scene::has_mesh_layer(&parsed.views[1]));
     assert!(
         matches!(&parsed.meshes[1].source, MeshSource::Surface { volume, level } if volume.value == "v" && *level == 0.3)
     );
@@ -475,6 +476,73 @@ fn meshes_overlays_and_planes_name_what_the_scene_has() {
     let messages: Vec<String> = errors(&bad).into_iter().map(|e| e.3).collect();
     for want in ["`3d` is a raycast view", "no view `sagital`", "no mesh `pn`", "no volume `body`"] {
         assert!(messages.iter().any(|m| m.contains(want)), "{want}: {messages:?}");
+    }
+}
+
+/// The meshes and groups of the tree tests: a box, two tubes, and a slice view.
+const TREE: &str = "[[view]]\nname = \"axial\"\nkind = \"slice\"\naxis = \"axial\"\n\n\
+    [[mesh]]\nname = \"organ\"\nshape = \"box\"\nmin = [0.0, 0.0, 0.0]\nmax = [1.0, 1.0, 1.0]\n\n\
+    [[mesh]]\nname = \"tube\"\nshape = \"cylinder\"\nbase = [0.0, 0.0, 0.0]\ntip = [0.0, 0.0, 9.0]\n\n\
+    [[mesh]]\nname = \"pin\"\nshape = \"needle\"\ntip = [0.0, 0.0, 0.0]\ndirection = [0.0, 0.0, 1.0]\n\n";
+
+#[test]
+fn a_picture_is_a_tree_of_meshes_groups_and_planes() {
+    let scene = format!(
+        "{MINIMAL}picture = [\"through\", \"axial\", \"volume\", \"pin\"]\n\n{TREE}\
+         [[group]]\nname = \"through\"\nkind = \"occlusion\"\nchildren = [\"organ\", \"tubes\"]\nopacity = 0.3\n\n\
+         [[group]]\nname = \"tubes\"\nchildren = [\"tube\", \"pin\"]\n"
+    );
+    let (_, scene, warnings) = parse_reporting(&scene);
+    let scene = scene.unwrap_or_else(|| panic!("{warnings:?}"));
+    assert!(warnings.is_empty(), "{warnings:?}");
+    let view = &scene.views[0];
+    assert_eq!(view.picture, Picture { under: vec![Node::Group(0), Node::Plane(1)], over: vec![2] });
+    assert_eq!(scene.groups[0].kind, GroupKind::Occlusion { hidden_opacity: 0.3 });
+    assert_eq!(scene.groups[0].children, [Node::Mesh(0), Node::Group(1)]);
+    assert_eq!(
+        (scene.groups[1].kind, &scene.groups[1].children[..]),
+        (GroupKind::Depth, &[Node::Mesh(1), Node::Mesh(2)][..])
+    );
+    assert_eq!(scene.leaves_under(view), (vec![0, 1, 2], vec![1]));
+    // Without `picture`, the lists make the same kind of tree; `show = "visible"` shows whole.
+    let visible = format!(
+        "{MINIMAL}\n{TREE}[[group]]\nname = \"g\"\nkind = \"occlusion\"\nshow = \"visible\"\nchildren = [\"organ\", \"tube\"]\n"
+    );
+    let (_, scene, _) = parse_reporting(&visible);
+    let scene = scene.expect("valid");
+    assert_eq!(
+        scene.views[0].picture,
+        Picture { under: vec![Node::Mesh(0), Node::Mesh(1), Node::Mesh(2)], over: vec![] }
+    );
+    assert_eq!(scene.groups[0].kind, GroupKind::Occlusion { hidden_opacity: 1.0 });
+}
+
+#[test]
+fn renderer_tree_mistakes_have_their_codes_and_spans() {
+    let group = |name: &str, kind: &str, children: &str| {
+        format!("[[group]]\nname = \"{name}\"\nkind = \"{kind}\"\nchildren = [{children}]\n\n")
+    };
+    let cases = [
+        (group("g", "occlusion", "\"organ\""), "", "E0720", "occlusion group `g` needs at least two children"),
+        (group("g", "depth", ""), "", "E0720", "depth group `g` needs at least a child"),
+        (
+            group("a", "depth", "\"b\"") + &group("b", "depth", "\"organ\", \"a\""),
+            "",
+            "E0721",
+            "the group `a` contains itself",
+        ),
+        (String::new(), "picture = [\"organ\"]\n", "E0722", "lists its volume"),
+        (String::new(), "picture = [\"volume\", \"organ\", \"volume\"]\n", "E0722", "listed twice"),
+        (group("g", "depth", "\"organ\""), "picture = [\"volume\", \"g\"]\n", "E0722", "`g` is a group"),
+        (String::new(), "picture = [\"volume\"]\nmeshes = []\n", "E0706", "either `picture` or `meshes`"),
+        (String::new(), "picture = [\"organs\", \"volume\"]\n", "E0713", "no mesh, group or slice view `organs`"),
+        (group("organ", "depth", "\"tube\""), "", "E0712", "a group and a mesh are named `organ`"),
+        (group("g", "depth", "\"tube\", \"tube\""), "", "E0712", "`tube` is listed twice"),
+    ];
+    for (groups, view_keys, code, want) in cases {
+        let scene = format!("{MINIMAL}{view_keys}\n{TREE}{groups}");
+        let found = errors(&scene);
+        assert!(found.iter().any(|e| e.0 == code && e.3.contains(want)), "{want}: {found:?}");
     }
 }
 

@@ -114,8 +114,10 @@ impl Cx<'_> {
         let modules = raw.modules.into_iter().map(|m| self.module(m)).collect();
         let uniforms = self.uniforms(raw.uniforms, &render);
         let meshes = self.meshes(raw.meshes, &volumes);
-        let views = self.views(raw.views, shared.as_ref(), &render, &meshes);
-        Scene { render, volumes, modules, uniforms, views, meshes, memory, dir: self.dir.to_path_buf() }
+        let (mut views, lists) = self.views(raw.views, shared.as_ref(), &render);
+        let groups = self.groups(raw.groups, &meshes, &views);
+        self.pictures(&mut views, lists, &meshes, &groups);
+        Scene { render, volumes, modules, uniforms, views, meshes, groups, memory, dir: self.dir.to_path_buf() }
     }
 
     /// `[render]`: each key, or its default, checked in the table's order.
@@ -724,23 +726,23 @@ impl Cx<'_> {
         out
     }
 
-    /// `[[view]]` tables: each key, or its default, checked in the table's order; `planes` last,
-    /// as they name other views.
+    /// `[[view]]` tables: each key, or its default, checked in the table's order; the lists
+    /// that name meshes, groups and other views are returned for [`Cx::pictures`].
     pub(super) fn views(
         &mut self,
         raw: Vec<Spanned<RawView>>,
         shared: Option<&Spanned<RawRender>>,
         render: &Render,
-        meshes: &[Mesh],
-    ) -> Vec<View> {
+    ) -> (Vec<View>, Vec<ViewLists>) {
         if raw.is_empty() {
             self.report(Span::new(self.base, self.base), NoTable::View);
         }
         let mut out: Vec<View> = Vec::new();
-        let mut planes = Vec::new();
+        let mut lists = Vec::new();
         for v in raw {
             let span = self.span(&v);
-            let v = v.into_inner();
+            let mut v = v.into_inner();
+            lists.push(ViewLists::take(&mut v));
             let name = self.view_name(&v.name, &out);
             let kind = self.located(&v.kind).unwrap_or(Located { value: ViewKind::Raycast, span: name.span });
             let size = self.view_size(&v.size);
@@ -758,30 +760,17 @@ impl Cx<'_> {
                     None => render.clone(),
                 },
                 modules: Vec::new(),
-                meshes: Vec::new(),
-                overlay: Vec::new(),
-                planes: Vec::new(),
+                picture: Picture::default(),
                 span,
             };
             match view.kind.value {
                 ViewKind::Raycast => self.raycast_keys(&v, &mut view),
                 ViewKind::Slice => self.slice_keys(&v, &mut view),
             }
-            if let Some(list) = &v.overlay {
-                view.overlay = self.view_meshes(Some(list), meshes);
-            }
-            view.meshes = self.view_meshes(v.meshes.as_ref(), meshes);
             view.modules = v.modules.into_iter().map(|m| self.module(m)).collect();
             out.push(view);
-            planes.push(v.planes);
         }
-        for (i, list) in planes.into_iter().enumerate() {
-            if let Some(list) = list {
-                let resolved = self.view_planes(&out, i, &list);
-                out[i].planes = resolved;
-            }
-        }
-        out
+        (out, lists)
     }
 
     /// A view's `name`: a plain file name, given to one view only.
