@@ -14,6 +14,7 @@ use crate::tf::TfDomain;
 use crate::view::ViewRenderer;
 use crate::{tf, volume};
 use glam::Mat4;
+use picture::ViewPicture;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use vrsc::compose::build::BuiltScene;
@@ -23,6 +24,7 @@ use vrsc::scene::{self as vscene, Role, Scene, TfRef, UniformValue, ViewKind, Vo
 mod bricked;
 mod derived;
 mod meshes;
+mod picture;
 mod probe;
 mod tf_edit;
 pub use bricked::{BrickProgress, selection};
@@ -69,12 +71,8 @@ pub struct SceneView {
     pub slice: Option<(SlicePlane, f32)>,
     /// Slice views: how the image puts the patient's sides (the scene's `convention`).
     pub(crate) convention: Convention,
-    /// The meshes its mesh layer draws and those its overlay draws (indices into the scene's
-    /// meshes).
-    pub(crate) meshes: Vec<usize>,
-    pub(crate) overlay: Vec<usize>,
-    /// The slice views it shows on their planes (indices into the scene's views).
-    pub(crate) planes: Vec<usize>,
+    /// Its renderer tree: what its mesh layer and its overlay draw, the slice views it shows.
+    pub(crate) picture: ViewPicture,
 }
 
 /// A loaded scene, ready to render every frame.
@@ -466,17 +464,8 @@ impl SceneRenderer {
                 vscene::Convention::Radiological => Convention::Radiological,
                 vscene::Convention::Neurological => Convention::Neurological,
             };
-            let (meshes, overlay, planes) = (view.meshes.clone(), view.overlay.clone(), view.planes.clone());
-            views.push(SceneView {
-                name: output.name.clone(),
-                renderer,
-                camera,
-                slice,
-                convention,
-                meshes,
-                overlay,
-                planes,
-            });
+            let picture = ViewPicture::of(scene, view);
+            views.push(SceneView { name: output.name.clone(), renderer, camera, slice, convention, picture });
         }
         self.views = views;
         Ok(())
@@ -676,13 +665,13 @@ fn apply_view_uniforms(view: &mut SceneView, grids: &[VolumeGrid]) -> Result<(),
             r.set_uniform(&labels, other.labels)?;
         }
     }
-    if (view.renderer.reads_mesh_layer() || !view.overlay.is_empty())
+    if (view.renderer.reads_mesh_layer() || !view.picture.overlay.is_empty())
         && let Some((camera, inv_proj)) = meshes::layer_camera(view, primary)
     {
         if view.renderer.has_uniform(GEOMETRY_INV_PROJ) {
             view.renderer.set_uniform(GEOMETRY_INV_PROJ, inv_proj)?;
         }
-        view.renderer.set_mesh_layer(camera, view.meshes.clone(), view.overlay.clone());
+        view.renderer.set_mesh_layer(camera, view.picture.tree.clone(), view.picture.overlay.clone());
     }
     Ok(())
 }

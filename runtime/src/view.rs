@@ -6,7 +6,7 @@ use crate::bricks::BrickView;
 use crate::error::RuntimeError;
 use crate::gpu::Gpu;
 use crate::history::History;
-use crate::mesh_layer::{LayerCamera, LayerContent, MeshInstance, MeshLayer, Overlay, PlanePicture};
+use crate::mesh_layer::{LayerCamera, LayerContent, LayerNode, MeshInstance, MeshLayer, Overlay, PlanePicture};
 use crate::metering::Metering;
 use crate::reflection::BindingKind;
 use crate::resources::Resources;
@@ -28,17 +28,17 @@ pub struct ViewRenderer {
     metering: Option<Metering>,
     /// The mesh layer under the volume, for a view whose shader reads it: its images (one per
     /// target size in use, the last used first: a preview and the full image), the camera it is
-    /// drawn with and the meshes it draws (indices into `Resources::meshes`).
+    /// drawn with and the tree it draws.
     mesh_layers: Vec<MeshLayer>,
     layer_camera: Option<LayerCamera>,
-    layer_meshes: Vec<usize>,
+    layer_tree: Vec<LayerNode>,
     /// The meshes drawn over the picture (indices into `Resources::meshes`), and the overlay's
     /// depth buffers (one per target size in use, the last used first).
     overlay_meshes: Vec<usize>,
     overlays: Vec<Overlay>,
     /// Slice views' pictures the mesh layer shows on their planes, and how often they were
     /// rendered anew.
-    layer_planes: Vec<PlanePicture>,
+    layer_planes: Vec<Option<PlanePicture>>,
     planes_generation: u64,
     /// How the view looks at bricked volumes (what picks their levels), the finest level it
     /// shows (above 0 holds detail back), and its `BrickLayout` buffer of each.
@@ -120,7 +120,7 @@ impl ViewRenderer {
             metering,
             mesh_layers: Vec::new(),
             layer_camera: None,
-            layer_meshes: Vec::new(),
+            layer_tree: Vec::new(),
             overlay_meshes: Vec::new(),
             overlays: Vec::new(),
             layer_planes: Vec::new(),
@@ -215,18 +215,18 @@ impl ViewRenderer {
             .any(|b| matches!(b.kind, BindingKind::TranslucentDepth | BindingKind::TranslucentColor))
     }
 
-    /// How the mesh layer and the overlay look at the meshes, and which each draws (indices
-    /// into `Resources::meshes`); without it the layer is empty (depth 1, no colour) and
-    /// nothing is drawn over the picture.
-    pub(crate) fn set_mesh_layer(&mut self, camera: LayerCamera, meshes: Vec<usize>, overlay: Vec<usize>) {
+    /// How the mesh layer and the overlay look at the meshes, the tree the layer draws and the
+    /// meshes the overlay draws (indices into `Resources::meshes`); without it the layer is
+    /// empty (depth 1, no colour) and nothing is drawn over the picture.
+    pub(crate) fn set_mesh_layer(&mut self, camera: LayerCamera, tree: Vec<LayerNode>, overlay: Vec<usize>) {
         self.layer_camera = Some(camera);
-        self.layer_meshes = meshes;
+        self.layer_tree = tree;
         self.overlay_meshes = overlay;
     }
 
     /// The slice pictures the mesh layer shows on their planes, just rendered (their views
     /// render first): the layer is drawn again with them.
-    pub(crate) fn set_planes(&mut self, planes: Vec<PlanePicture>) {
+    pub(crate) fn set_planes(&mut self, planes: Vec<Option<PlanePicture>>) {
         self.layer_planes = planes;
         self.planes_generation += 1;
     }
@@ -271,7 +271,7 @@ impl ViewRenderer {
     }
 
     /// The slice pictures the mesh layer shows on their planes.
-    pub(crate) fn planes(&self) -> &[PlanePicture] {
+    pub(crate) fn planes(&self) -> &[Option<PlanePicture>] {
         &self.layer_planes
     }
 
@@ -291,16 +291,16 @@ impl ViewRenderer {
     ) -> Result<(), RuntimeError> {
         let peeled = self.reads_translucent_layers();
         let layer = for_size(&mut self.mesh_layers, size, MeshLayer::size, || MeshLayer::new(gpu, size, peeled))?;
-        let meshes: Vec<&MeshInstance> = match (&self.layer_camera, &resources.mesh_pipelines) {
-            (Some(_), Some(_)) => self.layer_meshes.iter().filter_map(|&i| resources.meshes.get(i)).collect(),
-            _ => Vec::new(),
+        let tree = match (&self.layer_camera, &resources.mesh_pipelines) {
+            (Some(_), Some(_)) => &self.layer_tree[..],
+            _ => &[],
         };
         let camera = self.layer_camera.unwrap_or(LayerCamera::Projection { world_to_clip: glam::Mat4::IDENTITY });
-        let planes = if self.layer_camera.is_some() { &self.layer_planes[..] } else { &[] };
         let content = LayerContent {
             camera: &camera,
-            meshes: &meshes,
-            planes,
+            tree,
+            meshes: &resources.meshes,
+            planes: &self.layer_planes,
             generation: resources.mesh_generation(),
             planes_generation: self.planes_generation,
         };

@@ -1,7 +1,7 @@
-//! The paper's two examples (`examples/clip_plane`, `examples/ablation`) on the software adapter:
-//! golden images of every scene, and tests of what the images mean. Each example is copied to a
-//! temporary folder without its `data/`, so the clip-plane scenes use their fallback phantom
-//! and give the same images on every machine.
+//! The examples (the paper's `clip_plane`, `ablation` and `liver`, and the others) on the
+//! software adapter: golden images of every scene, and tests of what the images mean. Each
+//! example is copied to a temporary folder without its `data/`, so the clip-plane scenes use
+//! their fallback phantom and give the same images on every machine.
 
 mod common;
 
@@ -47,7 +47,7 @@ fn differing(a: &RgbaImage, b: &RgbaImage) -> Vec<(u32, u32)> {
 #[test]
 fn every_example_scene_renders_its_golden_images() {
     let mut failures = Vec::new();
-    for example in ["clip_plane", "ablation", "light", "meshes", "cinematic"] {
+    for example in ["clip_plane", "ablation", "light", "meshes", "cinematic", "liver"] {
         let dir = tempfile::tempdir().unwrap();
         copy_example(example, dir.path());
         let mut scenes: Vec<PathBuf> = std::fs::read_dir(dir.path())
@@ -182,4 +182,21 @@ fn a_needle_follows_its_zone_in_both_views() {
     let h = scene.mesh_handles();
     let tip = h.iter().find(|h| h.uniform == "zone_centre_b").unwrap();
     assert_eq!(tip.point, glam::Vec3::new(12.0, -6.0, 23.0));
+}
+
+/// The liver example's occlusion group: its view differs from the view without the group only
+/// where the applicators hide behind the organs, and there it shows their colour (its green
+/// rises: both applicators are far greener than the organs).
+#[test]
+fn the_liver_example_shows_the_applicators_through_the_organs() {
+    let dir = tempfile::tempdir().unwrap();
+    copy_example("liver", dir.path());
+    let mut scene = open(&dir.path().join("scene.toml"));
+    let images = scene.render_all().expect("render");
+    let view = |name: &str| images.iter().find(|(n, _)| n == name).expect("view").1.clone();
+    let (occlusion, hidden) = (view("occlusion"), view("hidden"));
+    let changed = differing(&occlusion, &hidden);
+    assert!(changed.len() > 20, "the applicators show through the organs ({} pixels)", changed.len());
+    let greener = changed.iter().filter(|&&(x, y)| occlusion.get_pixel(x, y)[1] > hidden.get_pixel(x, y)[1]).count();
+    assert!(greener * 10 >= changed.len() * 9, "{greener} of {} changed pixels are greener", changed.len());
 }

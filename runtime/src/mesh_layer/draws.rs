@@ -25,8 +25,10 @@ pub(crate) enum Target {
 /// Which pipeline a draw uses.
 #[derive(Clone, Copy)]
 pub(super) enum Pass {
-    /// A slice view's picture on its plane (its bind group in `Draw::picture`).
+    /// A slice view's picture on its plane (its bind group in `Draw::images`).
     Plane,
+    /// An occlusion group's parts combined (their images in `Draw::images`).
+    Combine,
     Opaque,
     OpaqueClosed,
     Back,
@@ -37,11 +39,13 @@ pub(super) enum Pass {
 pub(super) struct Draw {
     pass: Pass,
     uniforms: DrawUniforms,
-    vertices: wgpu::Buffer,
+    /// None: the vertex shader makes its vertices (a full-screen triangle).
+    vertices: Option<wgpu::Buffer>,
     indices: Option<(wgpu::Buffer, u32)>,
     vertex_count: u32,
-    /// A plane's picture and sampler.
-    picture: Option<wgpu::BindGroup>,
+    /// The images it reads and their bind group's number: a plane's picture and sampler, an
+    /// occlusion group's parts.
+    images: Option<(u32, wgpu::BindGroup)>,
 }
 
 impl DrawUniforms {
@@ -56,15 +60,15 @@ impl DrawUniforms {
         }
     }
 
-    /// Outline quads are in clip space already.
-    fn outline(m: &MeshInstance) -> DrawUniforms {
+    /// Flat `color`, seen through `world_to_clip` (outline quads are in clip space already).
+    fn flat(world_to_clip: Mat4, color: [f32; 4]) -> DrawUniforms {
         let identity = Mat4::IDENTITY.to_cols_array_2d();
         DrawUniforms {
-            world_to_clip: identity,
+            world_to_clip: world_to_clip.to_cols_array_2d(),
             clip_to_world: identity,
             model: identity,
             normal_model: identity,
-            color: [m.color[0], m.color[1], m.color[2], 1.0],
+            color,
             flat: [1.0, 0.0, 0.0, 0.0],
         }
     }
@@ -116,10 +120,10 @@ fn surface(world_to_clip: Mat4, m: &MeshInstance, pass: Pass) -> Draw {
     Draw {
         pass,
         uniforms: DrawUniforms::surface(world_to_clip, world_to_clip.inverse(), m),
-        vertices: m.gpu.vertices.clone(),
+        vertices: Some(m.gpu.vertices.clone()),
         indices: Some((m.gpu.indices.clone(), m.gpu.index_count)),
         vertex_count: 0,
-        picture: None,
+        images: None,
     }
 }
 
@@ -151,11 +155,11 @@ fn outlines(
         let vertices = vertex_buffer(gpu, "uploading a slice outline", bytemuck::cast_slice(&quads))?;
         out.push(Draw {
             pass: Pass::Opaque,
-            uniforms: DrawUniforms::outline(m),
-            vertices,
+            uniforms: DrawUniforms::flat(Mat4::IDENTITY, [m.color[0], m.color[1], m.color[2], 1.0]),
+            vertices: Some(vertices),
             indices: None,
             vertex_count: (quads.len() / 6) as u32,
-            picture: None,
+            images: None,
         });
     }
     Ok(out)
@@ -215,8 +219,9 @@ impl DrawBuffer {
 /// The pipelines draws are recorded with.
 #[derive(Clone, Copy)]
 pub(crate) enum Pipelines<'a> {
-    /// Each draw's pass picks one of `set`'s, or the plane pipeline.
-    ByPass(&'a PipelineSet, &'a wgpu::RenderPipeline),
+    /// Each draw's pass picks one of `set`'s, or the planes' or the combination's of the
+    /// mesh pipelines.
+    ByPass(&'a PipelineSet, &'a MeshPipelines),
     /// Every draw with one pipeline (the peeling passes).
     One(&'a wgpu::RenderPipeline),
 }
@@ -230,12 +235,13 @@ pub(crate) fn record(
     (draws, first_slot): (&[Draw], usize),
 ) {
     for (slot, draw) in (first_slot..).zip(draws) {
-        if let Some(picture) = &draw.picture {
-            pass.set_bind_group(1, picture, &[]);
+        if let Some((group, images)) = &draw.images {
+            pass.set_bind_group(*group, images, &[]);
         }
         let pipeline = match (pipelines, draw.pass) {
             (Pipelines::One(pipeline), _) => pipeline,
-            (Pipelines::ByPass(_, plane), Pass::Plane) => plane,
+            (Pipelines::ByPass(_, all), Pass::Plane) => &all.plane,
+            (Pipelines::ByPass(_, all), Pass::Combine) => &all.combine,
             (Pipelines::ByPass(set, _), Pass::Opaque) => &set.opaque,
             (Pipelines::ByPass(set, _), Pass::OpaqueClosed) => &set.opaque_closed,
             (Pipelines::ByPass(set, _), Pass::Back) => &set.translucent_back,
@@ -243,7 +249,9 @@ pub(crate) fn record(
         };
         pass.set_pipeline(pipeline);
         pass.set_bind_group(0, bind_group, &[(slot as u64 * DRAW_SLOT) as u32]);
-        pass.set_vertex_buffer(0, draw.vertices.slice(..));
+        if let Some(vertices) = &draw.vertices {
+            pass.set_vertex_buffer(0, vertices.slice(..));
+        }
         match &draw.indices {
             Some((indices, count)) => {
                 pass.set_index_buffer(indices.slice(..), wgpu::IndexFormat::Uint32);
@@ -287,24 +295,38 @@ pub(crate) fn plane_draws(
                 [wgpu::BindingResource::TextureView(&plane.picture), wgpu::BindingResource::Sampler(sampler)];
             pipelines.bindings.bind_group(gpu, 1, &resources)
         })?;
-        let identity = Mat4::IDENTITY.to_cols_array_2d();
         out.push(Draw {
             pass: Pass::Plane,
-            uniforms: DrawUniforms {
-                world_to_clip: world_to_clip.to_cols_array_2d(),
-                clip_to_world: identity,
-                model: identity,
-                normal_model: identity,
-                color: [1.0; 4],
-                flat: [1.0, 0.0, 0.0, 0.0],
-            },
-            vertices: buffer,
+            uniforms: DrawUniforms::flat(world_to_clip, [1.0; 4]),
+            vertices: Some(buffer),
             indices: None,
             vertex_count: 6,
-            picture: Some(picture),
+            images: Some((1, picture)),
         });
     }
     Ok(out)
+}
+
+/// The draw that combines an occlusion group's `context` and `focus` images (each its colour and
+/// depth) into its parent's, the focus showing through the context with `hidden_opacity`.
+pub(crate) fn combine_draw(
+    gpu: &Gpu,
+    pipelines: &MeshPipelines,
+    hidden_opacity: f32,
+    [context, focus]: [(&wgpu::TextureView, &wgpu::TextureView); 2],
+) -> Result<Draw, RuntimeError> {
+    let images = gpu.capture("combining an occlusion group", || {
+        let resources = [context.0, context.1, focus.0, focus.1].map(wgpu::BindingResource::TextureView);
+        pipelines.bindings.bind_group(gpu, 3, &resources)
+    })?;
+    Ok(Draw {
+        pass: Pass::Combine,
+        uniforms: DrawUniforms::flat(Mat4::IDENTITY, [0.0, 0.0, 0.0, hidden_opacity.clamp(0.0, 1.0)]),
+        vertices: None,
+        indices: None,
+        vertex_count: 3,
+        images: Some((3, images)),
+    })
 }
 
 /// A buffer of `contents` for `usage`, its errors those of `doing`.

@@ -9,15 +9,17 @@
 //! so `std::meshes` turns it into a ray parameter with the same matrix (`geometry_inv_proj`);
 //! opaque meshes write depth, translucent ones are blended over them (back faces, then front
 //! faces, in scene order) without writing it, unless the volume layer blends them into its rays
-//! in depth order: then they are peeled into layers (`peel`) and left out of the colour. A
-//! slice view draws where each mesh crosses its plane, as opaque outlines on the plane
-//! (`outline`).
+//! in depth order: then they are peeled into layers (`peel`) and left out of the colour. The
+//! layer draws a renderer tree (`tree`): an occlusion group's parts are drawn into images of
+//! their own and combined into their parent's. A slice view draws where each mesh crosses its
+//! plane, as opaque outlines on the plane (`outline`), whatever the tree.
 
 mod draws;
 pub(crate) mod outline;
 mod overlay;
 mod peel;
 pub(crate) mod pipelines;
+mod tree;
 
 use crate::error::RuntimeError;
 use crate::gpu::Gpu;
@@ -31,6 +33,8 @@ pub(crate) use overlay::Overlay;
 use peel::PeeledLayers;
 use pipelines::{COLOR_FORMAT, DEPTH_FORMAT, DEPTH_IMAGE_FORMAT, MeshPipelines};
 use std::sync::Arc;
+pub(crate) use tree::LayerNode;
+use tree::{LayerPass, PassTarget};
 
 /// A mesh on the GPU: interleaved positions and normals, and triangle indices.
 pub(crate) struct GpuMesh {
@@ -72,11 +76,15 @@ pub struct MeshInstance {
     pub(crate) closed: bool,
 }
 
-/// What a mesh layer draws: meshes and slice views' pictures on their planes, seen by a camera.
+/// What a mesh layer draws: a tree of meshes, slice views' pictures on their planes and
+/// occlusion groups, seen by a camera.
 pub(crate) struct LayerContent<'a> {
     pub camera: &'a LayerCamera,
-    pub meshes: &'a [&'a MeshInstance],
-    pub planes: &'a [PlanePicture],
+    pub tree: &'a [LayerNode],
+    /// What the tree's meshes and planes index.
+    pub meshes: &'a [MeshInstance],
+    /// The planes' pictures, by place (none where a plane shows nothing).
+    pub planes: &'a [Option<PlanePicture>],
     /// Counts changes of the meshes' surfaces and, apart, renders of the planes' pictures.
     pub generation: u64,
     pub planes_generation: u64,
@@ -94,14 +102,42 @@ pub(crate) enum LayerCamera {
 /// The clip-space depth of the slice plane in a slice view's mesh layer.
 pub(crate) const SLICE_PLANE_DEPTH: f32 = 0.5;
 
-/// One view's mesh layer: its two images and what they were drawn from.
-pub struct MeshLayer {
+/// The images a layer's pass draws into: premultiplied colour, the opaque surfaces' depth as
+/// colour (what the volume layer and occlusion groups read) and the depth test's buffer.
+struct LayerImages {
     color: wgpu::Texture,
-    /// The depth test's buffer.
-    depth_buffer: wgpu::TextureView,
-    /// The opaque surfaces' depth, as the volume layer reads it.
-    depth_view: wgpu::TextureView,
     color_view: wgpu::TextureView,
+    depth_view: wgpu::TextureView,
+    depth_buffer: wgpu::TextureView,
+}
+
+impl LayerImages {
+    fn new(gpu: &Gpu, size: [u32; 2], what: &str) -> Result<LayerImages, RuntimeError> {
+        let usage = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING;
+        let doing = format!("creating a {}x{} {what}", size[0], size[1]);
+        let image = |label, format| Image2d { label, size, format, usage }.create(gpu, &doing);
+        let depth_buffer = image("mesh depth buffer", DEPTH_FORMAT)?;
+        let depth = image("mesh depth", DEPTH_IMAGE_FORMAT)?;
+        let color = image("mesh colour", COLOR_FORMAT)?;
+        Ok(LayerImages {
+            depth_buffer: depth_buffer.create_view(&Default::default()),
+            depth_view: depth.create_view(&Default::default()),
+            color_view: color.create_view(&Default::default()),
+            color,
+        })
+    }
+
+    /// The colour and the depth, as a combination reads them.
+    fn read(&self) -> (&wgpu::TextureView, &wgpu::TextureView) {
+        (&self.color_view, &self.depth_view)
+    }
+}
+
+/// One view's mesh layer: its images, its occlusion groups' and what they were drawn from.
+pub struct MeshLayer {
+    images: LayerImages,
+    /// Per occlusion group of the tree, its context's and its focus's images.
+    groups: Vec<[LayerImages; 2]>,
     /// The translucent surfaces peeled into layers, for a volume layer that reads them.
     peeled: Option<PeeledLayers>,
     /// What the images hold, so tiles and unchanged frames draw nothing again.
@@ -123,17 +159,9 @@ impl MeshLayer {
     /// An empty layer (depth 1, no colour) of `size` pixels; with `peeled`, its translucent
     /// meshes are peeled into layers rather than blended into its colour.
     pub(crate) fn new(gpu: &Gpu, size: [u32; 2], peeled: bool) -> Result<MeshLayer, RuntimeError> {
-        let usage = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING;
-        let doing = format!("creating a {}x{} mesh layer", size[0], size[1]);
-        let image = |label, format| Image2d { label, size, format, usage }.create(gpu, &doing);
-        let depth_buffer = image("mesh depth buffer", DEPTH_FORMAT)?;
-        let depth = image("mesh depth", DEPTH_IMAGE_FORMAT)?;
-        let color = image("mesh colour", COLOR_FORMAT)?;
         Ok(MeshLayer {
-            depth_buffer: depth_buffer.create_view(&Default::default()),
-            depth_view: depth.create_view(&Default::default()),
-            color_view: color.create_view(&Default::default()),
-            color,
+            images: LayerImages::new(gpu, size, "mesh layer")?,
+            groups: Vec::new(),
             peeled: if peeled { Some(PeeledLayers::new(gpu, size)?) } else { None },
             drawn: None,
             buffer: DrawBuffer::default(),
@@ -142,14 +170,14 @@ impl MeshLayer {
 
     /// Width and height of the layer's images in pixels (the view's image size).
     pub fn size(&self) -> [u32; 2] {
-        [self.color.width(), self.color.height()]
+        [self.images.color.width(), self.images.color.height()]
     }
 
     /// The images the volume layer binds.
     pub(crate) fn views(&self) -> LayerViews<'_> {
         LayerViews {
-            depth: &self.depth_view,
-            color: &self.color_view,
+            depth: &self.images.depth_view,
+            color: &self.images.color_view,
             translucent: self.peeled.as_ref().map(PeeledLayers::views),
         }
     }
@@ -163,49 +191,107 @@ impl MeshLayer {
         encoder: &mut wgpu::CommandEncoder,
         content: &LayerContent,
     ) -> Result<(), RuntimeError> {
-        let generations = [content.generation, content.planes_generation];
-        let key = layer_key(content.camera, content.meshes, self.size(), generations);
+        let (passes, groups) = match content.camera {
+            LayerCamera::Projection { .. } => tree::plan(content.tree),
+            // A slice view outlines every mesh on its plane, whatever its group.
+            LayerCamera::Slice(_) => (vec![LayerPass::of_meshes(tree::meshes(content.tree))], 0),
+        };
+        let key = layer_key(content, self.size());
         if self.drawn == Some(key) {
             return Ok(());
         }
-        let mut draws = Vec::new();
-        // Peeled (a raycast view): the translucent meshes are drawn only by the peeling passes,
-        // after the others. A slice view outlines every mesh.
-        let peels = self.peeled.is_some() && matches!(content.camera, LayerCamera::Projection { .. });
-        let (drawn, peeled): (Vec<&MeshInstance>, Vec<&MeshInstance>) =
-            content.meshes.iter().copied().partition(|m| !peels || m.opacity >= 1.0);
-        let mut layer_draws = 0;
-        if let Some(pipelines) = pipelines {
-            if let LayerCamera::Projection { world_to_clip } = content.camera {
-                draws = draws::plane_draws(gpu, pipelines, sampler, *world_to_clip, content.planes)?;
-            }
-            draws.extend(draws::frame_draws(gpu, content.camera, &drawn, self.size(), Target::Layer)?);
-            layer_draws = draws.len();
-            if let (LayerCamera::Projection { world_to_clip }, Some(_)) = (content.camera, &self.peeled) {
-                draws.extend(draws::peel_draws(*world_to_clip, &peeled));
-            }
+        while self.groups.len() < groups {
+            let part = || LayerImages::new(gpu, self.size(), "occlusion group part");
+            self.groups.push([part()?, part()?]);
         }
-        let bind_group = self.buffer.bind(gpu, pipelines, &draws)?;
-        let doing = "drawing a mesh layer";
-        gpu.capture(doing, || {
-            let targets = [
-                Some(attachment(&self.color_view, wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT))),
-                Some(attachment(&self.depth_view, wgpu::LoadOp::Clear(wgpu::Color::WHITE))),
-            ];
-            let depth = Some(depth_attachment(&self.depth_buffer));
-            let mut pass = encoder.begin_render_pass(&pass_descriptor("mesh layer", &targets, depth));
-            if let (Some(pipelines), Some(bind_group)) = (pipelines, &bind_group) {
-                let by_pass = Pipelines::ByPass(&pipelines.layer, &pipelines.plane);
-                draws::record(&mut pass, by_pass, bind_group, (&draws[..layer_draws], 0));
-            }
-        })?;
+        let planned = match pipelines {
+            Some(pipelines) => self.draws(gpu, (pipelines, sampler), content, &passes)?,
+            None => PlannedDraws::default(),
+        };
+        let bind_group = self.buffer.bind(gpu, pipelines, &planned.draws)?;
+        for (i, pass) in passes.iter().enumerate() {
+            let images = match pass.target {
+                PassTarget::Layer => &self.images,
+                PassTarget::Context(g) => &self.groups[g][0],
+                PassTarget::Focus(g) => &self.groups[g][1],
+            };
+            let range = planned.ranges.get(i).cloned().unwrap_or(0..0);
+            gpu.capture("drawing a mesh layer", || {
+                let targets = [
+                    Some(attachment(&images.color_view, wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT))),
+                    Some(attachment(&images.depth_view, wgpu::LoadOp::Clear(wgpu::Color::WHITE))),
+                ];
+                let depth = Some(depth_attachment(&images.depth_buffer));
+                let mut render = encoder.begin_render_pass(&pass_descriptor("mesh layer", &targets, depth));
+                if let (Some(pipelines), Some(bind_group)) = (pipelines, &bind_group) {
+                    let by_pass = Pipelines::ByPass(&pipelines.layer, pipelines);
+                    draws::record(&mut render, by_pass, bind_group, (&planned.draws[range.clone()], range.start));
+                }
+            })?;
+        }
         if let (Some(peeled), Some(pipelines), Some(bind_group)) = (&mut self.peeled, pipelines, &bind_group) {
-            let translucent = (bind_group, &draws[layer_draws..], layer_draws);
-            peeled.encode(gpu, pipelines, encoder, &self.depth_view, translucent)?;
+            let first = planned.peeled_from;
+            let translucent = (bind_group, &planned.draws[first..], first);
+            peeled.encode(gpu, pipelines, encoder, &self.images.depth_view, translucent)?;
         }
         self.drawn = Some(key);
         Ok(())
     }
+
+    /// The draws of `passes`: in each, its occlusion groups' combinations, its planes and its
+    /// meshes; last, the translucent meshes the layer's own pass leaves to peeling.
+    fn draws(
+        &self,
+        gpu: &Gpu,
+        (pipelines, sampler): (&MeshPipelines, &wgpu::Sampler),
+        content: &LayerContent,
+        passes: &[LayerPass],
+    ) -> Result<PlannedDraws, RuntimeError> {
+        let mut planned = PlannedDraws::default();
+        let mut peeled = Vec::new();
+        for pass in passes {
+            let start = planned.draws.len();
+            for &(group, hidden_opacity) in &pass.combines {
+                let [context, focus] = &self.groups[group];
+                planned.draws.push(draws::combine_draw(
+                    gpu,
+                    pipelines,
+                    hidden_opacity,
+                    [context.read(), focus.read()],
+                )?);
+            }
+            if let LayerCamera::Projection { world_to_clip } = content.camera {
+                let planes: Vec<PlanePicture> =
+                    pass.planes.iter().filter_map(|&i| content.planes.get(i)?.clone()).collect();
+                planned.draws.extend(draws::plane_draws(gpu, pipelines, sampler, *world_to_clip, &planes)?);
+            }
+            // Peeled (a raycast view): the layer's own translucent meshes are drawn only by the
+            // peeling passes, after the others; a group's are blended into its part.
+            let peels = self.peeled.is_some()
+                && pass.target == PassTarget::Layer
+                && matches!(content.camera, LayerCamera::Projection { .. });
+            let meshes = pass.meshes.iter().filter_map(|&i| content.meshes.get(i));
+            let (drawn, translucent): (Vec<&MeshInstance>, Vec<&MeshInstance>) =
+                meshes.partition(|m| !peels || m.opacity >= 1.0);
+            planned.draws.extend(draws::frame_draws(gpu, content.camera, &drawn, self.size(), Target::Layer)?);
+            peeled.extend(translucent);
+            planned.ranges.push(start..planned.draws.len());
+        }
+        planned.peeled_from = planned.draws.len();
+        if let (LayerCamera::Projection { world_to_clip }, Some(_)) = (content.camera, &self.peeled) {
+            planned.draws.extend(draws::peel_draws(*world_to_clip, &peeled));
+        }
+        Ok(planned)
+    }
+}
+
+/// A layer's draws, and which belong to which pass (in the plan's order); those from
+/// `peeled_from` on are the peeling passes'.
+#[derive(Default)]
+struct PlannedDraws {
+    draws: Vec<draws::Draw>,
+    ranges: Vec<std::ops::Range<usize>>,
+    peeled_from: usize,
 }
 
 /// A colour attachment loaded as `load` says and kept.
@@ -243,23 +329,26 @@ fn depth_attachment(view: &wgpu::TextureView) -> wgpu::RenderPassDepthStencilAtt
     }
 }
 
-/// What a frame is drawn from: the camera, each mesh's placement and look, the image's size,
-/// and `generations` (changes of the meshes' surfaces, renders of the planes' pictures). Equal
-/// keys, equal pictures.
-fn layer_key(camera: &LayerCamera, meshes: &[&MeshInstance], size: [u32; 2], generations: [u64; 2]) -> u64 {
-    let mut floats: Vec<f32> = match camera {
+/// What a frame is drawn from: the camera, the tree, each mesh's placement and look, the
+/// image's size, and the generations (changes of the meshes' surfaces, renders of the planes'
+/// pictures). Equal keys, equal pictures.
+fn layer_key(content: &LayerContent, size: [u32; 2]) -> u64 {
+    let mut floats: Vec<f32> = match content.camera {
         LayerCamera::Projection { world_to_clip } => world_to_clip.to_cols_array().to_vec(),
         LayerCamera::Slice(frame) => frame.image_to_world.to_cols_array().to_vec(),
     };
-    for m in meshes {
+    let meshes: Vec<&MeshInstance> =
+        tree::meshes(content.tree).into_iter().filter_map(|i| content.meshes.get(i)).collect();
+    for m in &meshes {
         floats.extend(m.model.to_cols_array());
         floats.extend(m.color);
         floats.push(m.opacity);
     }
     let mut bytes: Vec<u8> = bytemuck::cast_slice(&floats).to_vec();
-    bytes.extend(generations.iter().flat_map(|g| g.to_le_bytes()));
+    bytes.extend([content.generation, content.planes_generation].iter().flat_map(|g| g.to_le_bytes()));
     bytes.extend(bytemuck::cast_slice(&size));
-    bytes.push(matches!(camera, LayerCamera::Slice(_)) as u8);
+    bytes.push(matches!(content.camera, LayerCamera::Slice(_)) as u8);
     bytes.extend(meshes.iter().flat_map(|m| Arc::as_ptr(&m.gpu).addr().to_le_bytes()));
+    bytes.extend(format!("{:?}", content.tree).bytes());
     xxhash_rust::xxh3::xxh3_64(&bytes)
 }

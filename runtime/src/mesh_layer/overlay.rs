@@ -45,7 +45,7 @@ impl Overlay {
             let targets = [Some(attachment(target, wgpu::LoadOp::Load))];
             let depth = Some(depth_attachment(&self.depth_buffer));
             let mut pass = encoder.begin_render_pass(&pass_descriptor("overlay", &targets, depth));
-            draws::record(&mut pass, Pipelines::ByPass(&pipelines.overlay, &pipelines.plane), &bind_group, (&draws, 0));
+            draws::record(&mut pass, Pipelines::ByPass(&pipelines.overlay, pipelines), &bind_group, (&draws, 0));
         })?;
         Ok(())
     }

@@ -154,11 +154,50 @@ fn fs_plane(in: PlaneVaryings) -> Fragment {
     }
     return Fragment(vec4<f32>(color.rgb / color.a, 1.0), in.clip.z);
 }
+
+// An occlusion group's two parts, as their passes drew them: the context (the first child) and
+// the focus (the others), each its premultiplied colour and its opaque surfaces' depth.
+@group(3) @binding(0) var context_color: texture_2d<f32>;
+@group(3) @binding(1) var context_depth: texture_2d<f32>;
+@group(3) @binding(2) var focus_color: texture_2d<f32>;
+@group(3) @binding(3) var focus_depth: texture_2d<f32>;
+
+@vertex
+fn vs_full(@builtin(vertex_index) i: u32) -> @builtin(position) vec4<f32> {
+    let corner = vec2<f32>(f32((i << 1u) & 2u), f32(i & 2u));
+    return vec4<f32>(corner * 2.0 - 1.0, 0.0, 1.0);
+}
+
+struct Combined {
+    @location(0) color: vec4<f32>,
+    @location(1) depth: f32,
+    @builtin(frag_depth) frag_depth: f32,
+}
+
+// Where the context's opaque surface lies in front of the focus, the focus shows through it
+// with the group's hidden opacity (`draw.color.a`); elsewhere the focus lies over the context.
+// Either way the nearer opaque surface is the group's depth.
+@fragment
+fn fs_combine(@builtin(position) clip: vec4<f32>) -> Combined {
+    let pixel = vec2<i32>(clip.xy);
+    let context = textureLoad(context_color, pixel, 0);
+    let focus = textureLoad(focus_color, pixel, 0);
+    let near = textureLoad(context_depth, pixel, 0).x;
+    let far = textureLoad(focus_depth, pixel, 0).x;
+    let k = select(1.0, draw.color.a, near < far);
+    let color = k * focus + (1.0 - k * focus.a) * context;
+    let depth = min(near, far);
+    if color.a <= 0.0 && depth >= 1.0 {
+        discard;
+    }
+    return Combined(color, depth, depth);
+}
 "#;
 
 /// The bindings of [`SHADER`]: group 0, a draw's uniforms (at a dynamic offset, one
 /// [`DRAW_SLOT`] per draw); group 1, a plane's picture and its sampler (`vs_plane`/`fs_plane`);
-/// group 2, the opaque and the last peeled depth (`fs_peel`, `fs_peel_rest`).
+/// group 2, the opaque and the last peeled depth (`fs_peel`, `fs_peel_rest`); group 3, an
+/// occlusion group's context and focus images (`fs_combine`).
 pub(crate) const BINDINGS: PassBindings = PassBindings {
     label: "mesh layer",
     groups: &[
@@ -179,20 +218,15 @@ pub(crate) const BINDINGS: PassBindings = PassBindings {
             },
             Slot { binding: 1, visibility: wgpu::ShaderStages::FRAGMENT, ty: ty::SAMPLER },
         ],
-        &[
-            Slot {
-                binding: 0,
-                visibility: wgpu::ShaderStages::FRAGMENT,
-                ty: ty::texture(wgpu::TextureViewDimension::D2, false),
-            },
-            Slot {
-                binding: 1,
-                visibility: wgpu::ShaderStages::FRAGMENT,
-                ty: ty::texture(wgpu::TextureViewDimension::D2, false),
-            },
-        ],
+        &[loaded_image(0), loaded_image(1)],
+        &[loaded_image(0), loaded_image(1), loaded_image(2), loaded_image(3)],
     ],
 };
+
+/// A fragment shader's `texture_2d<f32>` at `binding`, read with `textureLoad` only.
+const fn loaded_image(binding: u32) -> Slot {
+    Slot { binding, visibility: wgpu::ShaderStages::FRAGMENT, ty: ty::texture(wgpu::TextureViewDimension::D2, false) }
+}
 
 /// How a pipeline treats faces and depth.
 #[derive(Clone, Copy)]
@@ -229,6 +263,8 @@ pub(crate) struct MeshPipelines {
     pub peel: wgpu::RenderPipeline,
     /// The translucent surfaces behind the last layer, blended under it in drawing order.
     pub peel_rest: wgpu::RenderPipeline,
+    /// An occlusion group's context and focus combined into its parent's colour and depth.
+    pub combine: wgpu::RenderPipeline,
 }
 
 impl MeshPipelines {
@@ -254,7 +290,8 @@ impl MeshPipelines {
             let peeling = bindings.pipeline_layout_of(gpu, &[0, 2]);
             let peel = peel_pipeline(gpu, &module, &peeling, false);
             let peel_rest = peel_pipeline(gpu, &module, &peeling, true);
-            MeshPipelines { layer: set(false), overlay: set(true), plane, peel, peel_rest, bindings }
+            let combine = combine_pipeline(gpu, &module, &bindings.pipeline_layout_of(gpu, &[0, 3]));
+            MeshPipelines { layer: set(false), overlay: set(true), plane, peel, peel_rest, combine, bindings }
         })?;
         Ok(made)
     }
@@ -405,6 +442,39 @@ fn plane_pipeline(gpu: &Gpu, module: &wgpu::ShaderModule, layout: &wgpu::Pipelin
             entry_point: Some("fs_plane"),
             compilation_options: Default::default(),
             targets: &[target(COLOR_FORMAT), target(DEPTH_IMAGE_FORMAT)],
+        }),
+        multiview_mask: None,
+        cache: None,
+    })
+}
+
+/// The pipeline of occlusion groups' combinations: one full-screen triangle into a layer's
+/// colour (over what is drawn) and depth, depth-tested with what the parent draws after it.
+fn combine_pipeline(gpu: &Gpu, module: &wgpu::ShaderModule, layout: &wgpu::PipelineLayout) -> wgpu::RenderPipeline {
+    let over = Some(wgpu::BlendState { color: OVER, alpha: OVER });
+    let targets = [
+        Some(wgpu::ColorTargetState { format: COLOR_FORMAT, blend: over, write_mask: wgpu::ColorWrites::ALL }),
+        Some(wgpu::ColorTargetState { format: DEPTH_IMAGE_FORMAT, blend: None, write_mask: wgpu::ColorWrites::RED }),
+    ];
+    // Equal passes: a pixel with nothing opaque (depth 1) still shows the group's colour.
+    let depth = wgpu::DepthStencilState { depth_compare: Some(wgpu::CompareFunction::LessEqual), ..depth_test(true) };
+    gpu.device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+        label: Some("occlusion group"),
+        layout: Some(layout),
+        vertex: wgpu::VertexState {
+            module,
+            entry_point: Some("vs_full"),
+            compilation_options: Default::default(),
+            buffers: &[],
+        },
+        primitive: wgpu::PrimitiveState::default(),
+        depth_stencil: Some(depth),
+        multisample: Default::default(),
+        fragment: Some(wgpu::FragmentState {
+            module,
+            entry_point: Some("fs_combine"),
+            compilation_options: Default::default(),
+            targets: &targets,
         }),
         multiview_mask: None,
         cache: None,

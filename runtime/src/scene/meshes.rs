@@ -36,7 +36,7 @@ impl SceneRenderer {
     /// here; `build` reports them first, at the table).
     pub(super) fn load_meshes(&mut self, scene: &Scene) -> Result<(), RuntimeError> {
         let key = format!("{:?}", scene.meshes);
-        let planes = scene.views.iter().any(|v| !v.planes.is_empty());
+        let planes = scene.views.iter().any(|v| !scene.leaves_under(v).1.is_empty());
         if key == self.meshes.key
             && self.resources.meshes.len() == scene.meshes.len()
             && (!planes || self.resources.mesh_pipelines.is_some())
@@ -51,7 +51,7 @@ impl SceneRenderer {
             instances.push(self.instance(table, surface)?);
             followed.push(points);
         }
-        let planes = scene.views.iter().any(|v| !v.planes.is_empty());
+        let planes = scene.views.iter().any(|v| !scene.leaves_under(v).1.is_empty());
         if (!instances.is_empty() || planes) && self.resources.mesh_pipelines.is_none() {
             self.resources.mesh_pipelines = Some(MeshPipelines::new(&self.gpu)?);
         }
@@ -302,7 +302,7 @@ impl SceneRenderer {
     /// [`SceneRenderer::encode_planes`] in a submission of its own (before a view that renders
     /// with its own encoder); nothing for a view without planes.
     pub(super) fn render_planes(&mut self, index: usize) -> Result<(), RuntimeError> {
-        if self.views.get(index).is_none_or(|v| v.planes.is_empty()) {
+        if self.views.get(index).is_none_or(|v| v.picture.planes.is_empty()) {
             return Ok(());
         }
         let mut encoder = self.gpu.device.create_command_encoder(&Default::default());
@@ -319,18 +319,20 @@ impl SceneRenderer {
         index: usize,
         encoder: &mut wgpu::CommandEncoder,
     ) -> Result<(), RuntimeError> {
-        let Some(planes) = self.views.get(index).map(|v| v.planes.clone()).filter(|p| !p.is_empty()) else {
+        let Some(planes) = self.views.get(index).map(|v| v.picture.planes.clone()).filter(|p| !p.is_empty()) else {
             return Ok(());
         };
         let Some(primary) = self.grids.first() else { return Ok(()) };
         let mut pictures = Vec::with_capacity(planes.len());
+        // One entry per plane, in order: the mesh layer's tree finds them by place.
         for p in planes {
-            let Some(view) = self.views.get_mut(p) else { continue };
+            let Some(view) = self.views.get_mut(p) else {
+                pictures.push(None);
+                continue;
+            };
             super::apply_view_uniforms(view, &self.grids)?;
             view.renderer.encode(&self.gpu, &self.resources, encoder)?;
-            if let Some(picture) = plane_picture(view, primary) {
-                pictures.push(picture);
-            }
+            pictures.push(plane_picture(view, primary));
         }
         self.views[index].renderer.set_planes(pictures);
         Ok(())

@@ -3,6 +3,7 @@
 //! per view shader and field, renders its passes with the view's current uniforms, camera and
 //! slice, and decodes them into an image.
 
+use super::picture::ViewPicture;
 use super::{SceneRenderer, SceneView, apply_view_uniforms};
 use crate::error::RuntimeError;
 use crate::probe::{ComponentKind, ProbeFormat, ProbeValues};
@@ -151,9 +152,8 @@ impl SceneRenderer {
             camera: view.camera,
             slice: view.slice,
             convention: view.convention,
-            meshes: view.meshes.clone(),
-            overlay: view.overlay.clone(),
-            planes: Vec::new(),
+            // The planes' pictures are the view's own, which the probe reads as they are.
+            picture: ViewPicture { planes: Vec::new(), ..view.picture.clone() },
         };
         Ok(Probe { layout: variant.layout, view })
     }
