@@ -3,6 +3,7 @@
 
 mod common;
 
+use glam::{Mat4, Vec3};
 use std::path::Path;
 use vrs_runtime::{RenderOptions, SceneRenderer};
 
@@ -111,4 +112,109 @@ fn a_depth_group_draws_as_its_children_would() {
     assert!(listed == grouped, "a depth group draws its children as the view would");
     let tissue = render(dir.path(), &depth, r#"["tissue", "volume"]"#);
     assert!(listed == tissue, "the vessel inside the tissue is hidden");
+}
+
+/// A white floor under a ball, in a shadow group lit from `LIGHT`, seen from above.
+const SHADOW_SCENE: &str = r#"
+[render]
+compositing = "dvr"
+jitter = 0.0
+background = [0.0, 0.0, 0.0, 1.0]
+
+[[volume]]
+name = "cube"
+role = "primary"
+path = "cube.nrrd"
+window = [0.0, 1000.0]
+tf = "clear.json"
+
+[[mesh]]
+name = "floor"
+shape = "box"
+min = [-30.0, -30.0, 0.0]
+max = [62.0, 62.0, 2.0]
+color = [1.0, 1.0, 1.0]
+
+[[mesh]]
+name = "ball"
+shape = "sphere"
+centre = [15.5, 15.5, 14.0]
+radius = 5.0
+color = [1.0, 0.0, 0.0]
+
+[[group]]
+name = "lit"
+kind = "shadow"
+light = [1.0, 0.0, 2.0]
+children = ["floor", "ball"]
+
+[[view]]
+name = "3d"
+kind = "raycast"
+size = [64, 64]
+camera = { azimuth = 0.0, elevation = 70.0, distance = 2.2 }
+"#;
+
+const LIGHT: Vec3 = Vec3::new(1.0, 0.0, 2.0);
+const BALL: (Vec3, f32) = (Vec3::new(15.5, 15.5, 14.0), 5.0);
+
+/// Where the ray `origin + t dir` meets the sphere `(centre, radius)` in front of its origin.
+fn meets_ball(origin: Vec3, dir: Vec3) -> bool {
+    let (centre, radius) = BALL;
+    let to = origin - centre;
+    let b = to.dot(dir);
+    let disc = b * b - (to.length_squared() - radius * radius);
+    disc > 0.0 && -b + disc.sqrt() > 0.0
+}
+
+/// What the pixel at `[x, y]` (in [0, 1]^2) shows: `None` for the ball or nothing, else whether
+/// the floor's top there lies in the ball's shadow.
+fn floor_in_shadow(clip_to_world: Mat4, [x, y]: [f32; 2]) -> Option<bool> {
+    let ndc = |z| Vec3::new(x * 2.0 - 1.0, 1.0 - y * 2.0, z);
+    let near = clip_to_world.project_point3(ndc(0.0));
+    let dir = (clip_to_world.project_point3(ndc(1.0)) - near).normalize();
+    if meets_ball(near, dir) || dir.z >= 0.0 {
+        return None;
+    }
+    let floor = near + dir * ((2.0 - near.z) / dir.z);
+    Some(meets_ball(floor, LIGHT.normalize()))
+}
+
+/// The floor's top in the ball's shadow has the ambient light alone (0.3 of its white); the
+/// rest of it the light's Lambert term too (0.3 + 0.7 n.l, n.l = 2/sqrt(5)). Pixels whose
+/// neighbours 1.5 pixels away fall otherwise are left out (the shadow's soft edge, the ball's
+/// outline); the tolerance is 4/255.
+#[test]
+fn a_shadow_group_casts_the_balls_shadow_where_its_light_says() {
+    let dir = tempfile::tempdir().expect("a folder");
+    let image = render(dir.path(), SHADOW_SCENE, r#"["lit", "volume"]"#);
+    let renderer = SceneRenderer::open(
+        common::software_gpu(),
+        &dir.path().join("scene.toml"),
+        RenderOptions::default(),
+        &mut |_, _, _| {},
+    )
+    .expect("the scene opens");
+    let (dims, grid_to_world) = renderer.primary_grid().expect("a primary volume");
+    let to_world = vrs_runtime::geometry::volume_to_world(dims, grid_to_world);
+    let camera = renderer.views()[0].camera.expect("a raycast view");
+    let clip_to_world = to_world * camera.inv_view_proj(to_world, 1.0);
+    let lit = 255.0 * (0.3 + 0.7 * 2.0 / 5.0f32.sqrt());
+    let (mut shadowed, mut bright) = (0, 0);
+    for (px, py, pixel) in image.enumerate_pixels() {
+        let at = |dx: f32, dy: f32| {
+            floor_in_shadow(clip_to_world, [(px as f32 + 0.5 + dx) / 64.0, (py as f32 + 0.5 + dy) / 64.0])
+        };
+        let here = at(0.0, 0.0);
+        if here.is_none() || [(1.5, 0.0), (-1.5, 0.0), (0.0, 1.5), (0.0, -1.5)].iter().any(|&(x, y)| at(x, y) != here) {
+            continue;
+        }
+        let in_shadow = here == Some(true);
+        let want = if in_shadow { 255.0 * 0.3 } else { lit };
+        let got = f32::from(pixel[1]);
+        assert!((got - want).abs() <= 4.0, "pixel ({px}, {py}) {pixel:?}: in shadow {in_shadow}, want {want:.1}");
+        if in_shadow { shadowed += 1 } else { bright += 1 }
+    }
+    assert!(shadowed > 30 && bright > 300, "{shadowed} pixels in the shadow, {bright} lit");
+    eprintln!("{shadowed} floor pixels in the ball's shadow, {bright} lit, each as computed");
 }

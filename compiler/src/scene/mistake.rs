@@ -119,6 +119,7 @@ pub(super) enum ViewRange {
     SurfaceLevel,
     PointNotFinite { key: String },
     MeshSize { key: String, x: f32 },
+    LightDirection,
 }
 
 /// E0710: an empty value where something is needed.
@@ -535,6 +536,9 @@ impl ViewRange {
             ViewRange::SurfaceLevel => said(d, "a surface's `level` must be a number (data units)"),
             ViewRange::PointNotFinite { key } => said(d, format!("`{key}` must hold finite numbers")),
             ViewRange::MeshSize { key, x } => said(d, format!("a mesh `{key}` must be positive (mm), not {x}")),
+            ViewRange::LightDirection => {
+                said(d, "a shadow group's `light` must be a direction: finite numbers, not all zero".to_string())
+            }
         }
     }
 }

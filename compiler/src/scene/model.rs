@@ -482,6 +482,12 @@ pub enum GroupKind {
         /// "semi_transparent"`, the default.
         hidden_opacity: f32,
     },
+    /// `kind = "shadow"`: its children combined by depth, lit by a directional light from
+    /// `light` (patient space, towards the light; not zero), and shadowing each other.
+    Shadow {
+        /// The direction towards the light.
+        light: [f32; 3],
+    },
 }
 
 /// `show` of an occlusion group: how the children it hides are shown.
@@ -502,6 +508,8 @@ pub enum GroupKindName {
     Depth,
     /// What the first child hides shows through it.
     Occlusion,
+    /// The children cast shadows onto each other.
+    Shadow,
 }
 
 /// A `[uniforms]` entry.

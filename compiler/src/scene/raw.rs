@@ -184,8 +184,9 @@ pub(super) struct RawGroup {
     pub(super) children: Spanned<Vec<Spanned<String>>>,
     pub(super) show: Option<Spanned<Show>>,
     pub(super) opacity: Option<Spanned<f32>>,
+    pub(super) light: Option<Spanned<[f32; 3]>>,
 }
-pub(super) const GROUP_KEYS: &[&str] = &["name", "kind", "children", "show", "opacity"];
+pub(super) const GROUP_KEYS: &[&str] = &["name", "kind", "children", "show", "opacity", "light"];
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(super) struct RawCamera {

@@ -538,12 +538,33 @@ fn renderer_tree_mistakes_have_their_codes_and_spans() {
         (String::new(), "picture = [\"organs\", \"volume\"]\n", "E0713", "no mesh, group or slice view `organs`"),
         (group("organ", "depth", "\"tube\""), "", "E0712", "a group and a mesh are named `organ`"),
         (group("g", "depth", "\"tube\", \"tube\""), "", "E0712", "`tube` is listed twice"),
+        (group("g", "shadow", "\"tube\""), "", "E0704", "missing key `light` in a shadow group"),
+        (
+            group("g", "shadow", "\"tube\"").replace("children", "light = [0.0, 0.0, 0.0]\nchildren"),
+            "",
+            "E0708",
+            "`light` must be a direction",
+        ),
     ];
     for (groups, view_keys, code, want) in cases {
         let scene = format!("{MINIMAL}{view_keys}\n{TREE}{groups}");
         let found = errors(&scene);
         assert!(found.iter().any(|e| e.0 == code && e.3.contains(want)), "{want}: {found:?}");
     }
+}
+
+#[test]
+fn a_shadow_group_has_its_light_and_other_groups_ignore_one() {
+    let shadow = "[[group]]\nname = \"lit\"\nkind = \"shadow\"\nlight = [1.0, 0.0, 2.0]\nchildren = [\"organ\"]\n";
+    let scene = format!("{MINIMAL}picture = [\"lit\", \"volume\"]\n\n{TREE}{shadow}");
+    let (_, parsed, warnings) = parse_reporting(&scene);
+    let parsed = parsed.unwrap_or_else(|| panic!("{warnings:?}"));
+    assert_eq!(parsed.groups[0].kind, GroupKind::Shadow { light: [1.0, 0.0, 2.0] });
+    let depth = scene.replace("kind = \"shadow\"", "kind = \"depth\"");
+    let (_, parsed, warnings) = parse_reporting(&depth);
+    assert_eq!(parsed.map(|p| p.groups[0].kind), Some(GroupKind::Depth));
+    let w: Vec<_> = warnings.iter().map(|d| (d.code.as_str(), d.message.as_str())).collect();
+    assert_eq!(w, [("W0701", "`light` has no effect on this group (it is for shadow groups)")]);
 }
 
 #[test]

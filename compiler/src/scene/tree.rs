@@ -91,19 +91,44 @@ impl Cx<'_> {
         }
         let kind = match g.kind.as_ref().map(|k| *k.get_ref()) {
             Some(GroupKindName::Occlusion) => GroupKind::Occlusion { hidden_opacity: self.hidden_opacity(g) },
-            _ => {
-                for (key, span) in
-                    [("show", g.show.as_ref().map(Spanned::span)), ("opacity", g.opacity.as_ref().map(Spanned::span))]
-                {
-                    if let Some(r) = span {
-                        let span = self.range(r);
-                        self.ignored_at(span, key, "on a depth group (it is for occlusion groups)");
-                    }
-                }
-                GroupKind::Depth
-            }
+            Some(GroupKindName::Shadow) => GroupKind::Shadow { light: self.light(g, span) },
+            _ => GroupKind::Depth,
         };
+        self.ignore_keys_of_other_kinds(g, kind);
         Group { name, kind, children: Vec::new(), span }
+    }
+
+    /// W0701 for `show` and `opacity` outside occlusion groups, `light` outside shadow groups.
+    fn ignore_keys_of_other_kinds(&mut self, g: &RawGroup, kind: GroupKind) {
+        let (occlusion, shadow) =
+            (matches!(kind, GroupKind::Occlusion { .. }), matches!(kind, GroupKind::Shadow { .. }));
+        let keys = [
+            ("show", g.show.as_ref().map(Spanned::span), occlusion, "it is for occlusion groups"),
+            ("opacity", g.opacity.as_ref().map(Spanned::span), occlusion, "it is for occlusion groups"),
+            ("light", g.light.as_ref().map(Spanned::span), shadow, "it is for shadow groups"),
+        ];
+        for (key, range, allowed, why) in keys {
+            if let (Some(r), false) = (range, allowed) {
+                let span = self.range(r);
+                self.ignored_at(span, key, &format!("on this group ({why})"));
+            }
+        }
+    }
+
+    /// A shadow group's direction towards its light: E0704 without `light`, E0708 for one that
+    /// is no direction (straight above, `[0, 0, 1]`, stands in).
+    fn light(&mut self, g: &RawGroup, table: Span) -> [f32; 3] {
+        const ABOVE: [f32; 3] = [0.0, 0.0, 1.0];
+        let Some(light) = &g.light else {
+            self.report(table, Missing::Key { key: "light".into(), table: "a shadow group".into() });
+            return ABOVE;
+        };
+        let v = *light.get_ref();
+        if v.iter().any(|x| !x.is_finite()) || v.iter().all(|&x| x == 0.0) {
+            self.report(self.span(light), ViewRange::LightDirection);
+            return ABOVE;
+        }
+        v
     }
 
     /// An occlusion group's opacity of what its first child hides: 1 for `show = "visible"`, else
@@ -131,6 +156,7 @@ impl Cx<'_> {
         let (kind, needs) = match group.kind {
             GroupKind::Depth => ("depth", 1),
             GroupKind::Occlusion { .. } => ("occlusion", 2),
+            GroupKind::Shadow { .. } => ("shadow", 1),
         };
         if listed < needs {
             self.report(span, SceneError::TooFewChildren { group: group.name.name.clone(), kind, needs });

@@ -44,8 +44,10 @@ pub(super) struct Draw {
     indices: Option<(wgpu::Buffer, u32)>,
     vertex_count: u32,
     /// The images it reads and their bind group's number: a plane's picture and sampler, an
-    /// occlusion group's parts.
+    /// occlusion group's parts, a shadow group's shadow map.
     images: Option<(u32, wgpu::BindGroup)>,
+    /// Lit by a shadow group's light (`MeshPipelines::shadowed`).
+    shadowed: bool,
 }
 
 impl DrawUniforms {
@@ -57,6 +59,8 @@ impl DrawUniforms {
             normal_model: m.model.inverse().transpose().to_cols_array_2d(),
             color: [m.color[0], m.color[1], m.color[2], m.opacity.clamp(0.0, 1.0)],
             flat: [0.0; 4],
+            light_to_clip: Mat4::IDENTITY.to_cols_array_2d(),
+            light: [0.0; 4],
         }
     }
 
@@ -70,6 +74,8 @@ impl DrawUniforms {
             normal_model: identity,
             color,
             flat: [1.0, 0.0, 0.0, 0.0],
+            light_to_clip: identity,
+            light: [0.0; 4],
         }
     }
 }
@@ -124,7 +130,33 @@ fn surface(world_to_clip: Mat4, m: &MeshInstance, pass: Pass) -> Draw {
         indices: Some((m.gpu.indices.clone(), m.gpu.index_count)),
         vertex_count: 0,
         images: None,
+        shadowed: false,
     }
+}
+
+/// A shadow group's light as its meshes' draws see it: patient space to its shadow map's clip
+/// space, the unit direction towards it, and its shadow map's bind group.
+pub(crate) struct ShadowLight<'a> {
+    pub light_to_clip: Mat4,
+    pub towards: glam::Vec3,
+    pub map: &'a wgpu::BindGroup,
+}
+
+/// `draws` (lit surfaces) lit by `light` and shadowed by its map.
+pub(crate) fn shadowed(mut draws: Vec<Draw>, light: &ShadowLight) -> Vec<Draw> {
+    for draw in &mut draws {
+        draw.shadowed = true;
+        draw.uniforms.light_to_clip = light.light_to_clip.to_cols_array_2d();
+        draw.uniforms.light = light.towards.extend(0.0).to_array();
+        draw.images = Some((1, light.map.clone()));
+    }
+    draws
+}
+
+/// Each visible mesh of `meshes` once, seen from a light (`light_to_clip`), for its shadow map
+/// (recorded with [`Pipelines::One`]).
+pub(crate) fn caster_draws(light_to_clip: Mat4, meshes: &[&MeshInstance]) -> Vec<Draw> {
+    meshes.iter().filter(|m| m.opacity > 0.0).map(|m| surface(light_to_clip, m, Pass::Opaque)).collect()
 }
 
 /// A slice image's projection along its normal: patient space to clip space, depth 0.5 on the
@@ -160,6 +192,7 @@ fn outlines(
             indices: None,
             vertex_count: (quads.len() / 6) as u32,
             images: None,
+            shadowed: false,
         });
     }
     Ok(out)
@@ -238,6 +271,10 @@ pub(crate) fn record(
         if let Some((group, images)) = &draw.images {
             pass.set_bind_group(*group, images, &[]);
         }
+        let pipelines = match pipelines {
+            Pipelines::ByPass(_, all) if draw.shadowed => Pipelines::ByPass(&all.shadowed, all),
+            other => other,
+        };
         let pipeline = match (pipelines, draw.pass) {
             (Pipelines::One(pipeline), _) => pipeline,
             (Pipelines::ByPass(_, all), Pass::Plane) => &all.plane,
@@ -302,6 +339,7 @@ pub(crate) fn plane_draws(
             indices: None,
             vertex_count: 6,
             images: Some((1, picture)),
+            shadowed: false,
         });
     }
     Ok(out)
@@ -326,6 +364,7 @@ pub(crate) fn combine_draw(
         indices: None,
         vertex_count: 3,
         images: Some((3, images)),
+        shadowed: false,
     })
 }
 

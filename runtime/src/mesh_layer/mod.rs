@@ -19,6 +19,7 @@ pub(crate) mod outline;
 mod overlay;
 mod peel;
 pub(crate) mod pipelines;
+mod shadow;
 mod tree;
 
 use crate::error::RuntimeError;
@@ -26,15 +27,17 @@ use crate::gpu::Gpu;
 use crate::mesh::Mesh;
 use crate::textures::Image2d;
 pub(crate) use draws::PlanePicture;
+use draws::ShadowLight;
 use draws::{DrawBuffer, Pipelines, Target};
 use glam::Mat4;
 use outline::SliceFrame;
 pub(crate) use overlay::Overlay;
 use peel::PeeledLayers;
 use pipelines::{COLOR_FORMAT, DEPTH_FORMAT, DEPTH_IMAGE_FORMAT, MeshPipelines};
+use shadow::ShadowMap;
 use std::sync::Arc;
 pub(crate) use tree::LayerNode;
-use tree::{LayerPass, PassTarget};
+use tree::{LayerPass, LayerPlan, PassTarget};
 
 /// A mesh on the GPU: interleaved positions and normals, and triangle indices.
 pub(crate) struct GpuMesh {
@@ -138,6 +141,8 @@ pub struct MeshLayer {
     images: LayerImages,
     /// Per occlusion group of the tree, its context's and its focus's images.
     groups: Vec<[LayerImages; 2]>,
+    /// Per shadow group of the tree, its shadow map.
+    shadow_maps: Vec<ShadowMap>,
     /// The translucent surfaces peeled into layers, for a volume layer that reads them.
     peeled: Option<PeeledLayers>,
     /// What the images hold, so tiles and unchanged frames draw nothing again.
@@ -162,6 +167,7 @@ impl MeshLayer {
         Ok(MeshLayer {
             images: LayerImages::new(gpu, size, "mesh layer")?,
             groups: Vec::new(),
+            shadow_maps: Vec::new(),
             peeled: if peeled { Some(PeeledLayers::new(gpu, size)?) } else { None },
             drawn: None,
             buffer: DrawBuffer::default(),
@@ -191,24 +197,78 @@ impl MeshLayer {
         encoder: &mut wgpu::CommandEncoder,
         content: &LayerContent,
     ) -> Result<(), RuntimeError> {
-        let (passes, groups) = match content.camera {
-            LayerCamera::Projection { .. } => tree::plan(content.tree),
+        let plan = match content.camera {
+            LayerCamera::Projection { .. } => LayerPlan::of(content.tree),
             // A slice view outlines every mesh on its plane, whatever its group.
-            LayerCamera::Slice(_) => (vec![LayerPass::of_meshes(tree::meshes(content.tree))], 0),
+            LayerCamera::Slice(_) => LayerPlan::of_meshes(tree::meshes(content.tree)),
         };
         let key = layer_key(content, self.size());
         if self.drawn == Some(key) {
             return Ok(());
         }
-        while self.groups.len() < groups {
-            let part = || LayerImages::new(gpu, self.size(), "occlusion group part");
-            self.groups.push([part()?, part()?]);
-        }
         let planned = match pipelines {
-            Some(pipelines) => self.draws(gpu, (pipelines, sampler), content, &passes)?,
+            Some(pipelines) => {
+                self.make_images(gpu, pipelines, &plan)?;
+                self.draws(gpu, (pipelines, sampler), content, &plan)?
+            }
             None => PlannedDraws::default(),
         };
         let bind_group = self.buffer.bind(gpu, pipelines, &planned.draws)?;
+        let recorded = pipelines.zip(bind_group.as_ref());
+        if let Some(recorded) = recorded {
+            self.encode_shadow_maps(gpu, recorded, encoder, &planned)?;
+        }
+        self.encode_passes(gpu, recorded, encoder, &plan.passes, &planned)?;
+        if let (Some(peeled), Some((pipelines, bind_group))) = (&mut self.peeled, recorded) {
+            let first = planned.peeled_from;
+            let translucent = (bind_group, &planned.draws[first..], first);
+            peeled.encode(gpu, pipelines, encoder, &self.images.depth_view, translucent)?;
+        }
+        self.drawn = Some(key);
+        Ok(())
+    }
+
+    /// The images `plan` draws into besides the layer's own: its occlusion groups' parts and its
+    /// shadow maps (kept once made).
+    fn make_images(&mut self, gpu: &Gpu, pipelines: &MeshPipelines, plan: &LayerPlan) -> Result<(), RuntimeError> {
+        while self.groups.len() < plan.groups {
+            let part = || LayerImages::new(gpu, self.size(), "occlusion group part");
+            self.groups.push([part()?, part()?]);
+        }
+        while self.shadow_maps.len() < plan.shadows.len() {
+            self.shadow_maps.push(ShadowMap::new(gpu, pipelines)?);
+        }
+        Ok(())
+    }
+
+    /// Records each shadow map's pass: its group's meshes seen from its light.
+    fn encode_shadow_maps(
+        &self,
+        gpu: &Gpu,
+        (pipelines, bind_group): (&MeshPipelines, &wgpu::BindGroup),
+        encoder: &mut wgpu::CommandEncoder,
+        planned: &PlannedDraws,
+    ) -> Result<(), RuntimeError> {
+        for (map, range) in self.shadow_maps.iter().zip(&planned.shadow_ranges) {
+            gpu.capture("drawing a shadow map", || {
+                let depth = Some(depth_attachment(&map.depth));
+                let mut render = encoder.begin_render_pass(&pass_descriptor("shadow map", &[], depth));
+                let casters = (&planned.draws[range.clone()], range.start);
+                draws::record(&mut render, Pipelines::One(&pipelines.shadow_caster), bind_group, casters);
+            })?;
+        }
+        Ok(())
+    }
+
+    /// Records `passes`, each into its images (cleared) with its draws.
+    fn encode_passes(
+        &self,
+        gpu: &Gpu,
+        recorded: Option<(&MeshPipelines, &wgpu::BindGroup)>,
+        encoder: &mut wgpu::CommandEncoder,
+        passes: &[LayerPass],
+        planned: &PlannedDraws,
+    ) -> Result<(), RuntimeError> {
         for (i, pass) in passes.iter().enumerate() {
             let images = match pass.target {
                 PassTarget::Layer => &self.images,
@@ -223,58 +283,66 @@ impl MeshLayer {
                 ];
                 let depth = Some(depth_attachment(&images.depth_buffer));
                 let mut render = encoder.begin_render_pass(&pass_descriptor("mesh layer", &targets, depth));
-                if let (Some(pipelines), Some(bind_group)) = (pipelines, &bind_group) {
+                if let Some((pipelines, bind_group)) = recorded {
                     let by_pass = Pipelines::ByPass(&pipelines.layer, pipelines);
                     draws::record(&mut render, by_pass, bind_group, (&planned.draws[range.clone()], range.start));
                 }
             })?;
         }
-        if let (Some(peeled), Some(pipelines), Some(bind_group)) = (&mut self.peeled, pipelines, &bind_group) {
-            let first = planned.peeled_from;
-            let translucent = (bind_group, &planned.draws[first..], first);
-            peeled.encode(gpu, pipelines, encoder, &self.images.depth_view, translucent)?;
-        }
-        self.drawn = Some(key);
         Ok(())
     }
 
-    /// The draws of `passes`: in each, its occlusion groups' combinations, its planes and its
-    /// meshes; last, the translucent meshes the layer's own pass leaves to peeling.
+    /// The draws of `plan`: its shadow maps' casters; then, per pass, its occlusion groups'
+    /// combinations, its planes and its meshes; last, the translucent meshes the layer's own
+    /// pass leaves to peeling.
     fn draws(
         &self,
         gpu: &Gpu,
         (pipelines, sampler): (&MeshPipelines, &wgpu::Sampler),
         content: &LayerContent,
-        passes: &[LayerPass],
+        plan: &LayerPlan,
     ) -> Result<PlannedDraws, RuntimeError> {
         let mut planned = PlannedDraws::default();
+        let mut lights = Vec::with_capacity(plan.shadows.len());
+        for (cast, map) in plan.shadows.iter().zip(&self.shadow_maps) {
+            let meshes: Vec<&MeshInstance> = cast.meshes.iter().filter_map(|&i| content.meshes.get(i)).collect();
+            let towards = glam::Vec3::from(cast.light).try_normalize().unwrap_or(glam::Vec3::Z);
+            let light_to_clip = shadow::light_to_clip(towards, &meshes);
+            let start = planned.draws.len();
+            planned.draws.extend(draws::caster_draws(light_to_clip, &meshes));
+            planned.shadow_ranges.push(start..planned.draws.len());
+            lights.push(ShadowLight { light_to_clip, towards, map: &map.bind_group });
+        }
         let mut peeled = Vec::new();
-        for pass in passes {
+        for pass in &plan.passes {
             let start = planned.draws.len();
             for &(group, hidden_opacity) in &pass.combines {
                 let [context, focus] = &self.groups[group];
-                planned.draws.push(draws::combine_draw(
-                    gpu,
-                    pipelines,
-                    hidden_opacity,
-                    [context.read(), focus.read()],
-                )?);
+                let parts = [context.read(), focus.read()];
+                planned.draws.push(draws::combine_draw(gpu, pipelines, hidden_opacity, parts)?);
             }
             if let LayerCamera::Projection { world_to_clip } = content.camera {
                 let planes: Vec<PlanePicture> =
                     pass.planes.iter().filter_map(|&i| content.planes.get(i)?.clone()).collect();
                 planned.draws.extend(draws::plane_draws(gpu, pipelines, sampler, *world_to_clip, &planes)?);
             }
-            // Peeled (a raycast view): the layer's own translucent meshes are drawn only by the
-            // peeling passes, after the others; a group's are blended into its part.
-            let peels = self.peeled.is_some()
-                && pass.target == PassTarget::Layer
-                && matches!(content.camera, LayerCamera::Projection { .. });
-            let meshes = pass.meshes.iter().filter_map(|&i| content.meshes.get(i));
-            let (drawn, translucent): (Vec<&MeshInstance>, Vec<&MeshInstance>) =
-                meshes.partition(|m| !peels || m.opacity >= 1.0);
-            planned.draws.extend(draws::frame_draws(gpu, content.camera, &drawn, self.size(), Target::Layer)?);
-            peeled.extend(translucent);
+            for (shadow, meshes) in by_light(pass, content.meshes) {
+                let Some(light) = shadow.and_then(|s| lights.get(s)) else {
+                    // Peeled (a raycast view): the layer's own translucent meshes are drawn
+                    // only by the peeling passes, after the others; a group's are blended into
+                    // its part.
+                    let peels = self.peeled.is_some()
+                        && pass.target == PassTarget::Layer
+                        && matches!(content.camera, LayerCamera::Projection { .. });
+                    let (drawn, translucent): (Vec<&MeshInstance>, Vec<&MeshInstance>) =
+                        meshes.into_iter().partition(|m| !peels || m.opacity >= 1.0);
+                    planned.draws.extend(draws::frame_draws(gpu, content.camera, &drawn, self.size(), Target::Layer)?);
+                    peeled.extend(translucent);
+                    continue;
+                };
+                let lit = draws::frame_draws(gpu, content.camera, &meshes, self.size(), Target::Layer)?;
+                planned.draws.extend(draws::shadowed(lit, light));
+            }
             planned.ranges.push(start..planned.draws.len());
         }
         planned.peeled_from = planned.draws.len();
@@ -285,11 +353,26 @@ impl MeshLayer {
     }
 }
 
-/// A layer's draws, and which belong to which pass (in the plan's order); those from
-/// `peeled_from` on are the peeling passes'.
+/// A pass's meshes by the light that lights them (a shadow group's, or none: the headlight), in
+/// the order the lights first appear.
+fn by_light<'a>(pass: &LayerPass, meshes: &'a [MeshInstance]) -> Vec<(Option<usize>, Vec<&'a MeshInstance>)> {
+    let mut out: Vec<(Option<usize>, Vec<&MeshInstance>)> = Vec::new();
+    for lit in &pass.meshes {
+        let Some(mesh) = meshes.get(lit.mesh) else { continue };
+        match out.iter_mut().find(|(shadow, _)| *shadow == lit.shadow) {
+            Some((_, list)) => list.push(mesh),
+            None => out.push((lit.shadow, vec![mesh])),
+        }
+    }
+    out
+}
+
+/// A layer's draws, and which belong to which shadow map and which pass (in the plan's order);
+/// those from `peeled_from` on are the peeling passes'.
 #[derive(Default)]
 struct PlannedDraws {
     draws: Vec<draws::Draw>,
+    shadow_ranges: Vec<std::ops::Range<usize>>,
     ranges: Vec<std::ops::Range<usize>>,
     peeled_from: usize,
 }

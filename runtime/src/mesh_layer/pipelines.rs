@@ -36,6 +36,10 @@ pub(crate) struct DrawUniforms {
     pub color: [f32; 4],
     /// x: 1 for flat colour (outlines), 0 for a lit surface.
     pub flat: [f32; 4],
+    /// A shadow group's light: patient space to its shadow map's clip space, and the unit
+    /// direction towards it (`fs_shadowed`).
+    pub light_to_clip: [[f32; 4]; 4],
+    pub light: [f32; 4],
 }
 
 pub(crate) const SHADER: &str = r#"
@@ -46,6 +50,8 @@ struct Draw {
     normal_model: mat4x4<f32>,
     color: vec4<f32>,
     flat_colour: vec4<f32>,
+    light_to_clip: mat4x4<f32>,
+    light: vec4<f32>,
 }
 @group(0) @binding(0) var<uniform> draw: Draw;
 
@@ -53,6 +59,7 @@ struct Varyings {
     @builtin(position) clip: vec4<f32>,
     @location(0) normal: vec3<f32>,
     @location(1) to_eye: vec3<f32>,
+    @location(2) world: vec3<f32>,
 }
 
 fn unproject(ndc: vec3<f32>) -> vec3<f32> {
@@ -65,6 +72,7 @@ fn vs(@location(0) position: vec3<f32>, @location(1) normal: vec3<f32>) -> Varyi
     var out: Varyings;
     let world = draw.model * vec4<f32>(position, 1.0);
     out.clip = draw.world_to_clip * world;
+    out.world = world.xyz / world.w;
     out.normal = (draw.normal_model * vec4<f32>(normal, 0.0)).xyz;
     // Towards the viewer along the pixel's ray (perspective and orthographic alike).
     let ndc = out.clip.xy / out.clip.w;
@@ -97,6 +105,30 @@ fn fs(in: Varyings) -> Fragment {
 @fragment
 fn fs_overlay(in: Varyings) -> @location(0) vec4<f32> {
     return shade(in);
+}
+
+// A shadow group's meshes: lit by its light (two-sided Lambert over the same ambient floor),
+// where its shadow map sees them (a 2x2 comparison filter softens the shadow's edge).
+// (Group 1 as the planes' pictures, at other bindings: a device binds at most four groups.)
+@group(1) @binding(2) var shadow_map: texture_depth_2d;
+@group(1) @binding(3) var shadow_sampler: sampler_comparison;
+
+// The shadow map's depth is biased towards the light when drawn; this keeps a surface's own
+// depth from shadowing it where the map's texels are coarser than the view's pixels.
+const SHADOW_BIAS: f32 = 0.002;
+
+@fragment
+fn fs_shadowed(in: Varyings) -> Fragment {
+    let seen = draw.light_to_clip * vec4<f32>(in.world, 1.0);
+    let uv = vec2<f32>(seen.x * 0.5 + 0.5, 0.5 - seen.y * 0.5);
+    let lit = textureSampleCompareLevel(shadow_map, shadow_sampler, uv, seen.z - SHADOW_BIAS);
+    var n = normalize(in.normal);
+    if dot(n, in.to_eye) < 0.0 {
+        n = -n;
+    }
+    let rgb = draw.color.rgb * (0.3 + 0.7 * max(dot(n, draw.light.xyz), 0.0) * lit);
+    let a = draw.color.a;
+    return Fragment(vec4<f32>(rgb * a, a), in.clip.z);
 }
 
 // Peeling: the depth of the first opaque surface and of the translucent layer peeled last (0
@@ -201,15 +233,7 @@ fn fs_combine(@builtin(position) clip: vec4<f32>) -> Combined {
 pub(crate) const BINDINGS: PassBindings = PassBindings {
     label: "mesh layer",
     groups: &[
-        &[Slot {
-            binding: 0,
-            visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
-            ty: wgpu::BindingType::Buffer {
-                ty: wgpu::BufferBindingType::Uniform,
-                has_dynamic_offset: true,
-                min_binding_size: wgpu::BufferSize::new(std::mem::size_of::<DrawUniforms>() as u64),
-            },
-        }],
+        DRAW_GROUP,
         &[
             Slot {
                 binding: 0,
@@ -222,6 +246,42 @@ pub(crate) const BINDINGS: PassBindings = PassBindings {
         &[loaded_image(0), loaded_image(1), loaded_image(2), loaded_image(3)],
     ],
 };
+
+/// The bindings of the shadowed pipelines (`fs_shadowed`): group 0 as in [`BINDINGS`]; group 1,
+/// a shadow group's shadow map and its comparison sampler.
+pub(crate) const SHADOW_BINDINGS: PassBindings = PassBindings {
+    label: "shadowed meshes",
+    groups: &[
+        DRAW_GROUP,
+        &[
+            Slot {
+                binding: 2,
+                visibility: wgpu::ShaderStages::FRAGMENT,
+                ty: wgpu::BindingType::Texture {
+                    sample_type: wgpu::TextureSampleType::Depth,
+                    view_dimension: wgpu::TextureViewDimension::D2,
+                    multisampled: false,
+                },
+            },
+            Slot {
+                binding: 3,
+                visibility: wgpu::ShaderStages::FRAGMENT,
+                ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Comparison),
+            },
+        ],
+    ],
+};
+
+/// Group 0 of every mesh pipeline: a draw's uniforms, at a dynamic offset.
+const DRAW_GROUP: &[Slot] = &[Slot {
+    binding: 0,
+    visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
+    ty: wgpu::BindingType::Buffer {
+        ty: wgpu::BufferBindingType::Uniform,
+        has_dynamic_offset: true,
+        min_binding_size: wgpu::BufferSize::new(std::mem::size_of::<DrawUniforms>() as u64),
+    },
+}];
 
 /// A fragment shader's `texture_2d<f32>` at `binding`, read with `textureLoad` only.
 const fn loaded_image(binding: u32) -> Slot {
@@ -265,6 +325,14 @@ pub(crate) struct MeshPipelines {
     pub peel_rest: wgpu::RenderPipeline,
     /// An occlusion group's context and focus combined into its parent's colour and depth.
     pub combine: wgpu::RenderPipeline,
+    /// Into a mesh layer, lit by a shadow group's light and shadowed by its shadow map.
+    pub shadowed: PipelineSet,
+    /// A shadow group's meshes into its shadow map (depth only, biased away from the light).
+    pub shadow_caster: wgpu::RenderPipeline,
+    /// The shadow maps' comparison sampler (linear: a 2x2 filter).
+    pub shadow_sampler: wgpu::Sampler,
+    /// The layouts of [`SHADOW_BINDINGS`].
+    pub(crate) shadow_bindings: PassLayout,
 }
 
 impl MeshPipelines {
@@ -277,8 +345,11 @@ impl MeshPipelines {
             let bindings = PassLayout::new(gpu, BINDINGS);
             // The mesh pipelines read group 0; the plane pipeline reads both.
             let pipeline_layout = bindings.pipeline_layout(gpu, 1);
-            let set = |overlay| {
-                let make = |kind| pipeline(gpu, &module, &pipeline_layout, kind, overlay);
+            let shadow_bindings = PassLayout::new(gpu, SHADOW_BINDINGS);
+            let shadowing = shadow_bindings.pipeline_layout(gpu, 2);
+            let set = |target| {
+                let layout = if target == SetTarget::Shadowed { &shadowing } else { &pipeline_layout };
+                let make = |kind| pipeline(gpu, &module, layout, kind, target);
                 PipelineSet {
                     opaque: make(Kind::Opaque),
                     opaque_closed: make(Kind::OpaqueClosed),
@@ -291,7 +362,25 @@ impl MeshPipelines {
             let peel = peel_pipeline(gpu, &module, &peeling, false);
             let peel_rest = peel_pipeline(gpu, &module, &peeling, true);
             let combine = combine_pipeline(gpu, &module, &bindings.pipeline_layout_of(gpu, &[0, 3]));
-            MeshPipelines { layer: set(false), overlay: set(true), plane, peel, peel_rest, combine, bindings }
+            MeshPipelines {
+                layer: set(SetTarget::Layer),
+                overlay: set(SetTarget::Overlay),
+                shadowed: set(SetTarget::Shadowed),
+                shadow_caster: shadow_caster_pipeline(gpu, &module, &pipeline_layout),
+                shadow_sampler: gpu.device.create_sampler(&wgpu::SamplerDescriptor {
+                    label: Some("shadow map"),
+                    mag_filter: wgpu::FilterMode::Linear,
+                    min_filter: wgpu::FilterMode::Linear,
+                    compare: Some(wgpu::CompareFunction::LessEqual),
+                    ..Default::default()
+                }),
+                plane,
+                peel,
+                peel_rest,
+                combine,
+                bindings,
+                shadow_bindings,
+            }
         })?;
         Ok(made)
     }
@@ -300,13 +389,24 @@ impl MeshPipelines {
 /// Position and normal, 24 bytes a vertex.
 const VERTEX_ATTRIBUTES: [wgpu::VertexAttribute; 2] = wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3];
 
-/// A pipeline of `kind`, into a mesh layer's two images or (`overlay`) over a picture.
+/// What a [`PipelineSet`] draws into, and how it lights.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum SetTarget {
+    /// A mesh layer's two images, headlight.
+    Layer,
+    /// Over a picture, headlight.
+    Overlay,
+    /// A mesh layer's two images, a shadow group's light and shadow map.
+    Shadowed,
+}
+
+/// A pipeline of `kind` for `target`.
 fn pipeline(
     gpu: &Gpu,
     module: &wgpu::ShaderModule,
     layout: &wgpu::PipelineLayout,
     kind: Kind,
-    overlay: bool,
+    target: SetTarget,
 ) -> wgpu::RenderPipeline {
     let (cull_mode, depth_write_enabled) = match kind {
         Kind::Opaque => (None, true),
@@ -325,9 +425,13 @@ fn pipeline(
         blend: None,
         write_mask: if depth_write_enabled { wgpu::ColorWrites::RED } else { wgpu::ColorWrites::empty() },
     });
-    let (entry_point, targets) = if overlay { ("fs_overlay", vec![color]) } else { ("fs", vec![color, depth_image]) };
-    let surface =
-        SurfacePipeline { entry_point, targets: &targets, depth: Some(depth_test(depth_write_enabled)), cull_mode };
+    let (entry_point, targets) = match target {
+        SetTarget::Overlay => ("fs_overlay", vec![color]),
+        SetTarget::Layer => ("fs", vec![color, depth_image]),
+        SetTarget::Shadowed => ("fs_shadowed", vec![color, depth_image]),
+    };
+    let depth = Some(depth_test(depth_write_enabled));
+    let surface = SurfacePipeline { entry_point: Some(entry_point), targets: &targets, depth, cull_mode };
     surface_pipeline(gpu, module, layout, surface)
 }
 
@@ -345,9 +449,10 @@ const UNDER: wgpu::BlendComponent = wgpu::BlendComponent {
     operation: wgpu::BlendOperation::Add,
 };
 
-/// What differs between the pipelines of lit surfaces (`vs` and one of the fragment shaders).
+/// What differs between the pipelines of lit surfaces (`vs` and one of the fragment shaders, or
+/// none: depth only).
 struct SurfacePipeline<'a> {
-    entry_point: &'a str,
+    entry_point: Option<&'a str>,
     targets: &'a [Option<wgpu::ColorTargetState>],
     depth: Option<wgpu::DepthStencilState>,
     cull_mode: Option<wgpu::Face>,
@@ -379,9 +484,9 @@ fn surface_pipeline(
         },
         depth_stencil: surface.depth,
         multisample: Default::default(),
-        fragment: Some(wgpu::FragmentState {
+        fragment: surface.entry_point.map(|entry_point| wgpu::FragmentState {
             module,
-            entry_point: Some(surface.entry_point),
+            entry_point: Some(entry_point),
             compilation_options: Default::default(),
             targets: surface.targets,
         }),
@@ -407,7 +512,7 @@ fn peel_pipeline(
         vec![target(COLOR_FORMAT, None), target(DEPTH_IMAGE_FORMAT, None)]
     };
     let surface = SurfacePipeline {
-        entry_point: if rest { "fs_peel_rest" } else { "fs_peel" },
+        entry_point: Some(if rest { "fs_peel_rest" } else { "fs_peel" }),
         targets: &targets,
         depth: (!rest).then(|| depth_test(true)),
         cull_mode: None,
@@ -479,6 +584,21 @@ fn combine_pipeline(gpu: &Gpu, module: &wgpu::ShaderModule, layout: &wgpu::Pipel
         multiview_mask: None,
         cache: None,
     })
+}
+
+/// The pipeline of shadow maps: every face of a shadow group's meshes, depth only, the nearest
+/// kept, pushed away from the light by a slope-scaled bias (no surface shadows itself).
+fn shadow_caster_pipeline(
+    gpu: &Gpu,
+    module: &wgpu::ShaderModule,
+    layout: &wgpu::PipelineLayout,
+) -> wgpu::RenderPipeline {
+    let depth = wgpu::DepthStencilState {
+        bias: wgpu::DepthBiasState { constant: 2, slope_scale: 2.0, clamp: 0.0 },
+        ..depth_test(true)
+    };
+    let surface = SurfacePipeline { entry_point: None, targets: &[], depth: Some(depth), cull_mode: None };
+    surface_pipeline(gpu, module, layout, surface)
 }
 
 /// The nearest surface wins; `write`: the surface hides what is drawn after it.

@@ -1,8 +1,9 @@
 //! A mesh layer's renderer tree (the scene's `picture` under the volume, see the reference's
 //! "Renderer trees"), and the render passes that draw it: children before their parents, each
 //! occlusion group's two parts into images of their own, which the parent's pass combines
-//! before it draws its own leaves. Depth groups need no images: their leaves are drawn into
-//! their parent's pass, where the depth test combines them.
+//! before it draws its own leaves. Depth and shadow groups need no images: their leaves are
+//! drawn into their parent's pass, where the depth test combines them; a shadow group's
+//! meshes are drawn into its shadow map first and lit by its light.
 
 /// A node of a mesh layer's tree.
 #[derive(Clone, Debug, PartialEq)]
@@ -14,6 +15,9 @@ pub(crate) enum LayerNode {
     /// An occlusion group: where `context`'s opaque surfaces lie in front of `focus`'s, the
     /// focus shows through them with `hidden_opacity`; elsewhere the two combine by depth.
     Occlusion { hidden_opacity: f32, context: Vec<LayerNode>, focus: Vec<LayerNode> },
+    /// A shadow group: `children` lit by a directional light from `light` (patient space,
+    /// towards the light), each mesh shadowing the others.
+    Shadow { light: [f32; 3], children: Vec<LayerNode> },
 }
 
 /// Which images a pass draws into.
@@ -27,6 +31,14 @@ pub(crate) enum PassTarget {
     Focus(usize),
 }
 
+/// A mesh as a pass draws it: `shadow`, the shadow group (index into [`LayerPlan::shadows`])
+/// whose light and shadow map light it; none, the headlight.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct LitMesh {
+    pub mesh: usize,
+    pub shadow: Option<usize>,
+}
+
 /// One render pass of a layer: into `target` (cleared), the combination of occlusion groups
 /// (`(group, hidden_opacity)`), then the planes and the meshes, depth-tested together.
 #[derive(Clone, Debug, PartialEq)]
@@ -34,40 +46,68 @@ pub(crate) struct LayerPass {
     pub target: PassTarget,
     pub combines: Vec<(usize, f32)>,
     pub planes: Vec<usize>,
+    pub meshes: Vec<LitMesh>,
+}
+
+/// A shadow group's shadow map: drawn from `light` with every mesh of the group.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) struct ShadowCast {
+    pub light: [f32; 3],
     pub meshes: Vec<usize>,
 }
 
-impl LayerPass {
-    /// The layer's only pass, drawing `meshes`.
-    pub(crate) fn of_meshes(meshes: Vec<usize>) -> LayerPass {
-        LayerPass { target: PassTarget::Layer, combines: Vec::new(), planes: Vec::new(), meshes }
+/// How a tree is drawn: its shadow maps first, then its passes (the layer's last), with
+/// `groups` occlusion groups' images.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub(crate) struct LayerPlan {
+    pub shadows: Vec<ShadowCast>,
+    pub passes: Vec<LayerPass>,
+    pub groups: usize,
+}
+
+impl LayerPlan {
+    /// The plan of `tree`.
+    pub(crate) fn of(tree: &[LayerNode]) -> LayerPlan {
+        let mut plan = LayerPlan::default();
+        plan.pass(tree, PassTarget::Layer, None);
+        plan
     }
-}
 
-/// The passes that draw `tree`, the layer's last, and how many occlusion groups they use.
-pub(crate) fn plan(tree: &[LayerNode]) -> (Vec<LayerPass>, usize) {
-    let mut passes = Vec::new();
-    let mut groups = 0;
-    plan_into(tree, PassTarget::Layer, &mut passes, &mut groups);
-    (passes, groups)
-}
+    /// One pass drawing `meshes` with the headlight (a slice view's outlines).
+    pub(crate) fn of_meshes(meshes: Vec<usize>) -> LayerPlan {
+        let meshes = meshes.into_iter().map(|mesh| LitMesh { mesh, shadow: None }).collect();
+        let pass = LayerPass { target: PassTarget::Layer, combines: Vec::new(), planes: Vec::new(), meshes };
+        LayerPlan { shadows: Vec::new(), passes: vec![pass], groups: 0 }
+    }
 
-fn plan_into(nodes: &[LayerNode], target: PassTarget, passes: &mut Vec<LayerPass>, groups: &mut usize) {
-    let mut pass = LayerPass { target, combines: Vec::new(), planes: Vec::new(), meshes: Vec::new() };
-    for node in nodes {
-        match node {
-            LayerNode::Mesh(i) => pass.meshes.push(*i),
-            LayerNode::Plane(i) => pass.planes.push(*i),
-            LayerNode::Occlusion { hidden_opacity, context, focus } => {
-                let group = *groups;
-                *groups += 1;
-                plan_into(context, PassTarget::Context(group), passes, groups);
-                plan_into(focus, PassTarget::Focus(group), passes, groups);
-                pass.combines.push((group, *hidden_opacity));
+    /// The pass into `target` of `nodes`, after those of its occlusion groups' parts.
+    fn pass(&mut self, nodes: &[LayerNode], target: PassTarget, shadow: Option<usize>) {
+        let mut pass = LayerPass { target, combines: Vec::new(), planes: Vec::new(), meshes: Vec::new() };
+        self.collect(nodes, &mut pass, shadow);
+        self.passes.push(pass);
+    }
+
+    /// `nodes` into `pass`: leaves, depth and shadow groups' leaves, occlusion groups'
+    /// combinations (their parts planned as passes of their own).
+    fn collect(&mut self, nodes: &[LayerNode], pass: &mut LayerPass, shadow: Option<usize>) {
+        for node in nodes {
+            match node {
+                LayerNode::Mesh(mesh) => pass.meshes.push(LitMesh { mesh: *mesh, shadow }),
+                LayerNode::Plane(i) => pass.planes.push(*i),
+                LayerNode::Occlusion { hidden_opacity, context, focus } => {
+                    let group = self.groups;
+                    self.groups += 1;
+                    self.pass(context, PassTarget::Context(group), shadow);
+                    self.pass(focus, PassTarget::Focus(group), shadow);
+                    pass.combines.push((group, *hidden_opacity));
+                }
+                LayerNode::Shadow { light, children } => {
+                    self.shadows.push(ShadowCast { light: *light, meshes: meshes(children) });
+                    self.collect(children, pass, Some(self.shadows.len() - 1));
+                }
             }
         }
     }
-    passes.push(pass);
 }
 
 /// Every mesh of `tree`, in order (a slice view outlines them all, whatever their groups).
@@ -81,6 +121,7 @@ pub(crate) fn meshes(tree: &[LayerNode]) -> Vec<usize> {
                 out.extend(meshes(context));
                 out.extend(meshes(focus));
             }
+            LayerNode::Shadow { children, .. } => out.extend(meshes(children)),
         }
     }
     out
@@ -98,15 +139,33 @@ mod tests {
             context: vec![LayerNode::Mesh(0)],
             focus: vec![LayerNode::Mesh(1), inner],
         };
-        let (passes, groups) = plan(&[LayerNode::Plane(0), outer, LayerNode::Mesh(3)]);
-        assert_eq!(groups, 2);
-        let targets: Vec<PassTarget> = passes.iter().map(|p| p.target).collect();
+        let plan = LayerPlan::of(&[LayerNode::Plane(0), outer, LayerNode::Mesh(3)]);
+        assert_eq!(plan.groups, 2);
+        let targets: Vec<PassTarget> = plan.passes.iter().map(|p| p.target).collect();
         use PassTarget::*;
         assert_eq!(targets, [Context(0), Context(1), Focus(1), Focus(0), Layer]);
-        assert_eq!(passes[3].combines, [(1, 1.0)]);
-        assert_eq!(passes[3].meshes, [1]);
-        assert_eq!((passes[4].combines.clone(), passes[4].planes.clone()), (vec![(0, 0.5)], vec![0]));
-        assert_eq!(passes[4].meshes, [3]);
+        let lit = |mesh| LitMesh { mesh, shadow: None };
+        assert_eq!(plan.passes[3].combines, [(1, 1.0)]);
+        assert_eq!(plan.passes[3].meshes, [lit(1)]);
+        assert_eq!((plan.passes[4].combines.clone(), plan.passes[4].planes.clone()), (vec![(0, 0.5)], vec![0]));
+        assert_eq!(plan.passes[4].meshes, [lit(3)]);
         assert_eq!(meshes(&[LayerNode::Mesh(3), LayerNode::Plane(0)]), [3]);
+    }
+
+    #[test]
+    fn a_shadow_groups_meshes_are_drawn_in_their_parents_pass_with_its_light() {
+        let occluded = LayerNode::Occlusion {
+            hidden_opacity: 0.5,
+            context: vec![LayerNode::Mesh(1)],
+            focus: vec![LayerNode::Mesh(2)],
+        };
+        let light = [0.0, 0.0, 1.0];
+        let shadow = LayerNode::Shadow { light, children: vec![LayerNode::Mesh(0), occluded] };
+        let plan = LayerPlan::of(&[shadow, LayerNode::Mesh(3)]);
+        assert_eq!(plan.shadows, [ShadowCast { light, meshes: vec![0, 1, 2] }]);
+        let lit = |mesh, shadow| LitMesh { mesh, shadow };
+        assert_eq!(plan.passes[0].meshes, [lit(1, Some(0))]);
+        assert_eq!(plan.passes[1].meshes, [lit(2, Some(0))]);
+        assert_eq!(plan.passes[2].meshes, [lit(0, Some(0)), lit(3, None)]);
     }
 }

@@ -45,6 +45,9 @@ fn layer_nodes(scene: &Scene, nodes: &[Node], planes: &[usize], depth: usize) ->
                 let children = |nodes: &[Node]| layer_nodes(scene, nodes, planes, depth + 1);
                 match group.kind {
                     GroupKind::Depth => out.extend(children(&group.children)),
+                    GroupKind::Shadow { light } => {
+                        out.push(LayerNode::Shadow { light, children: children(&group.children) })
+                    }
                     GroupKind::Occlusion { hidden_opacity } => {
                         let (context, focus) = group.children.split_at(group.children.len().min(1));
                         out.push(LayerNode::Occlusion {
