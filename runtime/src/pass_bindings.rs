@@ -190,12 +190,14 @@ mod tests {
     use super::*;
     use naga::{AddressSpace, ImageClass, ImageDimension, ScalarKind, StorageAccess, TypeInner};
 
-    /// Every inline shader of the runtime's own passes, with its declaration.
-    fn shaders() -> [(&'static str, &'static str, PassBindings); 3] {
+    /// Every inline shader of the runtime's own passes, with its declarations (the mesh layer's
+    /// pipelines bind two sets of groups).
+    fn shaders() -> [(&'static str, &'static str, &'static [PassBindings]); 3] {
+        use crate::mesh_layer::pipelines as mesh;
         [
-            ("light volume", crate::light_volume::SHADER, crate::light_volume::BINDINGS),
-            ("metering", crate::metering::SHADER, crate::metering::BINDINGS),
-            ("mesh layer", crate::mesh_layer::pipelines::SHADER, crate::mesh_layer::pipelines::BINDINGS),
+            ("light volume", crate::light_volume::SHADER, &[crate::light_volume::BINDINGS]),
+            ("metering", crate::metering::SHADER, &[crate::metering::BINDINGS]),
+            ("mesh layer", mesh::SHADER, &[mesh::BINDINGS, mesh::SHADOW_BINDINGS]),
         ]
     }
 
@@ -208,6 +210,13 @@ mod tests {
             }
             wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Comparison) => "comparison sampler".into(),
             wgpu::BindingType::Sampler(_) => "sampler".into(),
+            wgpu::BindingType::Texture {
+                sample_type: wgpu::TextureSampleType::Depth,
+                view_dimension,
+                multisampled,
+            } => {
+                format!("depth texture {view_dimension:?} multisampled={multisampled}")
+            }
             wgpu::BindingType::Texture { view_dimension, multisampled, .. } => {
                 format!("texture {view_dimension:?} multisampled={multisampled}")
             }
@@ -251,6 +260,9 @@ mod tests {
                 assert_eq!(*kind, ScalarKind::Float, "the runtime's passes sample float textures");
                 format!("texture {:?} multisampled={multi}", dimension(*dim, *arrayed))
             }
+            (_, TypeInner::Image { dim, arrayed, class: ImageClass::Depth { multi } }) => {
+                format!("depth texture {:?} multisampled={multi}", dimension(*dim, *arrayed))
+            }
             (_, TypeInner::Image { dim, arrayed, class: ImageClass::Storage { format, access } }) => {
                 let access = match (access.contains(StorageAccess::LOAD), access.contains(StorageAccess::STORE)) {
                     (true, true) => wgpu::StorageTextureAccess::ReadWrite,
@@ -288,37 +300,42 @@ mod tests {
             label: "t",
             groups: &[&[Slot::compute(0, ty::UNIFORM), Slot::compute(1, ty::STORAGE_READ_WRITE)]],
         };
-        let (missing, other_kind, right) = (MISSING, OTHER_KIND, RIGHT);
+        let (missing, other_kind, right) = (&[MISSING], &[OTHER_KIND], &[RIGHT]);
         assert_eq!(check(wgsl, missing).len(), 1, "{:?}", check(wgsl, missing));
         assert_eq!(check(wgsl, other_kind).len(), 1, "{:?}", check(wgsl, other_kind));
         assert!(check(wgsl, right).is_empty(), "{:?}", check(wgsl, right));
+        // Two declarations of one shader: what either declares is declared.
+        assert!(check(wgsl, &[MISSING, RIGHT]).is_empty(), "{:?}", check(wgsl, &[MISSING, RIGHT]));
     }
 
     /// What differs between `wgsl` and `declared`, a line each (empty: they agree).
-    fn check(wgsl: &str, declared: PassBindings) -> Vec<String> {
+    fn check(wgsl: &str, declarations: &[PassBindings]) -> Vec<String> {
         let module = naga::front::wgsl::parse_str(wgsl).unwrap_or_else(|e| panic!("{}", e.emit_to_string(wgsl)));
         let mut validator = naga::valid::Validator::new(naga::valid::ValidationFlags::all(), Default::default());
         if let Err(e) = validator.validate(&module) {
             return vec![format!("does not validate: {}", e.emit_to_string(wgsl))];
         }
-        let mut in_shader: std::collections::BTreeMap<(u32, u32), String> = module
+        let in_shader: std::collections::BTreeMap<(u32, u32), String> = module
             .global_variables
             .iter()
             .filter_map(|(_, var)| var.binding.as_ref().map(|b| ((b.group, b.binding), of_shader(&module, var))))
             .collect();
         let mut report = Vec::new();
-        for (group, slots) in declared.groups.iter().enumerate() {
+        let mut declared = std::collections::BTreeSet::new();
+        for (group, slots) in declarations.iter().flat_map(|d| d.groups.iter().enumerate()) {
             for slot in *slots {
                 let key = (group as u32, slot.binding);
                 let want = of_layout(&slot.ty);
-                match in_shader.remove(&key) {
+                declared.insert(key);
+                match in_shader.get(&key) {
                     None => report.push(format!("{key:?}: declared ({want}), not in the shader")),
-                    Some(got) if got != want => report.push(format!("{key:?}: declared {want}, the shader has {got}")),
+                    Some(got) if *got != want => report.push(format!("{key:?}: declared {want}, the shader has {got}")),
                     Some(_) => {}
                 }
             }
         }
-        report.extend(in_shader.into_iter().map(|(key, got)| format!("{key:?}: {got} in the shader, not declared")));
+        let undeclared = in_shader.into_iter().filter(|(key, _)| !declared.contains(key));
+        report.extend(undeclared.map(|(key, got)| format!("{key:?}: {got} in the shader, not declared")));
         report
     }
 }

@@ -6,7 +6,7 @@ use crate::bricks::BrickView;
 use crate::error::RuntimeError;
 use crate::gpu::Gpu;
 use crate::history::History;
-use crate::mesh_layer::{LayerCamera, LayerContent, LayerNode, MeshInstance, MeshLayer, Overlay, PlanePicture};
+use crate::mesh_layer::{LayerCamera, LayerNode, MeshLayer, MeshResources, PlanePicture, ViewLayers};
 use crate::metering::Metering;
 use crate::reflection::BindingKind;
 use crate::resources::Resources;
@@ -26,20 +26,9 @@ pub struct ViewRenderer {
     size: [u32; 2],
     /// Automatic exposure's luminance image and reduction, for a view that meters.
     metering: Option<Metering>,
-    /// The mesh layer under the volume, for a view whose shader reads it: its images (one per
-    /// target size in use, the last used first: a preview and the full image), the camera it is
-    /// drawn with and the tree it draws.
-    mesh_layers: Vec<MeshLayer>,
-    layer_camera: Option<LayerCamera>,
-    layer_tree: Vec<LayerNode>,
-    /// The meshes drawn over the picture (indices into `Resources::meshes`), and the overlay's
-    /// depth buffers (one per target size in use, the last used first).
-    overlay_meshes: Vec<usize>,
-    overlays: Vec<Overlay>,
-    /// Slice views' pictures the mesh layer shows on their planes, and how often they were
-    /// rendered anew.
-    layer_planes: Vec<Option<PlanePicture>>,
-    planes_generation: u64,
+    /// The mesh layer under the volume (for a view whose shader reads it), the overlay over it,
+    /// and what they draw.
+    layers: ViewLayers,
     /// How the view looks at bricked volumes (what picks their levels), the finest level it
     /// shows (above 0 holds detail back), and its `BrickLayout` buffer of each.
     brick_view: Option<BrickView>,
@@ -58,25 +47,14 @@ pub struct ViewRenderer {
 /// [`ViewRenderer::set_samples`] says otherwise.
 pub const DEFAULT_SAMPLES: u32 = 16;
 
-/// Mesh layers and overlays kept per view: one for previews and one for the full image.
-const MESH_LAYER_SIZES: usize = 2;
-
-/// The item of `list` (the last used first) made for `size`, moved to the front; made by `make`
-/// when there is none, the least recently used dropped past [`MESH_LAYER_SIZES`].
-fn for_size<T>(
-    list: &mut Vec<T>,
-    size: [u32; 2],
-    size_of: fn(&T) -> [u32; 2],
-    make: impl FnOnce() -> Result<T, RuntimeError>,
-) -> Result<&mut T, RuntimeError> {
-    match list.iter().position(|item| size_of(item) == size) {
-        Some(i) => list[..=i].rotate_right(1),
-        None => {
-            list.insert(0, make()?);
-            list.truncate(MESH_LAYER_SIZES);
-        }
+/// What a view's layers draw with, of the scene's resources.
+fn mesh_resources(resources: &Resources) -> MeshResources<'_> {
+    MeshResources {
+        pipelines: resources.mesh_pipelines.as_ref(),
+        meshes: &resources.meshes,
+        sampler: &resources.sampler,
+        generation: resources.mesh_generation(),
     }
-    Ok(&mut list[0])
 }
 
 /// Rows of a texture-to-buffer copy are padded to this many bytes.
@@ -118,13 +96,7 @@ impl ViewRenderer {
             output,
             size,
             metering,
-            mesh_layers: Vec::new(),
-            layer_camera: None,
-            layer_tree: Vec::new(),
-            overlay_meshes: Vec::new(),
-            overlays: Vec::new(),
-            layer_planes: Vec::new(),
-            planes_generation: 0,
+            layers: ViewLayers::default(),
             brick_view: None,
             brick_finest: 0,
             brick_layouts: HashMap::new(),
@@ -161,7 +133,7 @@ impl ViewRenderer {
         use std::hash::{Hash, Hasher};
         let mut hasher = std::collections::hash_map::DefaultHasher::new();
         self.uniforms.bytes().hash(&mut hasher);
-        (resources.content(), self.brick_finest, self.planes_generation).hash(&mut hasher);
+        (resources.content(), self.brick_finest, self.layers.planes_generation()).hash(&mut hasher);
         hasher.finish()
     }
 
@@ -219,16 +191,13 @@ impl ViewRenderer {
     /// meshes the overlay draws (indices into `Resources::meshes`); without it the layer is
     /// empty (depth 1, no colour) and nothing is drawn over the picture.
     pub(crate) fn set_mesh_layer(&mut self, camera: LayerCamera, tree: Vec<LayerNode>, overlay: Vec<usize>) {
-        self.layer_camera = Some(camera);
-        self.layer_tree = tree;
-        self.overlay_meshes = overlay;
+        self.layers.set(camera, tree, overlay);
     }
 
     /// The slice pictures the mesh layer shows on their planes, just rendered (their views
     /// render first): the layer is drawn again with them.
     pub(crate) fn set_planes(&mut self, planes: Vec<Option<PlanePicture>>) {
-        self.layer_planes = planes;
-        self.planes_generation += 1;
+        self.layers.set_planes(planes);
     }
 
     /// How the view looks at its bricked volumes (set with its camera or plane every frame).
@@ -272,58 +241,12 @@ impl ViewRenderer {
 
     /// The slice pictures the mesh layer shows on their planes.
     pub(crate) fn planes(&self) -> &[Option<PlanePicture>] {
-        &self.layer_planes
+        self.layers.planes()
     }
 
     /// The mesh layer as last drawn, at the size of the last target (for probes and tests).
     pub fn mesh_layer(&self) -> Option<&MeshLayer> {
-        self.mesh_layers.first()
-    }
-
-    /// Records the mesh layer for a target of `size` pixels (drawn again only when what it shows
-    /// changed).
-    fn encode_mesh_layer(
-        &mut self,
-        gpu: &Gpu,
-        resources: &Resources,
-        encoder: &mut wgpu::CommandEncoder,
-        size: [u32; 2],
-    ) -> Result<(), RuntimeError> {
-        let peeled = self.reads_translucent_layers();
-        let layer = for_size(&mut self.mesh_layers, size, MeshLayer::size, || MeshLayer::new(gpu, size, peeled))?;
-        let tree = match (&self.layer_camera, &resources.mesh_pipelines) {
-            (Some(_), Some(_)) => &self.layer_tree[..],
-            _ => &[],
-        };
-        let camera = self.layer_camera.unwrap_or(LayerCamera::Projection { world_to_clip: glam::Mat4::IDENTITY });
-        let content = LayerContent {
-            camera: &camera,
-            tree,
-            meshes: &resources.meshes,
-            planes: &self.layer_planes,
-            generation: resources.mesh_generation(),
-            planes_generation: self.planes_generation,
-        };
-        layer.encode(gpu, (resources.mesh_pipelines.as_ref(), &resources.sampler), encoder, &content)
-    }
-
-    /// Records the overlay's meshes over `target` (after the volume layer's pass).
-    fn encode_overlay(
-        &mut self,
-        gpu: &Gpu,
-        resources: &Resources,
-        encoder: &mut wgpu::CommandEncoder,
-        target: &wgpu::TextureView,
-    ) -> Result<(), RuntimeError> {
-        let (Some(camera), Some(pipelines)) = (&self.layer_camera, &resources.mesh_pipelines) else { return Ok(()) };
-        let meshes: Vec<&MeshInstance> = self.overlay_meshes.iter().filter_map(|&i| resources.meshes.get(i)).collect();
-        if meshes.is_empty() {
-            return Ok(());
-        }
-        let size = target.texture().size();
-        let size = [size.width, size.height];
-        let overlay = for_size(&mut self.overlays, size, Overlay::size, || Overlay::new(gpu, size))?;
-        overlay.encode(gpu, pipelines, encoder, target, camera, &meshes)
+        self.layers.mesh_layer()
     }
 
     /// Swaps in another shader of the same view (a structural change), keeping the size. Uniform
@@ -387,7 +310,8 @@ impl ViewRenderer {
         let reads_layer = self.reads_mesh_layer();
         if reads_layer {
             let size = target.texture().size();
-            self.encode_mesh_layer(gpu, resources, encoder, [size.width, size.height])?;
+            let peeled = self.reads_translucent_layers();
+            self.layers.encode_under(gpu, mesh_resources(resources), encoder, ([size.width, size.height], peeled))?;
         }
         let reflection = &self.shader.reflection;
         let doing = format!("binding the resources of view `{}`", reflection.view);
@@ -418,7 +342,7 @@ impl ViewRenderer {
             }
             _ => None,
         };
-        let mesh_layer = self.mesh_layers.first().filter(|_| reads_layer).map(MeshLayer::views);
+        let mesh_layer = self.layers.views().filter(|_| reads_layer);
         let own = DispatchResources {
             history,
             uniforms: &self.uniform_buffer,
@@ -456,7 +380,7 @@ impl ViewRenderer {
         if let Some(metering) = &self.metering {
             metering.after_pass(gpu, encoder)?;
         }
-        self.encode_overlay(gpu, resources, encoder, target)
+        self.layers.encode_over(gpu, mesh_resources(resources), encoder, target)
     }
 
     /// Renders and reads the image back (straight alpha RGBA8).

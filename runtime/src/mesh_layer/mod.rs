@@ -21,6 +21,7 @@ mod peel;
 pub(crate) mod pipelines;
 mod shadow;
 mod tree;
+mod view_layers;
 
 use crate::error::RuntimeError;
 use crate::gpu::Gpu;
@@ -31,13 +32,14 @@ use draws::ShadowLight;
 use draws::{DrawBuffer, Pipelines, Target};
 use glam::Mat4;
 use outline::SliceFrame;
-pub(crate) use overlay::Overlay;
+use overlay::Overlay;
 use peel::PeeledLayers;
 use pipelines::{COLOR_FORMAT, DEPTH_FORMAT, DEPTH_IMAGE_FORMAT, MeshPipelines};
 use shadow::ShadowMap;
 use std::sync::Arc;
 pub(crate) use tree::LayerNode;
 use tree::{LayerPass, LayerPlan, PassTarget};
+pub(crate) use view_layers::{MeshResources, ViewLayers};
 
 /// A mesh on the GPU: interleaved positions and normals, and triangle indices.
 pub(crate) struct GpuMesh {

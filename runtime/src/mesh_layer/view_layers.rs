@@ -1,0 +1,141 @@
+//! A view's layers around its volume layer, as one node of its renderer: the mesh layer under
+//! it (its renderer tree, drawn per target size in use), the overlay over it, the camera both
+//! look at the meshes with, and the slice views' pictures the tree shows on their planes.
+
+use super::pipelines::MeshPipelines;
+use super::{LayerCamera, LayerContent, LayerNode, LayerViews, MeshInstance, MeshLayer, Overlay, PlanePicture};
+use crate::error::RuntimeError;
+use crate::gpu::Gpu;
+
+/// Mesh layers and overlays kept per view: one for previews and one for the full image.
+const SIZES_KEPT: usize = 2;
+
+/// What the layers draw with: the scene's meshes, their pipelines (none before the scene has
+/// meshes or planes), the sampler of the planes' pictures, and the count of the meshes'
+/// surface changes.
+#[derive(Clone, Copy)]
+pub(crate) struct MeshResources<'a> {
+    pub pipelines: Option<&'a MeshPipelines>,
+    pub meshes: &'a [MeshInstance],
+    pub sampler: &'a wgpu::Sampler,
+    pub generation: u64,
+}
+
+/// A view's mesh layer and overlay, and what they draw.
+#[derive(Default)]
+pub(crate) struct ViewLayers {
+    /// The mesh layer's images, one per target size in use, the last used first.
+    under: Vec<MeshLayer>,
+    /// The overlay's depth buffers, likewise.
+    over: Vec<Overlay>,
+    /// How both look at the meshes; without it the layer is empty (depth 1, no colour) and
+    /// nothing is drawn over the picture.
+    camera: Option<LayerCamera>,
+    tree: Vec<LayerNode>,
+    /// The meshes drawn over the picture (indices into the scene's meshes).
+    overlay: Vec<usize>,
+    /// Slice views' pictures the tree shows on their planes, and how often they were rendered
+    /// anew.
+    planes: Vec<Option<PlanePicture>>,
+    planes_generation: u64,
+}
+
+impl ViewLayers {
+    /// How the layers look at the meshes, the tree the mesh layer draws and the meshes the
+    /// overlay draws.
+    pub(crate) fn set(&mut self, camera: LayerCamera, tree: Vec<LayerNode>, overlay: Vec<usize>) {
+        self.camera = Some(camera);
+        self.tree = tree;
+        self.overlay = overlay;
+    }
+
+    /// The slice pictures the tree shows on their planes, just rendered: the layer is drawn
+    /// again with them.
+    pub(crate) fn set_planes(&mut self, planes: Vec<Option<PlanePicture>>) {
+        self.planes = planes;
+        self.planes_generation += 1;
+    }
+
+    pub(crate) fn planes(&self) -> &[Option<PlanePicture>] {
+        &self.planes
+    }
+
+    /// Counts renders of the planes' pictures (part of what a progressive view's history is
+    /// rendered from).
+    pub(crate) fn planes_generation(&self) -> u64 {
+        self.planes_generation
+    }
+
+    /// The mesh layer as last drawn.
+    pub(crate) fn mesh_layer(&self) -> Option<&MeshLayer> {
+        self.under.first()
+    }
+
+    /// The images of the mesh layer last drawn, as the volume layer binds them.
+    pub(crate) fn views(&self) -> Option<LayerViews<'_>> {
+        self.under.first().map(MeshLayer::views)
+    }
+
+    /// Records the mesh layer for a target of `size` pixels (drawn again only when what it shows
+    /// changed); `peeled`, its translucent meshes peeled for the volume layer.
+    pub(crate) fn encode_under(
+        &mut self,
+        gpu: &Gpu,
+        resources: MeshResources,
+        encoder: &mut wgpu::CommandEncoder,
+        (size, peeled): ([u32; 2], bool),
+    ) -> Result<(), RuntimeError> {
+        let layer = for_size(&mut self.under, size, MeshLayer::size, || MeshLayer::new(gpu, size, peeled))?;
+        let tree = match (&self.camera, resources.pipelines) {
+            (Some(_), Some(_)) => &self.tree[..],
+            _ => &[],
+        };
+        let camera = self.camera.unwrap_or(LayerCamera::Projection { world_to_clip: glam::Mat4::IDENTITY });
+        let content = LayerContent {
+            camera: &camera,
+            tree,
+            meshes: resources.meshes,
+            planes: &self.planes,
+            generation: resources.generation,
+            planes_generation: self.planes_generation,
+        };
+        layer.encode(gpu, (resources.pipelines, resources.sampler), encoder, &content)
+    }
+
+    /// Records the overlay's meshes over `target` (after the volume layer's pass).
+    pub(crate) fn encode_over(
+        &mut self,
+        gpu: &Gpu,
+        resources: MeshResources,
+        encoder: &mut wgpu::CommandEncoder,
+        target: &wgpu::TextureView,
+    ) -> Result<(), RuntimeError> {
+        let (Some(camera), Some(pipelines)) = (&self.camera, resources.pipelines) else { return Ok(()) };
+        let meshes: Vec<&MeshInstance> = self.overlay.iter().filter_map(|&i| resources.meshes.get(i)).collect();
+        if meshes.is_empty() {
+            return Ok(());
+        }
+        let size = target.texture().size();
+        let size = [size.width, size.height];
+        let overlay = for_size(&mut self.over, size, Overlay::size, || Overlay::new(gpu, size))?;
+        overlay.encode(gpu, pipelines, encoder, target, camera, &meshes)
+    }
+}
+
+/// The item of `list` (the last used first) made for `size`, moved to the front; made by `make`
+/// when there is none, the least recently used dropped past [`SIZES_KEPT`].
+fn for_size<T>(
+    list: &mut Vec<T>,
+    size: [u32; 2],
+    size_of: fn(&T) -> [u32; 2],
+    make: impl FnOnce() -> Result<T, RuntimeError>,
+) -> Result<&mut T, RuntimeError> {
+    match list.iter().position(|item| size_of(item) == size) {
+        Some(i) => list[..=i].rotate_right(1),
+        None => {
+            list.insert(0, make()?);
+            list.truncate(SIZES_KEPT);
+        }
+    }
+    Ok(&mut list[0])
+}
