@@ -1,5 +1,6 @@
 //! Renderer trees on lavapipe: an occlusion group's hidden children show through the first
-//! child as the reference's rule says, against the pictures of each child alone.
+//! child as the reference's rule says, against the pictures of each child alone; a shadow
+//! group's shadow falls where its light's rays meet the shadowing mesh.
 
 mod common;
 
@@ -8,8 +9,8 @@ use std::path::Path;
 use vrs_runtime::{RenderOptions, SceneRenderer};
 
 /// A transparent volume (32^3 voxels of 1 mm; the transfer function is clear everywhere), so a
-/// view's picture is its mesh layer's colour over the black background.
-const SCENE: &str = r#"
+/// view's picture is its mesh layer's colour over the black background; the scenes below follow.
+const TRANSPARENT_VOLUME: &str = r#"
 [render]
 compositing = "dvr"
 jitter = 0.0
@@ -21,7 +22,10 @@ role = "primary"
 path = "cube.nrrd"
 window = [0.0, 1000.0]
 tf = "clear.json"
+"#;
 
+/// A box of tissue with a vessel inside, in an occlusion group.
+const SCENE: &str = r#"
 [[mesh]]
 name = "tissue"
 shape = "box"
@@ -48,7 +52,9 @@ size = [64, 64]
 camera = { azimuth = 60.0, elevation = 25.0, distance = 2.2 }
 "#;
 
-fn render(dir: &Path, scene: &str, picture: &str) -> image::RgbaImage {
+/// The scene of `TRANSPARENT_VOLUME` and `scene`, its view's picture `picture`, written into
+/// `dir` with its volume and opened.
+fn open(dir: &Path, scene: &str, picture: &str) -> SceneRenderer {
     let values = vec![1000.0f32; 32 * 32 * 32];
     let identity = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
     common::write_nrrd(&dir.join("cube.nrrd"), "RAS", [32; 3], identity, [0.0; 3], &values);
@@ -57,10 +63,13 @@ fn render(dir: &Path, scene: &str, picture: &str) -> image::RgbaImage {
     std::fs::write(dir.join("clear.json"), tf).expect("tf written");
     let path = dir.join("scene.toml");
     let text = scene.replace("size = [64, 64]", &format!("size = [64, 64]\npicture = {picture}"));
-    std::fs::write(&path, text).expect("scene written");
-    let mut renderer = SceneRenderer::open(common::software_gpu(), &path, RenderOptions::default(), &mut |_, _, _| {})
-        .unwrap_or_else(|e| panic!("{e}"));
-    renderer.render_all().expect("render").remove(0).1
+    std::fs::write(&path, format!("{TRANSPARENT_VOLUME}{text}")).expect("scene written");
+    SceneRenderer::open(common::software_gpu(), &path, RenderOptions::default(), &mut |_, _, _| {})
+        .unwrap_or_else(|e| panic!("{e}"))
+}
+
+fn render(dir: &Path, scene: &str, picture: &str) -> image::RgbaImage {
+    open(dir, scene, picture).render_all().expect("render").remove(0).1
 }
 
 /// The occlusion group against its children alone: where the vessel (wholly inside the
@@ -116,18 +125,6 @@ fn a_depth_group_draws_as_its_children_would() {
 
 /// A white floor under a ball, in a shadow group lit from `LIGHT`, seen from above.
 const SHADOW_SCENE: &str = r#"
-[render]
-compositing = "dvr"
-jitter = 0.0
-background = [0.0, 0.0, 0.0, 1.0]
-
-[[volume]]
-name = "cube"
-role = "primary"
-path = "cube.nrrd"
-window = [0.0, 1000.0]
-tf = "clear.json"
-
 [[mesh]]
 name = "floor"
 shape = "box"
@@ -187,14 +184,8 @@ fn floor_in_shadow(clip_to_world: Mat4, [x, y]: [f32; 2]) -> Option<bool> {
 #[test]
 fn a_shadow_group_casts_the_balls_shadow_where_its_light_says() {
     let dir = tempfile::tempdir().expect("a folder");
-    let image = render(dir.path(), SHADOW_SCENE, r#"["lit", "volume"]"#);
-    let renderer = SceneRenderer::open(
-        common::software_gpu(),
-        &dir.path().join("scene.toml"),
-        RenderOptions::default(),
-        &mut |_, _, _| {},
-    )
-    .expect("the scene opens");
+    let mut renderer = open(dir.path(), SHADOW_SCENE, r#"["lit", "volume"]"#);
+    let image = renderer.render_all().expect("render").remove(0).1;
     let (dims, grid_to_world) = renderer.primary_grid().expect("a primary volume");
     let to_world = vrs_runtime::geometry::volume_to_world(dims, grid_to_world);
     let camera = renderer.views()[0].camera.expect("a raycast view");

@@ -386,7 +386,7 @@ impl MeshPipelines {
     }
 }
 
-/// Position and normal, 24 bytes a vertex.
+/// Position and normal.
 const VERTEX_ATTRIBUTES: [wgpu::VertexAttribute; 2] = wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3];
 
 /// What a [`PipelineSet`] draws into, and how it lights.
@@ -430,9 +430,12 @@ fn pipeline(
         SetTarget::Layer => ("fs", vec![color, depth_image]),
         SetTarget::Shadowed => ("fs_shadowed", vec![color, depth_image]),
     };
-    let depth = Some(depth_test(depth_write_enabled));
-    let surface = SurfacePipeline { entry_point: Some(entry_point), targets: &targets, depth, cull_mode };
-    surface_pipeline(gpu, module, layout, surface)
+    let stages = Stages {
+        depth: Some(depth_test(depth_write_enabled)),
+        cull_mode,
+        ..Stages::surface(Some(entry_point), &targets)
+    };
+    render_pipeline(gpu, module, layout, stages)
 }
 
 /// Premultiplied "over": what is drawn later lies in front.
@@ -449,46 +452,68 @@ const UNDER: wgpu::BlendComponent = wgpu::BlendComponent {
     operation: wgpu::BlendOperation::Add,
 };
 
-/// What differs between the pipelines of lit surfaces (`vs` and one of the fragment shaders, or
-/// none: depth only).
-struct SurfacePipeline<'a> {
-    entry_point: Option<&'a str>,
+/// What differs between the mesh layer's pipelines: the vertex shader and its vertices' layout
+/// (none: it makes its own), the fragment shader (none: depth only) and its targets, the depth
+/// test and the faces culled.
+struct Stages<'a> {
+    label: &'a str,
+    vertex: &'a str,
+    buffer: Option<wgpu::VertexBufferLayout<'a>>,
+    fragment: Option<&'a str>,
     targets: &'a [Option<wgpu::ColorTargetState>],
     depth: Option<wgpu::DepthStencilState>,
     cull_mode: Option<wgpu::Face>,
 }
 
-fn surface_pipeline(
+impl<'a> Stages<'a> {
+    /// A lit surface's stages: `vs` over [`SURFACE_VERTICES`], both faces drawn, no depth test.
+    fn surface(fragment: Option<&'a str>, targets: &'a [Option<wgpu::ColorTargetState>]) -> Stages<'a> {
+        Stages {
+            label: "mesh layer",
+            vertex: "vs",
+            buffer: Some(SURFACE_VERTICES),
+            fragment,
+            targets,
+            depth: None,
+            cull_mode: None,
+        }
+    }
+}
+
+/// A surface's vertices: position and normal, 24 bytes a vertex.
+const SURFACE_VERTICES: wgpu::VertexBufferLayout<'static> = wgpu::VertexBufferLayout {
+    array_stride: 24,
+    step_mode: wgpu::VertexStepMode::Vertex,
+    attributes: &VERTEX_ATTRIBUTES,
+};
+
+fn render_pipeline(
     gpu: &Gpu,
     module: &wgpu::ShaderModule,
     layout: &wgpu::PipelineLayout,
-    surface: SurfacePipeline,
+    stages: Stages,
 ) -> wgpu::RenderPipeline {
     gpu.device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-        label: Some("mesh layer"),
+        label: Some(stages.label),
         layout: Some(layout),
         vertex: wgpu::VertexState {
             module,
-            entry_point: Some("vs"),
+            entry_point: Some(stages.vertex),
             compilation_options: Default::default(),
-            buffers: &[Some(wgpu::VertexBufferLayout {
-                array_stride: 24,
-                step_mode: wgpu::VertexStepMode::Vertex,
-                attributes: &VERTEX_ATTRIBUTES,
-            })],
+            buffers: &[stages.buffer],
         },
         primitive: wgpu::PrimitiveState {
-            cull_mode: surface.cull_mode,
+            cull_mode: stages.cull_mode,
             front_face: wgpu::FrontFace::Ccw,
             ..Default::default()
         },
-        depth_stencil: surface.depth,
+        depth_stencil: stages.depth,
         multisample: Default::default(),
-        fragment: surface.entry_point.map(|entry_point| wgpu::FragmentState {
+        fragment: stages.fragment.map(|entry_point| wgpu::FragmentState {
             module,
             entry_point: Some(entry_point),
             compilation_options: Default::default(),
-            targets: surface.targets,
+            targets: stages.targets,
         }),
         multiview_mask: None,
         cache: None,
@@ -511,13 +536,9 @@ fn peel_pipeline(
     } else {
         vec![target(COLOR_FORMAT, None), target(DEPTH_IMAGE_FORMAT, None)]
     };
-    let surface = SurfacePipeline {
-        entry_point: Some(if rest { "fs_peel_rest" } else { "fs_peel" }),
-        targets: &targets,
-        depth: (!rest).then(|| depth_test(true)),
-        cull_mode: None,
-    };
-    surface_pipeline(gpu, module, layout, surface)
+    let fragment = Some(if rest { "fs_peel_rest" } else { "fs_peel" });
+    let stages = Stages { depth: (!rest).then(|| depth_test(true)), ..Stages::surface(fragment, &targets) };
+    render_pipeline(gpu, module, layout, stages)
 }
 
 /// Position and picture coordinates, 20 bytes a vertex.
@@ -526,31 +547,22 @@ const PLANE_ATTRIBUTES: [wgpu::VertexAttribute; 2] = wgpu::vertex_attr_array![0 
 /// The pipeline of slice pictures on their planes: opaque, depth written, both sides.
 fn plane_pipeline(gpu: &Gpu, module: &wgpu::ShaderModule, layout: &wgpu::PipelineLayout) -> wgpu::RenderPipeline {
     let target = |format| Some(wgpu::ColorTargetState { format, blend: None, write_mask: wgpu::ColorWrites::ALL });
-    gpu.device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-        label: Some("plane picture"),
-        layout: Some(layout),
-        vertex: wgpu::VertexState {
-            module,
-            entry_point: Some("vs_plane"),
-            compilation_options: Default::default(),
-            buffers: &[Some(wgpu::VertexBufferLayout {
-                array_stride: 20,
-                step_mode: wgpu::VertexStepMode::Vertex,
-                attributes: &PLANE_ATTRIBUTES,
-            })],
-        },
-        primitive: wgpu::PrimitiveState::default(),
-        depth_stencil: Some(depth_test(true)),
-        multisample: Default::default(),
-        fragment: Some(wgpu::FragmentState {
-            module,
-            entry_point: Some("fs_plane"),
-            compilation_options: Default::default(),
-            targets: &[target(COLOR_FORMAT), target(DEPTH_IMAGE_FORMAT)],
-        }),
-        multiview_mask: None,
-        cache: None,
-    })
+    let targets = [target(COLOR_FORMAT), target(DEPTH_IMAGE_FORMAT)];
+    let buffer = wgpu::VertexBufferLayout {
+        array_stride: 20,
+        step_mode: wgpu::VertexStepMode::Vertex,
+        attributes: &PLANE_ATTRIBUTES,
+    };
+    let stages = Stages {
+        label: "plane picture",
+        vertex: "vs_plane",
+        buffer: Some(buffer),
+        fragment: Some("fs_plane"),
+        targets: &targets,
+        depth: Some(depth_test(true)),
+        cull_mode: None,
+    };
+    render_pipeline(gpu, module, layout, stages)
 }
 
 /// The pipeline of occlusion groups' combinations: one full-screen triangle into a layer's
@@ -563,27 +575,16 @@ fn combine_pipeline(gpu: &Gpu, module: &wgpu::ShaderModule, layout: &wgpu::Pipel
     ];
     // Equal passes: a pixel with nothing opaque (depth 1) still shows the group's colour.
     let depth = wgpu::DepthStencilState { depth_compare: Some(wgpu::CompareFunction::LessEqual), ..depth_test(true) };
-    gpu.device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-        label: Some("occlusion group"),
-        layout: Some(layout),
-        vertex: wgpu::VertexState {
-            module,
-            entry_point: Some("vs_full"),
-            compilation_options: Default::default(),
-            buffers: &[],
-        },
-        primitive: wgpu::PrimitiveState::default(),
-        depth_stencil: Some(depth),
-        multisample: Default::default(),
-        fragment: Some(wgpu::FragmentState {
-            module,
-            entry_point: Some("fs_combine"),
-            compilation_options: Default::default(),
-            targets: &targets,
-        }),
-        multiview_mask: None,
-        cache: None,
-    })
+    let stages = Stages {
+        label: "occlusion group",
+        vertex: "vs_full",
+        buffer: None,
+        fragment: Some("fs_combine"),
+        targets: &targets,
+        depth: Some(depth),
+        cull_mode: None,
+    };
+    render_pipeline(gpu, module, layout, stages)
 }
 
 /// The pipeline of shadow maps: every face of a shadow group's meshes, depth only, the nearest
@@ -597,8 +598,7 @@ fn shadow_caster_pipeline(
         bias: wgpu::DepthBiasState { constant: 2, slope_scale: 2.0, clamp: 0.0 },
         ..depth_test(true)
     };
-    let surface = SurfacePipeline { entry_point: None, targets: &[], depth: Some(depth), cull_mode: None };
-    surface_pipeline(gpu, module, layout, surface)
+    render_pipeline(gpu, module, layout, Stages { depth: Some(depth), ..Stages::surface(None, &[]) })
 }
 
 /// The nearest surface wins; `write`: the surface hides what is drawn after it.
