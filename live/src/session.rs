@@ -77,6 +77,8 @@ pub struct UserState {
     view_curves: BTreeMap<(String, String), TfCurve>,
     /// Mesh colours, opacities and placements by mesh, with the scene's style of it then.
     meshes: BTreeMap<String, (MeshStyle, Option<MeshStyle>)>,
+    /// Occlusion groups' opacities of what they hide, with the scene's opacity then.
+    groups: BTreeMap<String, (f32, Option<f32>)>,
 }
 
 /// A mesh's look and placement as the panel sets them (what `[[mesh]]` gives as `color`,
@@ -149,6 +151,8 @@ pub struct LiveScene {
     scene_curves: BTreeMap<String, TfCurve>,
     /// Each mesh's style as the scene file gives it (the last good load).
     scene_meshes: BTreeMap<String, MeshStyle>,
+    /// Each occlusion group's opacity of what it hides, as the scene file gives it.
+    scene_groups: BTreeMap<String, f32>,
     /// The (mesh, uniform) pairs of the points meshes follow that are positions (a needle's
     /// tip, a cylinder's ends, a sphere's centre, a box's corners; not a needle's direction).
     mesh_points: Vec<(String, String)>,
@@ -172,6 +176,7 @@ impl LiveScene {
             built: None,
             scene_curves: BTreeMap::new(),
             scene_meshes: BTreeMap::new(),
+            scene_groups: BTreeMap::new(),
             mesh_points: Vec::new(),
             bricks: Streaming::default(),
         };
@@ -423,6 +428,37 @@ impl LiveScene {
         Ok(())
     }
 
+    /// The occlusion groups the views draw, each once in scene order, with the opacity their
+    /// hidden children show with now.
+    pub fn occlusion_groups(&self) -> Vec<(String, f32)> {
+        self.renderer.occlusion_groups()
+    }
+
+    /// Shows what occlusion group `name` hides with `opacity` (clamped to [0, 1]); it survives
+    /// reloads until the scene file changes that group's opacity.
+    pub fn set_group_opacity(&mut self, name: &str, opacity: f32) -> Result<(), RuntimeError> {
+        self.renderer.set_group_opacity(name, opacity)?;
+        let then = self.scene_groups.get(name).copied();
+        self.user.groups.insert(name.to_string(), (opacity.clamp(0.0, 1.0), then));
+        self.bump_all();
+        Ok(())
+    }
+
+    /// Puts occlusion group `name` back to the scene file's opacity.
+    pub fn reset_group_opacity(&mut self, name: &str) -> Result<(), RuntimeError> {
+        self.user.groups.remove(name);
+        if let Some(&opacity) = self.scene_groups.get(name) {
+            self.renderer.set_group_opacity(name, opacity)?;
+        }
+        self.bump_all();
+        Ok(())
+    }
+
+    /// Whether the user changed occlusion group `name`'s opacity.
+    pub fn is_user_group(&self, name: &str) -> bool {
+        self.user.groups.contains_key(name)
+    }
+
     /// Whether the user changed mesh `name`'s style.
     pub fn is_user_mesh(&self, name: &str) -> bool {
         self.user.meshes.contains_key(name)
@@ -663,6 +699,14 @@ impl LiveScene {
     /// follow are positions.
     fn note_scene_meshes(&mut self, scene: &vrsc::scene::Scene) {
         self.scene_meshes = scene.meshes.iter().map(|m| (m.name.name.clone(), MeshStyle::of_table(m))).collect();
+        self.scene_groups = scene
+            .groups
+            .iter()
+            .filter_map(|g| match g.kind {
+                vrsc::scene::GroupKind::Occlusion { hidden_opacity } => Some((g.name.name.clone(), hidden_opacity)),
+                _ => None,
+            })
+            .collect();
         self.mesh_points = scene
             .meshes
             .iter()
@@ -751,9 +795,23 @@ impl LiveScene {
                 self.user.meshes.insert(mesh, (style, then));
             }
         }
+        self.restore_user_groups();
         let names = self.view_names();
         self.user.cameras.retain(|n, (_, then)| names.contains(n) && self.scene_cameras.get(n) == Some(then));
         self.user.slices.retain(|n, (_, then)| names.contains(n) && self.scene_slices.get(n) == Some(then));
+    }
+
+    /// The user's occlusion-group opacities again, where the group is still there and the scene
+    /// file's opacity for it has not changed.
+    fn restore_user_groups(&mut self) {
+        let groups = std::mem::take(&mut self.user.groups);
+        for (group, (opacity, then)) in groups {
+            if self.scene_groups.get(&group) == then.as_ref()
+                && self.renderer.set_group_opacity(&group, opacity).is_ok()
+            {
+                self.user.groups.insert(group, (opacity, then));
+            }
+        }
     }
 
     /// A change of the user's or the files' to `view`: it renders again, and may ask for bricks

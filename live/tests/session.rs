@@ -338,6 +338,47 @@ fn a_mesh_style_survives_reloads_until_the_scene_changes_that_mesh() {
     assert!(!live.is_user_mesh("ball"));
 }
 
+/// `mesh_scene` with the block hiding the ball in an occlusion group of `opacity` (0.5 without
+/// it), under the view's volume.
+fn occlusion_scene(block: [f32; 3], opacity: Option<f32>) -> String {
+    let opacity = opacity.map_or(String::new(), |k| format!("opacity = {k:.2}\n"));
+    let group =
+        format!("[[group]]\nname = \"hidden\"\nkind = \"occlusion\"\n{opacity}children = [\"block\", \"ball\"]\n\n");
+    mesh_scene(block, 1.0)
+        .replace("[[view]]", &format!("{group}[[view]]"))
+        .replace("size = [32, 32]\n", "size = [32, 32]\npicture = [\"hidden\", \"volume\"]\n")
+}
+
+#[test]
+fn an_occlusion_groups_opacity_survives_reloads_until_the_scene_changes_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut live = open_meshes(dir.path());
+    let path = dir.path().join("scene.toml");
+    std::fs::write(&path, occlusion_scene([0.5, 0.5, 0.5], None)).unwrap();
+    assert!(live.rebuild().succeeded());
+    assert_eq!(live.occlusion_groups(), [("hidden".to_string(), 0.5)]);
+    let generation = live.generation(0);
+    live.set_group_opacity("hidden", 0.8).unwrap();
+    assert_eq!(live.occlusion_groups(), [("hidden".to_string(), 0.8)]);
+    assert!(live.is_user_group("hidden") && live.generation(0) > generation);
+    assert!(live.set_group_opacity("nothing", 0.5).is_err());
+
+    // A mesh changes: the user's opacity stays.
+    std::fs::write(&path, occlusion_scene([0.0, 0.0, 1.0], None)).unwrap();
+    assert!(live.rebuild().succeeded());
+    assert_eq!(live.occlusion_groups(), [("hidden".to_string(), 0.8)]);
+    live.reset_group_opacity("hidden").unwrap();
+    assert_eq!(live.occlusion_groups(), [("hidden".to_string(), 0.5)]);
+    assert!(!live.is_user_group("hidden"));
+
+    // The file changes the group's opacity: the file is the newer intent.
+    live.set_group_opacity("hidden", 0.8).unwrap();
+    std::fs::write(&path, occlusion_scene([0.0, 0.0, 1.0], Some(0.3))).unwrap();
+    assert!(live.rebuild().succeeded());
+    assert_eq!(live.occlusion_groups(), [("hidden".to_string(), 0.3)]);
+    assert!(!live.is_user_group("hidden"));
+}
+
 #[test]
 fn dragging_a_followed_point_moves_its_meshes_and_keeps_the_users_style() {
     let dir = tempfile::tempdir().unwrap();

@@ -102,6 +102,8 @@ pub struct SceneRenderer {
     derived: derived::Derived,
     /// The scene's meshes as last made.
     meshes: meshes::SceneMeshes,
+    /// The names of the scene's `[[group]]`s, which the views' trees index.
+    group_names: Vec<String>,
 }
 
 /// What [`SceneRenderer::apply`] changed.
@@ -177,6 +179,7 @@ impl SceneRenderer {
             probes: probe::ProbeCache::default(),
             derived: derived::Derived::default(),
             meshes: meshes::SceneMeshes::default(),
+            group_names: Vec::new(),
         };
         renderer.load_scene_volumes(scene, progress)?;
         renderer.set_views(scene, built)?;
@@ -468,6 +471,7 @@ impl SceneRenderer {
             views.push(SceneView { name: output.name.clone(), renderer, camera, slice, convention, picture });
         }
         self.views = views;
+        self.group_names = scene.groups.iter().map(|g| g.name.name.clone()).collect();
         Ok(())
     }
 }

@@ -209,3 +209,21 @@ fn a_shadow_group_casts_the_balls_shadow_where_its_light_says() {
     assert!(shadowed > 30 && bright > 300, "{shadowed} pixels in the shadow, {bright} lit");
     eprintln!("{shadowed} floor pixels in the ball's shadow, {bright} lit, each as computed");
 }
+
+/// An occlusion group's opacity changed while shown (a viewer's panel) gives the picture of the
+/// scene written with it.
+#[test]
+fn an_occlusion_groups_opacity_changes_live() {
+    let dir = tempfile::tempdir().expect("a folder");
+    let thin = SCENE.replace("kind = \"occlusion\"", "kind = \"occlusion\"\nopacity = 0.25");
+    let written = render(dir.path(), &thin, r#"["liver", "volume"]"#);
+    let mut scene = open(dir.path(), SCENE, r#"["liver", "volume"]"#);
+    assert_eq!(scene.occlusion_groups(), [("liver".to_string(), 0.5)]);
+    let before = scene.render_all().expect("render").remove(0).1;
+    scene.set_group_opacity("liver", 0.25).expect("the group's opacity");
+    assert_eq!(scene.occlusion_groups(), [("liver".to_string(), 0.25)]);
+    let after = scene.render_all().expect("render").remove(0).1;
+    assert!(after == written && after != before, "the picture of the scene written with opacity 0.25");
+    assert!(scene.set_group_opacity("kidney", 0.5).is_err(), "no such group");
+    assert!(scene.set_group_opacity("liver", f32::NAN).is_err(), "not a number");
+}

@@ -26,6 +26,10 @@ pub enum Action {
     SetMeshStyle(String, MeshStyle),
     /// Back to the scene's colour, opacity and placement of the mesh.
     ResetMeshStyle(String),
+    /// The opacity an occlusion group shows what it hides with.
+    SetGroupOpacity(String, f32),
+    /// Back to the scene's opacity of the occlusion group.
+    ResetGroupOpacity(String),
 }
 
 /// Applies `action`; the message says what happened (or why not), for the status line.
@@ -49,6 +53,10 @@ pub fn apply(live: &mut LiveScene, action: Action) -> Result<String, String> {
         }
         Action::SetMeshStyle(mesh, style) => live.set_mesh_style(&mesh, style).map(|_| String::new()),
         Action::ResetMeshStyle(mesh) => live.reset_mesh_style(&mesh).map(|_| format!("`{mesh}`: the scene's style")),
+        Action::SetGroupOpacity(group, opacity) => live.set_group_opacity(&group, opacity).map(|_| String::new()),
+        Action::ResetGroupOpacity(group) => {
+            live.reset_group_opacity(&group).map(|_| format!("`{group}`: the scene's opacity"))
+        }
     }
     .map_err(|e| e.to_string())
 }

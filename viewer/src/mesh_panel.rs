@@ -1,6 +1,7 @@
 //! The mesh panel: each `[[mesh]]` of the scene with its colour, opacity and placement (a
-//! translation in millimetres, patient space), and a reset to the scene's. The tab shows only
-//! when the scene has meshes.
+//! translation in millimetres, patient space), and a reset to the scene's; then each occlusion
+//! group the views draw, with the opacity it shows what it hides with. The tab shows only when
+//! the scene has meshes.
 
 use crate::actions::Action;
 use egui::{DragValue, RichText, Slider};
@@ -17,13 +18,30 @@ pub struct MeshRow {
     pub changed: bool,
 }
 
+/// An occlusion group as the panel shows it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct GroupRow {
+    /// The `[[group]]`'s name.
+    pub name: String,
+    /// The opacity its hidden children show with now.
+    pub opacity: f32,
+    /// Whether the user changed it (it can be reset).
+    pub changed: bool,
+}
+
+/// Every occlusion group `live`'s views draw, in scene order.
+pub fn group_rows(live: &LiveScene) -> Vec<GroupRow> {
+    let groups = live.occlusion_groups().into_iter();
+    groups.map(|(name, opacity)| GroupRow { changed: live.is_user_group(&name), name, opacity }).collect()
+}
+
 /// Every mesh of `live`'s scene, in scene order.
 pub fn rows(live: &LiveScene) -> Vec<MeshRow> {
     live.meshes().into_iter().map(|(name, style)| MeshRow { changed: live.is_user_mesh(&name), name, style }).collect()
 }
 
 /// Shows the panel; returns what the user asked for.
-pub fn show(ui: &mut egui::Ui, rows: &[MeshRow], message: &str) -> Vec<Action> {
+pub fn show(ui: &mut egui::Ui, rows: &[MeshRow], groups: &[GroupRow], message: &str) -> Vec<Action> {
     let mut actions = Vec::new();
     ui.weak("Colour, opacity and placement (mm, patient space) of the scene's meshes");
     ui.weak("In a slice view, drag a green ring to move the point a mesh follows (a needle's tip)");
@@ -36,8 +54,35 @@ pub fn show(ui: &mut egui::Ui, rows: &[MeshRow], message: &str) -> Vec<Action> {
             ui.push_id(&row.name, |ui| mesh_row(ui, row, &mut actions));
             ui.separator();
         }
+        if !groups.is_empty() {
+            ui.strong("Occlusion groups");
+            ui.weak("How what the first child hides shows through it (1: whole)");
+        }
+        for group in groups {
+            ui.push_id(("group", &group.name), |ui| group_row(ui, group, &mut actions));
+        }
     });
     actions
+}
+
+fn group_row(ui: &mut egui::Ui, row: &GroupRow, actions: &mut Vec<Action>) {
+    ui.horizontal(|ui| {
+        ui.label(RichText::new(&row.name).monospace().strong());
+        if row.changed && ui.small_button("reset").on_hover_text("Back to the scene's opacity").clicked() {
+            actions.push(Action::ResetGroupOpacity(row.name.clone()));
+        }
+    });
+    let mut opacity = row.opacity;
+    let changed = ui
+        .horizontal(|ui| {
+            let label = ui.label("hidden opacity").id;
+            let slider = ui.add(Slider::new(&mut opacity, 0.0..=1.0)).labelled_by(label);
+            slider.on_hover_text(format!("{}: the opacity of what its first child hides", row.name)).changed()
+        })
+        .inner;
+    if changed && opacity != row.opacity {
+        actions.push(Action::SetGroupOpacity(row.name.clone(), opacity));
+    }
 }
 
 fn mesh_row(ui: &mut egui::Ui, row: &MeshRow, actions: &mut Vec<Action>) {

@@ -82,7 +82,7 @@ impl SidePanel {
                     ui.weak(message);
                     actions
                 }
-                Tab::Meshes => mesh_panel::show(ui, &meshes, message),
+                Tab::Meshes => mesh_panel::show(ui, &meshes, &mesh_panel::group_rows(live), message),
                 Tab::Inspector => {
                     self.show_inspector(ui, live);
                     Vec::new()

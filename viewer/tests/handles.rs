@@ -11,7 +11,7 @@ use vrs_live::{LiveScene, MeshStyle};
 use vrs_runtime::{AdapterChoice, Gpu, RenderOptions, SceneRenderer, Value};
 use vrs_viewer::actions::Action;
 use vrs_viewer::handles::{self, GRAB_RADIUS};
-use vrs_viewer::mesh_panel::{self, MeshRow};
+use vrs_viewer::mesh_panel::{self, GroupRow, MeshRow};
 
 fn ablation() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples/ablation/scene.toml")
@@ -86,7 +86,7 @@ fn row(name: &str) -> MeshRow {
 fn the_mesh_panel_sets_opacity_and_placement_and_resets() {
     let rows = vec![row("needle_a"), row("needle_b")];
     let mut harness = Harness::new_ui_state(
-        |ui, actions: &mut Vec<Action>| actions.extend(mesh_panel::show(ui, &rows, "")),
+        |ui, actions: &mut Vec<Action>| actions.extend(mesh_panel::show(ui, &rows, &[], "")),
         Vec::new(),
     );
     harness.run();
@@ -110,6 +110,23 @@ fn the_mesh_panel_sets_opacity_and_placement_and_resets() {
     let expected_b = MeshStyle { model, ..row("needle_b").style };
     assert!(actions.contains(&Action::SetMeshStyle("needle_b".into(), expected_b)), "{actions:?}");
     assert!(actions.contains(&Action::ResetMeshStyle("needle_b".into())), "{actions:?}");
+}
+
+#[test]
+fn the_mesh_panel_sets_an_occlusion_groups_opacity_and_resets_it() {
+    let groups = vec![GroupRow { name: "liver".into(), opacity: 0.5, changed: true }];
+    let mut harness = Harness::new_ui_state(
+        |ui, actions: &mut Vec<Action>| actions.extend(mesh_panel::show(ui, &[row("needle_a")], &groups, "")),
+        Vec::new(),
+    );
+    harness.run();
+    harness.get_by_role_and_label(Role::Slider, "hidden opacity").set_value_accesskit(0.8);
+    harness.run();
+    harness.get_by_label("reset").click();
+    harness.run();
+    let actions = harness.state();
+    assert!(actions.contains(&Action::SetGroupOpacity("liver".into(), 0.8)), "{actions:?}");
+    assert!(actions.contains(&Action::ResetGroupOpacity("liver".into())), "{actions:?}");
 }
 
 #[test]

@@ -37,7 +37,7 @@ use peel::PeeledLayers;
 use pipelines::{COLOR_FORMAT, DEPTH_FORMAT, DEPTH_IMAGE_FORMAT, MeshPipelines};
 use shadow::ShadowMap;
 use std::sync::Arc;
-pub(crate) use tree::LayerNode;
+pub(crate) use tree::{LayerNode, set_hidden_opacity};
 use tree::{LayerPass, LayerPlan, PassTarget};
 pub(crate) use view_layers::{MeshResources, ViewLayers};
 

@@ -12,9 +12,10 @@ pub(crate) enum LayerNode {
     Mesh(usize),
     /// A slice view's picture on its plane (index into the view's plane pictures).
     Plane(usize),
-    /// An occlusion group: where `context`'s opaque surfaces lie in front of `focus`'s, the
-    /// focus shows through them with `hidden_opacity`; elsewhere the two combine by depth.
-    Occlusion { hidden_opacity: f32, context: Vec<LayerNode>, focus: Vec<LayerNode> },
+    /// An occlusion group (`group`, its index among the scene's groups): where `context`'s
+    /// opaque surfaces lie in front of `focus`'s, the focus shows through them with
+    /// `hidden_opacity`; elsewhere the two combine by depth.
+    Occlusion { group: usize, hidden_opacity: f32, context: Vec<LayerNode>, focus: Vec<LayerNode> },
     /// A shadow group: `children` lit by a directional light from `light` (patient space,
     /// towards the light), each mesh shadowing the others.
     Shadow { light: [f32; 3], children: Vec<LayerNode> },
@@ -94,7 +95,7 @@ impl LayerPlan {
             match node {
                 LayerNode::Mesh(mesh) => pass.meshes.push(LitMesh { mesh: *mesh, shadow }),
                 LayerNode::Plane(i) => pass.planes.push(*i),
-                LayerNode::Occlusion { hidden_opacity, context, focus } => {
+                LayerNode::Occlusion { hidden_opacity, context, focus, .. } => {
                     let group = self.groups;
                     self.groups += 1;
                     self.pass(context, PassTarget::Context(group), shadow);
@@ -106,6 +107,23 @@ impl LayerPlan {
                     self.collect(children, pass, Some(self.shadows.len() - 1));
                 }
             }
+        }
+    }
+}
+
+/// Sets the hidden opacity of every occlusion node of `tree` made from scene group `group`.
+pub(crate) fn set_hidden_opacity(tree: &mut [LayerNode], group: usize, opacity: f32) {
+    for node in tree {
+        match node {
+            LayerNode::Occlusion { group: g, hidden_opacity, context, focus } => {
+                if *g == group {
+                    *hidden_opacity = opacity;
+                }
+                set_hidden_opacity(context, group, opacity);
+                set_hidden_opacity(focus, group, opacity);
+            }
+            LayerNode::Shadow { children, .. } => set_hidden_opacity(children, group, opacity),
+            LayerNode::Mesh(_) | LayerNode::Plane(_) => {}
         }
     }
 }
@@ -133,8 +151,10 @@ mod tests {
 
     #[test]
     fn children_are_drawn_before_the_pass_that_combines_them() {
-        let inner = LayerNode::Occlusion { hidden_opacity: 1.0, context: vec![LayerNode::Mesh(2)], focus: vec![] };
+        let inner =
+            LayerNode::Occlusion { group: 1, hidden_opacity: 1.0, context: vec![LayerNode::Mesh(2)], focus: vec![] };
         let outer = LayerNode::Occlusion {
+            group: 0,
             hidden_opacity: 0.5,
             context: vec![LayerNode::Mesh(0)],
             focus: vec![LayerNode::Mesh(1), inner],
@@ -155,6 +175,7 @@ mod tests {
     #[test]
     fn a_shadow_groups_meshes_are_drawn_in_their_parents_pass_with_its_light() {
         let occluded = LayerNode::Occlusion {
+            group: 0,
             hidden_opacity: 0.5,
             context: vec![LayerNode::Mesh(1)],
             focus: vec![LayerNode::Mesh(2)],

@@ -3,7 +3,9 @@
 //! combines them) and occlusion groups kept; the meshes its overlay draws; the slice views it
 //! shows on planes.
 
-use crate::mesh_layer::LayerNode;
+use super::SceneRenderer;
+use crate::error::RuntimeError;
+use crate::mesh_layer::{LayerNode, set_hidden_opacity};
 use vrsc::scene::{self as vscene, GroupKind, Node, Scene, ViewKind};
 
 /// Groups deeper than this are left out: validation refuses cycles, and a scene made by hand
@@ -51,6 +53,7 @@ fn layer_nodes(scene: &Scene, nodes: &[Node], planes: &[usize], depth: usize) ->
                     GroupKind::Occlusion { hidden_opacity } => {
                         let (context, focus) = group.children.split_at(group.children.len().min(1));
                         out.push(LayerNode::Occlusion {
+                            group: g,
                             hidden_opacity,
                             context: children(context),
                             focus: children(focus),
@@ -62,4 +65,49 @@ fn layer_nodes(scene: &Scene, nodes: &[Node], planes: &[usize], depth: usize) ->
         }
     }
     out
+}
+
+impl SceneRenderer {
+    /// The occlusion groups the views draw, each once in scene order, with the opacity their
+    /// hidden children show with now.
+    pub fn occlusion_groups(&self) -> Vec<(String, f32)> {
+        let mut found: Vec<(usize, f32)> = Vec::new();
+        for view in &self.views {
+            occlusion_nodes(&view.picture.tree, &mut found);
+        }
+        found.sort_by_key(|(g, _)| *g);
+        found.dedup_by_key(|(g, _)| *g);
+        found.into_iter().filter_map(|(g, k)| Some((self.group_names.get(g)?.clone(), k))).collect()
+    }
+
+    /// Shows what occlusion group `name` hides with `opacity` (clamped to [0, 1]) in every view,
+    /// from the next frame; until the scene is loaded again.
+    pub fn set_group_opacity(&mut self, name: &str, opacity: f32) -> Result<(), RuntimeError> {
+        let Some(group) = self.group_names.iter().position(|g| g == name) else {
+            return Err(RuntimeError::Invalid(format!("the scene has no group `{name}`")));
+        };
+        if !opacity.is_finite() {
+            return Err(RuntimeError::Invalid(format!("group `{name}`: an opacity of {opacity}")));
+        }
+        for view in &mut self.views {
+            set_hidden_opacity(&mut view.picture.tree, group, opacity.clamp(0.0, 1.0));
+        }
+        self.resources.content_changed();
+        Ok(())
+    }
+}
+
+/// Each occlusion node of `tree`: its scene group and hidden opacity.
+fn occlusion_nodes(tree: &[LayerNode], out: &mut Vec<(usize, f32)>) {
+    for node in tree {
+        match node {
+            LayerNode::Occlusion { group, hidden_opacity, context, focus } => {
+                out.push((*group, *hidden_opacity));
+                occlusion_nodes(context, out);
+                occlusion_nodes(focus, out);
+            }
+            LayerNode::Shadow { children, .. } => occlusion_nodes(children, out),
+            LayerNode::Mesh(_) | LayerNode::Plane(_) => {}
+        }
+    }
 }
