@@ -702,8 +702,8 @@ impl LiveScene {
         self.scene_groups = scene
             .groups
             .iter()
-            .filter_map(|g| match g.kind {
-                vrsc::scene::GroupKind::Occlusion { hidden_opacity } => Some((g.name.name.clone(), hidden_opacity)),
+            .filter_map(|g| match &g.kind {
+                vrsc::scene::GroupKind::Occlusion { hidden_opacity } => Some((g.name.name.clone(), *hidden_opacity)),
                 _ => None,
             })
             .collect();

@@ -7,6 +7,7 @@ use crate::bricks::Coarsening;
 use crate::error::RuntimeError;
 use crate::geometry::{self, Convention, OrbitCamera, ShaderPlane, SliceAxis, SlicePlane};
 use crate::gpu::Gpu;
+use crate::mesh_layer::resolve_lights;
 use crate::resources::Resources;
 use crate::shader::{PipelineCache, PipelineStats, ViewShader};
 use crate::textures::{TfTexture, VolumeTexture};
@@ -675,7 +676,13 @@ fn apply_view_uniforms(view: &mut SceneView, grids: &[VolumeGrid]) -> Result<(),
         if view.renderer.has_uniform(GEOMETRY_INV_PROJ) {
             view.renderer.set_uniform(GEOMETRY_INV_PROJ, inv_proj)?;
         }
-        view.renderer.set_mesh_layer(camera, view.picture.tree.clone(), view.picture.overlay.clone());
+        let mut tree = view.picture.tree.clone();
+        let uniforms = view.renderer.uniforms();
+        resolve_lights(&mut tree, &|name| match uniforms.get(name) {
+            Some(crate::uniforms::Value::Float(v)) if v.len() == 3 => Some([v[0], v[1], v[2]]),
+            _ => None,
+        });
+        view.renderer.set_mesh_layer(camera, tree, view.picture.overlay.clone());
     }
     Ok(())
 }

@@ -227,3 +227,24 @@ fn an_occlusion_groups_opacity_changes_live() {
     assert!(scene.set_group_opacity("kidney", 0.5).is_err(), "no such group");
     assert!(scene.set_group_opacity("liver", f32::NAN).is_err(), "not a number");
 }
+
+/// A shadow group whose `light` names a light follows its `light_dir_NAME` as the view has it,
+/// changed live too: the pictures of the same group with that direction written out.
+#[test]
+fn a_shadow_group_follows_its_named_lights_direction() {
+    let dir = tempfile::tempdir().expect("a folder");
+    let lit_view = |light: &str| {
+        SHADOW_SCENE
+            .replace("light = [1.0, 0.0, 2.0]", &format!("light = {light}"))
+            .replace("camera = {", "render = { shading = true, lights = [\"key\"] }\ncamera = {")
+            + "\n[uniforms]\nlight_dir_key = [1.0, 0.0, 2.0]\n"
+    };
+    let picture = r#"["lit", "volume"]"#;
+    let mut named = open(dir.path(), &lit_view("\"key\""), picture);
+    let first = named.render_all().expect("render").remove(0).1;
+    assert!(first == render(dir.path(), &lit_view("[1.0, 0.0, 2.0]"), picture), "the light's direction");
+    named.set_uniform("light_dir_key", [-1.0f32, 0.0, 2.0]).expect("the light's uniform");
+    let moved = named.render_all().expect("render").remove(0).1;
+    assert!(moved != first, "the shadow moves with the light");
+    assert!(moved == render(dir.path(), &lit_view("[-1.0, 0.0, 2.0]"), picture), "its new direction");
+}

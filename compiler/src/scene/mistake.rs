@@ -221,6 +221,11 @@ pub(super) enum NoSuch {
         name: String,
         suggestion: Option<String>,
     },
+    /// A shadow group's `light`.
+    Light {
+        name: String,
+        suggestion: Option<String>,
+    },
 }
 
 /// E0715: a value that is not one of its key's choices.
@@ -610,6 +615,14 @@ impl NoSuch {
             NoSuch::Volume { name, suggestion } => ("volume", name, suggestion),
             NoSuch::Mesh { name, suggestion } => ("mesh", name, suggestion),
             NoSuch::View { name, suggestion } => ("view", name, suggestion),
+            NoSuch::Light { name, suggestion } => {
+                return maybe(
+                    said(d, format!("no view has a light `{name}`"))
+                        .with_label("not in any view's `lights`")
+                        .with_help("name a light of `[render] lights`, or give a direction: `light = [0.0, 0.0, 1.0]`"),
+                    suggestion,
+                );
+            }
             NoSuch::Node { name, suggestion } => {
                 return maybe(
                     said(d, format!("the scene has no mesh, group or slice view `{name}`"))

@@ -471,7 +471,7 @@ pub struct Group {
 }
 
 /// How a group combines its children.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub enum GroupKind {
     /// `kind = "depth"` (the default): the nearest surface of any child at each pixel.
     Depth,
@@ -482,12 +482,22 @@ pub enum GroupKind {
         /// "semi_transparent"`, the default.
         hidden_opacity: f32,
     },
-    /// `kind = "shadow"`: its children combined by depth, lit by a directional light from
-    /// `light` (patient space, towards the light; not zero), and shadowing each other.
+    /// `kind = "shadow"`: its children combined by depth, lit by a directional light and
+    /// shadowing each other.
     Shadow {
-        /// The direction towards the light.
-        light: [f32; 3],
+        /// Where the light is.
+        light: ShadowLight,
     },
+}
+
+/// A shadow group's `light`.
+#[derive(Clone, Debug, PartialEq)]
+pub enum ShadowLight {
+    /// `light = [x, y, z]`: towards the light, in patient space (not zero).
+    Towards([f32; 3]),
+    /// `light = "NAME"`: light NAME of the views' `lights`, following its `light_dir_NAME` in
+    /// each view (from the viewer where that is (0, 0, 0), or where a view has no such light).
+    Light(Ident),
 }
 
 /// `show` of an occlusion group: how the children it hides are shown.

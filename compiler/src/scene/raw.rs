@@ -184,7 +184,15 @@ pub(super) struct RawGroup {
     pub(super) children: Spanned<Vec<Spanned<String>>>,
     pub(super) show: Option<Spanned<Show>>,
     pub(super) opacity: Option<Spanned<f32>>,
-    pub(super) light: Option<Spanned<[f32; 3]>>,
+    pub(super) light: Option<Spanned<RawLight>>,
+}
+
+/// A shadow group's `light`: a direction, or a light's name.
+#[derive(Deserialize, Clone)]
+#[serde(untagged)]
+pub(super) enum RawLight {
+    Towards([f32; 3]),
+    Name(String),
 }
 pub(super) const GROUP_KEYS: &[&str] = &["name", "kind", "children", "show", "opacity", "light"];
 #[derive(Deserialize)]

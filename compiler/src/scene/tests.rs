@@ -500,7 +500,7 @@ fn a_picture_is_a_tree_of_meshes_groups_and_planes() {
     assert_eq!(scene.groups[0].kind, GroupKind::Occlusion { hidden_opacity: 0.3 });
     assert_eq!(scene.groups[0].children, [Node::Mesh(0), Node::Group(1)]);
     assert_eq!(
-        (scene.groups[1].kind, &scene.groups[1].children[..]),
+        (scene.groups[1].kind.clone(), &scene.groups[1].children[..]),
         (GroupKind::Depth, &[Node::Mesh(1), Node::Mesh(2)][..])
     );
     assert_eq!(scene.leaves_under(view), (vec![0, 1, 2], vec![1]));
@@ -559,10 +559,18 @@ fn a_shadow_group_has_its_light_and_other_groups_ignore_one() {
     let scene = format!("{MINIMAL}picture = [\"lit\", \"volume\"]\n\n{TREE}{shadow}");
     let (_, parsed, warnings) = parse_reporting(&scene);
     let parsed = parsed.unwrap_or_else(|| panic!("{warnings:?}"));
-    assert_eq!(parsed.groups[0].kind, GroupKind::Shadow { light: [1.0, 0.0, 2.0] });
+    assert_eq!(parsed.groups[0].kind, GroupKind::Shadow { light: ShadowLight::Towards([1.0, 0.0, 2.0]) });
+    let named = scene
+        .replace("light = [1.0, 0.0, 2.0]", "light = \"key\"")
+        .replace("picture = [", "render = { shading = true, lights = [\"key\"] }\npicture = [");
+    let (_, parsed, warnings) = parse_reporting(&named);
+    let kind = parsed.unwrap_or_else(|| panic!("{warnings:?}")).groups[0].kind.clone();
+    assert!(matches!(kind, GroupKind::Shadow { light: ShadowLight::Light(ref l) } if l.name == "key"), "{kind:?}");
+    let found = errors(&named.replace("light = \"key\"", "light = \"kye\""));
+    assert!(found.iter().any(|e| e.0 == "E0713" && e.3.contains("no view has a light `kye`")), "{found:?}");
     let depth = scene.replace("kind = \"shadow\"", "kind = \"depth\"");
     let (_, parsed, warnings) = parse_reporting(&depth);
-    assert_eq!(parsed.map(|p| p.groups[0].kind), Some(GroupKind::Depth));
+    assert_eq!(parsed.map(|p| p.groups[0].kind.clone()), Some(GroupKind::Depth));
     let w: Vec<_> = warnings.iter().map(|d| (d.code.as_str(), d.message.as_str())).collect();
     assert_eq!(w, [("W0701", "`light` has no effect on this group (it is for shadow groups)")]);
 }

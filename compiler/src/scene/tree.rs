@@ -6,7 +6,7 @@
 //! Names of children resolve in this order: a mesh, a group (validation refuses a group named
 //! as a mesh), then a view. `"volume"` in a `picture` is the view's own volume.
 
-use super::raw::{RawGroup, RawView};
+use super::raw::{RawGroup, RawLight, RawView};
 use super::*;
 
 /// The lists of a `[[view]]` table that name nodes, resolved once every view, mesh and group
@@ -62,7 +62,7 @@ impl Cx<'_> {
     pub(super) fn groups(&mut self, raw: Vec<Spanned<RawGroup>>, meshes: &[Mesh], views: &[View]) -> Vec<Group> {
         let mut groups: Vec<Group> = Vec::new();
         for g in &raw {
-            let group = self.group_head(g, meshes, &groups);
+            let group = self.group_head(g, (meshes, views), &groups);
             groups.push(group);
         }
         let mut child_spans = Vec::with_capacity(raw.len());
@@ -78,7 +78,7 @@ impl Cx<'_> {
     }
 
     /// A group's name, kind, `show` and `opacity`; its children come later.
-    fn group_head(&mut self, g: &Spanned<RawGroup>, meshes: &[Mesh], earlier: &[Group]) -> Group {
+    fn group_head(&mut self, g: &Spanned<RawGroup>, (meshes, views): (&[Mesh], &[View]), earlier: &[Group]) -> Group {
         let span = self.span(g);
         let g = g.get_ref();
         let name = Ident { name: g.name.get_ref().clone(), span: self.span(&g.name) };
@@ -91,15 +91,15 @@ impl Cx<'_> {
         }
         let kind = match g.kind.as_ref().map(|k| *k.get_ref()) {
             Some(GroupKindName::Occlusion) => GroupKind::Occlusion { hidden_opacity: self.hidden_opacity(g) },
-            Some(GroupKindName::Shadow) => GroupKind::Shadow { light: self.light(g, span) },
+            Some(GroupKindName::Shadow) => GroupKind::Shadow { light: self.light(g, span, views) },
             _ => GroupKind::Depth,
         };
-        self.ignore_keys_of_other_kinds(g, kind);
+        self.ignore_keys_of_other_kinds(g, &kind);
         Group { name, kind, children: Vec::new(), span }
     }
 
     /// W0701 for `show` and `opacity` outside occlusion groups, `light` outside shadow groups.
-    fn ignore_keys_of_other_kinds(&mut self, g: &RawGroup, kind: GroupKind) {
+    fn ignore_keys_of_other_kinds(&mut self, g: &RawGroup, kind: &GroupKind) {
         let (occlusion, shadow) =
             (matches!(kind, GroupKind::Occlusion { .. }), matches!(kind, GroupKind::Shadow { .. }));
         let keys = [
@@ -115,20 +115,31 @@ impl Cx<'_> {
         }
     }
 
-    /// A shadow group's direction towards its light: E0704 without `light`, E0708 for one that
-    /// is no direction (straight above, `[0, 0, 1]`, stands in).
-    fn light(&mut self, g: &RawGroup, table: Span) -> [f32; 3] {
-        const ABOVE: [f32; 3] = [0.0, 0.0, 1.0];
+    /// A shadow group's light: E0704 without `light`, E0708 for a direction that is none, E0713
+    /// for a name no view's `lights` has (straight above, `[0, 0, 1]`, stands in).
+    fn light(&mut self, g: &RawGroup, table: Span, views: &[View]) -> ShadowLight {
+        const ABOVE: ShadowLight = ShadowLight::Towards([0.0, 0.0, 1.0]);
         let Some(light) = &g.light else {
             self.report(table, Missing::Key { key: "light".into(), table: "a shadow group".into() });
             return ABOVE;
         };
-        let v = *light.get_ref();
-        if v.iter().any(|x| !x.is_finite()) || v.iter().all(|&x| x == 0.0) {
-            self.report(self.span(light), ViewRange::LightDirection);
-            return ABOVE;
+        let span = self.span(light);
+        match light.get_ref() {
+            RawLight::Towards(v) if v.iter().any(|x| !x.is_finite()) || v.iter().all(|&x| x == 0.0) => {
+                self.report(span, ViewRange::LightDirection);
+                ABOVE
+            }
+            RawLight::Towards(v) => ShadowLight::Towards(*v),
+            RawLight::Name(name) => {
+                let lights = || views.iter().flat_map(|v| &v.render.lights).map(|l| l.name.as_str());
+                if lights().any(|l| l == name) {
+                    return ShadowLight::Light(Ident { name: name.clone(), span });
+                }
+                let suggestion = did_you_mean(name, lights()).map(String::from);
+                self.report(span, NoSuch::Light { name: name.clone(), suggestion });
+                ABOVE
+            }
         }
-        v
     }
 
     /// An occlusion group's opacity of what its first child hides: 1 for `show = "visible"`, else

@@ -136,14 +136,14 @@ fn surface(world_to_clip: Mat4, m: &MeshInstance, pass: Pass) -> Draw {
 
 /// A shadow group's light as its meshes' draws see it: patient space to its shadow map's clip
 /// space, the unit direction towards it, and its shadow map's bind group.
-pub(crate) struct ShadowLight<'a> {
+pub(crate) struct LitBy<'a> {
     pub light_to_clip: Mat4,
     pub towards: glam::Vec3,
     pub map: &'a wgpu::BindGroup,
 }
 
 /// `draws` (lit surfaces) lit by `light` and shadowed by its map.
-pub(crate) fn shadowed(mut draws: Vec<Draw>, light: &ShadowLight) -> Vec<Draw> {
+pub(crate) fn shadowed(mut draws: Vec<Draw>, light: &LitBy) -> Vec<Draw> {
     for draw in &mut draws {
         draw.shadowed = true;
         draw.uniforms.light_to_clip = light.light_to_clip.to_cols_array_2d();

@@ -27,8 +27,8 @@ use crate::error::RuntimeError;
 use crate::gpu::Gpu;
 use crate::mesh::Mesh;
 use crate::textures::Image2d;
+use draws::LitBy;
 pub(crate) use draws::PlanePicture;
-use draws::ShadowLight;
 use draws::{DrawBuffer, Pipelines, Target};
 use glam::Mat4;
 use outline::SliceFrame;
@@ -37,7 +37,7 @@ use peel::PeeledLayers;
 use pipelines::{COLOR_FORMAT, DEPTH_FORMAT, DEPTH_IMAGE_FORMAT, MeshPipelines};
 use shadow::ShadowMap;
 use std::sync::Arc;
-pub(crate) use tree::{LayerNode, set_hidden_opacity};
+pub(crate) use tree::{LayerNode, ShadowLight, resolve_lights, set_hidden_opacity};
 use tree::{LayerPass, LayerPlan, PassTarget};
 pub(crate) use view_layers::{MeshResources, ViewLayers};
 
@@ -308,12 +308,13 @@ impl MeshLayer {
         let mut lights = Vec::with_capacity(plan.shadows.len());
         for (cast, map) in plan.shadows.iter().zip(&self.shadow_maps) {
             let meshes: Vec<&MeshInstance> = cast.meshes.iter().filter_map(|&i| content.meshes.get(i)).collect();
-            let towards = glam::Vec3::from(cast.light).try_normalize().unwrap_or(glam::Vec3::Z);
+            let towards =
+                glam::Vec3::from(cast.light).try_normalize().unwrap_or_else(|| towards_viewer(content.camera));
             let light_to_clip = shadow::light_to_clip(towards, &meshes);
             let start = planned.draws.len();
             planned.draws.extend(draws::caster_draws(light_to_clip, &meshes));
             planned.shadow_ranges.push(start..planned.draws.len());
-            lights.push(ShadowLight { light_to_clip, towards, map: &map.bind_group });
+            lights.push(LitBy { light_to_clip, towards, map: &map.bind_group });
         }
         let mut peeled = Vec::new();
         for pass in &plan.passes {
@@ -353,6 +354,16 @@ impl MeshLayer {
         }
         Ok(planned)
     }
+}
+
+/// The unit direction towards the viewer at the middle of the picture (a headlight's).
+fn towards_viewer(camera: &LayerCamera) -> glam::Vec3 {
+    let to_world = match camera {
+        LayerCamera::Projection { world_to_clip } => world_to_clip.inverse(),
+        LayerCamera::Slice(frame) => frame.image_to_world,
+    };
+    let (near, far) = (to_world.project_point3(glam::Vec3::ZERO), to_world.project_point3(glam::Vec3::Z));
+    (near - far).try_normalize().unwrap_or(glam::Vec3::Z)
 }
 
 /// A pass's meshes by the light that lights them (a shadow group's, or none: the headlight), in

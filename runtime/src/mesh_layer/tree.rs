@@ -16,9 +16,37 @@ pub(crate) enum LayerNode {
     /// opaque surfaces lie in front of `focus`'s, the focus shows through them with
     /// `hidden_opacity`; elsewhere the two combine by depth.
     Occlusion { group: usize, hidden_opacity: f32, context: Vec<LayerNode>, focus: Vec<LayerNode> },
-    /// A shadow group: `children` lit by a directional light from `light` (patient space,
-    /// towards the light), each mesh shadowing the others.
-    Shadow { light: [f32; 3], children: Vec<LayerNode> },
+    /// A shadow group: `children` lit by a directional light, each mesh shadowing the others.
+    Shadow { light: ShadowLight, children: Vec<LayerNode> },
+}
+
+/// Where a shadow group's light is.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) enum ShadowLight {
+    /// Towards the light, in patient space; zero: from the viewer (a headlight).
+    Towards([f32; 3]),
+    /// The direction a `vec3f` uniform of the view holds (`light_dir_NAME`), resolved every
+    /// frame ([`resolve_lights`]); until then, from the viewer.
+    Uniform(String),
+}
+
+/// `tree`'s lights that follow uniforms, made directions from `value` (none: from the viewer).
+pub(crate) fn resolve_lights(tree: &mut [LayerNode], value: &dyn Fn(&str) -> Option<[f32; 3]>) {
+    for node in tree {
+        match node {
+            LayerNode::Shadow { light, children } => {
+                if let ShadowLight::Uniform(name) = light {
+                    *light = ShadowLight::Towards(value(name).unwrap_or([0.0; 3]));
+                }
+                resolve_lights(children, value);
+            }
+            LayerNode::Occlusion { context, focus, .. } => {
+                resolve_lights(context, value);
+                resolve_lights(focus, value);
+            }
+            LayerNode::Mesh(_) | LayerNode::Plane(_) => {}
+        }
+    }
 }
 
 /// Which images a pass draws into.
@@ -50,7 +78,8 @@ pub(crate) struct LayerPass {
     pub meshes: Vec<LitMesh>,
 }
 
-/// A shadow group's shadow map: drawn from `light` with every mesh of the group.
+/// A shadow group's shadow map: drawn from `light` (towards the light; zero: from the viewer)
+/// with every mesh of the group.
 #[derive(Clone, Debug, PartialEq)]
 pub(crate) struct ShadowCast {
     pub light: [f32; 3],
@@ -103,7 +132,11 @@ impl LayerPlan {
                     pass.combines.push((group, *hidden_opacity));
                 }
                 LayerNode::Shadow { light, children } => {
-                    self.shadows.push(ShadowCast { light: *light, meshes: meshes(children) });
+                    let light = match light {
+                        ShadowLight::Towards(v) => *v,
+                        ShadowLight::Uniform(_) => [0.0; 3],
+                    };
+                    self.shadows.push(ShadowCast { light, meshes: meshes(children) });
                     self.collect(children, pass, Some(self.shadows.len() - 1));
                 }
             }
@@ -181,7 +214,8 @@ mod tests {
             focus: vec![LayerNode::Mesh(2)],
         };
         let light = [0.0, 0.0, 1.0];
-        let shadow = LayerNode::Shadow { light, children: vec![LayerNode::Mesh(0), occluded] };
+        let shadow =
+            LayerNode::Shadow { light: ShadowLight::Towards(light), children: vec![LayerNode::Mesh(0), occluded] };
         let plan = LayerPlan::of(&[shadow, LayerNode::Mesh(3)]);
         assert_eq!(plan.shadows, [ShadowCast { light, meshes: vec![0, 1, 2] }]);
         let lit = |mesh, shadow| LitMesh { mesh, shadow };

@@ -5,7 +5,7 @@
 
 use super::SceneRenderer;
 use crate::error::RuntimeError;
-use crate::mesh_layer::{LayerNode, set_hidden_opacity};
+use crate::mesh_layer::{LayerNode, ShadowLight, set_hidden_opacity};
 use vrsc::scene::{self as vscene, GroupKind, Node, Scene, ViewKind};
 
 /// Groups deeper than this are left out: validation refuses cycles, and a scene made by hand
@@ -45,12 +45,18 @@ fn layer_nodes(scene: &Scene, nodes: &[Node], planes: &[usize], depth: usize) ->
             Node::Group(g) if depth < MAX_DEPTH => {
                 let Some(group) = scene.groups.get(g) else { continue };
                 let children = |nodes: &[Node]| layer_nodes(scene, nodes, planes, depth + 1);
-                match group.kind {
+                match &group.kind {
                     GroupKind::Depth => out.extend(children(&group.children)),
                     GroupKind::Shadow { light } => {
+                        let light = match light {
+                            vscene::ShadowLight::Towards(v) => ShadowLight::Towards(*v),
+                            vscene::ShadowLight::Light(name) => {
+                                ShadowLight::Uniform(format!("light_dir_{}", name.name))
+                            }
+                        };
                         out.push(LayerNode::Shadow { light, children: children(&group.children) })
                     }
-                    GroupKind::Occlusion { hidden_opacity } => {
+                    &GroupKind::Occlusion { hidden_opacity } => {
                         let (context, focus) = group.children.split_at(group.children.len().min(1));
                         out.push(LayerNode::Occlusion {
                             group: g,
