@@ -121,6 +121,12 @@ fn a_depth_group_draws_as_its_children_would() {
     assert!(listed == grouped, "a depth group draws its children as the view would");
     let tissue = render(dir.path(), &depth, r#"["tissue", "volume"]"#);
     assert!(listed == tissue, "the vessel inside the tissue is hidden");
+    // Translucent meshes in a depth group are peeled into the rays' depth order, as listed
+    // ones are; an occlusion group blends its own.
+    let peels =
+        |scene: &str| open(dir.path(), scene, r#"["liver", "volume"]"#).views()[0].renderer.reads_translucent_layers();
+    assert!(peels(&depth), "a depth group's meshes are peeled");
+    assert!(!peels(SCENE), "an occlusion group's are blended in its parts");
 }
 
 /// A white floor under a ball, in a shadow group lit from `LIGHT`, seen from above.

@@ -1,7 +1,7 @@
 //! The standard modules a view is composed with: the selection policy of `stdlib/README.md`,
 //! owned by the composer (the scene only says what the user asked for).
 
-use crate::scene::{Compositing, Node, Preintegration, Role, Scene, Shadows, ToneMapping, View, ViewKind};
+use crate::scene::{Compositing, GroupKind, Node, Preintegration, Role, Scene, Shadows, ToneMapping, View, ViewKind};
 
 /// A standard module chosen by configuration: `std::NAME`, with instances for a template.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -27,7 +27,7 @@ impl Scene {
             // After `meshes` (its ray setup places the layers on the ray, after
             // `stop_at_meshes`); `finish_translucent` goes first in `ray.finish`, before
             // `expose`.
-            if Scene::peels_translucent_meshes(view) {
+            if self.peels_translucent_meshes(view) {
                 selection.add("translucent", vec![]);
                 if tone_operator(view.render.tone_mapping).is_some() {
                     selection.add("translucent_hdr", vec![]);
@@ -40,14 +40,28 @@ impl Scene {
 
 impl Scene {
     /// Whether `view` blends its translucent meshes into the rays in depth order
-    /// (std::translucent): a DVR raycast view with meshes directly under its volume, whatever
+    /// (std::translucent): a DVR raycast view with meshes under its volume (directly or in depth
+    /// groups), whatever
     /// their opacity now (a viewer's panel changes it while the scene is shown, without
     /// composing again). Other views blend them into the mesh layer's colour, behind the volume,
     /// as a group blends its own into its picture.
-    pub fn peels_translucent_meshes(view: &View) -> bool {
+    pub fn peels_translucent_meshes(&self, view: &View) -> bool {
         view.kind.value == ViewKind::Raycast
             && view.render.compositing.value == Compositing::Dvr
-            && view.picture.under.iter().any(|node| matches!(node, Node::Mesh(_)))
+            && self.has_layer_mesh(&view.picture.under, 0)
+    }
+
+    /// Whether `nodes` hold a mesh directly or through depth groups (whose meshes are drawn as
+    /// if listed in their place), not counting occlusion and shadow groups (which blend their
+    /// own); `depth` bounds the search where a scene made by hand has a cycle.
+    fn has_layer_mesh(&self, nodes: &[Node], depth: usize) -> bool {
+        nodes.iter().any(|node| match node {
+            Node::Mesh(_) => true,
+            Node::Group(g) => self.groups.get(*g).is_some_and(|group| {
+                group.kind == GroupKind::Depth && depth < 64 && self.has_layer_mesh(&group.children, depth + 1)
+            }),
+            Node::Plane(_) => false,
+        })
     }
 }
 
