@@ -82,7 +82,41 @@ fn settled(
 /// Starts Xvfb on a display it picks itself (`-displayfd`), so that no other server's display is
 /// taken and the viewer starts only once the server accepts connections: Xvfb writes the number
 /// when it is ready, which on a fresh machine (font caches to build) can take seconds.
-fn start_xvfb() -> (Killed, String) {
+/// The window tests share the machine; the one that measures change over wall-clock time has it
+/// alone (a neighbour's load in its first window made that window's change look small).
+static MACHINE: std::sync::RwLock<()> = std::sync::RwLock::new(());
+
+/// A test's Xvfb and its share of the machine, both held until the test ends.
+struct Xvfb {
+    _process: Killed,
+    _share: Share,
+}
+
+enum Share {
+    Shared(#[allow(dead_code)] std::sync::RwLockReadGuard<'static, ()>),
+    Alone(#[allow(dead_code)] std::sync::RwLockWriteGuard<'static, ()>),
+}
+
+fn start_xvfb() -> (Xvfb, String) {
+    start_xvfb_sharing(false)
+}
+
+/// [`start_xvfb`] once no other window test runs, and none starts until this one ends.
+fn start_xvfb_alone() -> (Xvfb, String) {
+    start_xvfb_sharing(true)
+}
+
+fn start_xvfb_sharing(alone: bool) -> (Xvfb, String) {
+    let share = if alone {
+        Share::Alone(MACHINE.write().unwrap_or_else(|e| e.into_inner()))
+    } else {
+        Share::Shared(MACHINE.read().unwrap_or_else(|e| e.into_inner()))
+    };
+    let (process, display) = spawn_xvfb();
+    (Xvfb { _process: process, _share: share }, display)
+}
+
+fn spawn_xvfb() -> (Killed, String) {
     use std::io::BufRead;
     let mut child = Command::new("Xvfb")
         .args(["-displayfd", "1", "-screen", "0", "1000x620x24", "-nolisten", "tcp"])
@@ -305,7 +339,7 @@ fn dragging_the_needle_marker_in_the_axial_view_moves_the_ablation_zone() {
 /// A viewer on `scene` in its own Xvfb, its first view settled: the display, the process, and
 /// where it prints (the temporary folder holds the log and the screenshots).
 struct Running {
-    _xvfb: Killed,
+    _xvfb: Xvfb,
     display: String,
     viewer: Killed,
     dir: tempfile::TempDir,
@@ -688,7 +722,7 @@ fn a_path_traced_view_converges_while_left_alone() {
     let scenes = tempfile::tempdir().unwrap();
     let scene = scenes.path().join("scene.toml");
     std::fs::write(&scene, PATH_TRACED).unwrap();
-    let (_xvfb, display) = start_xvfb();
+    let (_xvfb, display) = start_xvfb_alone();
     let dir = tempfile::tempdir().unwrap();
     let log = dir.path().join("viewer.log");
     let mut viewer = start_viewer(&scene, &display, dir.path(), &log);
