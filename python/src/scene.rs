@@ -34,6 +34,8 @@ struct State {
     feeds: BTreeMap<String, Arc<ArrayFeed>>,
     /// Uniform values set from Python, set again after every recomposition.
     set: BTreeMap<String, Value>,
+    /// Occlusion groups' opacities set from Python, likewise.
+    group_opacities: BTreeMap<String, f32>,
     /// The size each view has in the scene (a render of another size resizes it for that
     /// render only).
     sizes: BTreeMap<String, [u32; 2]>,
@@ -123,7 +125,7 @@ impl SceneHandle {
         });
         let renderer = opened.map_err(|f| f.into_py(py))?;
         let sizes = renderer.views().iter().map(|v| (v.name.clone(), v.renderer.size())).collect();
-        let state = State { renderer, feeds, set: BTreeMap::new(), sizes, warnings };
+        let state = State { renderer, feeds, set: BTreeMap::new(), group_opacities: BTreeMap::new(), sizes, warnings };
         Ok(SceneHandle { state: Mutex::new(state) })
     }
 
@@ -374,6 +376,29 @@ impl SceneHandle {
         explained.map_err(|f| f.into_py(py))
     }
 
+    /// The occlusion groups the views draw, each once in scene order, with the opacity their
+    /// hidden children show with.
+    fn occlusion_groups(&self, py: Python<'_>) -> PyResult<Vec<(String, f32)>> {
+        self.with_state(py, |state| Ok(state.renderer.occlusion_groups()))
+    }
+
+    /// Shows what occlusion group `name` hides with `opacity` (0 to 1) in every view; kept
+    /// across reloads.
+    fn set_group_opacity(&self, py: Python<'_>, name: String, opacity: f32) -> PyResult<()> {
+        if !(0.0..=1.0).contains(&opacity) {
+            return Err(pyo3::exceptions::PyValueError::new_err("an opacity lies in 0 to 1"));
+        }
+        self.with_state(py, |state| {
+            let groups = state.renderer.occlusion_groups();
+            if !groups.iter().any(|(g, _)| *g == name) {
+                return Err(Failure::Unknown(unknown("occlusion group", &name, groups.iter().map(|(g, _)| g))));
+            }
+            state.renderer.set_group_opacity(&name, opacity)?;
+            state.group_opacities.insert(name, opacity);
+            Ok(())
+        })
+    }
+
     /// The pipeline map of view `view` (`vrsc pipeline`): steps, their functions, where each
     /// came from.
     #[pyo3(signature = (view=None))]
@@ -475,6 +500,13 @@ fn reapply_uniforms(state: &mut State) -> Outcome<()> {
         let declared = state.renderer.views().iter().any(|v| v.renderer.has_uniform(name));
         if declared {
             state.renderer.set_uniform(name, value.clone())?;
+        }
+    }
+    // A group the scene no longer draws is dropped, likewise.
+    let drawn = state.renderer.occlusion_groups();
+    for (name, &opacity) in &state.group_opacities {
+        if drawn.iter().any(|(g, _)| g == name) {
+            state.renderer.set_group_opacity(name, opacity)?;
         }
     }
     Ok(())

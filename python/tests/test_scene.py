@@ -268,3 +268,17 @@ def test_described_scenes_are_scene_files(sphere):
     assert "[[volume]]" in scene.toml() and 'phantom = "head"' in scene.toml()
     with pytest.raises(TypeError, match="unknown keys"):
         scene.add_view("x", colour="red")
+
+
+def test_an_occlusion_groups_opacity_is_set_from_python():
+    scene = vrsc.Scene.load(os.path.join(ROOT, "examples", "liver", "scene.toml"))
+    assert scene.occlusion_groups == {"liver_and_applicators": pytest.approx(0.45)}
+    before = scene.render("occlusion", size=(96, 96))
+    scene.set_group_opacity("liver_and_applicators", 1.0)
+    assert scene.occlusion_groups == {"liver_and_applicators": 1.0}
+    after = scene.render("occlusion", size=(96, 96))
+    assert not np.array_equal(before, after), "the applicators show whole through the organs"
+    with pytest.raises(KeyError, match="no occlusion group `liver`"):
+        scene.set_group_opacity("liver", 0.5)
+    with pytest.raises(ValueError):
+        scene.set_group_opacity("liver_and_applicators", 2.0)

@@ -325,6 +325,17 @@ class Scene:
         """Moves a raycast view's camera (``azimuth``, ``elevation``, ``distance``, ``fov``)."""
         self._ensure().set_camera(view, **camera)
 
+    @property
+    def occlusion_groups(self):
+        """The occlusion groups the views draw (``[[group]] kind = "occlusion"``), each with
+        the opacity what it hides shows with: a dict in scene order."""
+        return dict(self._ensure().occlusion_groups())
+
+    def set_group_opacity(self, name, opacity):
+        """Shows what occlusion group ``name`` hides with ``opacity`` (0 to 1) in every view;
+        kept when the scene is reloaded."""
+        self._ensure().set_group_opacity(name, float(opacity))
+
     def explain(self, view=None):
         """The composed WGSL of a view, each function annotated with the VRS file and line it
         came from (``vrsc explain``)."""
