@@ -2,7 +2,7 @@
 //! shared volumes and transfer functions it binds by name.
 
 use crate::bindings::{self, DispatchResources};
-use crate::bricks::BrickView;
+use crate::bricks::{BrickView, ViewBrickLayouts};
 use crate::error::RuntimeError;
 use crate::gpu::Gpu;
 use crate::history::History;
@@ -29,11 +29,8 @@ pub struct ViewRenderer {
     /// The mesh layer under the volume (for a view whose shader reads it), the overlay over it,
     /// and what they draw.
     layers: ViewLayers,
-    /// How the view looks at bricked volumes (what picks their levels), the finest level it
-    /// shows (above 0 holds detail back), and its `BrickLayout` buffer of each.
-    brick_view: Option<BrickView>,
-    brick_finest: u32,
-    brick_layouts: HashMap<String, wgpu::Buffer>,
+    /// Its `BrickLayout` uniforms, one per bricked volume it reads.
+    brick_layouts: ViewBrickLayouts,
     /// Transfer-function tables of the view's own, bound in place of the scene's of the same
     /// name (a slice view's window/level).
     own_tfs: HashMap<String, TfTexture>,
@@ -97,9 +94,7 @@ impl ViewRenderer {
             size,
             metering,
             layers: ViewLayers::default(),
-            brick_view: None,
-            brick_finest: 0,
-            brick_layouts: HashMap::new(),
+            brick_layouts: ViewBrickLayouts::default(),
             own_tfs: HashMap::new(),
             history,
             samples: DEFAULT_SAMPLES,
@@ -128,12 +123,12 @@ impl ViewRenderer {
     }
 
     /// What the picture is rendered from: the uniforms, the shared content, and what the view
-    /// draws besides (its finest brick level, its planes' pictures).
+    /// draws besides (its planes' pictures).
     fn history_key(&self, resources: &Resources) -> u64 {
         use std::hash::{Hash, Hasher};
         let mut hasher = std::collections::hash_map::DefaultHasher::new();
         self.uniforms.bytes().hash(&mut hasher);
-        (resources.content(), self.brick_finest, self.layers.planes_generation()).hash(&mut hasher);
+        (resources.content(), self.layers.planes_generation()).hash(&mut hasher);
         hasher.finish()
     }
 
@@ -202,41 +197,16 @@ impl ViewRenderer {
 
     /// How the view looks at its bricked volumes (set with its camera or plane every frame).
     pub(crate) fn set_brick_view(&mut self, view: BrickView) {
-        self.brick_view = Some(view);
+        self.brick_layouts.set_view(view);
     }
 
     /// Writes the `BrickLayout` of every bricked volume the view reads, for a target `height`
     /// pixels high.
     fn write_brick_layouts(&mut self, gpu: &Gpu, resources: &Resources, height: u32) -> Result<(), RuntimeError> {
-        let view = self.brick_view.unwrap_or(BrickView::Plane { u: glam::Vec3::X, v: glam::Vec3::Y });
-        let names: Vec<String> = self
-            .shader
-            .reflection
-            .bindings
-            .iter()
-            .filter(|b| b.kind == BindingKind::BrickLayout)
-            .map(|b| b.name.clone())
-            .collect();
-        for name in names {
-            let Some(volume) = resources.bricked.get(&name) else { continue };
-            let bytes = volume.layout_bytes(view, height, self.brick_finest);
-            if !self.brick_layouts.contains_key(&name) {
-                let doing = format!("creating the brick layout of `{name}` for view `{}`", self.shader.reflection.view);
-                let buffer = gpu.capture(&doing, || {
-                    gpu.device.create_buffer(&wgpu::BufferDescriptor {
-                        label: Some("brick layout"),
-                        size: bytes.len() as u64,
-                        usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-                        mapped_at_creation: false,
-                    })
-                })?;
-                self.brick_layouts.insert(name.clone(), buffer);
-            }
-            if let Some(buffer) = self.brick_layouts.get(&name) {
-                gpu.queue.write_buffer(buffer, 0, &bytes);
-            }
-        }
-        Ok(())
+        let reflection = &self.shader.reflection;
+        let names: Vec<String> =
+            reflection.bindings.iter().filter(|b| b.kind == BindingKind::BrickLayout).map(|b| b.name.clone()).collect();
+        self.brick_layouts.write(gpu, &resources.bricked, (&names, &reflection.view), height)
     }
 
     /// The slice pictures the mesh layer shows on their planes.
@@ -350,7 +320,7 @@ impl ViewRenderer {
             output: target,
             luminance,
             mesh_layer,
-            brick_layouts: &self.brick_layouts,
+            brick_layouts: self.brick_layouts.buffers(),
             tfs: &self.own_tfs,
         };
         let mut groups = Vec::with_capacity(self.pipeline.groups.len());

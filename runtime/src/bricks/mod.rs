@@ -15,6 +15,7 @@ pub(crate) mod ranges;
 pub(crate) mod residency;
 pub(crate) mod source;
 mod summary;
+mod view_layouts;
 pub mod zarr;
 
 pub(crate) use lazy_levels::cache_bytes;
@@ -22,6 +23,7 @@ pub use residency::Residency;
 pub(crate) use residency::{BrickView, BrickedVolume, BrickedVolumes};
 pub(crate) use source::levels_for;
 pub use source::{BrickData, BrickError, BrickSource, Level, Level0Observer};
+pub(crate) use view_layouts::ViewBrickLayouts;
 
 /// How a level a source does not store is made from the finer one (or from a finer dataset
 /// of a store, a few of its voxels per voxel).

@@ -272,8 +272,8 @@ impl BrickedVolume {
     }
 
     /// The `BrickLayout` uniform for a view looking as `view` into a target `height` pixels
-    /// high, finest level `finest` (0 unless detail is held back, as while the user drags).
-    pub(crate) fn layout_bytes(&self, view: BrickView, height: u32, finest: u32) -> Vec<u8> {
+    /// high; its finest level is the volume's floor (0 unless detail is held back).
+    pub(crate) fn layout_bytes(&self, view: BrickView, height: u32) -> Vec<u8> {
         let dims = Vec3::from_array(self.levels[0].dims.map(|n| n as f32));
         let to_voxels = Mat4::from_scale(dims) * self.primary_to;
         let height = height.max(1) as f32;
@@ -290,7 +290,7 @@ impl BrickedVolume {
         words.extend([f(eye.x), f(eye.y), f(eye.z), f(angle * angle)]);
         let pool = self.pool_dims.map(|n| 1.0 / n as f32);
         words.extend([f(pool[0]), f(pool[1]), f(pool[2]), f(BRICK as f32)]);
-        let finest = finest.max(self.floor.load(Ordering::Relaxed)).min(self.levels.len() as u32 - 1);
+        let finest = self.floor.load(Ordering::Relaxed).min(self.levels.len() as u32 - 1);
         words.extend([f(footprint * footprint), f(finest as f32), f(APRON as f32), 0]);
         let [bx, by, bz] = self.levels[0].bricks.map(|n| n as f32);
         words.extend([f(1.0), f(bx), f(bx * by), f(bx * by * bz)]);
