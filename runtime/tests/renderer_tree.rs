@@ -254,3 +254,42 @@ fn a_shadow_group_follows_its_named_lights_direction() {
     assert!(moved != first, "the shadow moves with the light");
     assert!(moved == render(dir.path(), &lit_view("[-1.0, 0.0, 2.0]"), picture), "its new direction");
 }
+
+/// A vessel partly outside the tissue (through its face towards the camera): where the vessel is
+/// in front (the depth combination shows it), the group shows it as it is; where the tissue
+/// hides it, `k vessel + (1 - k) tissue`. Pixels the depth combination shows as neither alone
+/// (the outline where the vessel enters the tissue) are left out.
+#[test]
+fn an_occlusion_group_leaves_what_lies_in_front_of_its_first_child_as_it_is() {
+    let dir = tempfile::tempdir().expect("a folder");
+    let scene = SCENE.replace("centre = [17.0, 15.5, 15.5]", "centre = [23.0, 15.5, 15.5]");
+    let k = vrsc::scene::DEFAULT_HIDDEN_OPACITY;
+    let [tissue, vessel, depth, group] = [
+        r#"["tissue", "volume"]"#,
+        r#"["vessel", "volume"]"#,
+        r#"["tissue", "vessel", "volume"]"#,
+        r#"["liver", "volume"]"#,
+    ]
+    .map(|picture| render(dir.path(), &scene, picture));
+    let (mut in_front, mut hidden) = (0, 0);
+    for (x, y, got) in group.enumerate_pixels() {
+        let (c, f, d) = (tissue.get_pixel(x, y), vessel.get_pixel(x, y), depth.get_pixel(x, y));
+        if f[0] == 0 && f[1] == 0 && f[2] == 0 {
+            continue;
+        }
+        let want: [f32; 3] = if d == f {
+            in_front += 1;
+            [0, 1, 2].map(|ch| f32::from(f[ch]))
+        } else if d == c {
+            hidden += 1;
+            [0, 1, 2].map(|ch| k * f32::from(f[ch]) + (1.0 - k) * f32::from(c[ch]))
+        } else {
+            continue;
+        };
+        for ch in 0..3 {
+            assert!((f32::from(got[ch]) - want[ch]).abs() <= 3.0, "({x}, {y}): {got:?}, want {want:?}");
+        }
+    }
+    assert!(in_front > 50 && hidden > 50, "{in_front} pixels in front, {hidden} hidden");
+    eprintln!("{in_front} vessel pixels in front of the tissue, {hidden} behind it, each as the rule says");
+}
