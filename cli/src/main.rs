@@ -331,6 +331,10 @@ fn pipeline(printer: &Printer, scene: &std::path::Path, only: Option<&str>) -> O
     let outcome = printer.report(&built.diags.sorted(), &built.sources);
     for view in &built.views {
         println!("== view {} ==", view.name);
+        let table = built.scene.as_ref().and_then(|s| Some((s, s.views.iter().find(|v| v.name.name == view.name)?)));
+        if let Some((scene, table)) = table {
+            println!("picture: {}", scene.describe_picture(table));
+        }
         if let Some(ir) = &view.ir {
             print!("{}", view.composition.render_pipeline_map(&ir.program, &built.sources));
         }

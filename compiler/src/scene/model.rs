@@ -702,6 +702,49 @@ impl Scene {
         (meshes, planes)
     }
 
+    /// `view`'s renderer tree in one line, for people (`vrsc pipeline`): groups as
+    /// `NAME (KIND) [CHILDREN]` (an occlusion group's first child apart, `|`), slice views as
+    /// `NAME (plane)`, then `volume`, then what is drawn over it.
+    pub fn describe_picture(&self, view: &View) -> String {
+        let mut parts: Vec<String> = view.picture.under.iter().map(|&n| self.describe_node(n, 0)).collect();
+        parts.push("volume".into());
+        let over: Vec<&str> =
+            view.picture.over.iter().filter_map(|&m| self.meshes.get(m)).map(|m| &*m.name.name).collect();
+        if !over.is_empty() {
+            parts.push(format!("over it: {}", over.join(", ")));
+        }
+        parts.join(", ")
+    }
+
+    fn describe_node(&self, node: Node, depth: usize) -> String {
+        let name = |n: Option<&Ident>| n.map_or("?".to_string(), |n| n.name.clone());
+        match node {
+            Node::Mesh(i) => name(self.meshes.get(i).map(|m| &m.name)),
+            Node::Plane(i) => format!("{} (plane)", name(self.views.get(i).map(|v| &v.name))),
+            // Validation refuses cycles; a scene made by hand with one still ends.
+            Node::Group(g) if depth < 64 => {
+                let Some(group) = self.groups.get(g) else { return "?".into() };
+                let child = |n: &Node| self.describe_node(*n, depth + 1);
+                let list = |nodes: &[Node]| nodes.iter().map(child).collect::<Vec<_>>().join(", ");
+                let (kind, children) = match &group.kind {
+                    GroupKind::Depth => ("depth".to_string(), list(&group.children)),
+                    GroupKind::Occlusion { hidden_opacity } => {
+                        let (first, rest) = group.children.split_at(group.children.len().min(1));
+                        (format!("occlusion {hidden_opacity:.2}"), format!("{} | {}", list(first), list(rest)))
+                    }
+                    GroupKind::Shadow { light: ShadowLight::Towards(v) } => {
+                        (format!("shadow, light towards {v:?}"), list(&group.children))
+                    }
+                    GroupKind::Shadow { light: ShadowLight::Light(l) } => {
+                        (format!("shadow, light `{}`", l.name), list(&group.children))
+                    }
+                };
+                format!("{} ({kind}) [{children}]", group.name.name)
+            }
+            Node::Group(_) => "...".into(),
+        }
+    }
+
     /// Initial uniform values of views without their own `render` table: `[uniforms]`, plus
     /// those that `[render]` sets (`iso_value`, `step_size`, `jitter`, `background` and
     /// `max_samples` when given). [`Scene::view_uniform_values`] gives a view's own.

@@ -554,6 +554,19 @@ fn renderer_tree_mistakes_have_their_codes_and_spans() {
 }
 
 #[test]
+fn a_picture_describes_itself_in_one_line() {
+    let groups = "[[group]]\nname = \"seen\"\nkind = \"occlusion\"\nchildren = [\"organ\", \"tube\"]\n\n\
+                  [[group]]\nname = \"lit\"\nkind = \"shadow\"\nlight = [0.0, 0.0, 1.0]\nchildren = [\"seen\"]\n";
+    let scene = format!("{MINIMAL}picture = [\"lit\", \"volume\", \"pin\"]\n\n{TREE}{groups}");
+    let (_, parsed, warnings) = parse_reporting(&scene);
+    let parsed = parsed.unwrap_or_else(|| panic!("{warnings:?}"));
+    assert_eq!(
+        parsed.describe_picture(&parsed.views[0]),
+        "lit (shadow, light towards [0.0, 0.0, 1.0]) [seen (occlusion 0.50) [organ | tube]], volume, over it: pin"
+    );
+}
+
+#[test]
 fn a_shadow_group_has_its_light_and_other_groups_ignore_one() {
     let shadow = "[[group]]\nname = \"lit\"\nkind = \"shadow\"\nlight = [1.0, 0.0, 2.0]\nchildren = [\"organ\"]\n";
     let scene = format!("{MINIMAL}picture = [\"lit\", \"volume\"]\n\n{TREE}{shadow}");
