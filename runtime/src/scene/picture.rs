@@ -1,7 +1,7 @@
 //! What a view shows besides its volume, from its renderer tree in the scene (`picture`): the
 //! tree its mesh layer draws, with depth groups flattened into their parents (the depth test
-//! combines them) and occlusion groups kept; the meshes its overlay draws; the slice views it
-//! shows on planes.
+//! combines them) and occlusion and shadow groups kept; the meshes its overlay draws; the slice
+//! views it shows on planes. Also the live opacity of occlusion groups.
 
 use super::SceneRenderer;
 use crate::error::RuntimeError;
