@@ -529,12 +529,19 @@ fn pipeline_map(path: &Path, view: &str) -> Outcome<String> {
     if built.diags.has_errors() {
         return Err(Failure::Compile(collect(&built.diags, &built.sources)));
     }
-    let maps: Vec<String> = built
-        .views
-        .iter()
-        .filter_map(|v| v.ir.as_ref().map(|ir| v.composition.render_pipeline_map(&ir.program, &built.sources)))
-        .collect();
-    Ok(maps.concat())
+    let mut text = String::new();
+    // The view's renderer tree first, as `vrsc pipeline` prints it.
+    if let Some(scene) = &built.scene
+        && let Some(table) = scene.views.iter().find(|v| v.name.name == view)
+    {
+        text.push_str(&format!("picture: {}\n", scene.describe_picture(table)));
+    }
+    for v in &built.views {
+        if let Some(ir) = &v.ir {
+            text.push_str(&v.composition.render_pipeline_map(&ir.program, &built.sources));
+        }
+    }
+    Ok(text)
 }
 
 /// What `uniforms()` lists of one uniform, taken while the state is locked.

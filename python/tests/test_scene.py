@@ -274,6 +274,7 @@ def test_an_occlusion_groups_opacity_is_set_from_python():
     scene = vrsc.Scene.load(os.path.join(ROOT, "examples", "liver", "scene.toml"))
     assert scene.occlusion_groups == {"liver_and_applicators": pytest.approx(0.45)}
     before = scene.render("occlusion", size=(96, 96))
+    assert scene.pipeline("occlusion").startswith("picture: liver_and_applicators (occlusion 0.45)")
     scene.set_group_opacity("liver_and_applicators", 1.0)
     assert scene.occlusion_groups == {"liver_and_applicators": 1.0}
     after = scene.render("occlusion", size=(96, 96))

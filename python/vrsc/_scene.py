@@ -342,7 +342,7 @@ class Scene:
         return self._ensure().explain(view)
 
     def pipeline(self, view=None):
-        """The pipeline map of a view (``vrsc pipeline``)."""
+        """The renderer tree (``picture: ...``) and pipeline map of a view (``vrsc pipeline``)."""
         return self._ensure().pipeline(view)
 
     @property
