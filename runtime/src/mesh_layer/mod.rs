@@ -11,7 +11,8 @@
 //! faces, in scene order) without writing it, unless the volume layer blends them into its rays
 //! in depth order: then they are peeled into layers (`peel`) and left out of the colour. The
 //! layer draws a renderer tree (`tree`): an occlusion group's parts are drawn into images of
-//! their own and combined into their parent's. A slice view draws where each mesh crosses its
+//! their own and combined into their parent's; a shadow group's meshes into a shadow map from
+//! its light first (`shadow`), then lit by it. `ViewLayers` is a view's node of all this. A slice view draws where each mesh crosses its
 //! plane, as opaque outlines on the plane (`outline`), whatever the tree.
 
 mod draws;
