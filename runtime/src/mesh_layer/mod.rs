@@ -12,8 +12,9 @@
 //! in depth order: then they are peeled into layers (`peel`) and left out of the colour. The
 //! layer draws a renderer tree (`tree`): an occlusion group's parts are drawn into images of
 //! their own and combined into their parent's; a shadow group's meshes into a shadow map from
-//! its light first (`shadow`), then lit by it. `ViewLayers` is a view's node of all this. A slice view draws where each mesh crosses its
-//! plane, as opaque outlines on the plane (`outline`), whatever the tree.
+//! its light first (`shadow`), then lit by it. `ViewLayers` is a view's node of all this. A
+//! slice view draws where each mesh crosses its plane, as opaque outlines on the plane
+//! (`outline`), whatever the tree.
 
 mod draws;
 pub(crate) mod outline;
