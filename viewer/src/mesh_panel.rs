@@ -66,35 +66,34 @@ pub fn show(ui: &mut egui::Ui, rows: &[MeshRow], groups: &[GroupRow], message: &
 }
 
 fn group_row(ui: &mut egui::Ui, row: &GroupRow, actions: &mut Vec<Action>) {
-    ui.horizontal(|ui| {
-        ui.label(RichText::new(&row.name).monospace().strong());
-        if row.changed && ui.small_button("reset").on_hover_text("Back to the scene's opacity").clicked() {
-            actions.push(Action::ResetGroupOpacity(row.name.clone()));
-        }
-    });
+    if heading(ui, &row.name, row.changed, "Back to the scene's opacity") {
+        actions.push(Action::ResetGroupOpacity(row.name.clone()));
+    }
     let mut opacity = row.opacity;
-    let changed = ui
-        .horizontal(|ui| {
-            let label = ui.label("hidden opacity").id;
-            let slider = ui.add(Slider::new(&mut opacity, 0.0..=1.0)).labelled_by(label);
-            slider.on_hover_text(format!("{}: the opacity of what its first child hides", row.name)).changed()
-        })
-        .inner;
-    if changed && opacity != row.opacity {
+    let hover = format!("{}: the opacity of what its first child hides", row.name);
+    if unit_slider(ui, "hidden opacity", &mut opacity, hover) && opacity != row.opacity {
         actions.push(Action::SetGroupOpacity(row.name.clone(), opacity));
     }
 }
 
-fn mesh_row(ui: &mut egui::Ui, row: &MeshRow, actions: &mut Vec<Action>) {
+/// A row's name, with a reset button (hovered with `reset`) when `changed`; whether it was
+/// clicked.
+fn heading(ui: &mut egui::Ui, name: &str, changed: bool, reset: &str) -> bool {
     ui.horizontal(|ui| {
-        ui.label(RichText::new(&row.name).monospace().strong());
-        if row.changed && ui.small_button("reset").on_hover_text("Back to the scene's colour and placement").clicked() {
-            actions.push(Action::ResetMeshStyle(row.name.clone()));
-        }
-    });
+        ui.label(RichText::new(name).monospace().strong());
+        changed && ui.small_button("reset").on_hover_text(reset).clicked()
+    })
+    .inner
+}
+
+fn mesh_row(ui: &mut egui::Ui, row: &MeshRow, actions: &mut Vec<Action>) {
+    if heading(ui, &row.name, row.changed, "Back to the scene's colour and placement") {
+        actions.push(Action::ResetMeshStyle(row.name.clone()));
+    }
     let mut style = row.style;
     let mut changed = colour(ui, &row.name, &mut style.color);
-    changed |= opacity(ui, &row.name, &mut style.opacity);
+    let hover = format!("{}: 1 is opaque (rays end at it), below 1 it is blended", row.name);
+    changed |= unit_slider(ui, "opacity", &mut style.opacity, hover);
     changed |= translation(ui, &row.name, &mut style.model[3]);
     if changed && style != row.style {
         actions.push(Action::SetMeshStyle(row.name.clone(), style));
@@ -117,11 +116,11 @@ fn colour(ui: &mut egui::Ui, mesh: &str, color: &mut [f32; 3]) -> bool {
     .inner
 }
 
-fn opacity(ui: &mut egui::Ui, mesh: &str, opacity: &mut f32) -> bool {
+/// A slider of `value` from 0 to 1 labelled `label`; whether the user moved it.
+fn unit_slider(ui: &mut egui::Ui, label: &str, value: &mut f32, hover: String) -> bool {
     ui.horizontal(|ui| {
-        let label = ui.label("opacity").id;
-        let slider = ui.add(Slider::new(opacity, 0.0..=1.0)).labelled_by(label);
-        slider.on_hover_text(format!("{mesh}: 1 is opaque (rays end at it), below 1 it is blended")).changed()
+        let label = ui.label(label).id;
+        ui.add(Slider::new(value, 0.0..=1.0)).labelled_by(label).on_hover_text(hover).changed()
     })
     .inner
 }
