@@ -39,7 +39,7 @@ use peel::PeeledLayers;
 use pipelines::{COLOR_FORMAT, DEPTH_FORMAT, DEPTH_IMAGE_FORMAT, MeshPipelines};
 use shadow::ShadowMap;
 use std::sync::Arc;
-pub(crate) use tree::{LayerNode, ShadowLight, resolve_lights, set_hidden_opacity};
+pub(crate) use tree::{LayerNode, ShadowLight, resolve_lights, set_hidden_opacity, visit};
 use tree::{LayerPass, LayerPlan, PassTarget};
 pub(crate) use view_layers::{MeshResources, ViewLayers};
 
@@ -201,15 +201,15 @@ impl MeshLayer {
         encoder: &mut wgpu::CommandEncoder,
         content: &LayerContent,
     ) -> Result<(), RuntimeError> {
+        let key = layer_key(content, self.size());
+        if self.drawn == Some(key) {
+            return Ok(());
+        }
         let plan = match content.camera {
             LayerCamera::Projection { .. } => LayerPlan::of(content.tree),
             // A slice view outlines every mesh on its plane, whatever its group.
             LayerCamera::Slice(_) => LayerPlan::of_meshes(tree::meshes(content.tree)),
         };
-        let key = layer_key(content, self.size());
-        if self.drawn == Some(key) {
-            return Ok(());
-        }
         let planned = match pipelines {
             Some(pipelines) => {
                 self.make_images(gpu, pipelines, &plan)?;

@@ -30,23 +30,46 @@ pub(crate) enum ShadowLight {
     Uniform(String),
 }
 
-/// `tree`'s lights that follow uniforms, made directions from `value` (none: from the viewer).
-pub(crate) fn resolve_lights(tree: &mut [LayerNode], value: &dyn Fn(&str) -> Option<[f32; 3]>) {
+/// Calls `f` on every node of `tree`, each before its children, in order.
+pub(crate) fn visit(tree: &[LayerNode], f: &mut dyn FnMut(&LayerNode)) {
     for node in tree {
+        f(node);
         match node {
-            LayerNode::Shadow { light, children } => {
-                if let ShadowLight::Uniform(name) = light {
-                    *light = ShadowLight::Towards(value(name).unwrap_or([0.0; 3]));
-                }
-                resolve_lights(children, value);
-            }
             LayerNode::Occlusion { context, focus, .. } => {
-                resolve_lights(context, value);
-                resolve_lights(focus, value);
+                visit(context, f);
+                visit(focus, f);
             }
+            LayerNode::Shadow { children, .. } => visit(children, f),
             LayerNode::Mesh(_) | LayerNode::Plane(_) => {}
         }
     }
+}
+
+/// [`visit`] with each node to change.
+fn visit_mut(tree: &mut [LayerNode], f: &mut dyn FnMut(&mut LayerNode)) {
+    for node in tree {
+        f(node);
+        match node {
+            LayerNode::Occlusion { context, focus, .. } => {
+                visit_mut(context, f);
+                visit_mut(focus, f);
+            }
+            LayerNode::Shadow { children, .. } => visit_mut(children, f),
+            LayerNode::Mesh(_) | LayerNode::Plane(_) => {}
+        }
+    }
+}
+
+/// `tree`'s lights that follow uniforms, made directions from `value` (none: from the viewer).
+pub(crate) fn resolve_lights(tree: &mut [LayerNode], value: &dyn Fn(&str) -> Option<[f32; 3]>) {
+    visit_mut(tree, &mut |node| {
+        if let LayerNode::Shadow { light, .. } = node
+            && let ShadowLight::Uniform(name) = light
+        {
+            let towards = value(name).unwrap_or([0.0; 3]);
+            *light = ShadowLight::Towards(towards);
+        }
+    });
 }
 
 /// Which images a pass draws into.
@@ -146,35 +169,23 @@ impl LayerPlan {
 
 /// Sets the hidden opacity of every occlusion node of `tree` made from scene group `group`.
 pub(crate) fn set_hidden_opacity(tree: &mut [LayerNode], group: usize, opacity: f32) {
-    for node in tree {
-        match node {
-            LayerNode::Occlusion { group: g, hidden_opacity, context, focus } => {
-                if *g == group {
-                    *hidden_opacity = opacity;
-                }
-                set_hidden_opacity(context, group, opacity);
-                set_hidden_opacity(focus, group, opacity);
-            }
-            LayerNode::Shadow { children, .. } => set_hidden_opacity(children, group, opacity),
-            LayerNode::Mesh(_) | LayerNode::Plane(_) => {}
+    visit_mut(tree, &mut |node| {
+        if let LayerNode::Occlusion { group: g, hidden_opacity, .. } = node
+            && *g == group
+        {
+            *hidden_opacity = opacity;
         }
-    }
+    });
 }
 
 /// Every mesh of `tree`, in order (a slice view outlines them all, whatever their groups).
 pub(crate) fn meshes(tree: &[LayerNode]) -> Vec<usize> {
     let mut out = Vec::new();
-    for node in tree {
-        match node {
-            LayerNode::Mesh(i) => out.push(*i),
-            LayerNode::Plane(_) => {}
-            LayerNode::Occlusion { context, focus, .. } => {
-                out.extend(meshes(context));
-                out.extend(meshes(focus));
-            }
-            LayerNode::Shadow { children, .. } => out.extend(meshes(children)),
+    visit(tree, &mut |node| {
+        if let LayerNode::Mesh(i) = node {
+            out.push(*i);
         }
-    }
+    });
     out
 }
 

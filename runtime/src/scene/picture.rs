@@ -5,7 +5,7 @@
 
 use super::SceneRenderer;
 use crate::error::RuntimeError;
-use crate::mesh_layer::{LayerNode, ShadowLight, set_hidden_opacity};
+use crate::mesh_layer::{LayerNode, ShadowLight, set_hidden_opacity, visit};
 use vrsc::scene::{self as vscene, GroupKind, Node, Scene, ViewKind};
 
 /// Groups deeper than this are left out: validation refuses cycles, and a scene made by hand
@@ -79,7 +79,11 @@ impl SceneRenderer {
     pub fn occlusion_groups(&self) -> Vec<(String, f32)> {
         let mut found: Vec<(usize, f32)> = Vec::new();
         for view in &self.views {
-            occlusion_nodes(&view.picture.tree, &mut found);
+            visit(&view.picture.tree, &mut |node| {
+                if let LayerNode::Occlusion { group, hidden_opacity, .. } = node {
+                    found.push((*group, *hidden_opacity));
+                }
+            });
         }
         found.sort_by_key(|(g, _)| *g);
         found.dedup_by_key(|(g, _)| *g);
@@ -100,20 +104,5 @@ impl SceneRenderer {
         }
         self.resources.content_changed();
         Ok(())
-    }
-}
-
-/// Each occlusion node of `tree`: its scene group and hidden opacity.
-fn occlusion_nodes(tree: &[LayerNode], out: &mut Vec<(usize, f32)>) {
-    for node in tree {
-        match node {
-            LayerNode::Occlusion { group, hidden_opacity, context, focus } => {
-                out.push((*group, *hidden_opacity));
-                occlusion_nodes(context, out);
-                occlusion_nodes(focus, out);
-            }
-            LayerNode::Shadow { children, .. } => occlusion_nodes(children, out),
-            LayerNode::Mesh(_) | LayerNode::Plane(_) => {}
-        }
     }
 }
