@@ -1,7 +1,9 @@
 //! The standard modules a view is composed with: the selection policy of `stdlib/README.md`,
 //! owned by the composer (the scene only says what the user asked for).
 
-use crate::scene::{Compositing, GroupKind, Node, Preintegration, Role, Scene, Shadows, ToneMapping, View, ViewKind};
+use crate::scene::{
+    Compositing, GroupKind, MAX_GROUP_DEPTH, Node, Preintegration, Role, Scene, Shadows, ToneMapping, View, ViewKind,
+};
 
 /// A standard module chosen by configuration: `std::NAME`, with instances for a template.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -58,7 +60,9 @@ impl Scene {
         nodes.iter().any(|node| match node {
             Node::Mesh(_) => true,
             Node::Group(g) => self.groups.get(*g).is_some_and(|group| {
-                group.kind == GroupKind::Depth && depth < 64 && self.has_layer_mesh(&group.children, depth + 1)
+                group.kind == GroupKind::Depth
+                    && depth < MAX_GROUP_DEPTH
+                    && self.has_layer_mesh(&group.children, depth + 1)
             }),
             Node::Plane(_) => false,
         })

@@ -445,6 +445,10 @@ pub struct Picture {
     pub over: Vec<usize>,
 }
 
+/// How deep a walk down groups goes: validation refuses cycles, and a walk over a scene made by
+/// hand with one must still end.
+pub const MAX_GROUP_DEPTH: usize = 64;
+
 /// A node of a renderer tree other than the view's volume.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Node {
@@ -721,8 +725,7 @@ impl Scene {
         match node {
             Node::Mesh(i) => name(self.meshes.get(i).map(|m| &m.name)),
             Node::Plane(i) => format!("{} (plane)", name(self.views.get(i).map(|v| &v.name))),
-            // Validation refuses cycles; a scene made by hand with one still ends.
-            Node::Group(g) if depth < 64 => {
+            Node::Group(g) if depth < MAX_GROUP_DEPTH => {
                 let Some(group) = self.groups.get(g) else { return "?".into() };
                 let child = |n: &Node| self.describe_node(*n, depth + 1);
                 let list = |nodes: &[Node]| nodes.iter().map(child).collect::<Vec<_>>().join(", ");

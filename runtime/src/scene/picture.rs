@@ -8,10 +8,6 @@ use crate::error::RuntimeError;
 use crate::mesh_layer::{LayerNode, ShadowLight, set_hidden_opacity, visit};
 use vrsc::scene::{self as vscene, GroupKind, Node, Scene, ViewKind};
 
-/// Groups deeper than this are left out: validation refuses cycles, and a scene made by hand
-/// with one must still end.
-const MAX_DEPTH: usize = 64;
-
 /// A view's picture as its renderer draws it.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub(crate) struct ViewPicture {
@@ -42,7 +38,7 @@ fn layer_nodes(scene: &Scene, nodes: &[Node], planes: &[usize], depth: usize) ->
         match *node {
             Node::Mesh(i) => out.push(LayerNode::Mesh(i)),
             Node::Plane(v) => out.extend(planes.iter().position(|&p| p == v).map(LayerNode::Plane)),
-            Node::Group(g) if depth < MAX_DEPTH => {
+            Node::Group(g) if depth < vscene::MAX_GROUP_DEPTH => {
                 let Some(group) = scene.groups.get(g) else { continue };
                 let children = |nodes: &[Node]| layer_nodes(scene, nodes, planes, depth + 1);
                 match &group.kind {
