@@ -292,6 +292,12 @@ fn build(printer: &Printer, scene: &std::path::Path, dir: &std::path::Path, targ
                 }
             }
         }
+        // The filter pass beside the view's shader: VIEW.filters.wgsl and VIEW.filters.json.
+        if let Some(filter) = view.filter.as_ref().and_then(|f| f.shader.as_ref()) {
+            let json = serde_json::to_string_pretty(&filter.reflection).unwrap_or_default();
+            outputs.push(("filters.wgsl", filter.wgsl.as_bytes().to_vec()));
+            outputs.push(("filters.json", json.into_bytes()));
+        }
         for (ext, bytes) in &outputs {
             let path = dir.join(format!("{}.{ext}", view.name));
             if let Err(e) = std::fs::write(&path, bytes) {
@@ -335,9 +341,7 @@ fn pipeline(printer: &Printer, scene: &std::path::Path, only: Option<&str>) -> O
         if let Some((scene, table)) = table {
             println!("picture: {}", scene.describe_picture(table));
         }
-        if let Some(ir) = &view.ir {
-            print!("{}", view.composition.render_pipeline_map(&ir.program, &built.sources));
-        }
+        print!("{}", view.render_maps(&built.sources));
     }
     outcome
 }

@@ -99,9 +99,10 @@ codes! {
     NoDefault = "E0605", Error, "a state field that no declaration in the composed pipeline gives a default";
     UninstantiatedTemplate = "E0606", Error, "a template module used without instances";
     InvalidInstance = "E0607", Error, "an instance name that is not an identifier, or is listed twice";
-    UnboundResource = "E0608", Error, "a `volume` or `tf` uniform that the scene does not bind";
+    UnboundResource = "E0608", Error, "a `volume`, `tf` or `image` uniform that the scene does not bind";
     LayerRule = "E0609", Error, "a layer that reads what no earlier layer of its view writes (`geometry_depth` without meshes)";
     BadLookup = "E0610", Error, "a bricked volume's own lookup (`lookup`) that does not parse, validate or have the lookup's interface";
+    OtherPipeline = "E0611", Error, "a pipeline function placed in a step of the other pipeline: a filter step in a view's modules, a ray step in its filters";
     // Scenes.
     SceneSyntax = "E0701", Error, "a scene file that is not valid TOML";
     SceneInvalid = "E0702", Error, "a scene value the composed views reject: a uniform no view reads or of another type, more entries than the limits allow";

@@ -543,8 +543,10 @@ builtins! {
     Sample = "sample" / 2,
     /// `lookup(t: tf, x: f32) -> vec4f`
     Lookup = "lookup" / 2,
-    /// `dims(v: volume) -> vec3u`
+    /// `dims(v: volume) -> vec3u`, `dims(i: image) -> vec2u`
     Dims = "dims" / 1,
+    /// `load(i: image, p: vec2i) -> vec4f`: the texel at pixel `p`, clamped to the image's edge
+    Load = "load" / 2,
 }
 
 /// A constant as VRS source: `1.0`, `vec3f(0.5, 0.5, 0.5)`.

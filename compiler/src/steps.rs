@@ -68,6 +68,32 @@ steps! {
     End = "end", "end";
     /// `ray.finish`: once per ray, after the march: the background and the pixel's final value.
     RayFinish = "ray.finish", "ray";
+    /// `filter.setup`: once per pixel of a view's filter pass: reads the pixel's buffers (its
+    /// colour, its depth) into the pixel state.
+    FilterSetup = "filter.setup", "filter";
+    /// `filter.apply`: the view's filters, one substep each, in the order listed.
+    FilterApply = "filter.apply", "filter";
+    /// `filter.finish`: the pixel's filtered colour, which the pass writes.
+    FilterFinish = "filter.finish", "filter";
+}
+
+/// The two pipelines steps belong to: a view's raycaster, and its image-space filter pass.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum PipelineKind {
+    /// The ray pipeline: `ray.setup` .. `ray.finish`, once per ray and per sample.
+    Ray,
+    /// The filter pipeline: `filter.setup` .. `filter.finish`, once per pixel of the picture.
+    Filter,
+}
+
+impl PipelineKind {
+    /// How messages name the pipeline.
+    pub fn describe(self) -> &'static str {
+        match self {
+            PipelineKind::Ray => "the ray pipeline",
+            PipelineKind::Filter => "the filter pipeline",
+        }
+    }
 }
 
 /// What a dotted path names.
@@ -106,9 +132,22 @@ impl Step {
         matches!(self, Step::RaySetup | Step::RayFinish)
     }
 
+    /// Steps of the ray pipeline's sample loop.
+    pub(crate) fn is_sample_step(self) -> bool {
+        self.kind() == PipelineKind::Ray && !self.is_per_ray()
+    }
+
+    /// The pipeline the step belongs to.
+    pub fn kind(self) -> PipelineKind {
+        match self {
+            Step::FilterSetup | Step::FilterApply | Step::FilterFinish => PipelineKind::Filter,
+            _ => PipelineKind::Ray,
+        }
+    }
+
     /// The closest known step or group name, for "did you mean".
     pub fn suggest(path: &str) -> Option<&'static str> {
-        let groups = ["sampling", "classification", "shading", "compositing"];
+        let groups = ["sampling", "classification", "shading", "compositing", "filter"];
         Step::ALL
             .iter()
             .map(|s| s.name())
@@ -139,6 +178,9 @@ mod tests {
             StepLookup::Group { first: Step::CompositingPrimaryColor, last: Step::CompositingAdditional }
         );
         assert_eq!(Step::lookup("ray"), StepLookup::Unknown);
+        assert_eq!(Step::lookup("filter"), StepLookup::Group { first: Step::FilterSetup, last: Step::FilterFinish });
+        assert_eq!(Step::FilterApply.kind(), PipelineKind::Filter);
+        assert!(!Step::FilterApply.is_sample_step() && Step::End.is_sample_step());
         assert_eq!(Step::suggest("shadingg.lights"), Some("shading.lights"));
     }
 }

@@ -74,6 +74,8 @@ pub enum Type {
     Volume,
     /// A transfer function: a 1D RGBA lookup texture with its sampler.
     Tf,
+    /// A 2D image of the picture (a filter's input buffer), read texel by texel with `load`.
+    Image,
     /// The result of a call that returns nothing.
     Void,
     /// The type of an expression that already produced an error: accepted everywhere, so one
@@ -111,6 +113,7 @@ impl Type {
             "f32" => Type::F32,
             "volume" => Type::Volume,
             "tf" => Type::Tf,
+            "image" => Type::Image,
             _ => {
                 if let Some(rest) = name.strip_prefix("vec") {
                     let (n, s) = rest.split_at_checked(1)?;
@@ -167,9 +170,9 @@ impl Type {
         }
     }
 
-    /// A `volume` or `tf`: allowed only as uniforms and library-function parameters.
+    /// A `volume`, `tf` or `image`: allowed only as uniforms and library-function parameters.
     pub(crate) fn is_resource(self) -> bool {
-        matches!(self, Type::Volume | Type::Tf)
+        matches!(self, Type::Volume | Type::Tf | Type::Image)
     }
 
     /// Values that can live in state, locals, constants and be returned.
@@ -211,6 +214,7 @@ impl fmt::Display for Type {
             Type::Matrix { cols, rows } => write!(f, "mat{cols}x{rows}f"),
             Type::Volume => f.write_str("volume"),
             Type::Tf => f.write_str("tf"),
+            Type::Image => f.write_str("image"),
             Type::Void => f.write_str("()"),
             Type::Error => f.write_str("{error}"),
         }

@@ -537,9 +537,7 @@ fn pipeline_map(path: &Path, view: &str) -> Outcome<String> {
         text.push_str(&format!("picture: {}\n", scene.describe_picture(table)));
     }
     for v in &built.views {
-        if let Some(ir) = &v.ir {
-            text.push_str(&v.composition.render_pipeline_map(&ir.program, &built.sources));
-        }
+        text.push_str(&v.render_maps(&built.sources));
     }
     Ok(text)
 }

@@ -145,6 +145,10 @@ pub enum BindingKind {
     /// runtime clears the buffer whenever the picture changes (a progressive view: the path
     /// tracer).
     History,
+    /// `texture_2d<f32>` (`rgba8unorm`), as large as the output image: a filter pass's input,
+    /// the view's picture before its filters (premultiplied), read by the `image` uniform
+    /// `picture`. (A filter's `picture_depth` is a [`BindingKind::GeometryDepth`].)
+    Picture,
 }
 
 /// Bytes of the `BrickLayout` uniform the runtime writes for a bricked volume (five `vec4f`,

@@ -33,7 +33,7 @@ fn binding_type(kind: BindingKind) -> wgpu::BindingType {
             format: wgpu::TextureFormat::R32Float,
             view_dimension: wgpu::TextureViewDimension::D2,
         },
-        BindingKind::GeometryDepth | BindingKind::GeometryColor => wgpu::BindingType::Texture {
+        BindingKind::GeometryDepth | BindingKind::GeometryColor | BindingKind::Picture => wgpu::BindingType::Texture {
             sample_type: wgpu::TextureSampleType::Float { filterable: false },
             view_dimension: wgpu::TextureViewDimension::D2,
             multisampled: false,
@@ -104,6 +104,8 @@ pub(crate) struct DispatchResources<'a> {
     pub brick_layouts: &'a std::collections::HashMap<String, wgpu::Buffer>,
     /// The pixels' history of a progressive view (`crate::history`), for the target.
     pub history: Option<&'a wgpu::Buffer>,
+    /// The picture a filter pass reads (`crate::filter_pass`).
+    pub picture: Option<&'a wgpu::TextureView>,
 }
 
 /// The entries of group `group` for one dispatch: the same bindings, in the same order, as
@@ -151,6 +153,9 @@ pub(crate) fn group_entries<'a>(
                 BindingKind::BrickPool => wgpu::BindingResource::TextureView(&bricked()?.pool_view),
                 BindingKind::PageTable => bricked()?.pages.as_entire_binding(),
                 BindingKind::BrickRequests => bricked()?.requests.as_entire_binding(),
+                BindingKind::Picture => {
+                    wgpu::BindingResource::TextureView(own.picture.ok_or_else(|| missing("a picture", &b.name))?)
+                }
                 BindingKind::History => own.history.ok_or_else(|| missing("a history", "history"))?.as_entire_binding(),
                 BindingKind::BrickLayout => {
                     own.brick_layouts.get(&b.name).ok_or_else(|| missing("brick layout", &b.name))?.as_entire_binding()

@@ -71,6 +71,7 @@
 pub(crate) mod bindings;
 pub mod bricks;
 pub(crate) mod error;
+pub(crate) mod filter_pass;
 pub mod geometry;
 pub mod gpu;
 pub(crate) mod history;

@@ -440,9 +440,16 @@ impl SceneRenderer {
             let size = self.options.size.unwrap_or(view.size);
             let mut renderer = ViewRenderer::new(&self.gpu, &mut self.pipelines, shader, size)?;
             renderer.set_samples(self.options.samples);
+            if let Some(filter) = &output.filter {
+                let shader = filter.shader.as_ref().ok_or_else(|| {
+                    RuntimeError::Invalid(format!("the filters of view `{}` did not compose", output.name))
+                })?;
+                let shader = ViewShader::new(shader.wgsl.clone(), shader.reflection.clone(), &self.path)?;
+                renderer.set_filter(&self.gpu, &mut self.pipelines, Some(shader))?;
+            }
             for (name, value) in &values {
                 if renderer.has_uniform(name)
-                    && let Some(value) = renderer.uniforms().value_from_json(name, &value.to_json())
+                    && let Some(value) = renderer.uniform_value_from_json(name, &value.to_json())
                 {
                     renderer.set_uniform(name, value)?;
                 }

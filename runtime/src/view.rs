@@ -4,6 +4,7 @@
 use crate::bindings::{self, DispatchResources};
 use crate::bricks::{BrickView, ViewBrickLayouts};
 use crate::error::RuntimeError;
+use crate::filter_pass::FilterPass;
 use crate::gpu::Gpu;
 use crate::history::History;
 use crate::mesh_layer::{LayerCamera, LayerNode, MeshLayer, MeshResources, PlanePicture, ViewLayers};
@@ -38,6 +39,8 @@ pub struct ViewRenderer {
     /// [`Self::render`] makes it hold.
     history: Option<History>,
     samples: u32,
+    /// The view's filter pass, run over its picture (its `filters`).
+    filter: Option<FilterPass>,
 }
 
 /// Frames a progressive view's picture holds when [`ViewRenderer::render`] returns it, unless
@@ -98,6 +101,7 @@ impl ViewRenderer {
             own_tfs: HashMap::new(),
             history,
             samples: DEFAULT_SAMPLES,
+            filter: None,
         })
     }
 
@@ -142,15 +146,53 @@ impl ViewRenderer {
         self.size
     }
 
-    /// Sets a uniform by name; the value must have the uniform's type.
+    /// Sets a uniform by name, in the view's shader and in its filter pass (either may read
+    /// it); the value must have the uniform's type.
     pub fn set_uniform(&mut self, name: &str, value: impl Into<Value>) -> Result<(), RuntimeError> {
+        let value = value.into();
         let view = &self.shader.reflection.view;
+        if let Some(filter) = self.filter.as_mut().filter(|f| f.has_uniform(name)) {
+            filter.set_uniform(name, value.clone())?;
+            if !self.uniforms.has(name) {
+                return Ok(());
+            }
+        }
         self.uniforms.set(name, value).map_err(|error| RuntimeError::Uniform { view: view.clone(), error })
     }
 
-    /// Whether the shader reads uniform `name` (unreached uniforms are not in it).
+    /// Whether the shader or the filter pass reads uniform `name` (unreached uniforms are not in
+    /// them).
     pub fn has_uniform(&self, name: &str) -> bool {
-        self.uniforms.has(name)
+        self.uniforms.has(name) || self.filter.as_ref().is_some_and(|f| f.has_uniform(name))
+    }
+
+    /// The value a scene's JSON gives uniform `name` of the shader or the filter pass, if it fits
+    /// the uniform's type.
+    pub fn uniform_value_from_json(&self, name: &str, json: &serde_json::Value) -> Option<Value> {
+        self.uniforms
+            .value_from_json(name, json)
+            .or_else(|| self.filter.as_ref().and_then(|f| f.uniforms().value_from_json(name, json)))
+    }
+
+    /// Gives the view a filter pass (`None`: none), run after its picture.
+    pub(crate) fn set_filter(
+        &mut self,
+        gpu: &Gpu,
+        cache: &mut PipelineCache,
+        shader: Option<ViewShader>,
+    ) -> Result<(), RuntimeError> {
+        self.filter = shader.map(|shader| FilterPass::new(gpu, cache, shader)).transpose()?;
+        Ok(())
+    }
+
+    /// The compiled filter pass, when the view has one.
+    pub fn filter_shader(&self) -> Option<&ViewShader> {
+        self.filter.as_ref().map(FilterPass::shader)
+    }
+
+    /// The filter pass's uniform values, when the view has one.
+    pub fn filter_uniforms(&self) -> Option<&UniformBlock> {
+        self.filter.as_ref().map(FilterPass::uniforms)
     }
 
     /// The uniform values as they are now (what the next frame uploads).
@@ -322,6 +364,7 @@ impl ViewRenderer {
             mesh_layer,
             brick_layouts: self.brick_layouts.buffers(),
             tfs: &self.own_tfs,
+            picture: None,
         };
         let mut groups = Vec::with_capacity(self.pipeline.groups.len());
         for (group, layout) in (0u32..).zip(&self.pipeline.groups) {
@@ -350,7 +393,12 @@ impl ViewRenderer {
         if let Some(metering) = &self.metering {
             metering.after_pass(gpu, encoder)?;
         }
-        self.layers.encode_over(gpu, mesh_resources(resources), encoder, target)
+        self.layers.encode_over(gpu, mesh_resources(resources), encoder, target)?;
+        if let Some(filter) = &mut self.filter {
+            let mesh_layer = self.layers.views().filter(|_| reads_layer);
+            filter.encode(gpu, (resources, mesh_layer), encoder, target, region)?;
+        }
+        Ok(())
     }
 
     /// Renders and reads the image back (straight alpha RGBA8).

@@ -42,7 +42,7 @@ pub fn eval_builtin(builtin: Builtin, args: &[ConstValue]) -> Eval<ConstValue> {
             vec![V::F32(length(diff?.into_iter())?)]
         }
         Normalize => normalize(args)?,
-        Mix | Smoothstep | Reflect | FaceForward | Transpose | Determinant | Sample | Lookup | Dims => {
+        Mix | Smoothstep | Reflect | FaceForward | Transpose | Determinant | Sample | Lookup | Dims | Load => {
             return Err(ConstError::NotConstant);
         }
     };

@@ -227,7 +227,8 @@ fn signature(builtin: Builtin, args: &[Type]) -> Signature {
              pre-integrated one)",
             lookup(args),
         ),
-        Dims => sig_usage("dims(v)", "takes a volume", dims(args)),
+        Dims => sig_usage("dims(v)", "takes a volume or an image", dims(args)),
+        Load => sig_usage("load(i, p)", "takes an image and a vec2i pixel", load(args)),
     }
 }
 
@@ -301,7 +302,15 @@ fn lookup(args: &[Type]) -> Option<Type> {
 }
 
 fn dims(args: &[Type]) -> Option<Type> {
-    (args == [Type::Volume]).then_some(Type::vec(3, Scalar::U32))
+    match args {
+        [Type::Volume] => Some(Type::vec(3, Scalar::U32)),
+        [Type::Image] => Some(Type::vec(2, Scalar::U32)),
+        _ => None,
+    }
+}
+
+fn load(args: &[Type]) -> Option<Type> {
+    (args == [Type::Image, Type::vec(2, Scalar::I32)]).then_some(Type::vec(4, Scalar::F32))
 }
 
 /// The argument types for a message: `f32`, `vec3f and vec4f`, `f32, i32, f32`.
@@ -330,7 +339,7 @@ pub fn constructor(target: Type, args: &[Type]) -> Result<ConstructorKind, Strin
         return Ok(Construct);
     }
     let kind = match target {
-        Type::Volume | Type::Tf => {
+        Type::Volume | Type::Tf | Type::Image => {
             return Err(format!(
                 "`{target}` values cannot be constructed; they exist only as uniforms and \
                  library-function parameters"

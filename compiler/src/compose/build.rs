@@ -15,6 +15,7 @@ use crate::lower::LookupSource;
 use crate::scene::{self, ModuleRef, ModuleSource, Scene, View};
 use crate::source::{FileId, SourceMap, Span};
 use crate::source_text::SourceText;
+use crate::steps::PipelineKind;
 use std::path::Path;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Mutex, OnceLock};
@@ -31,6 +32,19 @@ pub struct ViewOutput {
     /// What the view was composed from and into; only when the build was asked for it
     /// ([`Keep::Ir`]).
     pub ir: Option<ViewIr>,
+    /// The view's filter pass, when it lists `filters`.
+    pub filter: Option<FilterOutput>,
+}
+
+/// A view's filter pass: its `filters` composed into the `filter.*` steps after the standard
+/// `std::filter_picture`, emitted as a compute shader that runs after the view's picture.
+pub struct FilterOutput {
+    /// Where every function of the pass was placed, and its state and uniforms.
+    pub composition: Composition,
+    /// `None` when composing the pass reported errors.
+    pub shader: Option<ViewShader>,
+    /// The checked program of the pass's modules; only with [`Keep::Ir`].
+    pub program: Option<crate::hir::Program>,
 }
 
 /// The shader of a view: WGSL text and reflection.
@@ -160,8 +174,13 @@ pub fn compose_scene_with(
     // of a view's work only reads the map, so the views compose in parallel. (Parsing the files in
     // parallel too saved less than handing work to another thread costs here.)
     let lookups = load_lookups(&scene, &mut sources, &mut diags);
-    let loaded: Vec<LoadedView> =
-        chosen.iter().map(|view| load_view(&scene, view, extra, &mut sources, &mut parsed)).collect();
+    let loaded: Vec<(LoadedView, Option<LoadedView>)> = chosen
+        .iter()
+        .map(|view| {
+            let ray = load_view(&scene, view, extra, &mut sources, &mut parsed);
+            (ray, load_filters(view, &mut sources, &mut parsed))
+        })
+        .collect();
     let context = ComposeContext { scene: &scene, sources: &sources, lookups: &lookups, keep };
     let composed = compose_loaded_views(&context, &chosen, loaded);
     let mut views = Vec::with_capacity(composed.len());
@@ -176,7 +195,8 @@ pub fn compose_scene_with(
         views.push(output);
     }
     data_flow.finish(&mut diags);
-    let every_view = only_view.is_none() && views.iter().all(|v| v.shader.is_some());
+    let composed = |v: &ViewOutput| v.shader.is_some() && v.filter.as_ref().is_none_or(|f| f.shader.is_some());
+    let every_view = only_view.is_none() && views.iter().all(composed);
     check_against_views(&scene, &views, every_view, &mut diags);
     if let Some(name) = only_view
         && views.is_empty()
@@ -195,7 +215,9 @@ pub fn compose_scene_with(
 /// and the layers they read (E0609). What a composition reused for a scene whose values changed
 /// ([`super::cache`]) must pass again.
 pub(crate) fn check_against_views(scene: &Scene, views: &[ViewOutput], every_view: bool, diags: &mut Diagnostics) {
-    let compositions: Vec<&Composition> = views.iter().map(|v| &v.composition).collect();
+    // A filter pass's uniforms are the view's too: the scene sets them like any other.
+    let filters = views.iter().filter_map(|v| v.filter.as_ref().map(|f| &f.composition));
+    let compositions: Vec<&Composition> = views.iter().map(|v| &v.composition).chain(filters).collect();
     uniform_check::check_scene_uniforms(scene, &compositions, every_view, diags);
     let named: Vec<(&str, &Composition)> = views.iter().map(|v| (v.name.as_str(), &v.composition)).collect();
     uniform_check::check_resources(scene, &named, diags);
@@ -252,6 +274,43 @@ struct LoadedView {
     diags: Diagnostics,
 }
 
+/// The standard module every filter pass starts with: it reads the picture and writes the
+/// filtered colour.
+pub const FILTER_PICTURE: &str = "filter_picture";
+
+/// Loads a view's filter modules after [`FILTER_PICTURE`] (`None` for a view without filters).
+fn load_filters(view: &View, sources: &mut SourceMap, parsed: &mut ParsedFiles) -> Option<LoadedView> {
+    if view.filters.is_empty() {
+        return None;
+    }
+    let mut diags = Diagnostics::new();
+    let mut loader = Loader::with_parsed(sources, &mut diags, std::mem::take(parsed));
+    let mut uses = Vec::new();
+    if let Some(module) = loader.load_root_std(FILTER_PICTURE) {
+        uses.push(ModuleUse { module, instances: None, span: Span::DUMMY });
+    }
+    let mut missing = Vec::new();
+    for module_ref in &view.filters {
+        match load_module(&mut loader, module_ref) {
+            Ok(module) => uses.push(module_use(module, module_ref)),
+            Err(d) => missing.push(d),
+        }
+    }
+    let (graph, files) = loader.finish_keeping_files();
+    *parsed = files;
+    missing.into_iter().for_each(|d| diags.push(d));
+    Some(LoadedView { graph, uses, diags })
+}
+
+/// How a module the scene names is used: with the instances it gives.
+fn module_use(module: usize, module_ref: &ModuleRef) -> ModuleUse {
+    ModuleUse {
+        module,
+        instances: module_ref.instances.as_ref().map(|list| list.iter().map(|i| i.name.clone()).collect()),
+        span: module_ref.span,
+    }
+}
+
 /// Loads the standard modules a view's configuration selects, then the scene's modules, then
 /// the view's own, then the `extra` ones. `parsed` carries the files earlier views already
 /// parsed into `sources`.
@@ -274,11 +333,7 @@ fn load_view(
     let mut missing = Vec::new();
     for module_ref in scene.modules.iter().chain(&view.modules) {
         match load_module(&mut loader, module_ref) {
-            Ok(module) => uses.push(ModuleUse {
-                module,
-                instances: module_ref.instances.as_ref().map(|list| list.iter().map(|i| i.name.clone()).collect()),
-                span: module_ref.span,
-            }),
+            Ok(module) => uses.push(module_use(module, module_ref)),
             Err(d) => missing.push(d),
         }
     }
@@ -390,10 +445,10 @@ fn run_jobs<T: Send>(jobs: Vec<Job<'_, T>>, first: usize) -> Vec<T> {
 fn compose_loaded_views(
     context: &ComposeContext<'_>,
     views: &[&View],
-    loaded: Vec<LoadedView>,
+    loaded: Vec<(LoadedView, Option<LoadedView>)>,
 ) -> Vec<(ViewOutput, Diagnostics)> {
     let weight = |l: &LoadedView| -> usize { l.graph.modules.iter().map(|m| m.ast.items.len()).sum() };
-    let heaviest = loaded.iter().enumerate().max_by_key(|(_, l)| weight(l)).map_or(0, |(i, _)| i);
+    let heaviest = loaded.iter().enumerate().max_by_key(|(_, (l, _))| weight(l)).map_or(0, |(i, _)| i);
     let jobs = views
         .iter()
         .zip(loaded)
@@ -407,8 +462,12 @@ fn compose_loaded_views(
     run_jobs(jobs, heaviest)
 }
 
-/// Checks, places and emits one loaded view.
-fn compose_loaded(context: &ComposeContext<'_>, view: &View, loaded: LoadedView) -> (ViewOutput, Diagnostics) {
+/// Checks, places and emits one loaded view, and its filter pass.
+fn compose_loaded(
+    context: &ComposeContext<'_>,
+    view: &View,
+    (loaded, filters): (LoadedView, Option<LoadedView>),
+) -> (ViewOutput, Diagnostics) {
     let ComposeContext { sources, keep, .. } = *context;
     let LoadedView { graph, uses, mut diags } = loaded;
     let program = check::check_program(&graph, sources, &mut diags);
@@ -416,10 +475,11 @@ fn compose_loaded(context: &ComposeContext<'_>, view: &View, loaded: LoadedView)
     // A function with an error is left out of the program, so placing what is left would report
     // its absence (fields without defaults, reads before writes, a template that looks like a
     // plain module): follow-ons of the errors already reported. Those are the only ones shown.
+    let kind = (PipelineKind::Ray, is_std);
     let composition = if diags.has_errors() || graph.modules.iter().any(|m| m.incomplete) {
-        super::compose(&program, &uses, is_std, entry::ENTRY_FIELDS, &mut Diagnostics::new())
+        super::compose(&program, &uses, kind, entry::ENTRY_FIELDS, &mut Diagnostics::new())
     } else {
-        super::compose(&program, &uses, is_std, entry::ENTRY_FIELDS, &mut diags)
+        super::compose(&program, &uses, kind, entry::ENTRY_FIELDS, &mut diags)
     };
     let emitted = if diags.has_errors() {
         None
@@ -435,7 +495,48 @@ fn compose_loaded(context: &ComposeContext<'_>, view: &View, loaded: LoadedView)
     let (shader, module) = emitted.unzip();
     // Unless kept, the program and the module are freed here, by the thread that made them.
     let ir = (keep == Keep::Ir).then(|| ViewIr { program, module });
-    (ViewOutput { name: view.name.name.clone(), composition, shader, ir }, diags)
+    let filter = filters.map(|filters| compose_filters(context, view, filters, &mut diags));
+    (ViewOutput { name: view.name.name.clone(), composition, shader, ir, filter }, diags)
+}
+
+/// Checks, places and emits a view's filter pass.
+fn compose_filters(
+    context: &ComposeContext<'_>,
+    view: &View,
+    loaded: LoadedView,
+    diags: &mut Diagnostics,
+) -> FilterOutput {
+    let ComposeContext { scene, sources, keep, .. } = *context;
+    let LoadedView { graph, uses, diags: mut own } = loaded;
+    let program = check::check_program(&graph, sources, &mut own);
+    let is_std = |m: usize| graph.modules.get(m).is_some_and(|m| m.std_name.is_some());
+    let kind = (PipelineKind::Filter, is_std);
+    let composition = if own.has_errors() || graph.modules.iter().any(|m| m.incomplete) {
+        super::compose(&program, &uses, kind, entry::FILTER_ENTRY_FIELDS, &mut Diagnostics::new())
+    } else {
+        super::compose(&program, &uses, kind, entry::FILTER_ENTRY_FIELDS, &mut own)
+    };
+    if !own.has_errors() {
+        layer_check::check_filter_inputs(scene, view, &composition, &mut own);
+    }
+    let shader = if own.has_errors() {
+        None
+    } else {
+        let emitted = super::filter::emit(&program, &composition, sources).and_then(|vm| {
+            let wgsl = crate::lower::write_wgsl(&vm.module, &vm.info)?;
+            let reflection = reflect::reflect(scene, view, &program, &composition, &vm, &wgsl, sources);
+            Ok(ViewShader { wgsl, reflection })
+        });
+        match emitted {
+            Ok(shader) => Some(shader),
+            Err(d) => {
+                own.push(d);
+                None
+            }
+        }
+    };
+    own.iter().for_each(|d| diags.push(d.clone()));
+    FilterOutput { composition, shader, program: (keep == Keep::Ir).then_some(program) }
 }
 
 /// Each bricked volume's binding and the file of its own lookup (`[[volume]] lookup`), if any.

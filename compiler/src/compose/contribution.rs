@@ -115,7 +115,7 @@ fn access(program: &hir::Program, placed: &PlacedFn) -> Access {
 pub fn ray_fields_written_per_sample(program: &hir::Program, comp: &Composition) -> Vec<usize> {
     let mut written: Vec<usize> = Step::ALL
         .iter()
-        .filter(|s| !s.is_per_ray())
+        .filter(|s| s.is_sample_step())
         .flat_map(|&s| comp.step(s).iter())
         .flat_map(|placed| access(program, placed).writes)
         .filter(|&f| comp.fields[f].ray)
@@ -135,7 +135,7 @@ fn last_writer(comp: &Composition, accesses: &[Access], name: &str) -> Option<(u
 pub fn schedule(program: &hir::Program, comp: &Composition) -> SampleSchedule {
     let body: Vec<SampleFn> = Step::ALL
         .iter()
-        .filter(|s| !s.is_per_ray() && **s != Step::End)
+        .filter(|s| s.is_sample_step() && **s != Step::End)
         .flat_map(|&s| (0..comp.step(s).len()).map(move |i| (s, i)))
         .collect();
     let end: Vec<SampleFn> = (0..comp.step(Step::End).len()).map(|i| (Step::End, i)).collect();
@@ -253,7 +253,13 @@ mod tests {
         let program = check_program(&graph, &sources, &mut diags);
         assert!(!diags.iter().any(|d| d.is_error()), "check errors");
         let uses = vec![ModuleUse { module, instances: None, span: Span::DUMMY }];
-        let comp = compose(&program, &uses, |_| false, &["out_color", CONTRIBUTES, SELECTED], &mut diags);
+        let comp = compose(
+            &program,
+            &uses,
+            (crate::steps::PipelineKind::Ray, |_| false),
+            &["out_color", CONTRIBUTES, SELECTED],
+            &mut diags,
+        );
         let s = schedule(&program, &comp);
         let show = |fs: &[SampleFn]| fs.iter().map(|&(st, i)| comp.step(st)[i].name.clone()).collect();
         let fields = |fs: &[usize]| fs.iter().map(|&f| comp.fields[f].name.as_str()).collect::<Vec<_>>().join(",");

@@ -184,6 +184,13 @@ pub const HISTORY: &str = "history";
 pub const HISTORY_SAMPLES: &str = "history_samples";
 /// How many layers of translucent surfaces the mesh layer peels for the volume layer.
 pub const TRANSLUCENT_LAYERS: usize = 4;
+/// `texel: vec2i`: a filter pass's pixel, as integer coordinates in its picture (x right, y
+/// down), set by the filter entry point.
+pub const TEXEL: &str = "texel";
+
+/// The fields the entry point of a filter pass reads or writes itself.
+pub(crate) const FILTER_ENTRY_FIELDS: &[&str] = &[PIXEL, TEXEL, OUT_COLOR];
+
 /// The fields the entry point reads or writes itself: kept whenever a placed function declares
 /// them, and without data-flow warnings.
 pub(crate) const ENTRY_FIELDS: &[&str] = &[
@@ -288,7 +295,7 @@ fn increment(b: &mut Body, block: &mut naga::Block, counter: Handle<E>) {
 pub fn build(module: &mut naga::Module, plan: &EntryPlan) -> naga::EntryPoint {
     let (mut b, state_var, counter_var) = Body::entry_function(module, plan);
     let mut body = naga::Block::new();
-    let Pixel { p, size, output } = b.pixel_in_region(&mut body, plan);
+    let Pixel { p, size, output } = b.pixel_in_region(&mut body, (plan.output, plan.region));
     let state = b.expr(E::LocalVariable(state_var));
     b.call(&mut body, plan.init_state, state);
     if let Some(member) = plan.pixel {
@@ -341,6 +348,58 @@ pub fn build(module: &mut naga::Module, plan: &EntryPlan) -> naga::EntryPoint {
     }
     b.push(&mut body, S::Return { value: None });
 
+    let mut function = b.func;
+    function.body = body;
+    compute_entry_point(function)
+}
+
+/// What the entry point of a filter pass runs (`compose::filter`).
+pub struct FilterEntryPlan {
+    pub state_type: Handle<naga::Type>,
+    /// Writes every field's default.
+    pub init_state: Handle<naga::Function>,
+    /// Member indices in `State` of [`PIXEL`] (the pixel's centre in [0,1]^2), [`TEXEL`] (its
+    /// integer position) and [`OUT_COLOR`]; a missing field is simply not touched.
+    pub pixel: Option<u32>,
+    pub texel: Option<u32>,
+    pub out_color: Option<u32>,
+    /// The functions of `filter.setup`, `filter.apply` and `filter.finish`, in order.
+    pub functions: Vec<Handle<naga::Function>>,
+    /// `texture_storage_2d<rgba8unorm, write>`: the filtered picture.
+    pub output: Handle<naga::GlobalVariable>,
+    /// `var<uniform> region: vec4<u32>`: the pixels the dispatch filters.
+    pub region: Handle<naga::GlobalVariable>,
+}
+
+/// The entry point of a filter pass: per pixel of the region, the state's defaults, its
+/// position, the filter functions in order, and `out_color` into the output image.
+pub fn build_filter(module: &mut naga::Module, plan: &FilterEntryPlan) -> naga::EntryPoint {
+    let (mut b, state_var, _) = Body::entry_function_of(module, plan.state_type);
+    let mut body = naga::Block::new();
+    let Pixel { p, size, output } = b.pixel_in_region(&mut body, (plan.output, plan.region));
+    let state = b.expr(E::LocalVariable(state_var));
+    b.call(&mut body, plan.init_state, state);
+    if let Some(member) = plan.pixel {
+        b.store_pixel_centre(&mut body, state, member, p, size);
+    }
+    if let Some(member) = plan.texel {
+        let texel = b.expr(E::As { expr: p, kind: naga::ScalarKind::Sint, convert: Some(4) });
+        let pointer = b.component(state, member);
+        b.push(&mut body, S::Store { pointer, value: texel });
+    }
+    for &f in &plan.functions {
+        b.call(&mut body, f, state);
+    }
+    let color = match plan.out_color {
+        Some(member) => load_member(&mut b, state, member),
+        None => {
+            let vec4f =
+                add_type(module, naga::TypeInner::Vector { size: naga::VectorSize::Quad, scalar: naga::Scalar::F32 });
+            b.expr(E::ZeroValue(vec4f))
+        }
+    };
+    b.push(&mut body, S::ImageStore { image: output, coordinate: p, array_index: None, value: color });
+    b.push(&mut body, S::Return { value: None });
     let mut function = b.func;
     function.body = body;
     compute_entry_point(function)
@@ -730,6 +789,15 @@ impl Body {
         module: &mut naga::Module,
         plan: &EntryPlan,
     ) -> (Body, Handle<naga::LocalVariable>, Handle<naga::LocalVariable>) {
+        Body::entry_function_of(module, plan.state_type)
+    }
+
+    /// `fn main(@builtin(global_invocation_id) id: vec3u)` with the locals `state: State` and
+    /// `i: u32`.
+    fn entry_function_of(
+        module: &mut naga::Module,
+        state_type: Handle<naga::Type>,
+    ) -> (Body, Handle<naga::LocalVariable>, Handle<naga::LocalVariable>) {
         let vec3u =
             add_type(module, naga::TypeInner::Vector { size: naga::VectorSize::Tri, scalar: naga::Scalar::U32 });
         let u32_ty = add_type(module, naga::TypeInner::Scalar(naga::Scalar::U32));
@@ -743,7 +811,7 @@ impl Body {
             ..Default::default()
         };
         let state_var = func.local_variables.append(
-            naga::LocalVariable { name: Some("state".into()), ty: plan.state_type, init: None },
+            naga::LocalVariable { name: Some("state".into()), ty: state_type, init: None },
             naga::Span::UNDEFINED,
         );
         let counter_var = func
@@ -754,12 +822,16 @@ impl Body {
 
     /// The dispatch covers `region`; pixels past its end or the image's (the last workgroups
     /// overhang both) return at once.
-    fn pixel_in_region(&mut self, body: &mut naga::Block, plan: &EntryPlan) -> Pixel {
+    fn pixel_in_region(
+        &mut self,
+        body: &mut naga::Block,
+        (output, region): (Handle<naga::GlobalVariable>, Handle<naga::GlobalVariable>),
+    ) -> Pixel {
         use naga::BinaryOperator as Bo;
         let id = self.expr(E::FunctionArgument(0));
-        let output = self.expr(E::GlobalVariable(plan.output));
+        let output = self.expr(E::GlobalVariable(output));
         let size = self.expr(E::ImageQuery { image: output, query: naga::ImageQuery::Size { level: None } });
-        let region_pointer = self.expr(E::GlobalVariable(plan.region));
+        let region_pointer = self.expr(E::GlobalVariable(region));
         let region = self.expr(E::Load { pointer: region_pointer });
         let id_xy = self.xy(id);
         let origin = self.xy(region);

@@ -131,3 +131,22 @@ impl Composition {
         out
     }
 }
+
+impl super::build::ViewOutput {
+    /// The view's pipeline map ([`Composition::render_pipeline_map`]), then its filter pass's
+    /// after a `filters:` line, for a view built with [`super::build::Keep::Ir`] (empty
+    /// otherwise).
+    pub fn render_maps(&self, sources: &SourceMap) -> String {
+        let mut out = match &self.ir {
+            Some(ir) => self.composition.render_pipeline_map(&ir.program, sources),
+            None => String::new(),
+        };
+        if let Some(filter) = &self.filter
+            && let Some(program) = &filter.program
+        {
+            out.push_str("filters:\n");
+            out.push_str(&filter.composition.render_pipeline_map(program, sources));
+        }
+        out
+    }
+}

@@ -7,8 +7,9 @@
 
 use super::entry::{GEOMETRY_COLOR, GEOMETRY_DEPTH, TRANSLUCENT_COLOR, TRANSLUCENT_DEPTH};
 use super::ir::Composition;
+use super::view::{PICTURE, PICTURE_DEPTH, image_binding_kind};
 use crate::diag::{Code, Diagnostic, Diagnostics};
-use crate::scene::Scene;
+use crate::scene::{Scene, View};
 use crate::suggest::did_you_mean;
 use crate::types::{Scalar, Type};
 
@@ -77,6 +78,48 @@ fn check_followed_uniforms(scene: &Scene, views: &[(&str, &Composition)], diags:
                 }
             };
             diags.push(d);
+        }
+    }
+}
+
+/// The inputs of a view's filter pass: each `image` uniform names a buffer of the view's
+/// picture (E0608 otherwise), and one that a node of the view writes: `picture_depth` only in a
+/// view with a mesh layer (E0609). (A filter reads what the nodes before it wrote; the pass runs
+/// after the whole picture, so every buffer the picture has is written before it.)
+pub fn check_filter_inputs(scene: &Scene, view: &View, comp: &Composition, diags: &mut Diagnostics) {
+    let name = &view.name.name;
+    for u in comp.uniforms.iter().filter(|u| u.ty == Type::Image) {
+        if image_binding_kind(&u.name).is_none() {
+            let d = Diagnostic::new(
+                Code::UnboundResource,
+                u.span,
+                format!("the filters of view `{name}` read the image `{}`, which no picture has", u.name),
+            )
+            .with_label("an `image` uniform")
+            .with_note(format!(
+                "a filter reads `{PICTURE}` (the picture's colour) and `{PICTURE_DEPTH}` (its meshes' depth)"
+            ));
+            diags.push(match did_you_mean(&u.name, [PICTURE, PICTURE_DEPTH]) {
+                Some(best) => d.with_help(format!("did you mean `{best}`?")),
+                None => d,
+            });
+        } else if u.name == PICTURE_DEPTH && !Scene::has_mesh_layer(view) {
+            diags.push(
+                Diagnostic::new(
+                    Code::LayerRule,
+                    u.span,
+                    format!(
+                        "the filters of view `{name}` read `{PICTURE_DEPTH}`, but no node of the view writes depth"
+                    ),
+                )
+                .with_label("read by a filter")
+                .with_note("depth is written by a view's mesh layer; the volume writes none")
+                .with_help(if scene.meshes.is_empty() {
+                    "add a [[mesh]] to the scene and list it in the view's `picture`".to_string()
+                } else {
+                    format!("list a mesh in the view's `meshes` or `picture` (the scene has {})", mesh_names(scene))
+                }),
+            );
         }
     }
 }

@@ -66,6 +66,7 @@ pub(super) struct Merger<'a, F: Fn(usize) -> bool> {
     pub(super) units: &'a [Unit],
     pub(super) is_std: &'a F,
     pub(super) required: &'a [&'a str],
+    pub(super) kind: crate::steps::PipelineKind,
     pub(super) diags: &'a mut Diagnostics,
 }
 
@@ -132,9 +133,12 @@ impl<'a, F: Fn(usize) -> bool> Merger<'a, F> {
             }
         }
         let uniforms = merged.uniforms.iter().map(|(name, acc)| self.finish_uniform(name, acc)).collect();
+        // Only the steps of the composition's pipeline (the other's hold nothing after
+        // `leave_out_other_pipeline`).
         let steps = Step::ALL
             .iter()
             .zip(placed)
+            .filter(|(step, _)| step.kind() == self.kind)
             .map(|(&step, units)| StepFunctions {
                 step,
                 functions: units.iter().map(|&u| self.placed_fn(u, &merged, &kept)).collect(),

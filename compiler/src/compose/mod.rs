@@ -30,8 +30,9 @@
 //! the `ir::Composition`, is what emission (`view`, `entry`) builds the shader from.
 
 use crate::diag::Diagnostics;
+use crate::diag::{Code, Diagnostic};
 use crate::hir;
-use crate::steps::Step;
+use crate::steps::{PipelineKind, Step};
 use rustc_hash::FxHashMap;
 
 pub mod backends;
@@ -40,6 +41,7 @@ pub mod cache;
 pub mod contribution;
 pub(crate) mod entry;
 pub mod explain;
+pub(crate) mod filter;
 mod instantiate;
 pub(crate) mod ir;
 pub(crate) mod layer_check;
@@ -67,12 +69,15 @@ use place::Placer;
 /// may set) them: they are kept whenever a placed function declares them, even if no function
 /// reads them, and get no data-flow warnings.
 ///
+/// The composition is of pipeline `kind`: a function placed in a step of the other pipeline is
+/// an error (E0611) and left out.
+///
 /// Errors go to `diags`; the composition is returned whatever happened (check
 /// `diags.has_errors()` before emitting).
 pub fn compose(
     program: &hir::Program,
     uses: &[ModuleUse],
-    is_std: impl Fn(usize) -> bool,
+    (kind, is_std): (PipelineKind, impl Fn(usize) -> bool),
     required: &[&str],
     diags: &mut Diagnostics,
 ) -> Composition {
@@ -94,11 +99,44 @@ pub fn compose(
             Source::Remove(_) => placer.remove(u),
         }
     }
-    let placed = placer.steps;
+    let mut placed = placer.steps;
+    leave_out_other_pipeline(program, &units, kind, &mut placed, diags);
     let not_placed = not_placed(program, &units, &placed, &ever_placed);
-    let mut composition = Merger { program, units: &units, is_std: &is_std, required, diags }.merge(&placed);
+    let mut composition = Merger { program, units: &units, is_std: &is_std, required, kind, diags }.merge(&placed);
     composition.not_placed = not_placed;
     composition
+}
+
+/// Reports (E0611) and leaves out the functions placed in steps that are not of pipeline `kind`.
+fn leave_out_other_pipeline(
+    program: &hir::Program,
+    units: &[Unit],
+    kind: PipelineKind,
+    placed: &mut [Vec<usize>],
+    diags: &mut Diagnostics,
+) {
+    for (step, units_here) in Step::ALL.iter().zip(placed.iter_mut()) {
+        if step.kind() == kind {
+            continue;
+        }
+        for u in units_here.drain(..) {
+            let Source::Pipeline(i) = units[u].source else { continue };
+            let placement = &program.pipelines[i].placement;
+            let (where_, list) = match kind {
+                PipelineKind::Ray => ("a view's filters", "`filters`"),
+                PipelineKind::Filter => ("a view's modules", "`modules` (or a `[[module]]`)"),
+            };
+            diags.push(
+                Diagnostic::new(
+                    Code::OtherPipeline,
+                    placement.span,
+                    format!("`{}` goes into `{step}`, a step of {}", units[u].name, step.kind().describe()),
+                )
+                .with_label(format!("composed here as part of {}", kind.describe()))
+                .with_note(format!("a module with this placement belongs in {where_}: list it in the view's {list}")),
+            );
+        }
+    }
 }
 
 /// The pipeline functions that were removed after placement, or left out by `when active`

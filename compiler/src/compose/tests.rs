@@ -46,7 +46,7 @@ impl Fx {
 
     fn compose_with(&self, uses: &[ModuleUse], required: &[&str]) -> (Composition, Diagnostics) {
         let mut diags = Diagnostics::new();
-        let c = compose(&self.program, uses, |m| self.std.contains(&m), required, &mut diags);
+        let c = compose(&self.program, uses, (PipelineKind::Ray, |m| self.std.contains(&m)), required, &mut diags);
         (c, diags)
     }
 
@@ -96,8 +96,9 @@ fn in_appends_in_module_order() {
     assert!(d.is_empty(), "{:?}", codes(&d));
     assert_eq!(names(&c, Step::ShadingLights), ["key", "fill", "extra"]);
     assert_eq!(names(&c, Step::ShadingTone), ["tone"]);
-    assert_eq!(c.steps.len(), Step::ALL.len());
-    assert!(c.steps.iter().map(|s| s.step).eq(Step::ALL.iter().copied()));
+    let ray_steps = Step::ALL.iter().copied().filter(|s| s.kind() == PipelineKind::Ray);
+    assert_eq!(c.steps.len(), ray_steps.clone().count());
+    assert!(c.steps.iter().map(|s| s.step).eq(ray_steps));
     // The placed function points back at its HIR function.
     let extra = &c.step(Step::ShadingLights)[2];
     assert_eq!(f.program.pipelines[extra.pipeline].name, "extra");
@@ -517,7 +518,13 @@ fn conflicts_as_written_are_left_to_the_checker() {
     let checker_errors = diags.error_count();
     assert_eq!(checker_errors, 1, "the checker reports the conflict");
     let mut again = Diagnostics::new();
-    compose(&program, &[ModuleUse { module: 0, instances: None, span: Span::DUMMY }], |_| false, &[], &mut again);
+    compose(
+        &program,
+        &[ModuleUse { module: 0, instances: None, span: Span::DUMMY }],
+        (PipelineKind::Ray, |_| false),
+        &[],
+        &mut again,
+    );
     assert!(!again.has_errors(), "{:?}", codes(&again));
 }
 

@@ -277,7 +277,11 @@ pub fn check_resources(scene: &Scene, views: &[(&str, &Composition)], diags: &mu
 }
 
 fn unbound(view: &str, u: &super::ir::Uniform, bound: &[(String, Type)]) -> Diagnostic {
-    let kind = if u.ty == Type::Volume { "volume" } else { "transfer function" };
+    let kind = match u.ty {
+        Type::Volume => "volume",
+        Type::Image => "image",
+        _ => "transfer function",
+    };
     let names: Vec<&str> = bound.iter().filter(|(_, ty)| *ty == u.ty).map(|(n, _)| n.as_str()).collect();
     let mut d = Diagnostic::new(
         Code::UnboundResource,
@@ -286,6 +290,9 @@ fn unbound(view: &str, u: &super::ir::Uniform, bound: &[(String, Type)]) -> Diag
     )
     .with_label(format!("a `{}` uniform", u.ty))
     .with_note(format!("this scene binds: {}", names.join(", ")));
+    if u.ty == Type::Image {
+        return d.with_help("an image is a buffer of the view's picture, which only a filter pass reads: list the module in the view's `filters`");
+    }
     d = match did_you_mean(&u.name, names.iter().copied()) {
         Some(best) => d.with_help(format!("did you mean `{best}`?")),
         None => d.with_help(

@@ -60,7 +60,7 @@ pub fn emit(
     let output_binding = bindings.next("output", BindingKind::OutputImage);
     let output = add_storage_image(&mut b, "output", naga::StorageFormat::Rgba8Unorm, output_binding);
     let region = add_region(&mut b, bindings.next("region", BindingKind::Region));
-    let access = bind_uniforms(&mut b, &mut bindings, comp, &uniforms, block, bricked)?;
+    let access = bind_uniforms(&mut b, &mut bindings, (comp, &uniforms), Some(block), bricked)?;
     // Last of the bindings, so a view that does not meter keeps its numbering.
     let metering = add_metering_image(&mut b, &mut bindings, comp);
     let geometry = add_geometry_images(&mut b, &mut bindings, comp);
@@ -68,7 +68,7 @@ pub fn emit(
 
     let steps = StepLowering { program, comp, state_type, access: &access };
     let ray_setup = steps.lower(&mut b, &[Step::RaySetup])?;
-    let sample_steps: Vec<Step> = Step::ALL.iter().copied().filter(|s| !s.is_per_ray()).collect();
+    let sample_steps: Vec<Step> = Step::ALL.iter().copied().filter(|s| s.is_sample_step()).collect();
     let lowered_samples = steps.lower(&mut b, &sample_steps)?;
     // The entry point runs them in the order of the contribution schedule.
     let sample_fns: Vec<(Step, usize)> =
@@ -155,13 +155,13 @@ fn block_member(uniforms: &[Uniform], name: &str, span: Span) -> Result<u32, Dia
 
 /// The bindings of a view, numbered in the order they are added (all in group 0).
 #[derive(Default)]
-struct Bindings {
-    list: Vec<BindingInfo>,
+pub(super) struct Bindings {
+    pub(super) list: Vec<BindingInfo>,
 }
 
 impl Bindings {
     /// The next binding, for `name`'s resource of `kind`.
-    fn next(&mut self, name: &str, kind: BindingKind) -> ResourceBinding {
+    pub(super) fn next(&mut self, name: &str, kind: BindingKind) -> ResourceBinding {
         let binding = self.list.len() as u32;
         self.list.push(BindingInfo { name: name.to_string(), group: 0, binding, kind });
         ResourceBinding { group: 0, binding }
@@ -170,13 +170,13 @@ impl Bindings {
 
 /// How the lowered functions reach each uniform of the composition, in its order: a member of
 /// the uniform block `block` (whose members are `uniforms`), or the bindings of a volume
-/// (bricked when `bricked` names its lookup) or a transfer function.
-fn bind_uniforms(
+/// (bricked when `bricked` names its lookup), a transfer function or an image (a filter's
+/// input buffer, [`image_binding_kind`]).
+pub(super) fn bind_uniforms(
     b: &mut ModuleBuilder,
     bindings: &mut Bindings,
-    comp: &Composition,
-    uniforms: &[Uniform],
-    block: Handle<naga::GlobalVariable>,
+    (comp, uniforms): (&Composition, &[Uniform]),
+    block: Option<Handle<naga::GlobalVariable>>,
     bricked: &[(String, LookupSource<'_>)],
 ) -> Result<Vec<UniformAccess>, Diagnostic> {
     let mut access: Vec<UniformAccess> = Vec::with_capacity(comp.uniforms.len());
@@ -205,11 +205,34 @@ fn bind_uniforms(
                 bindings.next(&u.name, BindingKind::TfSampler),
                 u.span,
             ),
-            _ => UniformAccess::Member { block, index: block_member(uniforms, &u.name, u.span)? },
+            Type::Image => {
+                let kind = image_binding_kind(&u.name)
+                    .ok_or_else(|| lower::internal(u.span, format!("`{}` is no buffer of a picture", u.name)))?;
+                b.add_image_binding(&u.name, bindings.next(&u.name, kind), u.span)
+            }
+            _ => match block {
+                Some(block) => UniformAccess::Member { block, index: block_member(uniforms, &u.name, u.span)? },
+                None => return Err(lower::internal(u.span, "a plain uniform without a uniform block")),
+            },
         });
     }
     Ok(access)
 }
+
+/// The buffer of a view's picture that the `image` uniform `name` reads, if it names one:
+/// `picture` (its colour) or `picture_depth` (its mesh layer's depth).
+pub fn image_binding_kind(name: &str) -> Option<BindingKind> {
+    match name {
+        PICTURE => Some(BindingKind::Picture),
+        PICTURE_DEPTH => Some(BindingKind::GeometryDepth),
+        _ => None,
+    }
+}
+
+/// The `image` uniform of a filter pass that reads the view's picture (premultiplied colour).
+pub const PICTURE: &str = "picture";
+/// The `image` uniform of a filter pass that reads the depth of the view's mesh layer.
+pub const PICTURE_DEPTH: &str = "picture_depth";
 
 /// The metering image and the `State` member it stores, when the composition meters luminance.
 fn add_metering_image(
@@ -288,16 +311,20 @@ fn add_history_buffer(
 }
 
 /// What lowering the placed pipeline functions of a step needs.
-struct StepLowering<'a> {
-    program: &'a hir::Program,
-    comp: &'a Composition,
-    state_type: Handle<naga::Type>,
-    access: &'a [UniformAccess],
+pub(super) struct StepLowering<'a> {
+    pub(super) program: &'a hir::Program,
+    pub(super) comp: &'a Composition,
+    pub(super) state_type: Handle<naga::Type>,
+    pub(super) access: &'a [UniformAccess],
 }
 
 impl StepLowering<'_> {
     /// The functions placed in `steps`, lowered in order.
-    fn lower(&self, b: &mut ModuleBuilder, steps: &[Step]) -> Result<Vec<Handle<naga::Function>>, Diagnostic> {
+    pub(super) fn lower(
+        &self,
+        b: &mut ModuleBuilder,
+        steps: &[Step],
+    ) -> Result<Vec<Handle<naga::Function>>, Diagnostic> {
         let mut out = Vec::new();
         for placed in steps.iter().flat_map(|&s| self.comp.step(s)) {
             let pf = &self.program.pipelines[placed.pipeline];
@@ -327,12 +354,12 @@ fn entry_gate(comp: &Composition, schedule: &contribution::SampleSchedule) -> Op
     }
 }
 
-fn empty_layout() -> StructLayout {
+pub(super) fn empty_layout() -> StructLayout {
     StructLayout { size: 0, alignment: 1, members: Vec::new() }
 }
 
 /// A write-only 2D storage image `name` of `format`.
-fn add_storage_image(
+pub(super) fn add_storage_image(
     b: &mut ModuleBuilder,
     name: &str,
     format: naga::StorageFormat,
@@ -363,7 +390,7 @@ fn add_image(
 
 /// `var<uniform> region: vec4<u32>`: the pixels `x0, y0, x1, y1` (end exclusive) of the output
 /// image that a dispatch renders, so an application can render a view in tiles or a part of it.
-fn add_region(b: &mut ModuleBuilder, binding: ResourceBinding) -> Handle<naga::GlobalVariable> {
+pub(super) fn add_region(b: &mut ModuleBuilder, binding: ResourceBinding) -> Handle<naga::GlobalVariable> {
     let inner = naga::TypeInner::Vector { size: naga::VectorSize::Quad, scalar: naga::Scalar::U32 };
     let ty = b.module.types.insert(naga::Type { name: None, inner }, naga::Span::UNDEFINED);
     let var = naga::GlobalVariable {
@@ -379,7 +406,7 @@ fn add_region(b: &mut ModuleBuilder, binding: ResourceBinding) -> Handle<naga::G
 
 /// A synthetic pipeline function that writes the default of every field `select(ray)` picks,
 /// lowered like any other so the entry point needs no constants of its own.
-fn lower_defaults(
+pub(super) fn lower_defaults(
     b: &mut ModuleBuilder,
     program: &hir::Program,
     comp: &Composition,

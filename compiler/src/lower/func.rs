@@ -37,6 +37,10 @@ pub(super) fn lower_lib_fn(
         let bricked = if p.ty.is_resource() { resources.next().copied().flatten() } else { None };
         params.push(match p.ty {
             Type::Volume if let Some(fns) = bricked => ParamSlot::Bricked(fns),
+            Type::Image => {
+                let tex_ty = b.texture_type(naga::ImageDimension::D2);
+                ParamSlot::Image(arg(&mut func, name, tex_ty))
+            }
             Type::Volume | Type::Tf => {
                 let dim = if p.ty == Type::Volume { naga::ImageDimension::D3 } else { naga::ImageDimension::D2 };
                 let (tex_ty, samp_ty) = (b.texture_type(dim), b.sampler_type());
@@ -126,6 +130,8 @@ enum ParamSlot {
     },
     /// A bricked volume: no parameter, its lookup is called directly.
     Bricked(BrickedFns),
+    /// An `image`: its texture (read with `textureLoad`, no sampler).
+    Image(Ex),
 }
 
 /// A `volume` or `tf` argument as lowering reaches it.
@@ -133,6 +139,7 @@ enum ParamSlot {
 enum Resource {
     Texture { texture: Ex, sampler: Ex },
     Bricked(BrickedFns),
+    Image(Ex),
 }
 
 struct FnCtx<'a> {
@@ -455,8 +462,8 @@ impl<'a> FnCtx<'a> {
             },
             ExprKind::Param(i) => match self.params.get(*i) {
                 Some(ParamSlot::Plain(h)) => *h,
-                Some(ParamSlot::Resource { .. } | ParamSlot::Bricked(_)) => {
-                    return Err(internal(span, "a `volume` or `tf` parameter used as a value"));
+                Some(ParamSlot::Resource { .. } | ParamSlot::Bricked(_) | ParamSlot::Image(_)) => {
+                    return Err(internal(span, "a `volume`, `tf` or `image` parameter used as a value"));
                 }
                 None => return Err(internal(span, format!("parameter #{i} does not exist"))),
             },
@@ -751,8 +758,12 @@ impl<'a> FnCtx<'a> {
         for (p, a) in callee.params.iter().zip(args) {
             if !p.ty.is_resource() {
                 arguments.push(self.expr(a, block)?);
-            } else if let Resource::Texture { texture, sampler } = self.resource(a)? {
-                arguments.extend([texture, sampler]);
+            } else {
+                match self.resource(a)? {
+                    Resource::Texture { texture, sampler } => arguments.extend([texture, sampler]),
+                    Resource::Image(texture) => arguments.push(texture),
+                    Resource::Bricked(_) => {}
+                }
             }
         }
         let result = (callee.ret != Type::Void).then(|| self.append(E::CallResult(function), span));
@@ -768,6 +779,7 @@ impl<'a> FnCtx<'a> {
                     return Ok(Resource::Texture { texture: *texture, sampler: *sampler });
                 }
                 Some(ParamSlot::Bricked(fns)) => return Ok(Resource::Bricked(*fns)),
+                Some(ParamSlot::Image(texture)) => return Ok(Resource::Image(*texture)),
                 _ => {}
             },
             ExprKind::Uniform(i) => match self.uniform(i, e.span)?.0 {
@@ -777,11 +789,12 @@ impl<'a> FnCtx<'a> {
                     return Ok(Resource::Texture { texture, sampler });
                 }
                 UniformAccess::Bricked(fns) => return Ok(Resource::Bricked(fns)),
+                UniformAccess::Image { texture } => return Ok(Resource::Image(self.global(texture, e.span))),
                 UniformAccess::Member { .. } => {}
             },
             _ => {}
         }
-        Err(internal(e.span, "expected a `volume` or `tf` parameter or uniform"))
+        Err(internal(e.span, "expected a `volume`, `tf` or `image` parameter or uniform"))
     }
 
     /// The bricked volume a `volume` argument is, if it is one (nothing is appended).
@@ -804,6 +817,7 @@ impl<'a> FnCtx<'a> {
         match self.resource(e)? {
             Resource::Texture { texture, sampler } => Ok((texture, sampler)),
             Resource::Bricked(_) => Err(internal(e.span, "a bricked volume where a texture was expected")),
+            Resource::Image(_) => Err(internal(e.span, "an image where a texture and sampler were expected")),
         }
     }
 
@@ -852,11 +866,12 @@ impl<'a> FnCtx<'a> {
             B::Sample => self.sample_volume(&args[0], &args[1], span, block)?,
             B::Lookup => self.lookup(&args[0], &args[1], span, block)?,
             B::Dims => match self.resource(&args[0])? {
-                Resource::Texture { texture: image, .. } => {
+                Resource::Texture { texture: image, .. } | Resource::Image(image) => {
                     self.append(E::ImageQuery { image, query: naga::ImageQuery::Size { level: None } }, span)
                 }
                 Resource::Bricked(fns) => self.call_value(fns.dims, Vec::new(), span, block),
             },
+            B::Load => self.load_texel(&args[0], &args[1], span, block)?,
             _ => return Err(internal(span, format!("built-in `{builtin:?}` is not lowered"))),
         })
     }
@@ -904,6 +919,7 @@ impl<'a> FnCtx<'a> {
                 self.append(E::AccessIndex { base: texel, index: 0 }, span)
             }
             Resource::Bricked(fns) => self.call_value(fns.sample, vec![coordinate], span, block),
+            Resource::Image(_) => return Err(internal(span, "`sample` of an image")),
         })
     }
 
@@ -921,6 +937,27 @@ impl<'a> FnCtx<'a> {
             self.append(E::Compose { ty, components: vec![value, half] }, span)
         };
         Ok(self.sample(image, sampler, coordinate, span))
+    }
+
+    /// `load(i, p)`: `textureLoad(i, clamp(p, 0, dims(i) - 1), 0)`. The clamp makes a
+    /// neighbourhood read at the image's edge repeat the edge (WGSL leaves an out-of-range
+    /// load undefined).
+    fn load_texel(&mut self, image: &hir::Expr, p: &hir::Expr, span: Span, block: &mut naga::Block) -> R<Ex> {
+        let Resource::Image(image) = self.resource(image)? else {
+            return Err(internal(span, "`load` of a resource that is not an image"));
+        };
+        let pixel = self.expr(p, block)?;
+        let size = self.append(E::ImageQuery { image, query: naga::ImageQuery::Size { level: None } }, span);
+        let size = self.append(E::As { expr: size, kind: naga::ScalarKind::Sint, convert: Some(4) }, span);
+        let one = self.append(E::Literal(naga::Literal::I32(1)), span);
+        let one = self.splat(one, 2, span)?;
+        let last = self.append(E::Binary { op: naga::BinaryOperator::Subtract, left: size, right: one }, span);
+        let zero = self.append(E::Literal(naga::Literal::I32(0)), span);
+        let zero = self.splat(zero, 2, span)?;
+        let coordinate =
+            self.append(E::Math { fun: Mf::Clamp, arg: pixel, arg1: Some(zero), arg2: Some(last), arg3: None }, span);
+        let level = self.append(E::Literal(naga::Literal::I32(0)), span);
+        Ok(self.append(E::ImageLoad { image, coordinate, array_index: None, sample: None, level: Some(level) }, span))
     }
 
     /// `textureSampleLevel(image, sampler, coordinate, 0.0)`.
@@ -983,7 +1020,7 @@ fn math_function(builtin: Builtin) -> Option<Mf> {
         B::FaceForward => Mf::FaceForward,
         B::Transpose => Mf::Transpose,
         B::Determinant => Mf::Determinant,
-        B::Select | B::Any | B::All | B::Sample | B::Lookup | B::Dims => return None,
+        B::Select | B::Any | B::All | B::Sample | B::Lookup | B::Dims | B::Load => return None,
     })
 }
 

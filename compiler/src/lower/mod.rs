@@ -123,7 +123,7 @@ fn plain_inner(t: Type) -> Option<naga::TypeInner> {
         Type::Matrix { cols, rows } => {
             naga::TypeInner::Matrix { columns: vector_size(cols)?, rows: vector_size(rows)?, scalar: naga::Scalar::F32 }
         }
-        Type::Volume | Type::Tf | Type::Void | Type::Error => return None,
+        Type::Volume | Type::Tf | Type::Image | Type::Void | Type::Error => return None,
     })
 }
 
@@ -152,6 +152,8 @@ pub enum UniformAccess {
     Tf { texture: Handle<naga::GlobalVariable>, sampler: Handle<naga::GlobalVariable> },
     /// A bricked `volume`: `sample` and `dims` call its lookup ([`ModuleBuilder::add_bricked_volume`]).
     Bricked(BrickedFns),
+    /// An `image`: see [`ModuleBuilder::add_image_binding`].
+    Image { texture: Handle<naga::GlobalVariable> },
 }
 
 /// How a library function receives each of its `volume` and `tf` parameters, in parameter
@@ -335,6 +337,14 @@ impl ModuleBuilder {
         UniformAccess::Tf { texture, sampler }
     }
 
+    /// The global of an `image` uniform: `NAME: texture_2d<f32>`, read with `textureLoad` (no
+    /// sampler).
+    pub fn add_image_binding(&mut self, name: &str, texture: ResourceBinding, span: Span) -> UniformAccess {
+        let tex_ty = self.texture_type(naga::ImageDimension::D2);
+        let texture = self.add_global(&emitted_name(name), naga::AddressSpace::Handle, tex_ty, texture, span);
+        UniformAccess::Image { texture }
+    }
+
     fn add_texture_sampler(
         &mut self,
         name: &str,
@@ -477,6 +487,7 @@ pub fn lower_standalone(
             uniforms.push(match (u.ty, block) {
                 (Type::Volume, _) => builder.add_volume_binding(&u.name, binding(), binding(), u.span),
                 (Type::Tf, _) => builder.add_tf_binding(&u.name, binding(), binding(), u.span),
+                (Type::Image, _) => builder.add_image_binding(&u.name, binding(), u.span),
                 (_, Some(block)) => {
                     index += 1;
                     UniformAccess::Member { block, index: index - 1 }

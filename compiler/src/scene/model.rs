@@ -426,6 +426,9 @@ pub struct View {
     pub render: Render,
     /// Modules of this view only, composed after the shared ones.
     pub modules: Vec<ModuleRef>,
+    /// `filters`: the modules of the view's filter pass, in order (empty: no filter pass). They
+    /// place into the `filter.*` steps, after `std::filter_picture`.
+    pub filters: Vec<ModuleRef>,
     /// The view's renderer tree: its `picture` list, or the one its `meshes`, `planes` and
     /// `overlay` lists make.
     pub picture: Picture,

@@ -154,6 +154,8 @@ pub(super) struct RawView {
     pub(super) render: Option<Spanned<RawRender>>,
     #[serde(default)]
     pub(super) modules: Vec<Spanned<RawModule>>,
+    #[serde(default)]
+    pub(super) filters: Vec<Spanned<RawModule>>,
     pub(super) meshes: Option<Spanned<Vec<Spanned<String>>>>,
     pub(super) overlay: Option<Spanned<Vec<Spanned<String>>>>,
     pub(super) planes: Option<Spanned<Vec<Spanned<String>>>>,
@@ -170,6 +172,7 @@ pub(super) const VIEW_KEYS: &[&str] = &[
     "convention",
     "render",
     "modules",
+    "filters",
     "meshes",
     "overlay",
     "planes",

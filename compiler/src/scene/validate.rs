@@ -760,6 +760,7 @@ impl Cx<'_> {
                     None => render.clone(),
                 },
                 modules: Vec::new(),
+                filters: Vec::new(),
                 picture: Picture::default(),
                 span,
             };
@@ -768,6 +769,7 @@ impl Cx<'_> {
                 ViewKind::Slice => self.slice_keys(&v, &mut view),
             }
             view.modules = v.modules.into_iter().map(|m| self.module(m)).collect();
+            view.filters = v.filters.into_iter().map(|m| self.module(m)).collect();
             out.push(view);
         }
         (out, lists)
