@@ -322,7 +322,7 @@ fn explain(printer: &Printer, scene: &std::path::Path, only: Option<&str>) -> Ou
         return Outcome::Failure;
     }
     for view in &built.views {
-        if let Some(text) = vrsc::compose::explain::explain(view, &built.sources) {
+        if let Some(text) = vrsc::compose::explain::explain_with_filters(view, &built.sources) {
             print!("{text}");
         }
     }

@@ -286,10 +286,10 @@ impl LiveScene {
         // In each view, the scene file's value as of the last good rebuild (a reflection from
         // the composition cache may carry an older value), else the declaration's default.
         for view in self.renderer.views_mut() {
-            let Some(info) = view.renderer.shader().reflection.uniform(name) else { continue };
+            let Some(info) = view.renderer.uniform_info(name) else { continue };
             let scene_value = self.scene_values.get(&view.name).and_then(|values| values.get(name));
             let json = scene_value.map(UniformValue::to_json).or_else(|| info.default.clone());
-            if let Some(value) = json.and_then(|json| view.renderer.uniforms().value_from_json(name, &json)) {
+            if let Some(value) = json.and_then(|json| view.renderer.uniform_value_from_json(name, &json)) {
                 view.renderer.set_uniform(name, value)?;
             }
         }
@@ -299,7 +299,7 @@ impl LiveScene {
 
     /// The current value of uniform `name` (in the first view that reads it).
     pub fn uniform(&self, name: &str) -> Option<Value> {
-        self.renderer.views().iter().find_map(|v| v.renderer.uniforms().get(name))
+        self.renderer.views().iter().find_map(|v| v.renderer.uniform(name))
     }
 
     /// The scene file's value of uniform `name` (in the first view whose scene sets it), as the
@@ -307,7 +307,7 @@ impl LiveScene {
     pub fn scene_uniform_value(&self, name: &str) -> Option<Value> {
         self.renderer.views().iter().find_map(|view| {
             let json = self.scene_uniform(&view.name, name)?.to_json();
-            view.renderer.uniforms().value_from_json(name, &json)
+            view.renderer.uniform_value_from_json(name, &json)
         })
     }
 
@@ -503,7 +503,8 @@ impl LiveScene {
             return Err(vrsc::diag::render_plain(&built.diags.sorted(), &built.sources));
         }
         let view = built.views.first().ok_or("the view did not compose")?;
-        vrsc::compose::explain::explain(view, &built.sources).ok_or_else(|| "the view did not compose".to_string())
+        vrsc::compose::explain::explain_with_filters(view, &built.sources)
+            .ok_or_else(|| "the view did not compose".to_string())
     }
 
     /// The VRS source text of a pipeline function of the composition in use.

@@ -6,7 +6,7 @@ use crate::workspace::{self, Workspace};
 use vrsc::ast::{self, DeclKind, PlacementKind};
 use vrsc::check::rules;
 use vrsc::source::Span;
-use vrsc::steps::{Step, StepLookup};
+use vrsc::steps::{PipelineKind, Step, StepLookup};
 
 /// How many declaring functions a state field's hover lists.
 const MAX_LISTED: usize = 8;
@@ -257,15 +257,18 @@ fn placement_meaning(path: &ast::StepPath, placement: Option<PlacementKind>) -> 
     }
 }
 
-/// When a step runs, in words.
+/// When a step runs, in words, and its place in its pipeline.
 pub fn step_summary(step: Step) -> String {
-    let index = Step::ALL.iter().position(|s| *s == step).map_or(0, |i| i + 1);
+    let kind = step.kind();
+    let steps: Vec<Step> = Step::ALL.iter().copied().filter(|s| s.kind() == kind).collect();
+    let index = steps.iter().position(|s| *s == step).map_or(0, |i| i + 1);
     let when = match step {
         Step::RaySetup => "once per ray, before the sample loop",
         Step::RayFinish => "once per ray, after the sample loop",
+        _ if kind == PipelineKind::Filter => "once per pixel of the finished picture (a view's `filters`)",
         _ => "once per sample",
     };
-    format!("step {index} of {}, runs {when}", Step::ALL.len())
+    format!("step {index} of {} of {}, runs {when}", steps.len(), kind.describe())
 }
 
 /// A step path of a placement or `remove`: which step it names, what the placement does there

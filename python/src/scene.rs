@@ -253,8 +253,12 @@ impl SceneHandle {
             let mut seen: BTreeMap<String, (vrs_reflection_info::Info, Vec<String>)> = BTreeMap::new();
             let mut order = Vec::new();
             for view in state.renderer.views() {
-                for u in &view.renderer.shader().reflection.uniforms {
-                    let Some(value) = view.renderer.uniforms().get(&u.name) else { continue };
+                // The view's shader's uniforms, then its filter pass's.
+                let filter = view.renderer.filter_shader().into_iter();
+                let infos =
+                    [view.renderer.shader()].into_iter().chain(filter).flat_map(|s| s.reflection.uniforms.iter());
+                for u in infos {
+                    let Some(value) = view.renderer.uniform(&u.name) else { continue };
                     let entry = seen.entry(u.name.clone()).or_insert_with(|| {
                         order.push(u.name.clone());
                         (vrs_reflection_info::Info::new(u, value), Vec::new())
@@ -473,10 +477,7 @@ fn resize(state: &mut State, index: usize, size: Option<(u32, u32)>) -> Outcome<
 /// The type and current value of uniform `name` in the first view that reads it.
 fn current(state: &State, name: &str) -> Outcome<(String, Value)> {
     for view in state.renderer.views() {
-        let reflection = &view.renderer.shader().reflection;
-        if let (Some(u), Some(value)) =
-            (reflection.uniforms.iter().find(|u| u.name == name), view.renderer.uniforms().get(name))
-        {
+        if let (Some(u), Some(value)) = (view.renderer.uniform_info(name), view.renderer.uniform(name)) {
             return Ok((u.ty.clone(), value));
         }
     }
@@ -484,9 +485,8 @@ fn current(state: &State, name: &str) -> Outcome<(String, Value)> {
         .renderer
         .views()
         .iter()
-        .flat_map(|v| {
-            v.renderer.shader().reflection.uniforms.iter().filter(|u| u.offset.is_some()).map(|u| u.name.clone())
-        })
+        .flat_map(|v| [Some(v.renderer.shader()), v.renderer.filter_shader()].into_iter().flatten())
+        .flat_map(|s| s.reflection.uniforms.iter().filter(|u| u.offset.is_some()).map(|u| u.name.clone()))
         .collect::<std::collections::BTreeSet<_>>()
         .into_iter()
         .collect();
@@ -519,7 +519,7 @@ fn explain_view(path: &Path, view: &str) -> Outcome<String> {
         return Err(Failure::Compile(collect(&built.diags, &built.sources)));
     }
     let text: Vec<String> =
-        built.views.iter().filter_map(|v| vrsc::compose::explain::explain(v, &built.sources)).collect();
+        built.views.iter().filter_map(|v| vrsc::compose::explain::explain_with_filters(v, &built.sources)).collect();
     Ok(text.concat())
 }
 

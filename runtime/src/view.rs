@@ -174,6 +174,17 @@ impl ViewRenderer {
             .or_else(|| self.filter.as_ref().and_then(|f| f.uniforms().value_from_json(name, json)))
     }
 
+    /// The current value of uniform `name`, of the shader or else of the filter pass.
+    pub fn uniform(&self, name: &str) -> Option<Value> {
+        self.uniforms.get(name).or_else(|| self.filter.as_ref().and_then(|f| f.uniforms().get(name)))
+    }
+
+    /// What the reflection says of uniform `name`, of the shader or else of the filter pass.
+    pub fn uniform_info(&self, name: &str) -> Option<&crate::reflection::UniformInfo> {
+        let filter = || self.filter.as_ref().and_then(|f| f.shader().reflection.uniform(name));
+        self.shader.reflection.uniform(name).or_else(filter)
+    }
+
     /// Gives the view a filter pass (`None`: none), run after its picture.
     pub(crate) fn set_filter(
         &mut self,

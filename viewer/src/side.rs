@@ -110,7 +110,11 @@ impl SidePanel {
                 }
             });
         let Some(view) = live.renderer().views().get(self.inspected) else { return };
-        let reflection = view.renderer.shader().reflection.clone();
+        // The filter pass's steps follow the view's in the map.
+        let mut reflection = (*view.renderer.shader().reflection).clone();
+        if let Some(filter) = view.renderer.filter_shader() {
+            reflection.pipeline.extend(filter.reflection.pipeline.iter().cloned());
+        }
         let mut sources =
             LiveSources { live, index: self.inspected, reflection: &reflection, cache: &mut self.explained };
         inspector::show(ui, &mut self.inspector, &reflection, &mut sources);
@@ -119,8 +123,14 @@ impl SidePanel {
 
 /// Every view's uniforms in groups, with their current values.
 fn parameter_groups(live: &LiveScene) -> Vec<params::Group> {
-    let reflections: Vec<&Reflection> =
-        live.renderer().views().iter().map(|v| &*v.renderer.shader().reflection).collect();
+    // A view's filter pass has uniforms of its own (its `filters`' sliders).
+    let reflections: Vec<&Reflection> = live
+        .renderer()
+        .views()
+        .iter()
+        .flat_map(|v| [Some(v.renderer.shader()), v.renderer.filter_shader()].into_iter().flatten())
+        .map(|shader| &*shader.reflection)
+        .collect();
     params::groups(
         &reflections,
         |name| live.uniform(name),

@@ -516,7 +516,7 @@ mod tests {
             assert_eq!(builtin_by_name(name), Some(b));
             assert_eq!(builtin_name(b), name);
         }
-        assert_eq!(Builtin::ALL.len(), 42);
+        assert_eq!(Builtin::ALL.len(), 43);
         assert_eq!(builtin_by_name("inversesqrt"), None);
     }
 

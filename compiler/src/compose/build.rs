@@ -43,8 +43,8 @@ pub struct FilterOutput {
     pub composition: Composition,
     /// `None` when composing the pass reported errors.
     pub shader: Option<ViewShader>,
-    /// The checked program of the pass's modules; only with [`Keep::Ir`].
-    pub program: Option<crate::hir::Program>,
+    /// The pass's checked program and validated module; only with [`Keep::Ir`].
+    pub ir: Option<ViewIr>,
 }
 
 /// The shader of a view: WGSL text and reflection.
@@ -519,16 +519,16 @@ fn compose_filters(
     if !own.has_errors() {
         layer_check::check_filter_inputs(scene, view, &composition, &mut own);
     }
-    let shader = if own.has_errors() {
+    let emitted = if own.has_errors() {
         None
     } else {
         let emitted = super::filter::emit(&program, &composition, sources).and_then(|vm| {
             let wgsl = crate::lower::write_wgsl(&vm.module, &vm.info)?;
             let reflection = reflect::reflect(scene, view, &program, &composition, &vm, &wgsl, sources);
-            Ok(ViewShader { wgsl, reflection })
+            Ok((ViewShader { wgsl, reflection }, ValidModule { module: vm.module, info: vm.info }))
         });
         match emitted {
-            Ok(shader) => Some(shader),
+            Ok(emitted) => Some(emitted),
             Err(d) => {
                 own.push(d);
                 None
@@ -536,7 +536,8 @@ fn compose_filters(
         }
     };
     own.iter().for_each(|d| diags.push(d.clone()));
-    FilterOutput { composition, shader, program: (keep == Keep::Ir).then_some(program) }
+    let (shader, module) = emitted.unzip();
+    FilterOutput { composition, shader, ir: (keep == Keep::Ir).then(|| ViewIr { program, module }) }
 }
 
 /// Each bricked volume's binding and the file of its own lookup (`[[volume]] lookup`), if any.

@@ -122,9 +122,11 @@ fn leave_out_other_pipeline(
         for u in units_here.drain(..) {
             let Source::Pipeline(i) = units[u].source else { continue };
             let placement = &program.pipelines[i].placement;
-            let (where_, list) = match kind {
-                PipelineKind::Ray => ("a view's filters", "`filters`"),
-                PipelineKind::Filter => ("a view's modules", "`modules` (or a `[[module]]`)"),
+            let list = match step.kind() {
+                PipelineKind::Filter => "list its module in the view's `filters`, which compose the filter pipeline",
+                PipelineKind::Ray => {
+                    "list its module in the view's `modules` (or a `[[module]]`), which compose the ray pipeline"
+                }
             };
             diags.push(
                 Diagnostic::new(
@@ -133,7 +135,7 @@ fn leave_out_other_pipeline(
                     format!("`{}` goes into `{step}`, a step of {}", units[u].name, step.kind().describe()),
                 )
                 .with_label(format!("composed here as part of {}", kind.describe()))
-                .with_note(format!("a module with this placement belongs in {where_}: list it in the view's {list}")),
+                .with_help(list),
             );
         }
     }

@@ -1,0 +1,208 @@
+//! Filter passes on lavapipe (a view's `filters`, composed into the `filter.*` steps): the
+//! standard filters against what they promise, computed from the view's picture without
+//! filters and from the `geometry_depth` probe, and a user's filter in a standard one's place.
+
+mod common;
+
+use std::path::Path;
+use vrs_runtime::{ProbeSpec, RenderOptions, SceneRenderer};
+
+/// A transparent volume (the transfer function is clear everywhere) over a coloured background,
+/// so a view's picture is its meshes' colour over that background; the meshes follow.
+const SCENE: &str = r#"
+[render]
+compositing = "dvr"
+jitter = 0.0
+background = [0.2, 0.35, 0.6, 1.0]
+
+[[volume]]
+name = "cube"
+role = "primary"
+path = "cube.nrrd"
+window = [0.0, 1000.0]
+tf = "clear.json"
+
+[[mesh]]
+name = "ball"
+shape = "sphere"
+centre = [16.0, 16.0, 16.0]
+radius = 9.0
+color = [0.9, 0.55, 0.1]
+
+[[view]]
+name = "3d"
+kind = "raycast"
+size = [96, 96]
+camera = { azimuth = 30.0, elevation = 20.0, distance = 2.2 }
+"#;
+
+/// Two boxes that meet in a concave corner (a block standing on a slab), or the block alone.
+const BLOCKS: &str = r#"
+[[mesh]]
+name = "block"
+shape = "box"
+min = [11.0, 11.0, 12.0]
+max = [21.0, 21.0, 24.0]
+color = [0.8, 0.8, 0.8]
+
+[[mesh]]
+name = "slab"
+shape = "box"
+min = [2.0, 2.0, 8.0]
+max = [30.0, 30.0, 12.0]
+color = [0.8, 0.8, 0.8]
+
+[[view]]
+name = "3d"
+kind = "raycast"
+size = [96, 96]
+camera = { azimuth = 30.0, elevation = 35.0, distance = 2.2 }
+"#;
+
+/// Writes the scene (`scene` after the volume; `SCENE`'s meshes and view when it is `SCENE`)
+/// into `dir` with its volume, its view given `extra` lines, and opens it.
+fn open(dir: &Path, scene: &str, extra: &str) -> SceneRenderer {
+    let values = vec![1000.0f32; 32 * 32 * 32];
+    let identity = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+    common::write_nrrd(&dir.join("cube.nrrd"), "RAS", [32; 3], identity, [0.0; 3], &values);
+    let tf =
+        r#"[{"Name": "clear", "RGBPoints": [0, 1, 1, 1, 1000, 1, 1, 1], "Points": [0, 0, 0.5, 0, 1000, 0, 0.5, 0]}]"#;
+    std::fs::write(dir.join("clear.json"), tf).expect("tf written");
+    let head = SCENE.split("[[mesh]]").next().unwrap_or_default();
+    let body = if scene == SCENE { SCENE.trim_start_matches(head) } else { scene };
+    let text = format!("{head}{}", body.replace("size = [96, 96]", &format!("size = [96, 96]\n{extra}")));
+    let path = dir.join("scene.toml");
+    std::fs::write(&path, text).expect("scene written");
+    SceneRenderer::open(common::software_gpu(), &path, RenderOptions::default(), &mut |_, _, _| {})
+        .unwrap_or_else(|e| panic!("{e}"))
+}
+
+fn render(dir: &Path, scene: &str, extra: &str) -> image::RgbaImage {
+    open(dir, scene, extra).render_all().expect("render").remove(0).1
+}
+
+fn filters(list: &[&str]) -> String {
+    let entries: Vec<String> = list.iter().map(|p| format!("{{ path = \"{p}\" }}")).collect();
+    format!("filters = [{}]", entries.join(", "))
+}
+
+/// The picture is opaque everywhere (the background is), so read-back colours are the
+/// premultiplied ones the filters saw.
+#[test]
+fn luminance_is_rec_709_luma_of_the_picture() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let plain = render(dir.path(), SCENE, "");
+    let grey = render(dir.path(), SCENE, &filters(&["std::luminance"]));
+    let mut worst = 0.0f64;
+    for (p, g) in plain.pixels().zip(grey.pixels()) {
+        let [r, gr, b, a] = p.0.map(f64::from);
+        let y = 0.2126 * r + 0.7152 * gr + 0.0722 * b;
+        assert_eq!(a, 255.0, "the picture is opaque");
+        assert!(g.0[0] == g.0[1] && g.0[1] == g.0[2], "grey: {:?}", g.0);
+        assert_eq!(g.0[3], 255);
+        worst = worst.max((f64::from(g.0[0]) - y).abs());
+    }
+    // The filter reads the 8-bit picture and writes 8 bits: only the last rounding differs.
+    assert!(worst <= 0.5 + 1e-3, "largest difference from Rec. 709 luma {worst}/255");
+}
+
+#[test]
+fn the_depth_buffer_view_equals_the_geometry_depth_probe() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let shown = render(dir.path(), SCENE, &filters(&["std::show_depth"]));
+    let mut renderer = open(dir.path(), SCENE, &filters(&["std::show_depth"]));
+    let probe = renderer.render_probe(0, &ProbeSpec::of("geometry_depth")).expect("probe");
+    let (mut worst, mut covered) = (0.0f64, 0);
+    for (x, y, pixel) in shown.enumerate_pixels() {
+        let depth = probe.values.at(x, y).expect("a @ray field has a value everywhere")[0];
+        covered += usize::from(depth < 1.0);
+        worst = worst.max((f64::from(pixel.0[0]) / 255.0 - depth).abs());
+    }
+    assert!(covered > 1000, "the ball covers {covered} pixels");
+    assert!(worst <= 0.5 / 255.0 + 1e-6, "largest difference {worst} (8-bit grey against the exact depth)");
+}
+
+/// A user's module takes `std::luminance`'s place in `filter.apply` (`replace`): the picture is
+/// inverted instead; and `filter_mix = 0` shows the picture as it was.
+#[test]
+fn a_user_filter_replaces_a_standard_one() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let invert = "/// Inverts the premultiplied colour.\n\
+        pipeline invert replace filter.apply[luminance] {\n    state color: vec4f;\n\
+        \n    state.color = vec4f(vec3f(state.color.a) - state.color.rgb, state.color.a);\n}\n";
+    std::fs::write(dir.path().join("invert.vrs"), invert).expect("module written");
+    let plain = render(dir.path(), SCENE, "");
+    let inverted = render(dir.path(), SCENE, &filters(&["std::luminance", "invert.vrs"]));
+    for (p, i) in plain.pixels().zip(inverted.pixels()) {
+        assert_eq!([255 - p.0[0], 255 - p.0[1], 255 - p.0[2], 255], i.0);
+    }
+    let mut renderer = open(dir.path(), SCENE, &filters(&["std::luminance", "invert.vrs"]));
+    renderer.set_uniform("filter_mix", 0.0f32).expect("the filter pass reads filter_mix");
+    assert_eq!(renderer.render_all().expect("render").remove(0).1, plain, "filter_mix 0 is the picture");
+}
+
+/// Lines along the ball's silhouette, where a pixel of the ball has a neighbour without it;
+/// none on its smooth inside (the sphere's facets fold by 5.6 degrees, far below the threshold),
+/// nothing outside.
+#[test]
+fn edges_outline_the_silhouette_and_leave_smooth_surfaces() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let plain = render(dir.path(), SCENE, "");
+    let lined = render(dir.path(), SCENE, &filters(&["std::edges"]));
+    let mut renderer = open(dir.path(), SCENE, "");
+    let probe = renderer.render_probe(0, &ProbeSpec::of("geometry_depth")).expect("probe");
+    let (w, h) = plain.dimensions();
+    let covered = |x: i64, y: i64| {
+        let inside = (0..i64::from(w)).contains(&x) && (0..i64::from(h)).contains(&y);
+        !inside || probe.values.at(x as u32, y as u32).is_some_and(|d| d[0] < 1.0)
+    };
+    let distance_to_outside =
+        |x: i64, y: i64| (1..4).find(|&r| (-r..=r).any(|dy| (-r..=r).any(|dx| !covered(x + dx, y + dy)))).unwrap_or(4);
+    let (mut silhouette, mut inside) = (0, 0);
+    for (x, y, pixel) in lined.enumerate_pixels() {
+        let (xi, yi) = (i64::from(x), i64::from(y));
+        let before = plain.get_pixel(x, y).0;
+        if !covered(xi, yi) {
+            assert_eq!(pixel.0, before, "({x}, {y}) is outside the ball");
+        } else if [(1, 0), (-1, 0), (0, 1), (0, -1)].iter().any(|(dx, dy)| !covered(xi + dx, yi + dy)) {
+            assert_eq!(pixel.0, [0, 0, 0, 255], "({x}, {y}) is on the silhouette");
+            silhouette += 1;
+        } else if distance_to_outside(xi, yi) >= 4 {
+            assert_eq!(pixel.0, before, "({x}, {y}) is inside the smooth surface");
+            inside += 1;
+        }
+    }
+    assert!(silhouette > 100 && inside > 1000, "{silhouette} silhouette and {inside} inner pixels");
+}
+
+/// Ambient occlusion leaves a convex block (every neighbour lies on or below the pixel's tangent
+/// plane) all but unchanged, and darkens the concave corner where the block stands on a slab;
+/// it never brightens. On the block, the tangent planes of the few pixels where two creases
+/// meet are estimated tilted: at most 1% of its pixels change, by at most 10/255.
+#[test]
+fn ssao_darkens_concave_corners_only() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let convex = BLOCKS.split("[[mesh]]\nname = \"slab\"").next().unwrap_or_default().to_string()
+        + &BLOCKS[BLOCKS.find("[[view]]").unwrap_or(0)..];
+    let plain = render(dir.path(), &convex, "");
+    let occluded = render(dir.path(), &convex, &filters(&["std::ssao"]));
+    let background = plain.get_pixel(0, 0).0;
+    let block = plain.pixels().filter(|p| p.0 != background).count();
+    let changes: Vec<u8> =
+        plain.pixels().zip(occluded.pixels()).map(|(a, b)| a.0[0].abs_diff(b.0[0])).filter(|&d| d > 1).collect();
+    let largest = changes.iter().max().copied().unwrap_or(0);
+    assert!(block > 1000, "the block covers {block} pixels");
+    assert!(
+        changes.len() * 100 <= block && largest <= 10,
+        "a convex block is occluded at {} of {block} pixels, by up to {largest}/255",
+        changes.len()
+    );
+    let plain = render(dir.path(), BLOCKS, "");
+    let occluded = render(dir.path(), BLOCKS, &filters(&["std::ssao"]));
+    let mut darker = 0;
+    for (a, b) in plain.pixels().zip(occluded.pixels()) {
+        assert!(b.0[0] <= a.0[0], "ambient occlusion never brightens");
+        darker += usize::from(a.0[0] - b.0[0] > 8);
+    }
+    assert!(darker > 30, "the corner darkens ({darker} pixels by more than 8/255)");
+}
