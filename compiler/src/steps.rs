@@ -78,9 +78,10 @@ steps! {
 }
 
 /// The two pipelines steps belong to: a view's raycaster, and its image-space filter pass.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum PipelineKind {
     /// The ray pipeline: `ray.setup` .. `ray.finish`, once per ray and per sample.
+    #[default]
     Ray,
     /// The filter pipeline: `filter.setup` .. `filter.finish`, once per pixel of the picture.
     Filter,

@@ -5,7 +5,7 @@
 mod common;
 
 use std::path::Path;
-use vrs_runtime::{ProbeSpec, RenderOptions, SceneRenderer};
+use vrs_runtime::{ProbeAt, ProbeSpec, RenderOptions, SceneRenderer};
 
 /// A transparent volume (the transfer function is clear everywhere) over a coloured background,
 /// so a view's picture is its meshes' colour over that background; the meshes follow.
@@ -205,4 +205,24 @@ fn ssao_darkens_concave_corners_only() {
         darker += usize::from(a.0[0] - b.0[0] > 8);
     }
     assert!(darker > 30, "the corner darkens ({darker} pixels by more than 8/255)");
+}
+
+/// A field of the filter pass is probed at `filter.finish`: `picture_color` is the picture the
+/// pass read, exactly (8-bit values as floats); a sample of it is refused.
+#[test]
+fn a_probe_reads_a_field_of_the_filter_pass() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let plain = render(dir.path(), SCENE, "");
+    let mut renderer = open(dir.path(), SCENE, &filters(&["std::luminance"]));
+    let probe = renderer.render_probe(0, &ProbeSpec::of("picture_color")).expect("probe");
+    assert!(probe.legend().contains("filter pass at filter.finish"), "{}", probe.legend());
+    for (x, y, pixel) in plain.enumerate_pixels() {
+        let value = probe.values.at(x, y).expect("every pixel has its colour");
+        let read: Vec<f64> = value.iter().map(|v| v * 255.0).collect();
+        let want: Vec<f64> = pixel.0.iter().map(|&c| f64::from(c)).collect();
+        assert!(read.iter().zip(&want).all(|(r, w)| (r - w).abs() < 1e-3), "({x}, {y}): {read:?} for {want:?}");
+    }
+    let at_sample = ProbeSpec { field: "picture_color".into(), at: Some(ProbeAt::Sample(0)) };
+    let refused = renderer.render_probe(0, &at_sample).err().map(|e| e.to_string()).unwrap_or_default();
+    assert!(refused.contains("filter.finish"), "{refused}");
 }

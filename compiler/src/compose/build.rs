@@ -148,6 +148,9 @@ pub struct GeneratedModule {
     pub name: String,
     /// Its VRS source.
     pub text: String,
+    /// The pipeline it goes into: the view's ray pipeline, or its filter pass (placed after
+    /// its filters).
+    pub pipeline: PipelineKind,
 }
 
 /// [`compose_scene`], loading modules through `parsed` (whose overlay stands in for files on
@@ -178,7 +181,7 @@ pub fn compose_scene_with(
         .iter()
         .map(|view| {
             let ray = load_view(&scene, view, extra, &mut sources, &mut parsed);
-            (ray, load_filters(view, &mut sources, &mut parsed))
+            (ray, load_filters(view, extra, &mut sources, &mut parsed))
         })
         .collect();
     let context = ComposeContext { scene: &scene, sources: &sources, lookups: &lookups, keep };
@@ -278,8 +281,14 @@ struct LoadedView {
 /// filtered colour.
 pub const FILTER_PICTURE: &str = "filter_picture";
 
-/// Loads a view's filter modules after [`FILTER_PICTURE`] (`None` for a view without filters).
-fn load_filters(view: &View, sources: &mut SourceMap, parsed: &mut ParsedFiles) -> Option<LoadedView> {
+/// Loads a view's filter modules after [`FILTER_PICTURE`], then the `extra` modules of the
+/// filter pipeline (`None` for a view without filters).
+fn load_filters(
+    view: &View,
+    extra: &[GeneratedModule],
+    sources: &mut SourceMap,
+    parsed: &mut ParsedFiles,
+) -> Option<LoadedView> {
     if view.filters.is_empty() {
         return None;
     }
@@ -296,10 +305,19 @@ fn load_filters(view: &View, sources: &mut SourceMap, parsed: &mut ParsedFiles) 
             Err(d) => missing.push(d),
         }
     }
+    load_generated(&mut loader, extra, PipelineKind::Filter, &mut uses);
     let (graph, files) = loader.finish_keeping_files();
     *parsed = files;
     missing.into_iter().for_each(|d| diags.push(d));
     Some(LoadedView { graph, uses, diags })
+}
+
+/// Loads the generated modules of pipeline `kind` as roots, placed in the order given.
+fn load_generated(loader: &mut Loader<'_>, extra: &[GeneratedModule], kind: PipelineKind, uses: &mut Vec<ModuleUse>) {
+    for generated in extra.iter().filter(|g| g.pipeline == kind) {
+        let module = loader.load_root_source(&generated.name, generated.text.clone(), None);
+        uses.push(ModuleUse { module, instances: None, span: Span::DUMMY });
+    }
 }
 
 /// How a module the scene names is used: with the instances it gives.
@@ -337,10 +355,7 @@ fn load_view(
             Err(d) => missing.push(d),
         }
     }
-    for generated in extra {
-        let module = loader.load_root_source(&generated.name, generated.text.clone(), None);
-        uses.push(ModuleUse { module, instances: None, span: Span::DUMMY });
-    }
+    load_generated(&mut loader, extra, PipelineKind::Ray, &mut uses);
     let (graph, files) = loader.finish_keeping_files();
     *parsed = files;
     missing.into_iter().for_each(|d| diags.push(d));

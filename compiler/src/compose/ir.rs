@@ -3,7 +3,7 @@
 
 use crate::hir::{self, ConstValue};
 use crate::source::{SourceMap, Span};
-use crate::steps::Step;
+use crate::steps::{PipelineKind, Step};
 use crate::types::Type;
 
 /// One module given to the composer. Modules are given in placement order: standard modules
@@ -31,6 +31,8 @@ pub struct Composition {
     pub uniforms: Vec<Uniform>,
     /// Pipeline functions of the modules that do not run, in module order.
     pub not_placed: Vec<NotPlaced>,
+    /// The pipeline composed: a view's raycaster or its filter pass.
+    pub kind: PipelineKind,
 }
 
 /// A pipeline function that was given to the composer but does not run.

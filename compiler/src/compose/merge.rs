@@ -144,7 +144,7 @@ impl<'a, F: Fn(usize) -> bool> Merger<'a, F> {
                 functions: units.iter().map(|&u| self.placed_fn(u, &merged, &kept)).collect(),
             })
             .collect();
-        Composition { steps, fields, uniforms, not_placed: Vec::new() }
+        Composition { steps, fields, uniforms, not_placed: Vec::new(), kind: self.kind }
     }
 
     /// The state declarations of unit `u` (at `position` along the pipeline) into the merged

@@ -17,13 +17,14 @@
 //! `docs/reference.md` ("Probes") states what a radiologist sees; `vrs_runtime::probe` decodes
 //! the passes and colours the image.
 
-use super::build::{self, BuiltScene, GeneratedModule, Keep, ViewShader};
+use super::build::{self, BuiltScene, GeneratedModule, Keep, ViewOutput, ViewShader};
 use super::instantiate::subst;
 use super::ir::Composition;
 use crate::diag::{Code, Diagnostic, Diagnostics};
 use crate::hir;
 use crate::scene::Scene;
 use crate::source::{SourceMap, Span};
+use crate::steps::PipelineKind;
 use crate::suggest::did_you_mean;
 use crate::types::{Scalar, Type};
 use std::fmt::Write as _;
@@ -90,6 +91,9 @@ pub struct DeclaredField {
     pub ty: Type,
     /// `@ray`: lives for the whole ray.
     pub ray: bool,
+    /// The pipeline whose functions declare it: the view's raycaster or its filter pass (whose
+    /// fields all live for the pixel; a probe reads them at `filter.finish`).
+    pub pipeline: PipelineKind,
 }
 
 impl DeclaredField {
@@ -103,16 +107,36 @@ impl DeclaredField {
 /// along the pipeline, with template names instantiated.
 pub fn declared_fields(program: &hir::Program, comp: &Composition) -> Vec<DeclaredField> {
     let mut out: Vec<DeclaredField> = Vec::new();
+    add_declared_fields(&mut out, program, comp);
+    out
+}
+
+/// The fields of a view built with [`Keep::Ir`]: its ray pipeline's ([`declared_fields`]), then
+/// those of its filter pass that the ray pipeline does not declare (a name both declare is the
+/// ray pipeline's).
+pub fn view_fields(view: &ViewOutput) -> Vec<DeclaredField> {
+    let mut out = Vec::new();
+    if let Some(ir) = &view.ir {
+        add_declared_fields(&mut out, &ir.program, &view.composition);
+    }
+    if let Some(filter) = &view.filter
+        && let Some(ir) = &filter.ir
+    {
+        add_declared_fields(&mut out, &ir.program, &filter.composition);
+    }
+    out
+}
+
+fn add_declared_fields(out: &mut Vec<DeclaredField>, program: &hir::Program, comp: &Composition) {
     for placed in comp.steps.iter().flat_map(|s| &s.functions) {
         let Some(function) = program.pipelines.get(placed.pipeline) else { continue };
         for decl in &function.state {
             let name = subst(&decl.name, placed.instance.as_deref());
             if !out.iter().any(|f| f.name == name) {
-                out.push(DeclaredField { name, ty: decl.ty, ray: decl.ray });
+                out.push(DeclaredField { name, ty: decl.ty, ray: decl.ray, pipeline: comp.kind });
             }
         }
     }
-    out
 }
 
 /// How a probe's value leaves the shader.
@@ -140,8 +164,11 @@ fn pass_count(words: u32) -> u32 {
 pub struct ProbeVariant {
     /// How the probed value is packed into the output and how many renders read it.
     pub layout: ProbeLayout,
-    /// The view's shader with the probe module placed in it.
+    /// The view's shader, with the probe module placed in it for a field of the ray pipeline.
     pub shader: ViewShader,
+    /// For a field of the filter pass, the pass with the probe module placed in it (`None`: the
+    /// probe renders without the view's filter pass).
+    pub filter: Option<ViewShader>,
     /// The generated VRS module.
     pub source: String,
 }
@@ -160,11 +187,7 @@ pub struct ProbeBuild {
 /// `built.views`. When none does, E0801 (with the closest field name) or, when the field is a
 /// matrix, E0802.
 pub fn views_with_field(built: &BuiltScene, field: &str) -> Result<Vec<usize>, Diagnostic> {
-    let fields: Vec<Vec<DeclaredField>> = built
-        .views
-        .iter()
-        .map(|v| v.ir.as_ref().map(|ir| declared_fields(&ir.program, &v.composition)).unwrap_or_default())
-        .collect();
+    let fields: Vec<Vec<DeclaredField>> = built.views.iter().map(view_fields).collect();
     let having: Vec<usize> = (0..fields.len()).filter(|&i| fields[i].iter().any(|f| f.name == field)).collect();
     let view_span = |name: &str| {
         let views = built.scene.as_ref().map(|s| s.views.as_slice()).unwrap_or_default();
@@ -245,7 +268,10 @@ pub fn compose_probe(built: BuiltScene, field: &str) -> ProbeBuild {
     };
     let words = found.ty.components() as u32;
     let layout = ProbeLayout { view, field: found, words, passes: pass_count(words), opacity };
-    let source = probe_source(&layout);
+    let source = match layout.field.pipeline {
+        PipelineKind::Ray => probe_source(&layout),
+        PipelineKind::Filter => filter_probe_source(&layout),
+    };
     compose_variant(sources, scene, layout, source, diags)
 }
 
@@ -254,9 +280,11 @@ pub fn compose_probe(built: BuiltScene, field: &str) -> ProbeBuild {
 /// reported already), `Err(Some(_))` for E0801 and E0802.
 fn probed_field(built: &BuiltScene, field: &str) -> Result<(DeclaredField, bool), Option<Diagnostic>> {
     let [output] = built.views.as_slice() else { return Err(None) };
-    let Some(ir) = output.ir.as_ref().filter(|_| !built.diags.has_errors()) else { return Err(None) };
+    if output.ir.is_none() || built.diags.has_errors() {
+        return Err(None);
+    }
     views_with_field(built, field).map_err(Some)?;
-    let fields = declared_fields(&ir.program, &output.composition);
+    let fields = view_fields(output);
     let found = fields.iter().find(|f| f.name == field).cloned().ok_or(None)?;
     let opacity = fields.iter().any(|f| f.name == ACCUM && f.ray && f.ty == Type::vec(4, Scalar::F32));
     Ok((found, opacity))
@@ -270,7 +298,8 @@ fn compose_variant(
     source: String,
     mut diags: Diagnostics,
 ) -> ProbeBuild {
-    let module = GeneratedModule { name: format!("<probe of {}>", layout.field.name), text: source.clone() };
+    let pipeline = layout.field.pipeline;
+    let module = GeneratedModule { name: format!("<probe of {}>", layout.field.name), text: source.clone(), pipeline };
     let built = build::compose_scene_with(
         build::ParsedScene { sources, scene: Some(scene), diags: Diagnostics::new() },
         Some(&layout.view),
@@ -281,12 +310,54 @@ fn compose_variant(
     // The view's own warnings were reported with the view; only the variant's errors are new
     // (a name of the generated module that the view already uses differently).
     built.diags.iter().filter(|d| d.is_error()).cloned().for_each(|d| diags.push(d));
-    let shader = built.views.into_iter().next().and_then(|v| v.shader);
-    let variant = match shader {
-        Some(shader) if !diags.has_errors() => Some(ProbeVariant { layout, shader, source }),
+    let (shader, filter) = match built.views.into_iter().next() {
+        Some(view) => (view.shader, view.filter.and_then(|f| f.shader)),
+        None => (None, None),
+    };
+    // A probe of the ray pipeline shows its value without the filter pass; one of the filter
+    // pass needs the pass's variant.
+    let filter = match pipeline {
+        PipelineKind::Ray => Some(None),
+        PipelineKind::Filter => filter.map(Some),
+    };
+    let variant = match (shader, filter) {
+        (Some(shader), Some(filter)) if !diags.has_errors() => Some(ProbeVariant { layout, shader, filter, source }),
         _ => None,
     };
     ProbeBuild { sources: built.sources, diags, variant }
+}
+
+/// The generated module of a probe of a filter pass's field: `probe_output` after
+/// `filter.finish` writes the field's value as it is there, in the passes of `std::probe`.
+pub fn filter_probe_source(layout: &ProbeLayout) -> String {
+    let f = &layout.field;
+    let (name, ty) = (&f.name, f.ty);
+    let lifetime = if f.ray { "@ray " } else { "" };
+    let mut out = String::new();
+    let _ = writeln!(
+        out,
+        "// The probe of `{name}` in the filter pass of view `{}`, generated by vrsc (compose/probe.rs).",
+        layout.view
+    );
+    out.push_str("import std::probe;\n\n");
+    let mut output = Decls::default();
+    output.line(PASS_UNIFORM, format!("uniform {PASS_UNIFORM}: u32 = 0u;"));
+    output.line(name, format!("{lifetime}state {name}: {ty};"));
+    output.line("out_color", "state out_color: vec4f;".into());
+    let scalar = ty.scalar().unwrap_or(Scalar::F32);
+    let uses = if scalar == Scalar::F32 { "probe_color, probe_f32_bits" } else { "probe_color" };
+    output.line("use", format!("use {uses};"));
+    out.push_str("/// Writes pass `probe_pass` of the probed value into the pixel.\n");
+    out.push_str("pipeline probe_output after filter.finish {\n");
+    out.push_str(&output.text);
+    let _ = writeln!(out, "\n    let value: {ty} = state.{name};");
+    let _ = write!(
+        out,
+        "    let words = vec4u({});\n    state.out_color = probe_color(words, {}u, {PASS_UNIFORM}, true);\n}}\n",
+        value_words(ty).join(", "),
+        layout.words
+    );
+    out
 }
 
 /// The generated module of a probe: `probe_capture` in the sample loop and `probe_output` in
@@ -359,15 +430,7 @@ pub fn probe_source(layout: &ProbeLayout) -> String {
             "    if {MODE_UNIFORM} == 0u {{\n        value = state.{name};\n        has_value = true;\n    }}"
         );
     }
-    let words: Vec<String> = (0..4)
-        .map(|i| match ty {
-            Type::Vector { size, .. } if i < size => {
-                word(scalar, &format!("value.{}", ['x', 'y', 'z', 'w'][i as usize]))
-            }
-            Type::Scalar(_) if i == 0 => word(scalar, "value"),
-            _ => "0u".into(),
-        })
-        .collect();
+    let words = value_words(ty);
     let _ = write!(
         out,
         "    let words = vec4u({});\n    state.out_color = probe_color(words, {}u, {PASS_UNIFORM}, has_value);\n}}\n",
@@ -392,6 +455,20 @@ impl Decls {
             let _ = writeln!(self.text, "    {line}");
         }
     }
+}
+
+/// The four 32-bit words of the local `value` of type `ty` (unused ones 0u), as VRS source.
+fn value_words(ty: Type) -> Vec<String> {
+    let scalar = ty.scalar().unwrap_or(Scalar::F32);
+    (0..4)
+        .map(|i| match ty {
+            Type::Vector { size, .. } if i < size => {
+                word(scalar, &format!("value.{}", ['x', 'y', 'z', 'w'][i as usize]))
+            }
+            Type::Scalar(_) if i == 0 => word(scalar, "value"),
+            _ => "0u".into(),
+        })
+        .collect()
 }
 
 /// The 32-bit word of a scalar expression of kind `scalar`.
@@ -437,7 +514,12 @@ mod tests {
 
     #[test]
     fn a_typo_gets_the_closest_field() {
-        let fields = [DeclaredField { name: "gradient".into(), ty: Type::vec(3, Scalar::F32), ray: false }];
+        let fields = [DeclaredField {
+            name: "gradient".into(),
+            ty: Type::vec(3, Scalar::F32),
+            ray: false,
+            pipeline: PipelineKind::Ray,
+        }];
         let d = unknown_field("gradiant", &[("3d", Span::DUMMY, &fields)]);
         assert_eq!(d.code, Code::ProbeUnknownField);
         assert!(d.notes.iter().any(|n| n.contains("did you mean `gradient`")), "{:?}", d.notes);

@@ -12,6 +12,7 @@ use crate::view::ViewRenderer;
 use std::collections::HashMap;
 pub use vrsc::compose::probe::ProbeAt;
 use vrsc::compose::probe::{self as cprobe, DeclaredField, ProbeLayout};
+use vrsc::steps::PipelineKind;
 use vrsc::types::{Scalar, Type};
 
 /// What to probe: a state field of the view, and where along the ray (`None`: a `@ray` field
@@ -40,6 +41,7 @@ pub struct ProbeImage {
     pub(crate) field: String,
     pub(crate) ty: String,
     pub(crate) ray: bool,
+    pub(crate) pipeline: PipelineKind,
     /// Where the value was read.
     pub(crate) at: ProbeAt,
     /// The coloured image (straight alpha; transparent where a pixel has no value).
@@ -51,8 +53,12 @@ pub struct ProbeImage {
 impl ProbeImage {
     /// Two lines for people: what the probe is, then how to read it (range and mapping).
     pub fn legend(&self) -> String {
-        let lifetime = if self.ray { "@ray field" } else { "sample field" };
-        format!("{}.{}: {} {lifetime} {}\n{}", self.view, self.field, self.ty, self.at.describe(), self.values.legend())
+        let (lifetime, at) = match self.pipeline {
+            PipelineKind::Filter => ("field of the filter pass", "at filter.finish".to_string()),
+            PipelineKind::Ray if self.ray => ("@ray field", self.at.describe()),
+            PipelineKind::Ray => ("sample field", self.at.describe()),
+        };
+        format!("{}.{}: {} {lifetime} {at}\n{}", self.view, self.field, self.ty, self.values.legend())
     }
 }
 
@@ -77,7 +83,7 @@ impl SceneRenderer {
         let built = vrsc::compose::build::build_scene_keeping(&self.path, Some(name), vrsc::compose::build::Keep::Ir)
             .map_err(|error| RuntimeError::Io { path: self.path.clone(), error })?;
         let view = built.views.first().filter(|_| !built.diags.has_errors());
-        let fields = view.and_then(|v| v.ir.as_ref().map(|ir| cprobe::declared_fields(&ir.program, &v.composition)));
+        let fields = view.filter(|v| v.ir.is_some()).map(cprobe::view_fields);
         fields.ok_or_else(|| compose_error(&built.diags, &built.sources))
     }
 
@@ -100,17 +106,21 @@ impl SceneRenderer {
             _ => return Err(no_view(index)),
         };
         let field = &probe.layout.field;
-        let at = spec.at.unwrap_or(ProbeAt::default_for(field.ray));
+        let at = spec.at.unwrap_or(default_at(field));
         check_at(&probe.layout, at)?;
         let r = &mut probe.view.renderer;
-        for u in &view.renderer.shader().reflection.uniforms {
+        let filter = view.renderer.filter_shader().into_iter();
+        for u in [view.renderer.shader()].into_iter().chain(filter).flat_map(|s| s.reflection.uniforms.iter()) {
             if r.has_uniform(&u.name)
-                && let Some(value) = view.renderer.uniforms().get(&u.name)
+                && let Some(value) = view.renderer.uniform(&u.name)
             {
                 r.set_uniform(&u.name, value)?;
             }
         }
-        r.set_uniform(cprobe::MODE_UNIFORM, at.mode())?;
+        // A probe of the filter pass reads its field at `filter.finish`: it has no mode.
+        if r.has_uniform(cprobe::MODE_UNIFORM) {
+            r.set_uniform(cprobe::MODE_UNIFORM, at.mode())?;
+        }
         match at {
             ProbeAt::Opacity(a) => r.set_uniform(cprobe::THRESHOLD_UNIFORM, a)?,
             ProbeAt::Sample(n) => r.set_uniform(cprobe::SAMPLE_UNIFORM, n)?,
@@ -132,6 +142,7 @@ impl SceneRenderer {
             field: field.name.clone(),
             ty: field.ty.to_string(),
             ray: field.ray,
+            pipeline: field.pipeline,
             at,
             image: values.to_image(),
             values,
@@ -145,7 +156,9 @@ impl SceneRenderer {
             .map_err(|error| RuntimeError::Io { path: self.path.clone(), error })?;
         let Some(variant) = built.variant else { return Err(compose_error(&built.diags, &built.sources)) };
         let shader = ViewShader::new(variant.shader.wgsl, variant.shader.reflection, &self.path)?;
-        let renderer = ViewRenderer::new(&self.gpu, &mut self.pipelines, shader, view.renderer.size())?;
+        let mut renderer = ViewRenderer::new(&self.gpu, &mut self.pipelines, shader, view.renderer.size())?;
+        let filter = variant.filter.map(|f| ViewShader::new(f.wgsl, f.reflection, &self.path)).transpose()?;
+        renderer.set_filter(&self.gpu, &mut self.pipelines, filter)?;
         let view = SceneView {
             name: view.name.clone(),
             renderer,
@@ -159,9 +172,28 @@ impl SceneRenderer {
     }
 }
 
+/// Where a probe reads `field` unless told: a field of the filter pass at `filter.finish`
+/// ([`ProbeAt::Finish`]), else as [`ProbeAt::default_for`] its lifetime says.
+fn default_at(field: &cprobe::DeclaredField) -> ProbeAt {
+    match field.pipeline {
+        PipelineKind::Filter => ProbeAt::Finish,
+        PipelineKind::Ray => ProbeAt::default_for(field.ray),
+    }
+}
+
 /// Whether the probe can read its field `at` that place.
 fn check_at(layout: &ProbeLayout, at: ProbeAt) -> Result<(), RuntimeError> {
     let field = &layout.field.name;
+    if layout.field.pipeline == PipelineKind::Filter {
+        return match at {
+            ProbeAt::Finish => Ok(()),
+            _ => Err(RuntimeError::Invalid(format!(
+                "`{field}` is a field of the filter pass of view `{}`, which runs once per pixel: \
+                 it is read at filter.finish, not at a sample",
+                layout.view
+            ))),
+        };
+    }
     match at {
         ProbeAt::Finish if !layout.field.ray => Err(RuntimeError::Invalid(format!(
             "`{field}` is a sample field: it has a value at a sample, not at ray.finish \
