@@ -283,3 +283,17 @@ def test_an_occlusion_groups_opacity_is_set_from_python():
         scene.set_group_opacity("liver", 0.5)
     with pytest.raises(ValueError):
         scene.set_group_opacity("liver_and_applicators", 2.0)
+
+
+def test_a_views_filter_pass_shows_in_its_map_uniforms_and_picture():
+    scene = vrsc.Scene.load(os.path.join(ROOT, "examples", "liver", "scene.toml"))
+    assert "filters:\nfilter.setup\n" in scene.pipeline("outlined")
+    info = scene.uniforms["edge_threshold"]
+    assert info["type"] == "f32" and info["views"] == ["outlined"], info
+    before = scene.render("outlined", size=(96, 96))
+    scene["filter_mix"] = 0.0
+    assert scene["filter_mix"] == 0.0
+    plain = scene.render("outlined", size=(96, 96))
+    assert np.array_equal(plain, scene.render("hidden", size=(96, 96))), "no filters: the view `hidden`"
+    assert not np.array_equal(before, plain)
+    assert "// ===== the filter pass of view `outlined`" in scene.explain("outlined")
