@@ -196,6 +196,13 @@ impl ViewRenderer {
         Ok(())
     }
 
+    /// The reflections of the view's shaders: its own, then its filter pass's (what a panel
+    /// lists the uniforms and functions of).
+    pub fn reflections(&self) -> impl Iterator<Item = &crate::reflection::Reflection> {
+        let filter = self.filter.as_ref().map(|f| &*f.shader().reflection);
+        std::iter::once(&*self.shader.reflection).chain(filter)
+    }
+
     /// The compiled filter pass, when the view has one.
     pub fn filter_shader(&self) -> Option<&ViewShader> {
         self.filter.as_ref().map(FilterPass::shader)

@@ -38,7 +38,8 @@ pub enum Control {
         /// The matrix's rows (grid rows).
         rows: usize,
     },
-    /// A volume or transfer function: edited in the transfer-function editor, not here.
+    /// A volume or transfer function (edited in the transfer-function editor, not here), or an
+    /// image (a filter's input: the picture itself).
     Resource,
     /// Set by the renderer before every frame (camera, slice plane, volume transforms): shown,
     /// not edited.
@@ -47,7 +48,7 @@ pub enum Control {
 
 /// The control for `info`.
 pub fn control_for(info: &UniformInfo) -> Control {
-    if info.ty == "volume" || info.ty == "tf" {
+    if ["volume", "tf", "image"].contains(&info.ty.as_str()) {
         return Control::Resource;
     }
     if vrs_runtime::scene::is_set_by_renderer(&info.name) {
@@ -215,6 +216,7 @@ mod tests {
         assert_eq!(control_for(&uniform("warp", "mat4x3f", None, None)), Control::Matrix { columns: 4, rows: 3 });
         assert_eq!(control_for(&uniform("volume_gm", "volume", None, None)), Control::Resource);
         assert_eq!(control_for(&uniform("tf", "tf", None, None)), Control::Resource);
+        assert_eq!(control_for(&uniform("picture", "image", None, None)), Control::Resource);
         assert_eq!(control_for(&uniform("inv_view_proj", "mat4x4f", None, None)), Control::SetByRenderer);
         assert_eq!(control_for(&uniform("primary_to_gm", "mat4x4f", None, None)), Control::SetByRenderer);
     }

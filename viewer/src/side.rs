@@ -111,10 +111,9 @@ impl SidePanel {
             });
         let Some(view) = live.renderer().views().get(self.inspected) else { return };
         // The filter pass's steps follow the view's in the map.
-        let mut reflection = (*view.renderer.shader().reflection).clone();
-        if let Some(filter) = view.renderer.filter_shader() {
-            reflection.pipeline.extend(filter.reflection.pipeline.iter().cloned());
-        }
+        let mut reflections = view.renderer.reflections();
+        let Some(mut reflection) = reflections.next().cloned() else { return };
+        reflection.pipeline.extend(reflections.flat_map(|r| r.pipeline.iter().cloned()));
         let mut sources =
             LiveSources { live, index: self.inspected, reflection: &reflection, cache: &mut self.explained };
         inspector::show(ui, &mut self.inspector, &reflection, &mut sources);
@@ -124,13 +123,7 @@ impl SidePanel {
 /// Every view's uniforms in groups, with their current values.
 fn parameter_groups(live: &LiveScene) -> Vec<params::Group> {
     // A view's filter pass has uniforms of its own (its `filters`' sliders).
-    let reflections: Vec<&Reflection> = live
-        .renderer()
-        .views()
-        .iter()
-        .flat_map(|v| [Some(v.renderer.shader()), v.renderer.filter_shader()].into_iter().flatten())
-        .map(|shader| &*shader.reflection)
-        .collect();
+    let reflections: Vec<&Reflection> = live.renderer().views().iter().flat_map(|v| v.renderer.reflections()).collect();
     params::groups(
         &reflections,
         |name| live.uniform(name),

@@ -30,7 +30,7 @@ fn scenes(dir: &Path, out: &mut Vec<PathBuf>) {
     }
 }
 
-/// The reflection of every view of every scene that composes.
+/// The reflection of every view of every scene that composes, and of every filter pass.
 fn reflections() -> Vec<(PathBuf, Reflection)> {
     let mut files = Vec::new();
     scenes(&root().join("examples"), &mut files);
@@ -39,7 +39,8 @@ fn reflections() -> Vec<(PathBuf, Reflection)> {
     for file in files {
         let Ok(built) = vrsc::compose::build::build_scene(&file, None) else { continue };
         for view in &built.views {
-            if let Some(shader) = &view.shader {
+            let filter = view.filter.as_ref().and_then(|f| f.shader.as_ref());
+            for shader in view.shader.iter().chain(filter) {
                 out.push((file.clone(), shader.reflection.clone()));
             }
         }
@@ -66,7 +67,7 @@ fn every_uniform_of_every_example_and_fixture_view_gets_a_control_of_its_kind() 
                 Control::Vector { components, .. } => u.ty.starts_with("vec") && u.ty[3..4] == components.to_string(),
                 Control::Colour { alpha } => ["vec3f", "vec4f"][usize::from(*alpha)] == u.ty,
                 Control::Matrix { columns, rows } => u.ty == format!("mat{columns}x{rows}f"),
-                Control::Resource => u.ty == "volume" || u.ty == "tf",
+                Control::Resource => ["volume", "tf", "image"].contains(&u.ty.as_str()),
                 Control::SetByRenderer => vrs_runtime::scene::is_set_by_renderer(&u.name),
             };
             assert!(right, "{}: `{}: {}` got {control:?}", file.display(), u.name, u.ty);
@@ -76,6 +77,11 @@ fn every_uniform_of_every_example_and_fixture_view_gets_a_control_of_its_kind() 
     for kind in ["Slider", "Vector", "Colour", "Resource", "SetByRenderer"] {
         assert!(kinds.contains(kind), "no example has a {kind}: {kinds:?}");
     }
+    let filters = all.iter().filter(|(_, r)| r.pipeline.iter().any(|s| s.step == "filter.apply"));
+    let edges =
+        filters.flat_map(|(_, r)| params::groups(&[r], |_| None, |_| None, |_| false)).find(|g| g.function == "edges");
+    let rows: Vec<&str> = edges.iter().flat_map(|g| &g.rows).map(|r| r.info.name.as_str()).collect();
+    assert!(rows.contains(&"edge_threshold") && rows.contains(&"edge_color"), "the liver's edges filter: {rows:?}");
 }
 
 /// The groups of the clip-plane example's 3D view, with `clip_plane_gm` changed by the user.
