@@ -149,6 +149,10 @@ pub enum BindingKind {
     /// the view's picture before its filters (premultiplied), read by the `image` uniform
     /// `picture`. (A filter's `picture_depth` is a [`BindingKind::GeometryDepth`].)
     Picture,
+    /// `texture_2d<f32>` (unfilterable: a depth image): the shadow map of the shadow group
+    /// following light NAME, read by the image uniform `mesh_shadow_map_NAME`
+    /// (`std::mesh_shadow`): depth from the light, 0 nearest.
+    MeshShadowMap,
 }
 
 /// Bytes of the `BrickLayout` uniform the runtime writes for a bricked volume (five `vec4f`,

@@ -9,6 +9,7 @@ use crate::error::RuntimeError;
 use crate::mesh_layer::LayerViews;
 use crate::reflection::{BindingInfo, BindingKind, Reflection};
 use crate::resources::Resources;
+use vrsc::compose::MESH_SHADOW_MAP_PREFIX;
 
 /// What a binding of each kind is in the layout.
 fn binding_type(kind: BindingKind) -> wgpu::BindingType {
@@ -33,11 +34,13 @@ fn binding_type(kind: BindingKind) -> wgpu::BindingType {
             format: wgpu::TextureFormat::R32Float,
             view_dimension: wgpu::TextureViewDimension::D2,
         },
-        BindingKind::GeometryDepth | BindingKind::GeometryColor | BindingKind::Picture => wgpu::BindingType::Texture {
-            sample_type: wgpu::TextureSampleType::Float { filterable: false },
-            view_dimension: wgpu::TextureViewDimension::D2,
-            multisampled: false,
-        },
+        BindingKind::GeometryDepth | BindingKind::GeometryColor | BindingKind::Picture | BindingKind::MeshShadowMap => {
+            wgpu::BindingType::Texture {
+                sample_type: wgpu::TextureSampleType::Float { filterable: false },
+                view_dimension: wgpu::TextureViewDimension::D2,
+                multisampled: false,
+            }
+        }
         BindingKind::TranslucentDepth | BindingKind::TranslucentColor => wgpu::BindingType::Texture {
             sample_type: wgpu::TextureSampleType::Float { filterable: false },
             view_dimension: wgpu::TextureViewDimension::D2Array,
@@ -153,6 +156,11 @@ pub(crate) fn group_entries<'a>(
                 BindingKind::BrickPool => wgpu::BindingResource::TextureView(&bricked()?.pool_view),
                 BindingKind::PageTable => bricked()?.pages.as_entire_binding(),
                 BindingKind::BrickRequests => bricked()?.requests.as_entire_binding(),
+                BindingKind::MeshShadowMap => {
+                    let light = b.name.strip_prefix(MESH_SHADOW_MAP_PREFIX).unwrap_or_default();
+                    let map = own.mesh_layer.and_then(|l| l.shadow_map(light));
+                    wgpu::BindingResource::TextureView(map.ok_or_else(|| missing("a shadow group's map", &b.name))?)
+                }
                 BindingKind::Picture => {
                     wgpu::BindingResource::TextureView(own.picture.ok_or_else(|| missing("a picture", &b.name))?)
                 }

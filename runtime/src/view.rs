@@ -57,6 +57,9 @@ fn mesh_resources(resources: &Resources) -> MeshResources<'_> {
     }
 }
 
+/// `std::mesh_shadow`'s uniform of light NAME's shadow clip space is this prefix and NAME.
+pub(crate) const MESH_SHADOW_CLIP_PREFIX: &str = "mesh_shadow_clip_";
+
 /// Rows of a texture-to-buffer copy are padded to this many bytes.
 const ROW_ALIGNMENT: u32 = wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
 
@@ -333,15 +336,16 @@ impl ViewRenderer {
         target: &wgpu::TextureView,
         region: Region,
     ) -> Result<(), RuntimeError> {
-        if let Some(bytes) = self.uniforms.take_changes() {
-            gpu.queue.write_buffer(&self.uniform_buffer, 0, bytes);
-        }
         self.write_brick_layouts(gpu, resources, target.texture().size().height)?;
         let reads_layer = self.reads_mesh_layer();
         if reads_layer {
             let size = target.texture().size();
             let peeled = self.reads_translucent_layers();
             self.layers.encode_under(gpu, mesh_resources(resources), encoder, ([size.width, size.height], peeled))?;
+            self.follow_mesh_shadows()?;
+        }
+        if let Some(bytes) = self.uniforms.take_changes() {
+            gpu.queue.write_buffer(&self.uniform_buffer, 0, bytes);
         }
         let reflection = &self.shader.reflection;
         let doing = format!("binding the resources of view `{}`", reflection.view);
@@ -415,6 +419,25 @@ impl ViewRenderer {
         if let Some(filter) = &mut self.filter {
             let mesh_layer = self.layers.views().filter(|_| reads_layer);
             filter.encode(gpu, (resources, mesh_layer), encoder, target, region)?;
+        }
+        Ok(())
+    }
+
+    /// Sets `mesh_shadow_clip_NAME` (`std::mesh_shadow`) to the clip space of the shadow map
+    /// the mesh layer drew last for light NAME.
+    fn follow_mesh_shadows(&mut self) -> Result<(), RuntimeError> {
+        let Some(views) = self.layers.views() else { return Ok(()) };
+        let mut seen: Vec<&str> = Vec::new();
+        for followed in views.followed() {
+            let name = format!("{MESH_SHADOW_CLIP_PREFIX}{}", followed.light);
+            if seen.contains(&followed.light.as_str()) || !self.uniforms.has(&name) {
+                continue;
+            }
+            seen.push(&followed.light);
+            let view = &self.shader.reflection.view;
+            self.uniforms
+                .set(&name, followed.light_to_clip)
+                .map_err(|error| RuntimeError::Uniform { view: view.clone(), error })?;
         }
         Ok(())
     }

@@ -293,3 +293,118 @@ fn an_occlusion_group_leaves_what_lies_in_front_of_its_first_child_as_it_is() {
     assert!(in_front > 50 && hidden > 50, "{in_front} pixels in front, {hidden} hidden");
     eprintln!("{in_front} vessel pixels in front of the tissue, {hidden} behind it, each as the rule says");
 }
+
+/// A slab of tissue (the volume: opaque white below z = 8.5 mm) under the ball and a post beside
+/// it (which makes the group's shadow map asymmetric), shaded by the light `key` from [1, 0, 2],
+/// which a shadow group around them follows.
+const SLAB_SCENE: &str = r#"
+[render]
+compositing = "dvr"
+jitter = 0.0
+shading = true
+lights = ["key"]
+background = [0.0, 0.0, 0.0, 1.0]
+empty_space_skipping = false
+
+[[volume]]
+name = "slab"
+role = "primary"
+path = "slab.nrrd"
+window = [0.0, 1000.0]
+tf = "opaque.json"
+
+[uniforms]
+light_dir_key = [1.0, 0.0, 2.0]
+
+[[mesh]]
+name = "ball"
+shape = "sphere"
+centre = [15.5, 15.5, 14.0]
+radius = 5.0
+color = [1.0, 0.0, 0.0]
+
+[[mesh]]
+name = "post"
+shape = "box"
+min = [22.0, 20.0, 11.0]
+max = [26.0, 24.0, 16.0]
+color = [0.0, 1.0, 0.0]
+
+[[group]]
+name = "lit"
+kind = "shadow"
+light = "key"
+children = ["ball", "post"]
+
+[[view]]
+name = "3d"
+kind = "raycast"
+size = [64, 64]
+camera = { azimuth = 0.0, elevation = 70.0, distance = 2.2 }
+"#;
+
+/// The meshes of a shadow group that follows a light of the view shadow the volume's shading of
+/// that light (`std::mesh_shadow`): against the same view without the group, a pixel of the
+/// slab is darker exactly where the ray from its surface point (the `pos` probe at opacity 0.5)
+/// towards the light meets the ball or the post, and unchanged elsewhere. Pixels whose neighbours fall
+/// otherwise (the shadow's edge) and the ball's own pixels are left out.
+#[test]
+fn a_shadow_groups_meshes_shadow_the_volume_from_the_light_it_follows() {
+    let dir = tempfile::tempdir().expect("a folder");
+    let side = 32usize;
+    let values: Vec<f32> = (0..side * side * side).map(|i| if i / (side * side) < 9 { 1000.0 } else { 0.0 }).collect();
+    let identity = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+    common::write_nrrd(&dir.path().join("slab.nrrd"), "RAS", [32; 3], identity, [0.0; 3], &values);
+    let tf = r#"[{"Name": "opaque", "RGBPoints": [0, 1, 1, 1, 1000, 1, 1, 1], "Points": [0, 0, 0.5, 0, 499, 0, 0.5, 0, 500, 1, 0.5, 0, 1000, 1, 0.5, 0]}]"#;
+    std::fs::write(dir.path().join("opaque.json"), tf).expect("tf written");
+    let open_with = |picture: &str| {
+        let path = dir.path().join("scene.toml");
+        let text = SLAB_SCENE.replace("size = [64, 64]", &format!("size = [64, 64]\npicture = {picture}"));
+        std::fs::write(&path, text).expect("scene written");
+        SceneRenderer::open(common::software_gpu(), &path, RenderOptions::default(), &mut |_, _, _| {})
+            .unwrap_or_else(|e| panic!("{e}"))
+    };
+    let mut plain = open_with(r#"["ball", "post", "volume"]"#);
+    let before = plain.render_all().expect("render").remove(0).1;
+    let probe = plain.render_probe(0, &vrs_runtime::ProbeSpec::of("pos")).expect("the pos probe");
+    let (dims, grid_to_world) = plain.primary_grid().expect("a primary volume");
+    let to_world = vrs_runtime::geometry::volume_to_world(dims, grid_to_world);
+    let after = open_with(r#"["lit", "volume"]"#).render_all().expect("render").remove(0).1;
+    let in_shadow = |x: i64, y: i64| -> Option<bool> {
+        let (x, y) = (u32::try_from(x).ok()?, u32::try_from(y).ok()?);
+        let p = probe.values.at(x, y)?;
+        let surface = to_world.transform_point3(Vec3::new(p[0] as f32, p[1] as f32, p[2] as f32));
+        Some(meets_ball(surface, LIGHT.normalize()) || meets_post(surface, LIGHT.normalize()))
+    };
+    let (mut shadowed, mut lit) = (0, 0);
+    for (x, y, pixel) in after.enumerate_pixels() {
+        let (xi, yi) = (i64::from(x), i64::from(y));
+        let here = in_shadow(xi, yi);
+        if here.is_none()
+            || [(1, 0), (-1, 0), (0, 1), (0, -1)].iter().any(|(dx, dy)| in_shadow(xi + dx, yi + dy) != here)
+        {
+            continue;
+        }
+        let (got, was) = (i32::from(pixel[1]), i32::from(before.get_pixel(x, y)[1]));
+        if here == Some(true) {
+            assert!(was - got > 40, "({x}, {y}) lies in the shadow: {got} against {was} without it");
+            shadowed += 1;
+        } else {
+            assert!((got - was).abs() <= 1, "({x}, {y}) lies in the light: {got} against {was}");
+            lit += 1;
+        }
+    }
+    assert!(shadowed > 20 && lit > 300, "{shadowed} slab pixels in the shadow, {lit} lit");
+}
+
+/// Whether the ray `origin + t dir` (t > 0) meets the post of `SLAB_SCENE` (a slab test).
+fn meets_post(origin: Vec3, dir: Vec3) -> bool {
+    let (lo, hi) = (Vec3::new(22.0, 20.0, 11.0), Vec3::new(26.0, 24.0, 16.0));
+    let (mut near, mut far) = (0.0f32, f32::INFINITY);
+    for axis in 0..3 {
+        let (a, b) = ((lo[axis] - origin[axis]) / dir[axis], (hi[axis] - origin[axis]) / dir[axis]);
+        near = near.max(a.min(b));
+        far = far.min(a.max(b));
+    }
+    near <= far
+}

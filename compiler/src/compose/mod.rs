@@ -62,6 +62,7 @@ use instantiate::{Source, Unit, instantiate};
 use ir::{Composition, ModuleUse, NotPlaced};
 use merge::Merger;
 use place::Placer;
+pub use view::MESH_SHADOW_MAP_PREFIX;
 
 /// Places every pipeline function and `remove` of the given modules, in order, and checks the
 /// composed state and uniforms. `is_std(module)` tells standard modules apart (they get no

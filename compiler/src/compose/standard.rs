@@ -2,7 +2,8 @@
 //! owned by the composer (the scene only says what the user asked for).
 
 use crate::scene::{
-    Compositing, GroupKind, MAX_GROUP_DEPTH, Node, Preintegration, Role, Scene, Shadows, ToneMapping, View, ViewKind,
+    Compositing, GroupKind, MAX_GROUP_DEPTH, Node, Preintegration, Role, Scene, ShadowLight, Shadows, ToneMapping,
+    View, ViewKind,
 };
 
 /// A standard module chosen by configuration: `std::NAME`, with instances for a template.
@@ -23,6 +24,12 @@ impl Scene {
         selection.compositing();
         selection.late_modules();
         if Scene::has_mesh_layer(view) {
+            // After `light` and every shadow module: the meshes' shadow joins the volume's
+            // just before the light's substep.
+            let followed = self.mesh_shadow_lights(view);
+            if !followed.is_empty() {
+                selection.add("mesh_shadow", followed);
+            }
             // Last: `stop_at_meshes` follows the ray setup (and skipping's first walk), and
             // `blend_meshes` runs after `encode_srgb` (mesh colours are display colours).
             selection.add("meshes", vec![]);
@@ -51,6 +58,34 @@ impl Scene {
         view.kind.value == ViewKind::Raycast
             && view.render.compositing.value == Compositing::Dvr
             && self.has_layer_mesh(&view.picture.under, 0)
+    }
+
+    /// The lights of `view` whose shading of the volume the meshes of a shadow group in its
+    /// tree shadow (`std::mesh_shadow`): the named lights its shadow groups follow, among the
+    /// view's lights, each once, when the view shades a raycast picture with them.
+    pub fn mesh_shadow_lights(&self, view: &View) -> Vec<String> {
+        let r = &view.render;
+        let lit = r.shading && view.kind.value == ViewKind::Raycast && r.compositing.value != Compositing::Pathtrace;
+        let mut out = Vec::new();
+        if lit {
+            self.followed_lights(&view.picture.under, 0, &mut out);
+        }
+        out.retain(|name| r.lights.iter().any(|l| l.name == *name));
+        out
+    }
+
+    /// The named lights that the shadow groups in `nodes` follow, in tree order, each once.
+    fn followed_lights(&self, nodes: &[Node], depth: usize, out: &mut Vec<String>) {
+        for node in nodes {
+            let Node::Group(g) = node else { continue };
+            let Some(group) = self.groups.get(*g).filter(|_| depth < MAX_GROUP_DEPTH) else { continue };
+            if let GroupKind::Shadow { light: ShadowLight::Light(name) } = &group.kind
+                && !out.contains(&name.name)
+            {
+                out.push(name.name.clone());
+            }
+            self.followed_lights(&group.children, depth + 1, out);
+        }
     }
 
     /// Whether `nodes` hold a mesh directly or through depth groups (whose meshes are drawn as

@@ -230,11 +230,12 @@ fn scalar_mismatch(scalar: Scalar, v: &UniformValue) -> Option<String> {
     }
 }
 
-/// The `volume` and `tf` uniforms the runtime binds for `scene`: `volume` and `tf` (the primary
+/// The `volume`, `tf` and `image` uniforms the runtime binds for `scene`'s ray pipelines: `volume` and `tf` (the primary
 /// volume), `volume_NAME` for every other volume and `tf_NAME` for those with a transfer
 /// function (all but masks), `tf_preint` and `tf_preint_back` (built from the primary's
-/// transfer function when a view reads them), and the grids of empty-space skipping, `occupancy` and `brick_max`, when
-/// some raycast view skips.
+/// transfer function when a view reads them), the grids of empty-space skipping, `occupancy` and `brick_max`, when
+/// some raycast view skips, the light volumes, and `mesh_shadow_map_NAME` for each light a
+/// shadow group follows in a view that shades with it.
 pub fn bound_resources(scene: &Scene) -> Vec<(String, Type)> {
     let mut out = vec![("volume".to_string(), Type::Volume), ("tf".to_string(), Type::Tf)];
     out.push((PREINTEGRATION_TABLE.to_string(), Type::Tf));
@@ -250,6 +251,12 @@ pub fn bound_resources(scene: &Scene) -> Vec<(String, Type)> {
     }
     for light in scene.volume_shadow_lights() {
         out.push((format!("{LIGHT_VOLUME_PREFIX}{light}"), Type::Volume));
+    }
+    for light in scene.views.iter().flat_map(|v| scene.mesh_shadow_lights(v)) {
+        let name = format!("{}{light}", super::view::MESH_SHADOW_MAP_PREFIX);
+        if !out.iter().any(|(n, _)| *n == name) {
+            out.push((name, Type::Image));
+        }
     }
     out
 }

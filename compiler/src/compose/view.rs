@@ -220,14 +220,22 @@ pub(super) fn bind_uniforms(
 }
 
 /// The buffer of a view's picture that the `image` uniform `name` reads, if it names one:
-/// `picture` (its colour) or `picture_depth` (its mesh layer's depth).
+/// `picture` (its colour) or `picture_depth` (its mesh layer's depth), read by filters, or
+/// `mesh_shadow_map_NAME` (a shadow group's shadow map), read by the ray pipeline.
 pub fn image_binding_kind(name: &str) -> Option<BindingKind> {
     match name {
         PICTURE => Some(BindingKind::Picture),
         PICTURE_DEPTH => Some(BindingKind::GeometryDepth),
+        _ if name.strip_prefix(MESH_SHADOW_MAP_PREFIX).is_some_and(|light| !light.is_empty()) => {
+            Some(BindingKind::MeshShadowMap)
+        }
         _ => None,
     }
 }
+
+/// The `image` uniform of the ray pipeline that reads the shadow map of the shadow group
+/// following light NAME is this prefix and NAME (`std::mesh_shadow`).
+pub const MESH_SHADOW_MAP_PREFIX: &str = "mesh_shadow_map_";
 
 /// The `image` uniform of a filter pass that reads the view's picture (premultiplied colour).
 pub const PICTURE: &str = "picture";

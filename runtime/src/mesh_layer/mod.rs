@@ -147,6 +147,9 @@ pub struct MeshLayer {
     groups: Vec<[LayerImages; 2]>,
     /// Per shadow group of the tree, its shadow map.
     shadow_maps: Vec<ShadowMap>,
+    /// The shadow groups that follow a light of the view, as last drawn: the light's name, the
+    /// group's shadow map (an index into `shadow_maps`) and its patient space to clip space.
+    followed: Vec<FollowedShadow>,
     /// The translucent surfaces peeled into layers, for a volume layer that reads them.
     peeled: Option<PeeledLayers>,
     /// What the images hold, so tiles and unchanged frames draw nothing again.
@@ -162,6 +165,33 @@ pub(crate) struct LayerViews<'a> {
     pub color: &'a wgpu::TextureView,
     /// The translucent layers' depths and colours (`texture_2d_array`), where peeled.
     pub translucent: Option<(&'a wgpu::TextureView, &'a wgpu::TextureView)>,
+    shadow_maps: &'a [ShadowMap],
+    followed: &'a [FollowedShadow],
+}
+
+/// A shadow group that follows a light of the view (`light = "NAME"`), as last drawn.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) struct FollowedShadow {
+    /// The light's name.
+    pub light: String,
+    /// Its shadow map, among the layer's.
+    map: usize,
+    /// Patient space to the shadow map's clip space.
+    pub light_to_clip: glam::Mat4,
+}
+
+impl<'a> LayerViews<'a> {
+    /// The depth image of the shadow map of the first shadow group that follows light `light`
+    /// (`std::mesh_shadow`'s `mesh_shadow_map_NAME`).
+    pub(crate) fn shadow_map(&self, light: &str) -> Option<&'a wgpu::TextureView> {
+        let followed = self.followed.iter().find(|f| f.light == light)?;
+        self.shadow_maps.get(followed.map).map(|m| &m.depth)
+    }
+
+    /// The shadow groups that follow lights of the view, first of each light first.
+    pub(crate) fn followed(&self) -> &'a [FollowedShadow] {
+        self.followed
+    }
 }
 
 impl MeshLayer {
@@ -172,6 +202,7 @@ impl MeshLayer {
             images: LayerImages::new(gpu, size, "mesh layer")?,
             groups: Vec::new(),
             shadow_maps: Vec::new(),
+            followed: Vec::new(),
             peeled: if peeled { Some(PeeledLayers::new(gpu, size)?) } else { None },
             drawn: None,
             buffer: DrawBuffer::default(),
@@ -189,6 +220,8 @@ impl MeshLayer {
             depth: &self.images.depth_view,
             color: &self.images.color_view,
             translucent: self.peeled.as_ref().map(PeeledLayers::views),
+            shadow_maps: &self.shadow_maps,
+            followed: &self.followed,
         }
     }
 
@@ -217,6 +250,7 @@ impl MeshLayer {
             }
             None => PlannedDraws::default(),
         };
+        self.followed = followed_shadows(&plan, &planned.shadow_clips);
         let bind_group = self.buffer.bind(gpu, pipelines, &planned.draws)?;
         let recorded = pipelines.zip(bind_group.as_ref());
         if let Some(recorded) = recorded {
@@ -316,6 +350,7 @@ impl MeshLayer {
             let start = planned.draws.len();
             planned.draws.extend(draws::caster_draws(light_to_clip, &meshes));
             planned.shadow_ranges.push(start..planned.draws.len());
+            planned.shadow_clips.push(light_to_clip);
             lights.push(LitBy { light_to_clip, towards, map: &map.bind_group });
         }
         let mut peeled = Vec::new();
@@ -388,8 +423,20 @@ fn by_light<'a>(pass: &LayerPass, meshes: &'a [MeshInstance]) -> Vec<(Option<usi
 struct PlannedDraws {
     draws: Vec<draws::Draw>,
     shadow_ranges: Vec<std::ops::Range<usize>>,
+    /// Per shadow map, its patient space to clip space.
+    shadow_clips: Vec<glam::Mat4>,
     ranges: Vec<std::ops::Range<usize>>,
     peeled_from: usize,
+}
+
+/// The shadow groups of `plan` that follow a light, with the clip spaces their maps were drawn in.
+fn followed_shadows(plan: &LayerPlan, clips: &[glam::Mat4]) -> Vec<FollowedShadow> {
+    let casts = plan.shadows.iter().zip(clips).enumerate();
+    casts
+        .filter_map(|(map, (cast, &light_to_clip))| {
+            Some(FollowedShadow { light: cast.follows.clone()?, map, light_to_clip })
+        })
+        .collect()
 }
 
 /// A colour attachment loaded as `load` says and kept.

@@ -25,9 +25,11 @@ pub(crate) enum LayerNode {
 pub(crate) enum ShadowLight {
     /// Towards the light, in patient space; zero: from the viewer (a headlight).
     Towards([f32; 3]),
-    /// The direction a `vec3f` uniform of the view holds (`light_dir_NAME`), resolved every
-    /// frame ([`resolve_lights`]); until then, from the viewer.
-    Uniform(String),
+    /// Light NAME of the view: the direction its `light_dir_NAME` holds, resolved every frame
+    /// into `towards` ([`resolve_lights`]; until then, and where the view has no such uniform,
+    /// zero: from the viewer). The volume's shading of that light takes the group's shadow too
+    /// (`std::mesh_shadow`).
+    Light { name: String, towards: [f32; 3] },
 }
 
 /// Calls `f` on every node of `tree`, each before its children, in order.
@@ -60,14 +62,12 @@ fn visit_mut(tree: &mut [LayerNode], f: &mut dyn FnMut(&mut LayerNode)) {
     }
 }
 
-/// `tree`'s lights that follow uniforms, made directions from `value` (none: from the viewer).
+/// `tree`'s lights that follow the view's lights, aimed as `value` gives each `light_dir_NAME`
+/// uniform (none: from the viewer).
 pub(crate) fn resolve_lights(tree: &mut [LayerNode], value: &dyn Fn(&str) -> Option<[f32; 3]>) {
     visit_mut(tree, &mut |node| {
-        if let LayerNode::Shadow { light, .. } = node
-            && let ShadowLight::Uniform(name) = light
-        {
-            let towards = value(name).unwrap_or([0.0; 3]);
-            *light = ShadowLight::Towards(towards);
+        if let LayerNode::Shadow { light: ShadowLight::Light { name, towards }, .. } = node {
+            *towards = value(&format!("light_dir_{name}")).unwrap_or([0.0; 3]);
         }
     });
 }
@@ -102,10 +102,11 @@ pub(crate) struct LayerPass {
 }
 
 /// A shadow group's shadow map: drawn from `light` (towards the light; zero: from the viewer)
-/// with every mesh of the group.
+/// with every mesh of the group; `follows`, the view's light it follows, if it does.
 #[derive(Clone, Debug, PartialEq)]
 pub(crate) struct ShadowCast {
     pub light: [f32; 3],
+    pub follows: Option<String>,
     pub meshes: Vec<usize>,
 }
 
@@ -155,11 +156,11 @@ impl LayerPlan {
                     pass.combines.push((group, *hidden_opacity));
                 }
                 LayerNode::Shadow { light, children } => {
-                    let light = match light {
-                        ShadowLight::Towards(v) => *v,
-                        ShadowLight::Uniform(_) => [0.0; 3],
+                    let (light, follows) = match light {
+                        ShadowLight::Towards(v) => (*v, None),
+                        ShadowLight::Light { name, towards } => (*towards, Some(name.clone())),
                     };
-                    self.shadows.push(ShadowCast { light, meshes: meshes(children) });
+                    self.shadows.push(ShadowCast { light, follows, meshes: meshes(children) });
                     self.collect(children, pass, Some(self.shadows.len() - 1));
                 }
             }
@@ -228,7 +229,7 @@ mod tests {
         let shadow =
             LayerNode::Shadow { light: ShadowLight::Towards(light), children: vec![LayerNode::Mesh(0), occluded] };
         let plan = LayerPlan::of(&[shadow, LayerNode::Mesh(3)]);
-        assert_eq!(plan.shadows, [ShadowCast { light, meshes: vec![0, 1, 2] }]);
+        assert_eq!(plan.shadows, [ShadowCast { light, follows: None, meshes: vec![0, 1, 2] }]);
         let lit = |mesh, shadow| LitMesh { mesh, shadow };
         assert_eq!(plan.passes[0].meshes, [lit(1, Some(0))]);
         assert_eq!(plan.passes[1].meshes, [lit(2, Some(0))]);

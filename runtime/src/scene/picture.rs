@@ -47,7 +47,7 @@ fn layer_nodes(scene: &Scene, nodes: &[Node], planes: &[usize], depth: usize) ->
                         let light = match light {
                             vscene::ShadowLight::Towards(v) => ShadowLight::Towards(*v),
                             vscene::ShadowLight::Light(name) => {
-                                ShadowLight::Uniform(format!("light_dir_{}", name.name))
+                                ShadowLight::Light { name: name.name.clone(), towards: [0.0; 3] }
                             }
                         };
                         out.push(LayerNode::Shadow { light, children: children(&group.children) })
