@@ -39,11 +39,15 @@ fn check_scenes(root: &Path, prefix: &str) {
         let name = format!("{prefix}{}", snapshot_name(root, &scene));
         for view in &built.views {
             let shader = view.shader.as_ref().expect("a shader when there are no errors");
-            let program = &view.ir.as_ref().expect("kept").program;
-            let map = view.composition.render_pipeline_map(program, &built.sources);
+            // The view's map, then its filter pass's.
+            let map = view.render_maps(&built.sources);
             let mut text = format!("== diagnostics ==\n{rendered}\n== pipeline ==\n{map}");
             if FULL_WGSL.contains(&name.as_str()) {
                 text = format!("{text}\n== wgsl ==\n{}", shader.wgsl);
+            }
+            // A filter pass is small: its whole WGSL, always.
+            if let Some(filter) = view.filter.as_ref().and_then(|f| f.shader.as_ref()) {
+                text = format!("{text}\n== filter wgsl ==\n{}", filter.wgsl);
             }
             insta::assert_snapshot!(format!("{name}__{}", view.name), text);
         }
@@ -80,14 +84,23 @@ fn explain_annotates_every_function() {
     naga::front::wgsl::parse_str(&text).expect("annotated WGSL still parses");
 }
 
-/// `vrsc build --emit`: every composed view translates through each of naga's back ends.
+/// `vrsc build --emit`: every composed view, and every filter pass of the examples, translates
+/// through each of naga's back ends.
 #[test]
 fn every_view_translates_to_every_backend() {
     use vrsc::compose::backends::{Target, translate};
-    for scene in common::scenes_under(&common::fixtures().join("compose")) {
+    let mut scenes = common::scenes_under(&common::fixtures().join("compose"));
+    scenes.extend(common::scenes_under(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples/liver")));
+    let mut filters = 0;
+    for scene in scenes {
         let built = build(&scene);
-        for view in &built.views {
-            let valid = view.ir.as_ref().and_then(|ir| ir.module.as_ref()).expect("composed");
+        let modules = built.views.iter().flat_map(|view| {
+            let own = view.ir.as_ref().and_then(|ir| ir.module.as_ref()).expect("composed");
+            let filter = view.filter.as_ref().and_then(|f| f.ir.as_ref()?.module.as_ref());
+            [Some(own), filter].into_iter().flatten().map(move |m| (view, m))
+        });
+        for (view, valid) in modules {
+            filters += usize::from(view.filter.is_some());
             for target in Target::ALL {
                 let out = translate(&valid.module, &valid.info, "main", target)
                     .unwrap_or_else(|e| panic!("{} / {} / {}: {e}", scene.display(), view.name, target.name()));
@@ -95,4 +108,5 @@ fn every_view_translates_to_every_backend() {
             }
         }
     }
+    assert!(filters >= 2, "the liver example's filter pass was translated");
 }

@@ -11,11 +11,11 @@ use crate::bindings::{self, DispatchResources};
 use crate::error::RuntimeError;
 use crate::gpu::Gpu;
 use crate::mesh_layer::LayerViews;
+use crate::region::Region;
 use crate::resources::Resources;
 use crate::shader::{PipelineCache, ViewPipeline, ViewShader};
 use crate::textures::Image2d;
 use crate::uniforms::{UniformBlock, Value};
-use crate::view::Region;
 use std::collections::HashMap;
 use std::sync::Arc;
 

@@ -83,6 +83,7 @@ pub(crate) mod occupancy;
 mod pass_bindings;
 pub mod probe;
 pub mod reflection;
+mod region;
 pub(crate) mod resources;
 #[cfg(feature = "compiler")]
 pub mod scene;
