@@ -690,6 +690,7 @@ fn apply_view_uniforms(view: &mut SceneView, grids: &[VolumeGrid]) -> Result<(),
             _ => None,
         });
         view.renderer.set_mesh_layer(camera, tree, view.picture.overlay.clone());
+        view.renderer.set_world_to_volume(to_world.inverse());
     }
     Ok(())
 }

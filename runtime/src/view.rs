@@ -13,10 +13,11 @@ use crate::reflection::BindingKind;
 pub use crate::region::Region;
 use crate::resources::Resources;
 use crate::shader::{PipelineCache, ViewPipeline, ViewShader};
-use crate::textures::{Image2d, TfTexture};
+use crate::textures::{Image2d, TfTexture, VolumeTexture};
 use crate::uniforms::{UniformBlock, Value};
 use std::collections::HashMap;
 use std::sync::Arc;
+use vrsc::compose::uniform_check::LIGHT_VOLUME_PREFIX;
 
 /// One view's GPU state. Changing uniforms only rewrites the uniform buffer.
 pub struct ViewRenderer {
@@ -48,14 +49,31 @@ pub struct ViewRenderer {
 /// [`ViewRenderer::set_samples`] says otherwise.
 pub const DEFAULT_SAMPLES: u32 = 16;
 
-/// What a view's layers draw with, of the scene's resources.
-fn mesh_resources(resources: &Resources) -> MeshResources<'_> {
+/// What a view's layers draw with, of the scene's resources, with the light volumes of the
+/// lights its volume casts shadows from.
+fn mesh_resources<'a>(
+    resources: &'a Resources,
+    light_volumes: &'a [(String, Arc<VolumeTexture>)],
+) -> MeshResources<'a> {
     MeshResources {
         pipelines: resources.mesh_pipelines.as_ref(),
         meshes: &resources.meshes,
         sampler: &resources.sampler,
         generation: resources.mesh_generation(),
+        light_volumes,
     }
+}
+
+/// The light volumes a view's shader binds (`shadow_volume_NAME`: its volume casts shadows
+/// from light NAME), by light name.
+fn light_volumes(shader: &ViewShader, resources: &Resources) -> Vec<(String, Arc<VolumeTexture>)> {
+    let bound = shader.reflection.bindings.iter().filter(|b| b.kind == BindingKind::VolumeTexture);
+    bound
+        .filter_map(|b| {
+            let light = b.name.strip_prefix(LIGHT_VOLUME_PREFIX)?;
+            Some((light.to_string(), resources.volumes.get(&b.name)?.clone()))
+        })
+        .collect()
 }
 
 /// `std::mesh_shadow`'s uniform of light NAME's shadow clip space is this prefix and NAME.
@@ -253,6 +271,12 @@ impl ViewRenderer {
         self.layers.set(camera, tree, overlay);
     }
 
+    /// Where the primary volume lies for the mesh layer: patient space to its normalized
+    /// coordinates.
+    pub(crate) fn set_world_to_volume(&mut self, world_to_volume: glam::Mat4) {
+        self.layers.set_world_to_volume(world_to_volume);
+    }
+
     /// The slice pictures the mesh layer shows on their planes, just rendered (their views
     /// render first): the layer is drawn again with them.
     pub(crate) fn set_planes(&mut self, planes: Vec<Option<PlanePicture>>) {
@@ -342,7 +366,9 @@ impl ViewRenderer {
         if reads_layer {
             let size = target.texture().size();
             let peeled = self.reads_translucent_layers();
-            self.layers.encode_under(gpu, mesh_resources(resources), encoder, ([size.width, size.height], peeled))?;
+            let light_volumes = light_volumes(&self.shader, resources);
+            let layer_resources = mesh_resources(resources, &light_volumes);
+            self.layers.encode_under(gpu, layer_resources, encoder, ([size.width, size.height], peeled))?;
             self.follow_mesh_shadows()?;
         }
         if let Some(bytes) = self.uniforms.take_changes() {
@@ -416,7 +442,7 @@ impl ViewRenderer {
         if let Some(metering) = &self.metering {
             metering.after_pass(gpu, encoder)?;
         }
-        self.layers.encode_over(gpu, mesh_resources(resources), encoder, target)?;
+        self.layers.encode_over(gpu, mesh_resources(resources, &[]), encoder, target)?;
         if let Some(filter) = &mut self.filter {
             let mesh_layer = self.layers.views().filter(|_| reads_layer);
             filter.encode(gpu, (resources, mesh_layer), encoder, target, region)?;

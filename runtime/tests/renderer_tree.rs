@@ -408,3 +408,102 @@ fn meets_post(origin: Vec3, dir: Vec3) -> bool {
     }
     near <= far
 }
+
+/// An opaque shelf of tissue (the volume: x < 15.5 mm, 19.5 mm < z < 23.5 mm) over a floor in a
+/// shadow group that follows the light `key`, straight above; the view's volume casts shadows
+/// (`shadows = "volume"`).
+const SHELF_SCENE: &str = r#"
+[render]
+compositing = "dvr"
+jitter = 0.0
+shading = true
+lights = ["key"]
+shadows = "volume"
+background = [0.0, 0.0, 0.0, 1.0]
+
+[[volume]]
+name = "shelf"
+role = "primary"
+path = "shelf.nrrd"
+window = [0.0, 1000.0]
+tf = "opaque.json"
+
+[uniforms]
+light_dir_key = [0.0, 0.0, 1.0]
+
+[[mesh]]
+name = "floor"
+shape = "box"
+min = [0.0, 0.0, 2.0]
+max = [31.0, 31.0, 4.0]
+color = [1.0, 1.0, 1.0]
+
+[[group]]
+name = "lit"
+kind = "shadow"
+light = "key"
+children = ["floor"]
+
+[[view]]
+name = "3d"
+kind = "raycast"
+size = [64, 64]
+picture = ["lit", "volume"]
+camera = { azimuth = 0.0, elevation = 12.0, distance = 2.2 }
+"#;
+
+/// The volume shadows the meshes of a shadow group that follows one of the lights it casts
+/// shadows from: the floor's top (lit straight from above: 0.3 + 0.7 of its white) is dark
+/// (0.3) under the shelf and lit beside it, within 8/255 (the light volume is read
+/// trilinearly); pixels within 2 mm of the shelf's edge, and those the shelf covers, are left
+/// out.
+#[test]
+fn the_volume_shadows_a_shadow_groups_meshes_from_the_light_it_follows() {
+    let dir = tempfile::tempdir().expect("a folder");
+    let side = 32usize;
+    let values: Vec<f32> = (0..side * side * side)
+        .map(|i| {
+            let (x, z) = (i % side, i / (side * side));
+            if x < 16 && (20..24).contains(&z) { 1000.0 } else { 0.0 }
+        })
+        .collect();
+    let identity = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+    common::write_nrrd(&dir.path().join("shelf.nrrd"), "RAS", [32; 3], identity, [0.0; 3], &values);
+    let tf = r#"[{"Name": "opaque", "RGBPoints": [0, 1, 1, 1, 1000, 1, 1, 1], "Points": [0, 0, 0.5, 0, 499, 0, 0.5, 0, 500, 1, 0.5, 0, 1000, 1, 0.5, 0]}]"#;
+    std::fs::write(dir.path().join("opaque.json"), tf).expect("tf written");
+    let path = dir.path().join("scene.toml");
+    std::fs::write(&path, SHELF_SCENE).expect("scene written");
+    let mut renderer = SceneRenderer::open(common::software_gpu(), &path, RenderOptions::default(), &mut |_, _, _| {})
+        .unwrap_or_else(|e| panic!("{e}"));
+    let image = renderer.render_all().expect("render").remove(0).1;
+    let (dims, grid_to_world) = renderer.primary_grid().expect("a primary volume");
+    let to_world = vrs_runtime::geometry::volume_to_world(dims, grid_to_world);
+    let camera = renderer.views()[0].camera.expect("a raycast view");
+    let clip_to_world = to_world * camera.inv_view_proj(to_world, 1.0);
+    let (mut dark, mut lit) = (0, 0);
+    for (px, py, pixel) in image.enumerate_pixels() {
+        let ndc = |z| Vec3::new((px as f32 + 0.5) / 32.0 - 1.0, 1.0 - (py as f32 + 0.5) / 32.0, z);
+        let near = clip_to_world.project_point3(ndc(0.0));
+        let dir = (clip_to_world.project_point3(ndc(1.0)) - near).normalize();
+        if dir.z >= 0.0 {
+            continue;
+        }
+        let floor = near + dir * ((4.0 - near.z) / dir.z);
+        let on_floor = (0.5..30.5).contains(&floor.x) && (0.5..30.5).contains(&floor.y);
+        // The ray must pass under the shelf, not through it.
+        let through_shelf = (0..200).any(|i| {
+            let p = near + (floor - near) * (i as f32 / 200.0);
+            p.x < 15.5 && (19.5..23.5).contains(&p.z) && (-0.5..31.5).contains(&p.y)
+        });
+        if !on_floor || through_shelf || (floor.x - 15.5).abs() < 2.0 {
+            continue;
+        }
+        let under = floor.x < 15.5;
+        let want = if under { 255.0 * 0.3 } else { 255.0 };
+        let got = f32::from(pixel[1]);
+        assert!((got - want).abs() <= 8.0, "pixel ({px}, {py}) {pixel:?} at {floor}: under the shelf {under}");
+        if under { dark += 1 } else { lit += 1 }
+    }
+    assert!(dark > 50 && lit > 50, "{dark} floor pixels under the shelf, {lit} beside it");
+    eprintln!("{dark} floor pixels in the shelf's shadow, {lit} lit, each as computed");
+}

@@ -61,6 +61,7 @@ impl DrawUniforms {
             flat: [0.0; 4],
             light_to_clip: Mat4::IDENTITY.to_cols_array_2d(),
             light: [0.0; 4],
+            world_to_volume: Mat4::IDENTITY.to_cols_array_2d(),
         }
     }
 
@@ -76,6 +77,7 @@ impl DrawUniforms {
             flat: [1.0, 0.0, 0.0, 0.0],
             light_to_clip: identity,
             light: [0.0; 4],
+            world_to_volume: identity,
         }
     }
 }
@@ -135,11 +137,13 @@ fn surface(world_to_clip: Mat4, m: &MeshInstance, pass: Pass) -> Draw {
 }
 
 /// A shadow group's light as its meshes' draws see it: patient space to its shadow map's clip
-/// space, the unit direction towards it, and its shadow map's bind group.
-pub(crate) struct LitBy<'a> {
+/// space, the unit direction towards it, patient space to the volume's coordinates (where its
+/// light volume is read), and the bind group of its shadow map and light volume.
+pub(crate) struct LitBy {
     pub light_to_clip: Mat4,
     pub towards: glam::Vec3,
-    pub map: &'a wgpu::BindGroup,
+    pub world_to_volume: Mat4,
+    pub map: wgpu::BindGroup,
 }
 
 /// `draws` (lit surfaces) lit by `light` and shadowed by its map.
@@ -148,6 +152,7 @@ pub(crate) fn shadowed(mut draws: Vec<Draw>, light: &LitBy) -> Vec<Draw> {
         draw.shadowed = true;
         draw.uniforms.light_to_clip = light.light_to_clip.to_cols_array_2d();
         draw.uniforms.light = light.towards.extend(0.0).to_array();
+        draw.uniforms.world_to_volume = light.world_to_volume.to_cols_array_2d();
         draw.images = Some((1, light.map.clone()));
     }
     draws

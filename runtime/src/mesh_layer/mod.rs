@@ -28,7 +28,7 @@ mod view_layers;
 use crate::error::RuntimeError;
 use crate::gpu::Gpu;
 use crate::mesh::Mesh;
-use crate::textures::Image2d;
+use crate::textures::{Image2d, VolumeTexture};
 use draws::LitBy;
 pub(crate) use draws::PlanePicture;
 use draws::{DrawBuffer, Pipelines, Target};
@@ -95,6 +95,17 @@ pub(crate) struct LayerContent<'a> {
     /// Counts changes of the meshes' surfaces and, apart, renders of the planes' pictures.
     pub generation: u64,
     pub planes_generation: u64,
+    /// The light volumes of the lights the view's volume casts shadows from, by light name.
+    pub light_volumes: &'a [(String, Arc<VolumeTexture>)],
+    /// Patient space to the primary volume's normalized coordinates.
+    pub world_to_volume: glam::Mat4,
+}
+
+impl LayerContent<'_> {
+    /// The light volume of light `light`, if the view's volume casts shadows from it.
+    fn light_volume(&self, light: &str) -> Option<&wgpu::TextureView> {
+        self.light_volumes.iter().find(|(name, _)| name == light).map(|(_, texture)| &texture.view)
+    }
 }
 
 /// How a view's mesh layer looks at the meshes.
@@ -245,7 +256,7 @@ impl MeshLayer {
         };
         let planned = match pipelines {
             Some(pipelines) => {
-                self.make_images(gpu, pipelines, &plan)?;
+                self.make_images(gpu, &plan)?;
                 self.draws(gpu, (pipelines, sampler), content, &plan)?
             }
             None => PlannedDraws::default(),
@@ -268,13 +279,13 @@ impl MeshLayer {
 
     /// The images `plan` draws into besides the layer's own: its occlusion groups' parts and its
     /// shadow maps (kept once made).
-    fn make_images(&mut self, gpu: &Gpu, pipelines: &MeshPipelines, plan: &LayerPlan) -> Result<(), RuntimeError> {
+    fn make_images(&mut self, gpu: &Gpu, plan: &LayerPlan) -> Result<(), RuntimeError> {
         while self.groups.len() < plan.groups {
             let part = || LayerImages::new(gpu, self.size(), "occlusion group part");
             self.groups.push([part()?, part()?]);
         }
         while self.shadow_maps.len() < plan.shadows.len() {
-            self.shadow_maps.push(ShadowMap::new(gpu, pipelines)?);
+            self.shadow_maps.push(ShadowMap::new(gpu)?);
         }
         Ok(())
     }
@@ -351,7 +362,9 @@ impl MeshLayer {
             planned.draws.extend(draws::caster_draws(light_to_clip, &meshes));
             planned.shadow_ranges.push(start..planned.draws.len());
             planned.shadow_clips.push(light_to_clip);
-            lights.push(LitBy { light_to_clip, towards, map: &map.bind_group });
+            let light_volume = cast.follows.as_deref().and_then(|light| content.light_volume(light));
+            let map = map.bind(gpu, pipelines, light_volume, sampler)?;
+            lights.push(LitBy { light_to_clip, towards, world_to_volume: content.world_to_volume, map });
         }
         let mut peeled = Vec::new();
         for pass in &plan.passes {
@@ -495,5 +508,9 @@ fn layer_key(content: &LayerContent, size: [u32; 2]) -> u64 {
     bytes.push(matches!(content.camera, LayerCamera::Slice(_)) as u8);
     bytes.extend(meshes.iter().flat_map(|m| Arc::as_ptr(&m.gpu).addr().to_le_bytes()));
     bytes.extend(format!("{:?}", content.tree).bytes());
+    // A light volume made again (its light, the volume or its transfer function changed) is a
+    // new texture.
+    bytes.extend(content.light_volumes.iter().flat_map(|(_, t)| Arc::as_ptr(t).addr().to_le_bytes()));
+    bytes.extend(bytemuck::cast_slice(&content.world_to_volume.to_cols_array()));
     xxhash_rust::xxh3::xxh3_64(&bytes)
 }

@@ -40,6 +40,9 @@ pub(crate) struct DrawUniforms {
     /// direction towards it (`fs_shadowed`).
     pub light_to_clip: [[f32; 4]; 4],
     pub light: [f32; 4],
+    /// Patient space to the primary volume's normalized coordinates, where the light volume of
+    /// a shadow group's light is read (`fs_shadowed`).
+    pub world_to_volume: [[f32; 4]; 4],
 }
 
 pub(crate) const SHADER: &str = r#"
@@ -52,6 +55,7 @@ struct Draw {
     flat_colour: vec4<f32>,
     light_to_clip: mat4x4<f32>,
     light: vec4<f32>,
+    world_to_volume: mat4x4<f32>,
 }
 @group(0) @binding(0) var<uniform> draw: Draw;
 
@@ -112,6 +116,20 @@ fn fs_overlay(in: Varyings) -> @location(0) vec4<f32> {
 // (Group 1 as the planes' pictures, at other bindings: a device binds at most four groups.)
 @group(1) @binding(2) var shadow_map: texture_depth_2d;
 @group(1) @binding(3) var shadow_sampler: sampler_comparison;
+// The volume's shadow: the light volume of the group's light (the share of the light reaching
+// each texel through the volume), or one texel of 1 where the view's volume casts none.
+@group(1) @binding(4) var light_volume: texture_3d<f32>;
+@group(1) @binding(5) var light_volume_sampler: sampler;
+
+// The share of the group's light that reaches `world` through the volume (1 outside it).
+fn through_volume(world: vec3<f32>) -> f32 {
+    let h = draw.world_to_volume * vec4<f32>(world, 1.0);
+    let p = h.xyz / h.w;
+    if any(p < vec3<f32>(0.0)) || any(p > vec3<f32>(1.0)) {
+        return 1.0;
+    }
+    return textureSampleLevel(light_volume, light_volume_sampler, p, 0.0).x;
+}
 
 // The shadow map's depth is biased towards the light when drawn; this keeps a surface's own
 // depth from shadowing it where the map's texels are coarser than the view's pixels.
@@ -121,7 +139,7 @@ const SHADOW_BIAS: f32 = 0.002;
 fn fs_shadowed(in: Varyings) -> Fragment {
     let seen = draw.light_to_clip * vec4<f32>(in.world, 1.0);
     let uv = vec2<f32>(seen.x * 0.5 + 0.5, 0.5 - seen.y * 0.5);
-    let lit = textureSampleCompareLevel(shadow_map, shadow_sampler, uv, seen.z - SHADOW_BIAS);
+    let lit = textureSampleCompareLevel(shadow_map, shadow_sampler, uv, seen.z - SHADOW_BIAS) * through_volume(in.world);
     var n = normalize(in.normal);
     if dot(n, in.to_eye) < 0.0 {
         n = -n;
@@ -248,7 +266,8 @@ pub(crate) const BINDINGS: PassBindings = PassBindings {
 };
 
 /// The bindings of the shadowed pipelines (`fs_shadowed`): group 0 as in [`BINDINGS`]; group 1,
-/// a shadow group's shadow map and its comparison sampler.
+/// a shadow group's shadow map and its comparison sampler, then the light volume of its light
+/// and a filtering sampler.
 pub(crate) const SHADOW_BINDINGS: PassBindings = PassBindings {
     label: "shadowed meshes",
     groups: &[
@@ -268,6 +287,12 @@ pub(crate) const SHADOW_BINDINGS: PassBindings = PassBindings {
                 visibility: wgpu::ShaderStages::FRAGMENT,
                 ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Comparison),
             },
+            Slot {
+                binding: 4,
+                visibility: wgpu::ShaderStages::FRAGMENT,
+                ty: ty::texture(wgpu::TextureViewDimension::D3, true),
+            },
+            Slot { binding: 5, visibility: wgpu::ShaderStages::FRAGMENT, ty: ty::SAMPLER },
         ],
     ],
 };
@@ -333,6 +358,8 @@ pub(crate) struct MeshPipelines {
     pub shadow_sampler: wgpu::Sampler,
     /// The layouts of [`SHADOW_BINDINGS`].
     pub(crate) shadow_bindings: PassLayout,
+    /// One texel of 1: the light volume of a shadow group whose view's volume casts no shadow.
+    pub(crate) no_light_volume: wgpu::TextureView,
 }
 
 impl MeshPipelines {
@@ -380,10 +407,32 @@ impl MeshPipelines {
                 combine,
                 bindings,
                 shadow_bindings,
+                no_light_volume: full_light(gpu),
             }
         })?;
         Ok(made)
     }
+}
+
+/// A 1x1x1 texture of 1 (full light), sampled where no light volume is.
+fn full_light(gpu: &Gpu) -> wgpu::TextureView {
+    let texture = wgpu::util::DeviceExt::create_texture_with_data(
+        &gpu.device,
+        &gpu.queue,
+        &wgpu::TextureDescriptor {
+            label: Some("no light volume"),
+            size: wgpu::Extent3d { width: 1, height: 1, depth_or_array_layers: 1 },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D3,
+            format: wgpu::TextureFormat::R8Unorm,
+            usage: wgpu::TextureUsages::TEXTURE_BINDING,
+            view_formats: &[],
+        },
+        wgpu::util::TextureDataOrder::LayerMajor,
+        &[255],
+    );
+    texture.create_view(&Default::default())
 }
 
 /// Position and normal.

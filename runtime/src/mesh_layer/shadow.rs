@@ -11,24 +11,40 @@ use glam::{Mat4, Vec3};
 /// Texels of a shadow map's side: about a tenth of a millimetre a texel over a 100 mm group.
 pub(crate) const SHADOW_MAP_SIZE: u32 = 1024;
 
-/// A shadow map: its depth image, and the bind group its meshes' fragments read it through.
+/// A shadow map: its depth image.
 pub(crate) struct ShadowMap {
     pub(crate) depth: wgpu::TextureView,
-    pub(crate) bind_group: wgpu::BindGroup,
 }
 
 impl ShadowMap {
-    pub(crate) fn new(gpu: &Gpu, pipelines: &MeshPipelines) -> Result<ShadowMap, RuntimeError> {
+    pub(crate) fn new(gpu: &Gpu) -> Result<ShadowMap, RuntimeError> {
         let usage = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING;
         let size = [SHADOW_MAP_SIZE; 2];
         let image = Image2d { label: "shadow map", size, format: DEPTH_FORMAT, usage };
         let depth = image.create(gpu, "creating a shadow map")?.create_view(&Default::default());
-        let bind_group = gpu.capture("binding a shadow map", || {
-            let resources =
-                [wgpu::BindingResource::TextureView(&depth), wgpu::BindingResource::Sampler(&pipelines.shadow_sampler)];
+        Ok(ShadowMap { depth })
+    }
+
+    /// The bind group the group's meshes' fragments read the map through, with the light volume
+    /// of its light (`None`: the volume casts no shadow, full light) and `sampler` for it.
+    pub(crate) fn bind(
+        &self,
+        gpu: &Gpu,
+        pipelines: &MeshPipelines,
+        light_volume: Option<&wgpu::TextureView>,
+        sampler: &wgpu::Sampler,
+    ) -> Result<wgpu::BindGroup, RuntimeError> {
+        let light_volume = light_volume.unwrap_or(&pipelines.no_light_volume);
+        gpu.capture("binding a shadow map", || {
+            let resources = [
+                wgpu::BindingResource::TextureView(&self.depth),
+                wgpu::BindingResource::Sampler(&pipelines.shadow_sampler),
+                wgpu::BindingResource::TextureView(light_volume),
+                wgpu::BindingResource::Sampler(sampler),
+            ];
             pipelines.shadow_bindings.bind_group(gpu, 1, &resources)
-        })?;
-        Ok(ShadowMap { depth, bind_group })
+        })
+        .map_err(RuntimeError::from)
     }
 }
 

@@ -6,6 +6,8 @@ use super::pipelines::MeshPipelines;
 use super::{LayerCamera, LayerContent, LayerNode, LayerViews, MeshInstance, MeshLayer, Overlay, PlanePicture};
 use crate::error::RuntimeError;
 use crate::gpu::Gpu;
+use crate::textures::VolumeTexture;
+use std::sync::Arc;
 
 /// Mesh layers and overlays kept per view: one for previews and one for the full image.
 const SIZES_KEPT: usize = 2;
@@ -19,6 +21,9 @@ pub(crate) struct MeshResources<'a> {
     pub meshes: &'a [MeshInstance],
     pub sampler: &'a wgpu::Sampler,
     pub generation: u64,
+    /// The light volumes of the lights the view's volume casts shadows from, by light name
+    /// (shadow groups following those lights take the volume's shadow).
+    pub light_volumes: &'a [(String, Arc<VolumeTexture>)],
 }
 
 /// A view's mesh layer and overlay, and what they draw.
@@ -34,6 +39,9 @@ pub(crate) struct ViewLayers {
     tree: Vec<LayerNode>,
     /// The meshes drawn over the picture (indices into the scene's meshes).
     overlay: Vec<usize>,
+    /// Patient space to the primary volume's normalized coordinates (where light volumes are
+    /// read).
+    world_to_volume: glam::Mat4,
     /// Slice views' pictures the tree shows on their planes, and how often they were rendered
     /// anew.
     planes: Vec<Option<PlanePicture>>,
@@ -47,6 +55,11 @@ impl ViewLayers {
         self.camera = Some(camera);
         self.tree = tree;
         self.overlay = overlay;
+    }
+
+    /// Where the primary volume lies: patient space to its normalized coordinates.
+    pub(crate) fn set_world_to_volume(&mut self, world_to_volume: glam::Mat4) {
+        self.world_to_volume = world_to_volume;
     }
 
     /// The slice pictures the tree shows on their planes, just rendered: the layer is drawn
@@ -98,6 +111,8 @@ impl ViewLayers {
             planes: &self.planes,
             generation: resources.generation,
             planes_generation: self.planes_generation,
+            light_volumes: resources.light_volumes,
+            world_to_volume: self.world_to_volume,
         };
         layer.encode(gpu, (resources.pipelines, resources.sampler), encoder, &content)
     }
