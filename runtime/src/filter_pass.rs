@@ -7,12 +7,11 @@
 //! neighbouring tile as it was last drawn (depth is the mesh layer's, drawn whole before the first
 //! tile, so filters of depth alone see no seams).
 
-use crate::bindings::{self, DispatchResources};
+use crate::bindings::DispatchResources;
 use crate::error::RuntimeError;
 use crate::gpu::Gpu;
-use crate::mesh_layer::LayerViews;
-use crate::region::Region;
-use crate::resources::Resources;
+use crate::node::{self, Buffer, Frame, PictureNode, Written};
+use crate::reflection::BindingKind;
 use crate::shader::{PipelineCache, ViewPipeline, ViewShader};
 use crate::textures::Image2d;
 use crate::uniforms::{UniformBlock, Value};
@@ -70,74 +69,6 @@ impl FilterPass {
         self.uniforms.set(name, value).map_err(|error| RuntimeError::Uniform { view: view.clone(), error })
     }
 
-    /// Records the pass over `region` of `target`: copies the target, then filters the copy back
-    /// into it. `mesh_layer` is the view's mesh layer, drawn for this target.
-    pub(crate) fn encode(
-        &mut self,
-        gpu: &Gpu,
-        (resources, mesh_layer): (&Resources, Option<LayerViews<'_>>),
-        encoder: &mut wgpu::CommandEncoder,
-        target: &wgpu::TextureView,
-        region: Region,
-    ) -> Result<(), RuntimeError> {
-        if let Some(bytes) = self.uniforms.take_changes() {
-            gpu.queue.write_buffer(&self.uniform_buffer, 0, bytes);
-        }
-        let size = target.texture().size();
-        let input = self.input_of(gpu, [size.width, size.height])?;
-        encoder.copy_texture_to_texture(target.texture().as_image_copy(), input.as_image_copy(), size);
-        let input_view = input.create_view(&Default::default());
-        let reflection = &self.shader.reflection;
-        let doing = format!("binding the filters of view `{}`", reflection.view);
-        let region_buffer = gpu.capture(&doing, || {
-            wgpu::util::DeviceExt::create_buffer_init(
-                &gpu.device,
-                &wgpu::util::BufferInitDescriptor {
-                    label: Some("filter region"),
-                    contents: bytemuck::cast_slice(&[region.x0, region.y0, region.x1, region.y1]),
-                    usage: wgpu::BufferUsages::UNIFORM,
-                },
-            )
-        })?;
-        let (no_tfs, no_layouts) = (HashMap::new(), HashMap::new());
-        let own = DispatchResources {
-            uniforms: &self.uniform_buffer,
-            region: &region_buffer,
-            output: target,
-            luminance: None,
-            mesh_layer,
-            tfs: &no_tfs,
-            brick_layouts: &no_layouts,
-            history: None,
-            picture: Some(&input_view),
-        };
-        let mut groups = Vec::with_capacity(self.pipeline.groups.len());
-        for (group, layout) in (0u32..).zip(&self.pipeline.groups) {
-            let entries = bindings::group_entries(reflection, group, resources, &own)?;
-            let made = gpu.capture(&doing, || {
-                gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                    label: Some("filters"),
-                    layout,
-                    entries: &entries,
-                })
-            });
-            groups.push(made?);
-        }
-        let [wx, wy, _] = reflection.workgroup_size;
-        let (w, h) = (region.x1.saturating_sub(region.x0), region.y1.saturating_sub(region.y0));
-        let doing = format!("recording the filters of view `{}`", reflection.view);
-        gpu.capture(&doing, || {
-            let mut pass = encoder
-                .begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("filters"), timestamp_writes: None });
-            pass.set_pipeline(&self.pipeline.pipeline);
-            for (group, bind_group) in (0u32..).zip(&groups) {
-                pass.set_bind_group(group, bind_group, &[]);
-            }
-            pass.dispatch_workgroups(w.div_ceil(wx.max(1)), h.div_ceil(wy.max(1)), 1);
-        })?;
-        Ok(())
-    }
-
     /// The copy of the picture for a target of `size` pixels, made again when the size changed.
     fn input_of(&mut self, gpu: &Gpu, size: [u32; 2]) -> Result<&wgpu::Texture, RuntimeError> {
         let fits = self.input.as_ref().is_some_and(|t| [t.width(), t.height()] == size);
@@ -147,5 +78,42 @@ impl FilterPass {
             self.input = Some(image.create(gpu, "creating the filters' copy of the picture")?);
         }
         self.input.as_ref().ok_or_else(|| RuntimeError::Invalid("no filter input".into()))
+    }
+}
+
+impl PictureNode for FilterPass {
+    fn reads(&self) -> Vec<Buffer> {
+        let depth = self.shader.reflection.bindings.iter().any(|b| b.kind == BindingKind::GeometryDepth);
+        if depth { vec![Buffer::Picture, Buffer::MeshLayer] } else { vec![Buffer::Picture] }
+    }
+
+    fn writes(&self) -> Vec<Buffer> {
+        vec![Buffer::Picture]
+    }
+
+    /// Copies the target, then filters the copy back into the region of it.
+    fn encode(&mut self, frame: &mut Frame<'_, '_>, written: Written<'_>) -> Result<(), RuntimeError> {
+        let gpu = frame.gpu;
+        if let Some(bytes) = self.uniforms.take_changes() {
+            gpu.queue.write_buffer(&self.uniform_buffer, 0, bytes);
+        }
+        let size = frame.target.texture().size();
+        let input = self.input_of(gpu, [size.width, size.height])?;
+        frame.encoder.copy_texture_to_texture(frame.target.texture().as_image_copy(), input.as_image_copy(), size);
+        let input_view = input.create_view(&Default::default());
+        let region_buffer = node::region_buffer(gpu, frame.region, &self.shader.reflection.view)?;
+        let (no_tfs, no_layouts) = (HashMap::new(), HashMap::new());
+        let own = DispatchResources {
+            uniforms: &self.uniform_buffer,
+            region: &region_buffer,
+            output: frame.target,
+            luminance: None,
+            mesh_layer: written.mesh_layer,
+            tfs: &no_tfs,
+            brick_layouts: &no_layouts,
+            history: None,
+            picture: Some(&input_view),
+        };
+        node::dispatch(frame, (&self.pipeline, &self.shader.reflection), &own, "filters")
     }
 }

@@ -79,6 +79,7 @@ pub(crate) mod light_volume;
 pub mod mesh;
 pub mod mesh_layer;
 pub(crate) mod metering;
+pub(crate) mod node;
 pub(crate) mod occupancy;
 mod pass_bindings;
 pub mod probe;
@@ -93,6 +94,7 @@ pub mod tf;
 pub mod uniforms;
 pub mod view;
 pub mod volume;
+pub(crate) mod volume_layer;
 
 pub use error::RuntimeError;
 pub use geometry::{Convention, OrbitCamera, SliceAxis, SlicePlane, slice_edge_labels};

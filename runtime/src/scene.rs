@@ -732,7 +732,7 @@ pub fn is_set_by_renderer(name: &str) -> bool {
             | GEOMETRY_INV_PROJ
     ) || name.starts_with("primary_to_")
         || name.starts_with("labels_")
-        || name.starts_with(crate::view::MESH_SHADOW_CLIP_PREFIX)
+        || name.starts_with(crate::volume_layer::MESH_SHADOW_CLIP_PREFIX)
 }
 
 /// What [`load_volumes`] leaves for the renderer besides the uploaded textures.

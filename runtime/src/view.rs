@@ -1,83 +1,39 @@
-//! Rendering one view: its pipeline, its uniform block and buffer, its output image, and the
-//! shared volumes and transfer functions it binds by name.
+//! Rendering one view: its picture's nodes (the mesh layer, the volume layer, the overlay, the
+//! filter pass; `crate::node`) recorded in order into its output image or any target.
 
-use crate::bindings::{self, DispatchResources};
-use crate::bricks::{BrickView, ViewBrickLayouts};
+use crate::bricks::BrickView;
 use crate::error::RuntimeError;
 use crate::filter_pass::FilterPass;
 use crate::gpu::Gpu;
-use crate::history::History;
-use crate::mesh_layer::{LayerCamera, LayerNode, MeshLayer, MeshResources, PlanePicture, ViewLayers};
-use crate::metering::Metering;
-use crate::reflection::BindingKind;
+use crate::mesh_layer::{LayerCamera, LayerNode, MeshLayer, OverNode, PlanePicture, UnderNode, ViewLayers};
+use crate::node::{Buffer, Frame, PictureNode, Written};
 pub use crate::region::Region;
 use crate::resources::Resources;
-use crate::shader::{PipelineCache, ViewPipeline, ViewShader};
-use crate::textures::{Image2d, TfTexture, VolumeTexture};
+use crate::shader::{PipelineCache, ViewShader};
+use crate::textures::{Image2d, TfTexture};
 use crate::uniforms::{UniformBlock, Value};
+pub use crate::volume_layer::DEFAULT_SAMPLES;
+use crate::volume_layer::VolumeLayer;
 use std::collections::HashMap;
-use std::sync::Arc;
-use vrsc::compose::uniform_check::LIGHT_VOLUME_PREFIX;
 
-/// One view's GPU state. Changing uniforms only rewrites the uniform buffer.
+/// One view's GPU state: its output image and the nodes of its picture. Changing uniforms only
+/// rewrites the uniform buffers.
 pub struct ViewRenderer {
-    shader: ViewShader,
-    pipeline: Arc<ViewPipeline>,
-    uniforms: UniformBlock,
-    uniform_buffer: wgpu::Buffer,
     output: wgpu::Texture,
     size: [u32; 2],
-    /// Automatic exposure's luminance image and reduction, for a view that meters.
-    metering: Option<Metering>,
+    /// Its composed ray pipeline.
+    volume: VolumeLayer,
     /// The mesh layer under the volume (for a view whose shader reads it), the overlay over it,
     /// and what they draw.
     layers: ViewLayers,
-    /// Its `BrickLayout` uniforms, one per bricked volume it reads.
-    brick_layouts: ViewBrickLayouts,
-    /// Transfer-function tables of the view's own, bound in place of the scene's of the same
-    /// name (a slice view's window/level).
-    own_tfs: HashMap<String, TfTexture>,
-    /// The pixels' history of a progressive view (the path tracer), and the frames
-    /// [`Self::render`] makes it hold.
-    history: Option<History>,
-    samples: u32,
     /// The view's filter pass, run over its picture (its `filters`).
     filter: Option<FilterPass>,
 }
 
-/// Frames a progressive view's picture holds when [`ViewRenderer::render`] returns it, unless
-/// [`ViewRenderer::set_samples`] says otherwise.
-pub const DEFAULT_SAMPLES: u32 = 16;
-
-/// What a view's layers draw with, of the scene's resources, with the light volumes of the
-/// lights its volume casts shadows from.
-fn mesh_resources<'a>(
-    resources: &'a Resources,
-    light_volumes: &'a [(String, Arc<VolumeTexture>)],
-) -> MeshResources<'a> {
-    MeshResources {
-        pipelines: resources.mesh_pipelines.as_ref(),
-        meshes: &resources.meshes,
-        sampler: &resources.sampler,
-        generation: resources.mesh_generation(),
-        light_volumes,
-    }
+/// What the mesh layer wrote for the nodes after it (nothing where the view reads no layer).
+fn written(layers: &ViewLayers, reads_layer: bool) -> Written<'_> {
+    Written { mesh_layer: layers.views().filter(|_| reads_layer), planes_generation: layers.planes_generation() }
 }
-
-/// The light volumes a view's shader binds (`shadow_volume_NAME`: its volume casts shadows
-/// from light NAME), by light name.
-fn light_volumes(shader: &ViewShader, resources: &Resources) -> Vec<(String, Arc<VolumeTexture>)> {
-    let bound = shader.reflection.bindings.iter().filter(|b| b.kind == BindingKind::VolumeTexture);
-    bound
-        .filter_map(|b| {
-            let light = b.name.strip_prefix(LIGHT_VOLUME_PREFIX)?;
-            Some((light.to_string(), resources.volumes.get(&b.name)?.clone()))
-        })
-        .collect()
-}
-
-/// `std::mesh_shadow`'s uniform of light NAME's shadow clip space is this prefix and NAME.
-pub(crate) const MESH_SHADOW_CLIP_PREFIX: &str = "mesh_shadow_clip_";
 
 /// Rows of a texture-to-buffer copy are padded to this many bytes.
 const ROW_ALIGNMENT: u32 = wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
@@ -86,7 +42,7 @@ impl ViewRenderer {
     /// The view's own transfer-function tables by binding name
     /// ([`crate::SceneRenderer::set_view_tf_curve`]).
     pub(crate) fn own_tfs_mut(&mut self) -> &mut HashMap<String, TfTexture> {
-        &mut self.own_tfs
+        self.volume.own_tfs_mut()
     }
 
     /// A renderer of `shader` at `size` pixels; the pipeline comes from `cache`.
@@ -96,71 +52,32 @@ impl ViewRenderer {
         shader: ViewShader,
         size: [u32; 2],
     ) -> Result<ViewRenderer, RuntimeError> {
-        let pipeline = cache.get(gpu, &shader)?;
-        let uniforms = UniformBlock::new(&shader.reflection);
-        let doing = format!("creating the uniform buffer of view `{}`", shader.reflection.view);
-        let uniform_buffer = gpu.capture(&doing, || {
-            gpu.device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("uniforms"),
-                size: uniforms.bytes().len() as u64,
-                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-                mapped_at_creation: false,
-            })
-        })?;
+        let volume = VolumeLayer::new(gpu, cache, shader)?;
         let output = create_output(gpu, size)?;
-        let metering = Metering::of(gpu, &shader.reflection).transpose()?;
-        let history = shader.reflection.bindings.iter().any(|b| b.kind == BindingKind::History).then(History::default);
-        Ok(ViewRenderer {
-            shader,
-            pipeline,
-            uniforms,
-            uniform_buffer,
-            output,
-            size,
-            metering,
-            layers: ViewLayers::default(),
-            brick_layouts: ViewBrickLayouts::default(),
-            own_tfs: HashMap::new(),
-            history,
-            samples: DEFAULT_SAMPLES,
-            filter: None,
-        })
+        Ok(ViewRenderer { output, size, volume, layers: ViewLayers::default(), filter: None })
     }
 
     /// Whether the view is progressive: its picture is the mean of the frames rendered since it
     /// last changed (the path tracer), so rendering it again refines it.
     pub fn is_progressive(&self) -> bool {
-        self.history.is_some()
+        self.volume.is_progressive()
     }
 
     /// Sets the frames a progressive view's picture holds when [`Self::render`] returns it (at
     /// least 1).
     pub fn set_samples(&mut self, samples: u32) {
-        self.samples = samples.max(1);
+        self.volume.set_samples(samples);
     }
 
     /// The whole frames in the picture of `size` pixels as the view now stands (0 when
     /// anything changed since it was rendered); 1 for a view that is not progressive.
     pub fn frames(&self, size: [u32; 2], resources: &Resources) -> u32 {
-        match &self.history {
-            Some(history) => history.frames(size, self.history_key(resources)),
-            None => 1,
-        }
-    }
-
-    /// What the picture is rendered from: the uniforms, the shared content, and what the view
-    /// draws besides (its planes' pictures).
-    fn history_key(&self, resources: &Resources) -> u64 {
-        use std::hash::{Hash, Hasher};
-        let mut hasher = std::collections::hash_map::DefaultHasher::new();
-        self.uniforms.bytes().hash(&mut hasher);
-        (resources.content(), self.layers.planes_generation()).hash(&mut hasher);
-        hasher.finish()
+        self.volume.frames(size, resources, self.layers.planes_generation())
     }
 
     /// The WGSL and reflection the view renders with.
     pub fn shader(&self) -> &ViewShader {
-        &self.shader
+        self.volume.shader()
     }
 
     /// Width and height of the output image in pixels.
@@ -172,39 +89,39 @@ impl ViewRenderer {
     /// it); the value must have the uniform's type.
     pub fn set_uniform(&mut self, name: &str, value: impl Into<Value>) -> Result<(), RuntimeError> {
         let value = value.into();
-        let view = &self.shader.reflection.view;
         if let Some(filter) = self.filter.as_mut().filter(|f| f.has_uniform(name)) {
             filter.set_uniform(name, value.clone())?;
-            if !self.uniforms.has(name) {
+            if !self.volume.uniforms().has(name) {
                 return Ok(());
             }
         }
-        self.uniforms.set(name, value).map_err(|error| RuntimeError::Uniform { view: view.clone(), error })
+        self.volume.set_uniform(name, value)
     }
 
     /// Whether the shader or the filter pass reads uniform `name` (unreached uniforms are not in
     /// them).
     pub fn has_uniform(&self, name: &str) -> bool {
-        self.uniforms.has(name) || self.filter.as_ref().is_some_and(|f| f.has_uniform(name))
+        self.volume.uniforms().has(name) || self.filter.as_ref().is_some_and(|f| f.has_uniform(name))
     }
 
     /// The value a scene's JSON gives uniform `name` of the shader or the filter pass, if it fits
     /// the uniform's type.
     pub fn uniform_value_from_json(&self, name: &str, json: &serde_json::Value) -> Option<Value> {
-        self.uniforms
+        self.volume
+            .uniforms()
             .value_from_json(name, json)
             .or_else(|| self.filter.as_ref().and_then(|f| f.uniforms().value_from_json(name, json)))
     }
 
     /// The current value of uniform `name`, of the shader or else of the filter pass.
     pub fn uniform(&self, name: &str) -> Option<Value> {
-        self.uniforms.get(name).or_else(|| self.filter.as_ref().and_then(|f| f.uniforms().get(name)))
+        self.volume.uniforms().get(name).or_else(|| self.filter.as_ref().and_then(|f| f.uniforms().get(name)))
     }
 
     /// What the reflection says of uniform `name`, of the shader or else of the filter pass.
     pub fn uniform_info(&self, name: &str) -> Option<&crate::reflection::UniformInfo> {
         let filter = || self.filter.as_ref().and_then(|f| f.shader().reflection.uniform(name));
-        self.shader.reflection.uniform(name).or_else(filter)
+        self.volume.shader().reflection.uniform(name).or_else(filter)
     }
 
     /// Gives the view a filter pass (`None`: none), run after its picture.
@@ -222,7 +139,7 @@ impl ViewRenderer {
     /// lists the uniforms and functions of).
     pub fn reflections(&self) -> impl Iterator<Item = &crate::reflection::Reflection> {
         let filter = self.filter.as_ref().map(|f| &*f.shader().reflection);
-        std::iter::once(&*self.shader.reflection).chain(filter)
+        std::iter::once(&*self.volume.shader().reflection).chain(filter)
     }
 
     /// The compiled filter pass, when the view has one.
@@ -237,31 +154,19 @@ impl ViewRenderer {
 
     /// The uniform values as they are now (what the next frame uploads).
     pub fn uniforms(&self) -> &UniformBlock {
-        &self.uniforms
+        self.volume.uniforms()
     }
 
     /// Whether the shader reads a mesh layer (`geometry_depth`, `geometry_color` or the
     /// translucent layers).
     pub fn reads_mesh_layer(&self) -> bool {
-        self.shader.reflection.bindings.iter().any(|b| {
-            matches!(
-                b.kind,
-                BindingKind::GeometryDepth
-                    | BindingKind::GeometryColor
-                    | BindingKind::TranslucentDepth
-                    | BindingKind::TranslucentColor
-            )
-        })
+        self.volume.reads_mesh_layer()
     }
 
     /// Whether the shader blends the mesh layer's translucent surfaces in depth order (it reads
     /// the translucent layers): its mesh layer peels them.
     pub fn reads_translucent_layers(&self) -> bool {
-        self.shader
-            .reflection
-            .bindings
-            .iter()
-            .any(|b| matches!(b.kind, BindingKind::TranslucentDepth | BindingKind::TranslucentColor))
+        self.volume.reads_translucent_layers()
     }
 
     /// How the mesh layer and the overlay look at the meshes, the tree the layer draws and the
@@ -285,16 +190,7 @@ impl ViewRenderer {
 
     /// How the view looks at its bricked volumes (set with its camera or plane every frame).
     pub(crate) fn set_brick_view(&mut self, view: BrickView) {
-        self.brick_layouts.set_view(view);
-    }
-
-    /// Writes the `BrickLayout` of every bricked volume the view reads, for a target `height`
-    /// pixels high.
-    fn write_brick_layouts(&mut self, gpu: &Gpu, resources: &Resources, height: u32) -> Result<(), RuntimeError> {
-        let reflection = &self.shader.reflection;
-        let names: Vec<String> =
-            reflection.bindings.iter().filter(|b| b.kind == BindingKind::BrickLayout).map(|b| b.name.clone()).collect();
-        self.brick_layouts.write(gpu, &resources.bricked, (&names, &reflection.view), height)
+        self.volume.set_brick_view(view);
     }
 
     /// The slice pictures the mesh layer shows on their planes.
@@ -315,9 +211,9 @@ impl ViewRenderer {
         cache: &mut PipelineCache,
         shader: ViewShader,
     ) -> Result<(), RuntimeError> {
-        let samples = self.samples;
+        let samples = self.volume.samples();
         *self = ViewRenderer::new(gpu, cache, shader, self.size)?;
-        self.samples = samples;
+        self.volume.set_samples(samples);
         Ok(())
     }
 
@@ -361,112 +257,39 @@ impl ViewRenderer {
         target: &wgpu::TextureView,
         region: Region,
     ) -> Result<(), RuntimeError> {
-        self.write_brick_layouts(gpu, resources, target.texture().size().height)?;
-        let reads_layer = self.reads_mesh_layer();
+        let frame = &mut Frame { gpu, resources, encoder, target, region };
+        let reads_layer = self.volume.reads_mesh_layer();
+        let light_volumes = if reads_layer { self.volume.light_volumes(resources) } else { Vec::new() };
+        let peeled = self.volume.reads_translucent_layers();
+        let mut under = UnderNode { layers: &mut self.layers, peeled, light_volumes: &light_volumes };
+        let under_access = (under.reads(), under.writes());
         if reads_layer {
-            let size = target.texture().size();
-            let peeled = self.reads_translucent_layers();
-            let light_volumes = light_volumes(&self.shader, resources);
-            let layer_resources = mesh_resources(resources, &light_volumes);
-            self.layers.encode_under(gpu, layer_resources, encoder, ([size.width, size.height], peeled))?;
-            self.follow_mesh_shadows()?;
+            under.encode(frame, Written::default())?;
         }
-        if let Some(bytes) = self.uniforms.take_changes() {
-            gpu.queue.write_buffer(&self.uniform_buffer, 0, bytes);
-        }
-        let reflection = &self.shader.reflection;
-        let doing = format!("binding the resources of view `{}`", reflection.view);
-        let region_buffer = gpu.capture(&doing, || {
-            wgpu::util::DeviceExt::create_buffer_init(
-                &gpu.device,
-                &wgpu::util::BufferInitDescriptor {
-                    label: Some("region"),
-                    contents: bytemuck::cast_slice(&[region.x0, region.y0, region.x1, region.y1]),
-                    usage: wgpu::BufferUsages::UNIFORM,
-                },
-            )
-        })?;
-        let target_size = target.texture().size();
-        // Only a progressive view hashes its uniforms: every other dispatch skips it.
-        let key = self.history.as_ref().map(|_| self.history_key(resources));
-        let luminance = match &mut self.metering {
-            Some(metering) => {
-                metering.before_pass(encoder, &self.uniform_buffer);
-                Some(metering.image(gpu, [target_size.width, target_size.height])?)
-            }
-            None => None,
-        };
-        let history = match (&mut self.history, key) {
-            (Some(history), Some(key)) => {
-                let size = [target_size.width, target_size.height];
-                Some(history.prepare(gpu, encoder, size, key, region.within(size).pixels())?)
-            }
-            _ => None,
-        };
-        let mesh_layer = self.layers.views().filter(|_| reads_layer);
-        let own = DispatchResources {
-            history,
-            uniforms: &self.uniform_buffer,
-            region: &region_buffer,
-            output: target,
-            luminance,
-            mesh_layer,
-            brick_layouts: self.brick_layouts.buffers(),
-            tfs: &self.own_tfs,
-            picture: None,
-        };
-        let mut groups = Vec::with_capacity(self.pipeline.groups.len());
-        for (group, layout) in (0u32..).zip(&self.pipeline.groups) {
-            let entries = bindings::group_entries(reflection, group, resources, &own)?;
-            let made = gpu.capture(&doing, || {
-                gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                    label: Some(&reflection.view),
-                    layout,
-                    entries: &entries,
-                })
-            });
-            groups.push(made?);
-        }
-        let [wx, wy, _] = reflection.workgroup_size;
-        let (w, h) = (region.x1.saturating_sub(region.x0), region.y1.saturating_sub(region.y0));
-        let doing = format!("recording the pass of view `{}`", reflection.view);
-        gpu.capture(&doing, || {
-            let mut pass = encoder
-                .begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("raycast"), timestamp_writes: None });
-            pass.set_pipeline(&self.pipeline.pipeline);
-            for (group, bind_group) in (0u32..).zip(&groups) {
-                pass.set_bind_group(group, bind_group, &[]);
-            }
-            pass.dispatch_workgroups(w.div_ceil(wx.max(1)), h.div_ceil(wy.max(1)), 1);
-        })?;
-        if let Some(metering) = &self.metering {
-            metering.after_pass(gpu, encoder)?;
-        }
-        self.layers.encode_over(gpu, mesh_resources(resources, &[]), encoder, target)?;
+        debug_assert!(
+            self.nodes_read_what_earlier_ones_write(under_access),
+            "a node reads what no earlier node writes"
+        );
+        self.volume.encode(frame, written(&self.layers, reads_layer))?;
+        OverNode(&mut self.layers).encode(frame, Written::default())?;
         if let Some(filter) = &mut self.filter {
-            let mesh_layer = self.layers.views().filter(|_| reads_layer);
-            filter.encode(gpu, (resources, mesh_layer), encoder, target, region)?;
+            filter.encode(frame, written(&self.layers, reads_layer))?;
         }
         Ok(())
     }
 
-    /// Sets `mesh_shadow_clip_NAME` (`std::mesh_shadow`) to the clip space of the shadow map
-    /// the mesh layer drew last for light NAME.
-    fn follow_mesh_shadows(&mut self) -> Result<(), RuntimeError> {
-        let Some(views) = self.layers.views() else { return Ok(()) };
-        let mut seen: Vec<&str> = Vec::new();
-        for followed in views.followed() {
-            let name = format!("{MESH_SHADOW_CLIP_PREFIX}{}", followed.light);
-            if seen.contains(&followed.light.as_str()) || !self.uniforms.has(&name) {
-                continue;
-            }
-            seen.push(&followed.light);
-            let view = &self.shader.reflection.view;
-            self.uniforms
-                .set(&name, followed.light_to_clip)
-                .map_err(|error| RuntimeError::Uniform { view: view.clone(), error })?;
+    /// Whether every node of the picture reads only what an earlier one writes (the build's
+    /// rules, E0608 and E0609, seen from the runtime).
+    fn nodes_read_what_earlier_ones_write(&self, (reads, writes): (Vec<Buffer>, Vec<Buffer>)) -> bool {
+        let mut nodes = Vec::new();
+        if self.volume.reads_mesh_layer() {
+            nodes.push(("mesh layer", reads, writes));
         }
-        Ok(())
+        nodes.push(("volume layer", self.volume.reads(), self.volume.writes()));
+        if let Some(filter) = &self.filter {
+            nodes.push(("filters", filter.reads(), filter.writes()));
+        }
+        crate::node::unwritten_reads(&nodes).is_empty()
     }
 
     /// Renders and reads the image back (straight alpha RGBA8).
@@ -477,21 +300,21 @@ impl ViewRenderer {
     pub fn render(&mut self, gpu: &Gpu, resources: &Resources) -> Result<image::RgbaImage, RuntimeError> {
         if self.is_progressive() {
             let have = self.frames(self.size, resources);
-            let doing = format!("rendering the frames of view `{}`", self.shader.reflection.view);
-            for _ in have.saturating_add(1)..self.samples {
+            let doing = format!("rendering the frames of view `{}`", self.volume.shader().reflection.view);
+            for _ in have.saturating_add(1)..self.volume.samples() {
                 let mut encoder = gpu.device.create_command_encoder(&Default::default());
                 self.encode(gpu, resources, &mut encoder)?;
                 gpu.capture(&doing, || gpu.queue.submit([encoder.finish()]))?;
             }
         }
         let mut encoder = gpu.device.create_command_encoder(&Default::default());
-        if self.metering.is_some() {
+        if self.volume.meters() {
             self.encode(gpu, resources, &mut encoder)?;
         }
         self.encode(gpu, resources, &mut encoder)?;
         let [w, h] = self.size;
         let padded_row = (w * 4).div_ceil(ROW_ALIGNMENT) * ROW_ALIGNMENT;
-        let doing = format!("rendering view `{}`", self.shader.reflection.view);
+        let doing = format!("rendering view `{}`", self.volume.shader().reflection.view);
         let readback = gpu.capture(&doing, || {
             gpu.device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("readback"),

@@ -41,7 +41,7 @@ use shadow::ShadowMap;
 use std::sync::Arc;
 pub(crate) use tree::{LayerNode, ShadowLight, resolve_lights, set_hidden_opacity, visit};
 use tree::{LayerPass, LayerPlan, PassTarget};
-pub(crate) use view_layers::{MeshResources, ViewLayers};
+pub(crate) use view_layers::{OverNode, UnderNode, ViewLayers};
 
 /// A mesh on the GPU: interleaved positions and normals, and triangle indices.
 pub(crate) struct GpuMesh {

@@ -6,6 +6,8 @@ use super::pipelines::MeshPipelines;
 use super::{LayerCamera, LayerContent, LayerNode, LayerViews, MeshInstance, MeshLayer, Overlay, PlanePicture};
 use crate::error::RuntimeError;
 use crate::gpu::Gpu;
+use crate::node::{Buffer, Frame, PictureNode, Written};
+use crate::resources::Resources;
 use crate::textures::VolumeTexture;
 use std::sync::Arc;
 
@@ -153,4 +155,65 @@ fn for_size<T>(
         }
     }
     Ok(&mut list[0])
+}
+
+impl<'a> MeshResources<'a> {
+    /// What a view's layers draw with, of the scene's resources, with the light volumes of the
+    /// lights its volume casts shadows from.
+    pub(crate) fn of(resources: &'a Resources, light_volumes: &'a [(String, Arc<VolumeTexture>)]) -> Self {
+        MeshResources {
+            pipelines: resources.mesh_pipelines.as_ref(),
+            meshes: &resources.meshes,
+            sampler: &resources.sampler,
+            generation: resources.mesh_generation(),
+            light_volumes,
+        }
+    }
+}
+
+/// The mesh layer under a view's volume, as a node of its picture: it writes the layer's depth
+/// and colour, its shadow maps and, `peeled`, its translucent layers.
+pub(crate) struct UnderNode<'a> {
+    pub layers: &'a mut ViewLayers,
+    pub peeled: bool,
+    /// The light volumes of the lights the view's volume casts shadows from.
+    pub light_volumes: &'a [(String, Arc<VolumeTexture>)],
+}
+
+impl PictureNode for UnderNode<'_> {
+    fn reads(&self) -> Vec<Buffer> {
+        Vec::new()
+    }
+
+    fn writes(&self) -> Vec<Buffer> {
+        let mut writes = vec![Buffer::MeshLayer, Buffer::ShadowMaps];
+        if self.peeled {
+            writes.push(Buffer::TranslucentLayers);
+        }
+        writes
+    }
+
+    fn encode(&mut self, frame: &mut Frame<'_, '_>, _: Written<'_>) -> Result<(), RuntimeError> {
+        let size = frame.target.texture().size();
+        let resources = MeshResources::of(frame.resources, self.light_volumes);
+        self.layers.encode_under(frame.gpu, resources, frame.encoder, ([size.width, size.height], self.peeled))
+    }
+}
+
+/// The overlay of a view, as a node of its picture: meshes drawn over the picture.
+pub(crate) struct OverNode<'a>(pub &'a mut ViewLayers);
+
+impl PictureNode for OverNode<'_> {
+    fn reads(&self) -> Vec<Buffer> {
+        vec![Buffer::Picture]
+    }
+
+    fn writes(&self) -> Vec<Buffer> {
+        vec![Buffer::Picture]
+    }
+
+    fn encode(&mut self, frame: &mut Frame<'_, '_>, _: Written<'_>) -> Result<(), RuntimeError> {
+        let resources = MeshResources::of(frame.resources, &[]);
+        self.0.encode_over(frame.gpu, resources, frame.encoder, frame.target)
+    }
 }
