@@ -126,7 +126,7 @@ impl Analysis {
     fn report_scene(&mut self, scene_path: &Path) {
         let Ok(scene) = read_scene(scene_path) else { return };
         if let Some(scene) = &scene.scene {
-            for module in scene.modules.iter().chain(scene.views.iter().flat_map(|v| &v.modules)) {
+            for module in scene.module_refs() {
                 if let vrsc::scene::ModuleSource::File(file) = &module.source {
                     self.scene_modules.push(crate::scenes::canonical(&file.resolved));
                 }

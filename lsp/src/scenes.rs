@@ -82,9 +82,7 @@ fn listed_modules(path: &Path) -> Vec<PathBuf> {
         return Vec::new();
     };
     scene
-        .modules
-        .iter()
-        .chain(scene.views.iter().flat_map(|v| &v.modules))
+        .module_refs()
         .filter_map(|m| match &m.source {
             ModuleSource::File(file) => Some(canonical(&file.resolved)),
             ModuleSource::Std(_) => None,

@@ -66,6 +66,29 @@ fn a_scene_that_lists_the_module_adds_its_composition_errors() {
     client.shutdown();
 }
 
+/// A module the scene lists among a view's `filters` gets the errors of composing the view's
+/// filter pass: an image that no picture has.
+#[test]
+fn a_scene_that_lists_the_module_as_a_filter_adds_its_filter_pass_errors() {
+    let (_dir, root) = ablation_copy();
+    let scene = root.join("scene.toml");
+    let text = std::fs::read_to_string(&scene).unwrap();
+    let listed =
+        text.replacen("[[view]]\nname = \"3d\"", "[[view]]\nname = \"3d\"\nfilters = [{ path = \"dim.vrs\" }]", 1);
+    assert_ne!(listed, text, "the example's 3d view");
+    std::fs::write(&scene, listed).unwrap();
+    let path = root.join("dim.vrs");
+    let module = "pipeline dim in filter.apply {\n    uniform pictures: image;\n    state texel: vec2i;\n    state color: vec4f;\n    state.color = 0.5 * load(pictures, state.texel);\n}\n";
+    std::fs::write(&path, module).unwrap();
+    let (mut client, _) = Client::start(&root);
+    let uri = uri_of(&path);
+    client.open(&uri, module);
+    let answer = client.diagnostics(&uri);
+    let shown = client.show(&answer);
+    assert!(shown.contains("E0608") && shown.contains("`pictures`"), "{shown}");
+    client.shutdown();
+}
+
 #[test]
 fn hover_tells_types_lifetimes_defaults_docs_and_step_meanings() {
     let (_dir, root) = ablation_copy();

@@ -680,6 +680,12 @@ impl Scene {
         self.views.iter().find(|v| v.name.name == name)
     }
 
+    /// Every module the scene names, in order: its `[[module]]`s, then each view's `modules`
+    /// and `filters`.
+    pub fn module_refs(&self) -> impl Iterator<Item = &ModuleRef> {
+        self.modules.iter().chain(self.views.iter().flat_map(|v| v.modules.iter().chain(&v.filters)))
+    }
+
     /// Whether `view` has a mesh layer: meshes, groups, or slice views' pictures on their planes
     /// under its volume.
     pub fn has_mesh_layer(view: &View) -> bool {
