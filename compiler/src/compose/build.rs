@@ -198,8 +198,7 @@ pub fn compose_scene_with(
         views.push(output);
     }
     data_flow.finish(&mut diags);
-    let composed = |v: &ViewOutput| v.shader.is_some() && v.filter.as_ref().is_none_or(|f| f.shader.is_some());
-    let every_view = only_view.is_none() && views.iter().all(composed);
+    let every_view = only_view.is_none() && views.iter().all(view_composed);
     check_against_views(&scene, &views, every_view, &mut diags);
     if let Some(name) = only_view
         && views.is_empty()
@@ -211,6 +210,11 @@ pub fn compose_scene_with(
         );
     }
     BuiltScene { sources, diags, scene: Some(scene), views }
+}
+
+/// Whether a view composed: its shader, and its filter pass's when it has one.
+pub(crate) fn view_composed(view: &ViewOutput) -> bool {
+    view.shader.is_some() && view.filter.as_ref().is_none_or(|f| f.shader.is_some())
 }
 
 /// The checks of a scene's values against its composed views (`every_view`: all of them, each

@@ -98,13 +98,14 @@ fn still_clean(parsed: &build::ParsedScene, scene: &Scene, built: &BuiltScene) -
     }
     let mut diags = crate::diag::Diagnostics::new();
     super::limits::check_counts(scene).into_iter().for_each(|d| diags.push(d));
-    let every_view = built.views.iter().all(|v| v.shader.is_some());
+    let every_view = built.views.iter().all(build::view_composed);
     build::check_against_views(scene, &built.views, every_view, &mut diags);
     diags.is_empty()
 }
 
 /// Everything of a scene that shapes its shaders: per view, its name and kind and the modules
-/// composed for it (standard ones with their instances, then the scene's and the view's).
+/// composed for it (standard ones with their instances, then the scene's and the view's, then
+/// its filters).
 pub fn structural_key(scene: &Scene) -> String {
     let mut key = String::new();
     for view in &scene.views {
@@ -113,6 +114,12 @@ pub fn structural_key(scene: &Scene) -> String {
             let _ = write!(key, " std::{}{:?}", std.name, std.instances);
         }
         for module in scene.modules.iter().chain(&view.modules) {
+            key.push(' ');
+            module_key(&mut key, module);
+        }
+        // The filter pass is a shader of its own.
+        key.push_str(" filters:");
+        for module in &view.filters {
             key.push(' ');
             module_key(&mut key, module);
         }
@@ -212,12 +219,21 @@ mod tests {
         std::fs::write(&path, scene(0.25, "mip")).unwrap();
         assert!(!cache.build(&path).unwrap().hit, "another compositing mode is another shader");
 
+        let filtered = scene(0.25, "mip") + "filters = [{ path = \"std::luminance\" }]\n";
+        std::fs::write(&path, &filtered).unwrap();
+        let with_filters = cache.build(&path).unwrap();
+        assert!(!with_filters.hit, "a filter pass is a shader of its own");
+        assert!(with_filters.built.views[0].filter.as_ref().is_some_and(|f| f.shader.is_some()));
+        std::fs::write(&path, scene(0.25, "mip")).unwrap();
+        let without = cache.build(&path).unwrap();
+        assert!(without.hit && without.built.views[0].filter.is_none(), "the composition without filters again");
+
         std::fs::write(dir.path().join("dim.vrs"), MODULE.replace("0.5", "0.75")).unwrap();
         assert!(!cache.build(&path).unwrap().hit, "an edited module file is composed again");
 
         std::fs::write(&path, scene(0.25, "dvr").replace("[render]", "[render]\nshadnig = true")).unwrap();
         let invalid = cache.build(&path).unwrap();
         assert!(!invalid.hit && invalid.scene.is_none() && invalid.built.diags.has_errors());
-        assert_eq!(cache.stats(), CacheStats { hits: 1, misses: 4 });
+        assert_eq!(cache.stats(), CacheStats { hits: 2, misses: 5 });
     }
 }
