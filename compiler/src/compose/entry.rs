@@ -295,12 +295,8 @@ fn increment(b: &mut Body, block: &mut naga::Block, counter: Handle<E>) {
 pub fn build(module: &mut naga::Module, plan: &EntryPlan) -> naga::EntryPoint {
     let (mut b, state_var, counter_var) = Body::entry_function(module, plan);
     let mut body = naga::Block::new();
-    let Pixel { p, size, output } = b.pixel_in_region(&mut body, (plan.output, plan.region));
-    let state = b.expr(E::LocalVariable(state_var));
-    b.call(&mut body, plan.init_state, state);
-    if let Some(member) = plan.pixel {
-        b.store_pixel_centre(&mut body, state, member, p, size);
-    }
+    let images = (plan.output, plan.region);
+    let (Pixel { p, size, output }, state) = b.begin_pixel(&mut body, images, (state_var, plan.init_state), plan.pixel);
     for load in &plan.geometry {
         b.load_layer_texel(&mut body, state, load, p, size);
     }
@@ -376,12 +372,9 @@ pub struct FilterEntryPlan {
 pub fn build_filter(module: &mut naga::Module, plan: &FilterEntryPlan) -> naga::EntryPoint {
     let (mut b, state_var, _) = Body::entry_function_of(module, plan.state_type);
     let mut body = naga::Block::new();
-    let Pixel { p, size, output } = b.pixel_in_region(&mut body, (plan.output, plan.region));
-    let state = b.expr(E::LocalVariable(state_var));
-    b.call(&mut body, plan.init_state, state);
-    if let Some(member) = plan.pixel {
-        b.store_pixel_centre(&mut body, state, member, p, size);
-    }
+    let images = (plan.output, plan.region);
+    let (Pixel { p, size: _, output }, state) =
+        b.begin_pixel(&mut body, images, (state_var, plan.init_state), plan.pixel);
     if let Some(member) = plan.texel {
         let texel = b.expr(E::As { expr: p, kind: naga::ScalarKind::Sint, convert: Some(4) });
         let pointer = b.component(state, member);
@@ -818,6 +811,25 @@ impl Body {
             .local_variables
             .append(naga::LocalVariable { name: Some("i".into()), ty: u32_ty, init: None }, naga::Span::UNDEFINED);
         (Body { func, emitter: Emitter::default() }, state_var, counter_var)
+    }
+
+    /// The start of every entry point: the pixel of the region (returning past it), the state
+    /// set to every field's default (`init_state`) and its `pixel` member, if any, to the
+    /// pixel's centre. Returns the pixel and the state.
+    fn begin_pixel(
+        &mut self,
+        body: &mut naga::Block,
+        images: (Handle<naga::GlobalVariable>, Handle<naga::GlobalVariable>),
+        (state_var, init_state): (Handle<naga::LocalVariable>, Handle<naga::Function>),
+        pixel: Option<u32>,
+    ) -> (Pixel, Handle<E>) {
+        let found = self.pixel_in_region(body, images);
+        let state = self.expr(E::LocalVariable(state_var));
+        self.call(body, init_state, state);
+        if let Some(member) = pixel {
+            self.store_pixel_centre(body, state, member, found.p, found.size);
+        }
+        (found, state)
     }
 
     /// The dispatch covers `region`; pixels past its end or the image's (the last workgroups
