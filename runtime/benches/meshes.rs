@@ -6,7 +6,9 @@
 //! 1.2x at 512^2. A closed mesh's back faces are culled; the same sphere with one triangle
 //! missing (open: every face drawn) shows what that saves. The same sphere at opacity 0.5 is
 //! peeled into the translucent layers and blended into the rays (std::translucent): turning,
-//! the peeling passes draw it five times a frame; still, what is left is the rays' share.
+//! the peeling passes draw it five times a frame; still, what is left is the rays' share. Two
+//! rows add a filter pass over the mesh's frame: `std::luminance` (a copy of the picture and one
+//! pass) and `std::ssao` with `std::edges` (16 and 12 depth reads a pixel).
 //!
 //! The volume is the MNI152 T1 of `../shared/data` when it is there, else the built-in head
 //! phantom (said in the output). Run: `cargo bench -p vrs-runtime --bench meshes`; settings:
@@ -50,8 +52,11 @@ fn write_sphere_stl(path: &Path, centre: glam::Vec3, radius: f32, triangles: u32
     count
 }
 
-/// The scene with the mesh file `mesh` (none: `""`) of `opacity`, shaded with one light or not.
-fn scene(volume: &str, size: u32, (mesh, opacity): (&str, f32), shading: bool) -> String {
+/// The scene with the mesh file `mesh` (none: `""`) of `opacity`, shaded with one light or not,
+/// its view's `filters` those listed (standard modules).
+fn scene(volume: &str, size: u32, (mesh, opacity): (&str, f32), shading: bool, filters: &[&str]) -> String {
+    let filters: Vec<String> = filters.iter().map(|f| format!("{{ path = \"std::{f}\" }}")).collect();
+    let filters = if filters.is_empty() { String::new() } else { format!("filters = [{}]\n", filters.join(", ")) };
     let mesh = if mesh.is_empty() {
         String::new()
     } else {
@@ -61,7 +66,7 @@ fn scene(volume: &str, size: u32, (mesh, opacity): (&str, f32), shading: bool) -
         "[render]\ncompositing = \"dvr\"\nshading = {shading}\njitter = 1.0\n\n\
          [[volume]]\nname = \"t1\"\nrole = \"primary\"\n{volume}\ntf = \"skin.json\"\n\n{mesh}\
          [[view]]\nname = \"3d\"\nkind = \"raycast\"\nsize = [{size}, {size}]\n\
-         camera = {{ azimuth = 35.0, elevation = 15.0, distance = 2.4 }}\n"
+         camera = {{ azimuth = 35.0, elevation = 15.0, distance = 2.4 }}\n{filters}"
     )
 }
 
@@ -108,32 +113,35 @@ fn main() {
         "adapter: {}, {size}x{size}, {rounds} rounds of {frames} frames, a mesh of {triangles} triangles",
         gpu.adapter
     );
-    // (name, mesh file and its opacity, degrees the camera turns per frame)
+    // (name, mesh file and its opacity, degrees the camera turns per frame, filters)
+    let none: &[&str] = &[];
     let variants = [
-        ("DVR", ("", 1.0), 0.05),
-        ("DVR + mesh, camera turning", ("ball.stl", 1.0), 0.05),
-        ("DVR + mesh, camera still", ("ball.stl", 1.0), 0.0),
-        ("DVR + open mesh, camera turning", ("open.stl", 1.0), 0.05),
-        ("DVR + translucent mesh, turning", ("ball.stl", 0.5), 0.05),
-        ("DVR + translucent mesh, still", ("ball.stl", 0.5), 0.0),
+        ("DVR", ("", 1.0), 0.05, none),
+        ("DVR + mesh, camera turning", ("ball.stl", 1.0), 0.05, none),
+        ("DVR + mesh, camera still", ("ball.stl", 1.0), 0.0, none),
+        ("DVR + open mesh, camera turning", ("open.stl", 1.0), 0.05, none),
+        ("DVR + translucent mesh, turning", ("ball.stl", 0.5), 0.05, none),
+        ("DVR + translucent mesh, still", ("ball.stl", 0.5), 0.0, none),
+        ("DVR + mesh + luminance, turning", ("ball.stl", 1.0), 0.05, &["luminance"][..]),
+        ("DVR + mesh + SSAO, edges, turning", ("ball.stl", 1.0), 0.05, &["ssao", "edges"][..]),
     ];
     let mut renderers: Vec<SceneRenderer> = variants
         .iter()
         .enumerate()
-        .map(|(i, &(_, mesh, _))| {
+        .map(|(i, &(_, mesh, _, filters))| {
             let path = dir.path().join(format!("scene{i}.toml"));
-            std::fs::write(&path, scene(&volume, size, mesh, shading)).expect("scene written");
+            std::fs::write(&path, scene(&volume, size, mesh, shading, filters)).expect("scene written");
             SceneRenderer::open(gpu.clone(), &path, RenderOptions::default(), &mut |_, _, _| {}).expect("opens")
         })
         .collect();
     let mut times = vec![Vec::new(); variants.len()];
     for _ in 0..rounds {
-        for ((renderer, times), &(_, _, turn)) in renderers.iter_mut().zip(&mut times).zip(&variants) {
+        for ((renderer, times), &(_, _, turn, _)) in renderers.iter_mut().zip(&mut times).zip(&variants) {
             times.extend(frame_times(renderer, frames, turn));
         }
     }
     let medians: Vec<f64> = times.into_iter().map(median).collect();
-    for ((name, _, _), ms) in variants.iter().zip(&medians) {
+    for ((name, _, _, _), ms) in variants.iter().zip(&medians) {
         println!("{name:<30} {ms:8.1} ms");
     }
     println!("mesh (drawn every frame) over DVR: {:.3}x (target <= 1.2)", medians[1] / medians[0]);
@@ -143,5 +151,10 @@ fn main() {
         "translucent (peeled) over DVR:      {:.3}x, camera still {:.3}x",
         medians[4] / medians[0],
         medians[5] / medians[0]
+    );
+    println!(
+        "a filter pass over the mesh's frame:  luminance {:.3}x, SSAO and edges {:.3}x",
+        medians[6] / medians[1],
+        medians[7] / medians[1]
     );
 }
