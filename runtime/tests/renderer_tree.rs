@@ -351,18 +351,10 @@ camera = { azimuth = 0.0, elevation = 70.0, distance = 2.2 }
 #[test]
 fn a_shadow_groups_meshes_shadow_the_volume_from_the_light_it_follows() {
     let dir = tempfile::tempdir().expect("a folder");
-    let side = 32usize;
-    let values: Vec<f32> = (0..side * side * side).map(|i| if i / (side * side) < 9 { 1000.0 } else { 0.0 }).collect();
-    let identity = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
-    common::write_nrrd(&dir.path().join("slab.nrrd"), "RAS", [32; 3], identity, [0.0; 3], &values);
-    let tf = r#"[{"Name": "opaque", "RGBPoints": [0, 1, 1, 1, 1000, 1, 1, 1], "Points": [0, 0, 0.5, 0, 499, 0, 0.5, 0, 500, 1, 0.5, 0, 1000, 1, 0.5, 0]}]"#;
-    std::fs::write(dir.path().join("opaque.json"), tf).expect("tf written");
+    let slab = |_x: usize, z: usize| z < 9;
     let open_with = |picture: &str| {
-        let path = dir.path().join("scene.toml");
         let text = SLAB_SCENE.replace("size = [64, 64]", &format!("size = [64, 64]\npicture = {picture}"));
-        std::fs::write(&path, text).expect("scene written");
-        SceneRenderer::open(common::software_gpu(), &path, RenderOptions::default(), &mut |_, _, _| {})
-            .unwrap_or_else(|e| panic!("{e}"))
+        open_tissue(dir.path(), ("slab.nrrd", &slab), &text)
     };
     let mut plain = open_with(r#"["ball", "post", "volume"]"#);
     let before = plain.render_all().expect("render").remove(0).1;
@@ -407,6 +399,23 @@ fn meets_post(origin: Vec3, dir: Vec3) -> bool {
         far = far.min(a.max(b));
     }
     near <= far
+}
+
+/// Writes the volume `file` (32^3 voxels of 1 mm: opaque white tissue where `inside(x, z)`,
+/// nothing elsewhere, through the transfer function `opaque.json`) and `scene` into `dir`, and
+/// opens the scene.
+fn open_tissue(dir: &Path, (file, inside): (&str, &dyn Fn(usize, usize) -> bool), scene: &str) -> SceneRenderer {
+    let side = 32usize;
+    let values: Vec<f32> =
+        (0..side * side * side).map(|i| if inside(i % side, i / (side * side)) { 1000.0 } else { 0.0 }).collect();
+    let identity = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+    common::write_nrrd(&dir.join(file), "RAS", [32; 3], identity, [0.0; 3], &values);
+    let tf = r#"[{"Name": "opaque", "RGBPoints": [0, 1, 1, 1, 1000, 1, 1, 1], "Points": [0, 0, 0.5, 0, 499, 0, 0.5, 0, 500, 1, 0.5, 0, 1000, 1, 0.5, 0]}]"#;
+    std::fs::write(dir.join("opaque.json"), tf).expect("tf written");
+    let path = dir.join("scene.toml");
+    std::fs::write(&path, scene).expect("scene written");
+    SceneRenderer::open(common::software_gpu(), &path, RenderOptions::default(), &mut |_, _, _| {})
+        .unwrap_or_else(|e| panic!("{e}"))
 }
 
 /// An opaque shelf of tissue (the volume: x < 15.5 mm, 19.5 mm < z < 23.5 mm) over a floor in a
@@ -460,21 +469,8 @@ camera = { azimuth = 0.0, elevation = 12.0, distance = 2.2 }
 #[test]
 fn the_volume_shadows_a_shadow_groups_meshes_from_the_light_it_follows() {
     let dir = tempfile::tempdir().expect("a folder");
-    let side = 32usize;
-    let values: Vec<f32> = (0..side * side * side)
-        .map(|i| {
-            let (x, z) = (i % side, i / (side * side));
-            if x < 16 && (20..24).contains(&z) { 1000.0 } else { 0.0 }
-        })
-        .collect();
-    let identity = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
-    common::write_nrrd(&dir.path().join("shelf.nrrd"), "RAS", [32; 3], identity, [0.0; 3], &values);
-    let tf = r#"[{"Name": "opaque", "RGBPoints": [0, 1, 1, 1, 1000, 1, 1, 1], "Points": [0, 0, 0.5, 0, 499, 0, 0.5, 0, 500, 1, 0.5, 0, 1000, 1, 0.5, 0]}]"#;
-    std::fs::write(dir.path().join("opaque.json"), tf).expect("tf written");
-    let path = dir.path().join("scene.toml");
-    std::fs::write(&path, SHELF_SCENE).expect("scene written");
-    let mut renderer = SceneRenderer::open(common::software_gpu(), &path, RenderOptions::default(), &mut |_, _, _| {})
-        .unwrap_or_else(|e| panic!("{e}"));
+    let shelf = |x: usize, z: usize| x < 16 && (20..24).contains(&z);
+    let mut renderer = open_tissue(dir.path(), ("shelf.nrrd", &shelf), SHELF_SCENE);
     let image = renderer.render_all().expect("render").remove(0).1;
     let (dims, grid_to_world) = renderer.primary_grid().expect("a primary volume");
     let to_world = vrs_runtime::geometry::volume_to_world(dims, grid_to_world);
