@@ -5,7 +5,7 @@
 mod common;
 
 use std::path::Path;
-use vrs_runtime::{ProbeAt, ProbeSpec, RenderOptions, SceneRenderer};
+use vrs_runtime::{ProbeAt, ProbeSpec, SceneRenderer};
 
 /// A transparent volume (the transfer function is clear everywhere) over a coloured background,
 /// so a view's picture is its meshes' colour over that background; the meshes follow.
@@ -62,19 +62,10 @@ camera = { azimuth = 30.0, elevation = 35.0, distance = 2.2 }
 /// Writes the scene (`scene` after the volume; `SCENE`'s meshes and view when it is `SCENE`)
 /// into `dir` with its volume, its view given `extra` lines, and opens it.
 fn open(dir: &Path, scene: &str, extra: &str) -> SceneRenderer {
-    let values = vec![1000.0f32; 32 * 32 * 32];
-    let identity = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
-    common::write_nrrd(&dir.join("cube.nrrd"), "RAS", [32; 3], identity, [0.0; 3], &values);
-    let tf =
-        r#"[{"Name": "clear", "RGBPoints": [0, 1, 1, 1, 1000, 1, 1, 1], "Points": [0, 0, 0.5, 0, 1000, 0, 0.5, 0]}]"#;
-    std::fs::write(dir.join("clear.json"), tf).expect("tf written");
     let head = SCENE.split("[[mesh]]").next().unwrap_or_default();
     let body = if scene == SCENE { SCENE.trim_start_matches(head) } else { scene };
     let text = format!("{head}{}", body.replace("size = [96, 96]", &format!("size = [96, 96]\n{extra}")));
-    let path = dir.join("scene.toml");
-    std::fs::write(&path, text).expect("scene written");
-    SceneRenderer::open(common::software_gpu(), &path, RenderOptions::default(), &mut |_, _, _| {})
-        .unwrap_or_else(|e| panic!("{e}"))
+    common::open_with_clear_cube(dir, &text)
 }
 
 fn render(dir: &Path, scene: &str, extra: &str) -> image::RgbaImage {

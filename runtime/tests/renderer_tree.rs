@@ -55,17 +55,8 @@ camera = { azimuth = 60.0, elevation = 25.0, distance = 2.2 }
 /// The scene of `TRANSPARENT_VOLUME` and `scene`, its view's picture `picture`, written into
 /// `dir` with its volume and opened.
 fn open(dir: &Path, scene: &str, picture: &str) -> SceneRenderer {
-    let values = vec![1000.0f32; 32 * 32 * 32];
-    let identity = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
-    common::write_nrrd(&dir.join("cube.nrrd"), "RAS", [32; 3], identity, [0.0; 3], &values);
-    let tf =
-        r#"[{"Name": "clear", "RGBPoints": [0, 1, 1, 1, 1000, 1, 1, 1], "Points": [0, 0, 0.5, 0, 1000, 0, 0.5, 0]}]"#;
-    std::fs::write(dir.join("clear.json"), tf).expect("tf written");
-    let path = dir.join("scene.toml");
     let text = scene.replace("size = [64, 64]", &format!("size = [64, 64]\npicture = {picture}"));
-    std::fs::write(&path, format!("{TRANSPARENT_VOLUME}{text}")).expect("scene written");
-    SceneRenderer::open(common::software_gpu(), &path, RenderOptions::default(), &mut |_, _, _| {})
-        .unwrap_or_else(|e| panic!("{e}"))
+    common::open_with_clear_cube(dir, &format!("{TRANSPARENT_VOLUME}{text}"))
 }
 
 fn render(dir: &Path, scene: &str, picture: &str) -> image::RgbaImage {

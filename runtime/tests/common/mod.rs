@@ -88,6 +88,22 @@ pub fn check_golden(name: &str, actual: &RgbaImage) -> Result<(), String> {
     ))
 }
 
+/// Writes `scene` into `dir` with `cube.nrrd` (32^3 voxels of 1 mm, all 1000, RAS) and
+/// `clear.json` (a transfer function clear everywhere: the volume shows nothing, so a picture is
+/// its meshes over the background), and opens it.
+pub fn open_with_clear_cube(dir: &Path, scene: &str) -> vrs_runtime::SceneRenderer {
+    let values = vec![1000.0f32; 32 * 32 * 32];
+    let identity = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+    write_nrrd(&dir.join("cube.nrrd"), "RAS", [32; 3], identity, [0.0; 3], &values);
+    let tf =
+        r#"[{"Name": "clear", "RGBPoints": [0, 1, 1, 1, 1000, 1, 1, 1], "Points": [0, 0, 0.5, 0, 1000, 0, 0.5, 0]}]"#;
+    std::fs::write(dir.join("clear.json"), tf).expect("tf written");
+    let path = dir.join("scene.toml");
+    std::fs::write(&path, scene).expect("scene written");
+    vrs_runtime::SceneRenderer::open(software_gpu(), &path, vrs_runtime::RenderOptions::default(), &mut |_, _, _| {})
+        .unwrap_or_else(|e| panic!("{e}"))
+}
+
 /// Writes float samples as a NRRD file with `space`, `space directions` and `space origin`.
 pub fn write_nrrd(
     path: &Path,
