@@ -254,10 +254,7 @@ impl SceneHandle {
             let mut order = Vec::new();
             for view in state.renderer.views() {
                 // The view's shader's uniforms, then its filter pass's.
-                let filter = view.renderer.filter_shader().into_iter();
-                let infos =
-                    [view.renderer.shader()].into_iter().chain(filter).flat_map(|s| s.reflection.uniforms.iter());
-                for u in infos {
+                for u in view.renderer.reflections().flat_map(|r| r.uniforms.iter()) {
                     let Some(value) = view.renderer.uniform(&u.name) else { continue };
                     let entry = seen.entry(u.name.clone()).or_insert_with(|| {
                         order.push(u.name.clone());
@@ -485,8 +482,8 @@ fn current(state: &State, name: &str) -> Outcome<(String, Value)> {
         .renderer
         .views()
         .iter()
-        .flat_map(|v| [Some(v.renderer.shader()), v.renderer.filter_shader()].into_iter().flatten())
-        .flat_map(|s| s.reflection.uniforms.iter().filter(|u| u.offset.is_some()).map(|u| u.name.clone()))
+        .flat_map(|v| v.renderer.reflections())
+        .flat_map(|r| r.uniforms.iter().filter(|u| u.offset.is_some()).map(|u| u.name.clone()))
         .collect::<std::collections::BTreeSet<_>>()
         .into_iter()
         .collect();

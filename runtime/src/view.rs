@@ -142,16 +142,6 @@ impl ViewRenderer {
         std::iter::once(&*self.volume.shader().reflection).chain(filter)
     }
 
-    /// The compiled filter pass, when the view has one.
-    pub fn filter_shader(&self) -> Option<&ViewShader> {
-        self.filter.as_ref().map(FilterPass::shader)
-    }
-
-    /// The filter pass's uniform values, when the view has one.
-    pub fn filter_uniforms(&self) -> Option<&UniformBlock> {
-        self.filter.as_ref().map(FilterPass::uniforms)
-    }
-
     /// The uniform values as they are now (what the next frame uploads).
     pub fn uniforms(&self) -> &UniformBlock {
         self.volume.uniforms()

@@ -109,8 +109,7 @@ impl SceneRenderer {
         let at = spec.at.unwrap_or(default_at(field));
         check_at(&probe.layout, at)?;
         let r = &mut probe.view.renderer;
-        let filter = view.renderer.filter_shader().into_iter();
-        for u in [view.renderer.shader()].into_iter().chain(filter).flat_map(|s| s.reflection.uniforms.iter()) {
+        for u in view.renderer.reflections().flat_map(|r| r.uniforms.iter()) {
             if r.has_uniform(&u.name)
                 && let Some(value) = view.renderer.uniform(&u.name)
             {
