@@ -487,76 +487,67 @@ fn compose_loaded(
     view: &View,
     (loaded, filters): (LoadedView, Option<LoadedView>),
 ) -> (ViewOutput, Diagnostics) {
-    let ComposeContext { sources, keep, .. } = *context;
-    let LoadedView { graph, uses, mut diags } = loaded;
-    let program = check::check_program(&graph, sources, &mut diags);
-    let is_std = |m: usize| graph.modules.get(m).is_some_and(|m| m.std_name.is_some());
-    // A function with an error is left out of the program, so placing what is left would report
-    // its absence (fields without defaults, reads before writes, a template that looks like a
-    // plain module): follow-ons of the errors already reported. Those are the only ones shown.
-    let kind = (PipelineKind::Ray, is_std);
-    let composition = if diags.has_errors() || graph.modules.iter().any(|m| m.incomplete) {
-        super::compose(&program, &uses, kind, entry::ENTRY_FIELDS, &mut Diagnostics::new())
-    } else {
-        super::compose(&program, &uses, kind, entry::ENTRY_FIELDS, &mut diags)
-    };
-    let emitted = if diags.has_errors() {
-        None
-    } else {
-        match emit_shader(context, view, &program, &composition) {
-            Ok(emitted) => Some(emitted),
-            Err(d) => {
-                diags.push(d);
-                None
-            }
-        }
-    };
-    let (shader, module) = emitted.unzip();
-    // Unless kept, the program and the module are freed here, by the thread that made them.
-    let ir = (keep == Keep::Ir).then(|| ViewIr { program, module });
-    let filter = filters.map(|filters| compose_filters(context, view, filters, &mut diags));
+    let (ray, mut diags) = compose_pipeline(context, view, loaded, PipelineKind::Ray);
+    let filter = filters.map(|filters| {
+        let (pass, own) = compose_pipeline(context, view, filters, PipelineKind::Filter);
+        own.iter().for_each(|d| diags.push(d.clone()));
+        let (composition, shader, ir) = pass.into_parts(context.keep);
+        FilterOutput { composition, shader, ir }
+    });
+    let (composition, shader, ir) = ray.into_parts(context.keep);
     (ViewOutput { name: view.name.name.clone(), composition, shader, ir, filter }, diags)
 }
 
-/// Checks, places and emits a view's filter pass.
-fn compose_filters(
+/// One pipeline of a view, composed: its checked program, its composition, and its shader with
+/// its validated module (`None` after errors).
+struct ComposedPipeline {
+    program: crate::hir::Program,
+    composition: Composition,
+    emitted: Option<(ViewShader, ValidModule)>,
+}
+
+impl ComposedPipeline {
+    /// The composition, the shader, and the intermediate forms when `keep` asks for them
+    /// (unless kept, the program and the module are freed here, by the thread that made them).
+    fn into_parts(self, keep: Keep) -> (Composition, Option<ViewShader>, Option<ViewIr>) {
+        let (shader, module) = self.emitted.unzip();
+        (self.composition, shader, (keep == Keep::Ir).then(|| ViewIr { program: self.program, module }))
+    }
+}
+
+/// Checks, places and emits the pipeline of `kind` of a view from its loaded modules; the
+/// diagnostics are the loaded ones and what composing added.
+fn compose_pipeline(
     context: &ComposeContext<'_>,
     view: &View,
     loaded: LoadedView,
-    diags: &mut Diagnostics,
-) -> FilterOutput {
-    let ComposeContext { scene, sources, keep, .. } = *context;
-    let LoadedView { graph, uses, diags: mut own } = loaded;
-    let program = check::check_program(&graph, sources, &mut own);
+    kind: PipelineKind,
+) -> (ComposedPipeline, Diagnostics) {
+    let ComposeContext { scene, sources, .. } = *context;
+    let LoadedView { graph, uses, mut diags } = loaded;
+    let program = check::check_program(&graph, sources, &mut diags);
     let is_std = |m: usize| graph.modules.get(m).is_some_and(|m| m.std_name.is_some());
-    let kind = (PipelineKind::Filter, is_std);
-    let composition = if own.has_errors() || graph.modules.iter().any(|m| m.incomplete) {
-        super::compose(&program, &uses, kind, entry::FILTER_ENTRY_FIELDS, &mut Diagnostics::new())
-    } else {
-        super::compose(&program, &uses, kind, entry::FILTER_ENTRY_FIELDS, &mut own)
+    let required = match kind {
+        PipelineKind::Ray => entry::ENTRY_FIELDS,
+        PipelineKind::Filter => entry::FILTER_ENTRY_FIELDS,
     };
-    if !own.has_errors() {
-        layer_check::check_filter_inputs(scene, view, &composition, &mut own);
+    // A function with an error is left out of the program, so placing what is left would report
+    // its absence (fields without defaults, reads before writes, a template that looks like a
+    // plain module): follow-ons of the errors already reported. Those are the only ones shown.
+    let composition = if diags.has_errors() || graph.modules.iter().any(|m| m.incomplete) {
+        super::compose(&program, &uses, (kind, is_std), required, &mut Diagnostics::new())
+    } else {
+        super::compose(&program, &uses, (kind, is_std), required, &mut diags)
+    };
+    if kind == PipelineKind::Filter && !diags.has_errors() {
+        layer_check::check_filter_inputs(scene, view, &composition, &mut diags);
     }
-    let emitted = if own.has_errors() {
+    let emitted = if diags.has_errors() {
         None
     } else {
-        let emitted = super::filter::emit(&program, &composition, sources).and_then(|vm| {
-            let wgsl = crate::lower::write_wgsl(&vm.module, &vm.info)?;
-            let reflection = reflect::reflect(scene, view, &program, &composition, &vm, &wgsl, sources);
-            Ok((ViewShader { wgsl, reflection }, ValidModule { module: vm.module, info: vm.info }))
-        });
-        match emitted {
-            Ok(emitted) => Some(emitted),
-            Err(d) => {
-                own.push(d);
-                None
-            }
-        }
+        emit_shader(context, view, (kind, &program), &composition).map_err(|d| diags.push(d)).ok()
     };
-    own.iter().for_each(|d| diags.push(d.clone()));
-    let (shader, module) = emitted.unzip();
-    FilterOutput { composition, shader, ir: (keep == Keep::Ir).then(|| ViewIr { program, module }) }
+    (ComposedPipeline { program, composition, emitted }, diags)
 }
 
 /// Each bricked volume's binding and the file of its own lookup (`[[volume]] lookup`), if any.
@@ -605,10 +596,11 @@ fn load_module(loader: &mut Loader<'_>, module_ref: &ModuleRef) -> Result<usize,
     }
 }
 
+/// The shader of a view's pipeline of `kind` and its validated module.
 fn emit_shader(
     context: &ComposeContext<'_>,
     view: &View,
-    program: &crate::hir::Program,
+    (kind, program): (PipelineKind, &crate::hir::Program),
     composition: &Composition,
 ) -> Result<(ViewShader, ValidModule), Diagnostic> {
     let ComposeContext { scene, sources, lookups, .. } = *context;
@@ -622,7 +614,10 @@ fn emit_shader(
             (binding.clone(), lookup)
         })
         .collect();
-    let vm = view::emit(program, composition, sources, &bricked)?;
+    let vm = match kind {
+        PipelineKind::Ray => view::emit(program, composition, sources, &bricked)?,
+        PipelineKind::Filter => super::filter::emit(program, composition, sources)?,
+    };
     let wgsl = crate::lower::write_wgsl(&vm.module, &vm.info)?;
     let reflection = reflect::reflect(scene, view, program, composition, &vm, &wgsl, sources);
     Ok((ViewShader { wgsl, reflection }, ValidModule { module: vm.module, info: vm.info }))

@@ -10,35 +10,20 @@
 
 use super::entry::{self, FilterEntryPlan};
 use super::ir::{Composition, Uniform};
-use super::view::{self, Bindings, StepLowering, ViewModule};
+use super::view::{self, ModuleHead, StepLowering, ViewModule};
 use crate::diag::Diagnostic;
 use crate::hir;
-use crate::lower::{self, ModuleBuilder};
-use crate::source::{SourceMap, Span};
+use crate::lower::ModuleBuilder;
+use crate::source::SourceMap;
 use crate::steps::Step;
-use crate::types::Type;
-use vrs_reflection::BindingKind;
 
 /// Builds and validates the module of a filter composition. Errors are internal (E0901), as
 /// for a ray pipeline: what a user can get wrong was reported before.
 pub fn emit(program: &hir::Program, comp: &Composition, sources: &SourceMap) -> Result<ViewModule, Diagnostic> {
     let mut b = ModuleBuilder::new();
-    let fields: Vec<(String, Type)> = comp.fields.iter().map(|f| (f.name.clone(), f.ty)).collect();
-    let state_type = b.add_struct("State", &fields, Span::DUMMY)?;
-
     let uniforms: Vec<Uniform> = comp.uniforms.iter().filter(|u| !u.ty.is_resource()).cloned().collect();
-    let mut bindings = Bindings::default();
-    let block = if uniforms.is_empty() {
-        None
-    } else {
-        let members: Vec<(String, Type)> = uniforms.iter().map(|u| (u.name.clone(), u.ty)).collect();
-        let binding = bindings.next("uniforms", BindingKind::UniformBlock);
-        Some(b.add_uniform_block("Uniforms", "uniforms", &members, binding, Span::DUMMY)?)
-    };
-    let output_binding = bindings.next("output", BindingKind::OutputImage);
-    let output = view::add_storage_image(&mut b, "output", naga::StorageFormat::Rgba8Unorm, output_binding);
-    let region = view::add_region(&mut b, bindings.next("region", BindingKind::Region));
-    let access = view::bind_uniforms(&mut b, &mut bindings, (comp, &uniforms), block, &[])?;
+    let ModuleHead { state_type, block, output, region, access, bindings } =
+        ModuleHead::emit(&mut b, comp, &uniforms, &[])?;
 
     let steps = StepLowering { program, comp, state_type, access: &access };
     let functions = steps.lower(&mut b, &[Step::FilterSetup, Step::FilterApply, Step::FilterFinish])?;
@@ -54,12 +39,6 @@ pub fn emit(program: &hir::Program, comp: &Composition, sources: &SourceMap) -> 
         output,
         region,
     };
-    let state_layout = b.struct_layout(state_type).unwrap_or_else(view::empty_layout);
-    let block_type = block.map(|block| b.module.global_variables[block].ty);
-    let uniform_layout = block_type.and_then(|ty| b.struct_layout(ty)).unwrap_or_else(view::empty_layout);
-    let entry_point = entry::build_filter(&mut b.module, &plan);
-    let mut module = b.finish();
-    module.entry_points.push(entry_point);
-    let info = lower::validate(&module, sources, Span::DUMMY)?;
-    Ok(ViewModule { module, info, uniforms, uniform_layout, state_layout, bindings: bindings.list })
+    let parts = (state_type, block, uniforms, bindings);
+    view::finish_module(b, parts, |module| entry::build_filter(module, &plan), sources)
 }

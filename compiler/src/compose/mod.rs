@@ -29,8 +29,7 @@
 //! steps), `merge` (declarations into the composed state and uniforms, data flow). Their result,
 //! the `ir::Composition`, is what emission (`view`, `entry`) builds the shader from.
 
-use crate::diag::Diagnostics;
-use crate::diag::{Code, Diagnostic};
+use crate::diag::{Code, Diagnostic, Diagnostics};
 use crate::hir;
 use crate::steps::{PipelineKind, Step};
 use rustc_hash::FxHashMap;

@@ -49,18 +49,11 @@ pub fn emit(
     bricked: &[(String, LookupSource<'_>)],
 ) -> Result<ViewModule, Diagnostic> {
     let mut b = ModuleBuilder::new();
-    let fields: Vec<(String, Type)> = comp.fields.iter().map(|f| (f.name.clone(), f.ty)).collect();
-    let state_type = b.add_struct("State", &fields, Span::DUMMY)?;
-
     let uniforms = block_uniforms(comp);
-    let members: Vec<(String, Type)> = uniforms.iter().map(|u| (u.name.clone(), u.ty)).collect();
-    let mut bindings = Bindings::default();
-    let block_binding = bindings.next("uniforms", BindingKind::UniformBlock);
-    let block = b.add_uniform_block("Uniforms", "uniforms", &members, block_binding, Span::DUMMY)?;
-    let output_binding = bindings.next("output", BindingKind::OutputImage);
-    let output = add_storage_image(&mut b, "output", naga::StorageFormat::Rgba8Unorm, output_binding);
-    let region = add_region(&mut b, bindings.next("region", BindingKind::Region));
-    let access = bind_uniforms(&mut b, &mut bindings, (comp, &uniforms), Some(block), bricked)?;
+    let ModuleHead { state_type, block, output, region, access, mut bindings } =
+        ModuleHead::emit(&mut b, comp, &uniforms, bricked)?;
+    // `max_samples` is always a member.
+    let block = block.ok_or_else(|| lower::internal(Span::DUMMY, "a view without a uniform block"))?;
     // Last of the bindings, so a view that does not meter keeps its numbering.
     let metering = add_metering_image(&mut b, &mut bindings, comp);
     let geometry = add_geometry_images(&mut b, &mut bindings, comp);
@@ -117,10 +110,67 @@ pub fn emit(
         geometry,
         history,
     };
+    let parts = (state_type, Some(block), uniforms, bindings);
+    finish_module(b, parts, |module| entry::build(module, &plan), sources)
+}
+
+/// What every compute shader of a view begins with, in binding order: the `State` struct of
+/// the composition's fields, the uniform block (none without plain uniforms), the output image,
+/// the `region`, then the bindings of the composition's resource uniforms.
+pub(super) struct ModuleHead {
+    pub(super) state_type: Handle<naga::Type>,
+    pub(super) block: Option<Handle<naga::GlobalVariable>>,
+    pub(super) output: Handle<naga::GlobalVariable>,
+    pub(super) region: Handle<naga::GlobalVariable>,
+    /// How the lowered functions reach each uniform of the composition.
+    pub(super) access: Vec<UniformAccess>,
+    pub(super) bindings: Bindings,
+}
+
+impl ModuleHead {
+    /// Adds the head to `b`: `uniforms` are the block's members, `bricked` the lookups of the
+    /// bricked volumes.
+    pub(super) fn emit(
+        b: &mut ModuleBuilder,
+        comp: &Composition,
+        uniforms: &[Uniform],
+        bricked: &[(String, LookupSource<'_>)],
+    ) -> Result<ModuleHead, Diagnostic> {
+        let fields: Vec<(String, Type)> = comp.fields.iter().map(|f| (f.name.clone(), f.ty)).collect();
+        let state_type = b.add_struct("State", &fields, Span::DUMMY)?;
+        let mut bindings = Bindings::default();
+        let block = if uniforms.is_empty() {
+            None
+        } else {
+            let members: Vec<(String, Type)> = uniforms.iter().map(|u| (u.name.clone(), u.ty)).collect();
+            let binding = bindings.next("uniforms", BindingKind::UniformBlock);
+            Some(b.add_uniform_block("Uniforms", "uniforms", &members, binding, Span::DUMMY)?)
+        };
+        let output_binding = bindings.next("output", BindingKind::OutputImage);
+        let output = add_storage_image(b, "output", naga::StorageFormat::Rgba8Unorm, output_binding);
+        let region = add_region(b, bindings.next("region", BindingKind::Region));
+        let access = bind_uniforms(b, &mut bindings, (comp, uniforms), block, bricked)?;
+        Ok(ModuleHead { state_type, block, output, region, access, bindings })
+    }
+}
+
+/// Finishes the module of `b`: the layouts of its state and uniform block (`parts`: the state
+/// type, the block, its uniforms and every binding), the entry point `entry` builds, validation.
+pub(super) fn finish_module(
+    mut b: ModuleBuilder,
+    (state_type, block, uniforms, bindings): (
+        Handle<naga::Type>,
+        Option<Handle<naga::GlobalVariable>>,
+        Vec<Uniform>,
+        Bindings,
+    ),
+    entry: impl FnOnce(&mut naga::Module) -> naga::EntryPoint,
+    sources: &SourceMap,
+) -> Result<ViewModule, Diagnostic> {
     let state_layout = b.struct_layout(state_type).unwrap_or_else(empty_layout);
-    let block_type = b.module.global_variables[block].ty;
-    let uniform_layout = b.struct_layout(block_type).unwrap_or_else(empty_layout);
-    let entry_point = entry::build(&mut b.module, &plan);
+    let block_type = block.map(|block| b.module.global_variables[block].ty);
+    let uniform_layout = block_type.and_then(|ty| b.struct_layout(ty)).unwrap_or_else(empty_layout);
+    let entry_point = entry(&mut b.module);
     let mut module = b.finish();
     module.entry_points.push(entry_point);
     let info = lower::validate(&module, sources, Span::DUMMY)?;
