@@ -344,19 +344,12 @@ pub fn filter_probe_source(layout: &ProbeLayout) -> String {
     output.line(PASS_UNIFORM, format!("uniform {PASS_UNIFORM}: u32 = 0u;"));
     output.line(name, format!("{lifetime}state {name}: {ty};"));
     output.line("out_color", "state out_color: vec4f;".into());
-    let scalar = ty.scalar().unwrap_or(Scalar::F32);
-    let uses = if scalar == Scalar::F32 { "probe_color, probe_f32_bits" } else { "probe_color" };
-    output.line("use", format!("use {uses};"));
+    output.line("use", uses_line(ty));
     out.push_str("/// Writes pass `probe_pass` of the probed value into the pixel.\n");
     out.push_str("pipeline probe_output after filter.finish {\n");
     out.push_str(&output.text);
     let _ = writeln!(out, "\n    let value: {ty} = state.{name};");
-    let _ = write!(
-        out,
-        "    let words = vec4u({});\n    state.out_color = probe_color(words, {}u, {PASS_UNIFORM}, true);\n}}\n",
-        value_words(ty).join(", "),
-        layout.words
-    );
+    write_value(&mut out, layout, "true");
     out
 }
 
@@ -417,9 +410,7 @@ pub fn probe_source(layout: &ProbeLayout) -> String {
     output.line("probe_value", format!("@ray state probe_value: {ty};"));
     output.line("probe_hit", "@ray state probe_hit: bool;".into());
     output.line("out_color", "@ray state out_color: vec4f;".into());
-    let scalar = ty.scalar().unwrap_or(Scalar::F32);
-    let uses = if scalar == Scalar::F32 { "probe_color, probe_f32_bits" } else { "probe_color" };
-    output.line("use", format!("use {uses};"));
+    output.line("use", uses_line(ty));
     out.push_str("/// Writes pass `probe_pass` of the probed value into the pixel.\n");
     out.push_str("pipeline probe_output after ray.finish {\n");
     out.push_str(&output.text);
@@ -430,13 +421,7 @@ pub fn probe_source(layout: &ProbeLayout) -> String {
             "    if {MODE_UNIFORM} == 0u {{\n        value = state.{name};\n        has_value = true;\n    }}"
         );
     }
-    let words = value_words(ty);
-    let _ = write!(
-        out,
-        "    let words = vec4u({});\n    state.out_color = probe_color(words, {}u, {PASS_UNIFORM}, has_value);\n}}\n",
-        words.join(", "),
-        layout.words
-    );
+    write_value(&mut out, layout, "has_value");
     out
 }
 
@@ -455,6 +440,23 @@ impl Decls {
             let _ = writeln!(self.text, "    {line}");
         }
     }
+}
+
+/// The `use` line of `probe_output`: `std::probe`'s colouring, and its bits of an f32.
+fn uses_line(ty: Type) -> String {
+    let uses = if ty.scalar() == Some(Scalar::F32) { "probe_color, probe_f32_bits" } else { "probe_color" };
+    format!("use {uses};")
+}
+
+/// The end of `probe_output`: the local `value` as words, written into `out_color` as pass
+/// `probe_pass` shows them where `has_value` (a VRS expression) holds.
+fn write_value(out: &mut String, layout: &ProbeLayout, has_value: &str) {
+    let _ = write!(
+        out,
+        "    let words = vec4u({});\n    state.out_color = probe_color(words, {}u, {PASS_UNIFORM}, {has_value});\n}}\n",
+        value_words(layout.field.ty).join(", "),
+        layout.words
+    );
 }
 
 /// The four 32-bit words of the local `value` of type `ty` (unused ones 0u), as VRS source.
