@@ -10,7 +10,8 @@
 //! the limits, a sane voxel spacing), a Zarr store valid metadata; its voxels are read only by
 //! `render`. A mesh file is read
 //! in full, within the runtime's limits on size and triangles (its vertices and indices are
-//! checked), and a built-in shape whose points are all numbers is made.
+//! checked), and a built-in shape whose points are all numbers is made. An image file is
+//! decoded in full.
 
 use std::path::Path;
 use vrs_runtime::bricks::zarr::{StoreLocation, ZarrSource};
@@ -76,7 +77,16 @@ pub fn check_scene_inputs(scene: &Scene) -> Vec<Diagnostic> {
         }
     }
     out.extend(scene.meshes.iter().filter_map(check_mesh));
+    out.extend(scene.images.iter().filter_map(check_image));
     out
+}
+
+/// An image whose file cannot be read as a picture, at its path.
+fn check_image(image: &vrsc::scene::Image) -> Option<Diagnostic> {
+    let why = vrs_runtime::scene::read_image(image).err()?;
+    let file = &image.file;
+    let message = format!("cannot read image `{}`: {why}", file.given);
+    Some(invalid(file.span, message, "this file").with_note(format!("resolved to `{}`", file.resolved.display())))
 }
 
 /// A mesh that cannot be made: its file (at the path) or its shape (at the table). Shapes that
@@ -159,6 +169,21 @@ mod tests {
         std::fs::write(dir.join("lut.json"), "not json").expect("a file");
         let m = messages("phantom = \"head\"\ntf = \"lut.json\"", &dir);
         assert!(m.len() == 1 && m[0].starts_with("transfer function `lut.json`"), "{m:?}");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn an_image_that_is_no_picture_is_a_diagnostic_at_its_path() {
+        let dir = scratch("image");
+        let image = "\n\n[[image]]\nname = \"plan\"\npath = \"plan.png\"\norigin = [0.0, 0.0, 0.0]\nright = [10.0, 0.0, 0.0]\ndown = [0.0, 0.0, -10.0]";
+        let with_image = format!("phantom = \"head\"{image}");
+        let m = messages(&with_image, &dir);
+        assert!(m.len() == 1 && m[0].starts_with("cannot read image `plan.png`"), "{m:?}");
+        std::fs::write(dir.join("plan.png"), "not a picture").expect("a file");
+        let m = messages(&with_image, &dir);
+        assert!(m.len() == 1 && m[0].starts_with("cannot read image `plan.png`"), "{m:?}");
+        image::RgbaImage::new(3, 2).save(dir.join("plan.png")).expect("a picture");
+        assert_eq!(messages(&with_image, &dir), Vec::<String>::new());
         let _ = std::fs::remove_dir_all(&dir);
     }
 

@@ -122,7 +122,7 @@ codes! {
     SceneWrongType = "E0716", Error, "a value of the wrong type or shape for its key or uniform";
     SceneTfCount = "E0717", Error, "a list of transfer functions whose length is not the number of channels";
     SceneUrlScheme = "E0718", Error, "a remote store whose URL is not `http://` or `https://`";
-    SceneInput = "E0719", Error, "a volume, transfer function, phantom or mesh of the scene that cannot be read or made";
+    SceneInput = "E0719", Error, "a volume, transfer function, phantom, mesh or image of the scene that cannot be read or made";
     TreeFewChildren = "E0720", Error, "a group of a renderer tree without children, or an occlusion group with one";
     TreeCycle = "E0721", Error, "a group of a renderer tree that contains itself";
     TreePictureVolume = "E0722", Error, "a view's `picture` that lists its volume other than once, or a group or slice view after it";

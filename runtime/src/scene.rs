@@ -24,11 +24,13 @@ use vrsc::scene::{self as vscene, Role, Scene, TfRef, UniformValue, ViewKind, Vo
 
 mod bricked;
 mod derived;
+mod images;
 mod meshes;
 mod picture;
 mod probe;
 mod tf_edit;
 pub use bricked::{BrickProgress, selection};
+pub use images::read_image;
 pub use meshes::{MeshHandle, mesh_surface};
 pub use probe::{ProbeAt, ProbeImage, ProbeSpec};
 pub use tf_edit::VolumeStatus;
@@ -103,6 +105,8 @@ pub struct SceneRenderer {
     derived: derived::Derived,
     /// The scene's meshes as last made.
     meshes: meshes::SceneMeshes,
+    /// The scene's images as last uploaded.
+    images: images::SceneImages,
     /// The names of the scene's `[[group]]`s, which the views' trees index.
     group_names: Vec<String>,
 }
@@ -180,11 +184,13 @@ impl SceneRenderer {
             probes: probe::ProbeCache::default(),
             derived: derived::Derived::default(),
             meshes: meshes::SceneMeshes::default(),
+            images: images::SceneImages::default(),
             group_names: Vec::new(),
         };
         renderer.load_scene_volumes(scene, progress)?;
         renderer.set_views(scene, built)?;
         renderer.load_meshes(scene)?;
+        renderer.load_images(scene)?;
         renderer.update_derived()?;
         Ok(renderer)
     }
@@ -276,6 +282,7 @@ impl SceneRenderer {
         let misses = self.pipelines.stats().misses;
         self.set_views(&scene, &cached.built)?;
         self.load_meshes(&scene)?;
+        self.load_images(&scene)?;
         self.update_derived()?;
         let recompiled = self
             .views

@@ -494,3 +494,89 @@ fn the_volume_shadows_a_shadow_groups_meshes_from_the_light_it_follows() {
     assert!(dark > 50 && lit > 50, "{dark} floor pixels under the shelf, {lit} beside it");
     eprintln!("{dark} floor pixels in the shelf's shadow, {lit} lit, each as computed");
 }
+
+/// An image leaf: a picture of 4 x 2 cells of 8 x 8 pixels each (the sixth cell transparent)
+/// upright at y = 16 behind a grey ball, seen from the front (the default camera, from +y).
+const IMAGE_SCENE: &str = r#"
+[[image]]
+name = "plan"
+path = "plan.png"
+origin = [4.0, 16.0, 22.0]
+right = [24.0, 0.0, 0.0]
+down = [0.0, 0.0, -12.0]
+
+[[mesh]]
+name = "ball"
+shape = "sphere"
+centre = [10.0, 22.0, 19.0]
+radius = 2.5
+color = [0.5, 0.5, 0.5]
+
+[[view]]
+name = "3d"
+kind = "raycast"
+size = [64, 64]
+camera = { distance = 2.0 }
+"#;
+
+/// The cells' colours, row by row; the sixth is transparent.
+const CELLS: [[u8; 4]; 8] = [
+    [255, 0, 0, 255],
+    [0, 255, 0, 255],
+    [0, 0, 255, 255],
+    [255, 255, 255, 255],
+    [255, 255, 0, 255],
+    [0, 0, 0, 0],
+    [255, 0, 255, 255],
+    [0, 255, 255, 255],
+];
+
+/// Each pixel whose ray meets the image's rectangle first, at least 1.5 texels inside a cell,
+/// shows the cell's colour (the background where the cell is transparent) within 2/255; where
+/// it meets the ball first it shows the grey ball (depth combines the two); where it misses
+/// both by a margin, the black background.
+#[test]
+fn an_image_leaf_shows_its_pixels_on_its_rectangle_by_depth() {
+    let dir = tempfile::tempdir().expect("a folder");
+    let png = image::RgbaImage::from_fn(32, 16, |x, y| image::Rgba(CELLS[(y / 8 * 4 + x / 8) as usize]));
+    png.save(dir.path().join("plan.png")).expect("the picture written");
+    let mut renderer = open(dir.path(), IMAGE_SCENE, r#"["plan", "ball", "volume"]"#);
+    let picture = renderer.render_all().expect("render").remove(0).1;
+    let (dims, grid_to_world) = renderer.primary_grid().expect("a primary volume");
+    let to_world = vrs_runtime::geometry::volume_to_world(dims, grid_to_world);
+    let camera = renderer.views()[0].camera.expect("a raycast view");
+    let clip_to_world = to_world * camera.inv_view_proj(to_world, 1.0);
+    let (origin, right, down) = (Vec3::new(4.0, 16.0, 22.0), Vec3::new(24.0, 0.0, 0.0), Vec3::new(0.0, 0.0, -12.0));
+    let (mut on_cells, mut on_ball, mut off) = (0, 0, 0);
+    for (px, py, pixel) in picture.enumerate_pixels() {
+        let ndc = |z| Vec3::new((px as f32 + 0.5) / 32.0 - 1.0, 1.0 - (py as f32 + 0.5) / 32.0, z);
+        let near = clip_to_world.project_point3(ndc(0.0));
+        let dir = (clip_to_world.project_point3(ndc(1.0)) - near).normalize();
+        let to_ball = near - Vec3::new(10.0, 22.0, 19.0);
+        let b = to_ball.dot(dir);
+        let ball = b * b - (to_ball.length_squared() - 2.5 * 2.5);
+        if ball > 0.4 {
+            assert!(pixel[0] > 20 && pixel[0].abs_diff(pixel[1]) <= 3 && pixel[1].abs_diff(pixel[2]) <= 3, "{pixel:?}");
+            on_ball += 1;
+            continue;
+        }
+        let hit = near + dir * ((16.0 - near.y) / dir.y);
+        let (u, v) =
+            ((hit - origin).dot(right) / right.length_squared(), (hit - origin).dot(down) / down.length_squared());
+        let [tx, ty] = [u * 32.0, v * 16.0];
+        let inside = |t: f32, cells: f32| t > 0.0 && t < cells * 8.0 && (t % 8.0 - 4.0).abs() < 2.5;
+        if ball < -0.4 && inside(tx, 4.0) && inside(ty, 2.0) {
+            let cell = CELLS[(ty / 8.0) as usize * 4 + (tx / 8.0) as usize];
+            let want = if cell[3] == 0 { [0, 0, 0] } else { [cell[0], cell[1], cell[2]] };
+            for c in 0..3 {
+                assert!(pixel[c].abs_diff(want[c]) <= 2, "pixel ({px}, {py}) {pixel:?}, cell {cell:?}");
+            }
+            on_cells += 1;
+        } else if ball < -0.4 && (!(-0.1..=1.1).contains(&u) || !(-0.1..=1.1).contains(&v)) {
+            assert!(pixel[0] <= 2 && pixel[1] <= 2 && pixel[2] <= 2, "pixel ({px}, {py}) {pixel:?} off the image");
+            off += 1;
+        }
+    }
+    assert!(on_cells > 200 && on_ball > 20 && off > 200, "{on_cells} on cells, {on_ball} on the ball, {off} off");
+    eprintln!("{on_cells} pixels on the image's cells, {on_ball} on the ball in front, {off} off both, as computed");
+}

@@ -99,7 +99,7 @@ impl Scene {
                     && depth < MAX_GROUP_DEPTH
                     && self.has_layer_mesh(&group.children, depth + 1)
             }),
-            Node::Plane(_) => false,
+            Node::Plane(_) | Node::Image(_) => false,
         })
     }
 }

@@ -78,6 +78,8 @@ impl Cx<'_> {
             "[[mesh]]".into()
         } else if is(GROUP_KEYS) {
             "[[group]]".into()
+        } else if is(super::image::IMAGE_KEYS) {
+            "[[image]]".into()
         } else if is(CAMERA_KEYS) {
             "the `camera` of a [[view]]".into()
         } else if is(MODULE_KEYS) {

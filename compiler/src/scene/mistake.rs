@@ -120,6 +120,7 @@ pub(super) enum ViewRange {
     PointNotFinite { key: String },
     MeshSize { key: String, x: f32 },
     LightDirection,
+    ImageSides,
 }
 
 /// E0710: an empty value where something is needed.
@@ -190,13 +191,15 @@ pub(super) enum Twice {
     ViewListed {
         name: String,
     },
-    /// A group named as an earlier group or a mesh.
-    GroupNamed {
+    /// A group or image (`kind`) named as an earlier node (`what`: a mesh, group or image).
+    NodeNamed {
         name: String,
         first: Span,
+        kind: &'static str,
         what: &'static str,
     },
-    GroupListed {
+    /// A group or image listed twice in one list.
+    NodeListed {
         name: String,
     },
 }
@@ -480,7 +483,7 @@ impl PictureVolume {
                 .with_secondary(first, "first here"),
             PictureVolume::AfterIt { name, what } => said(
                 d,
-                format!("only meshes follow `\"volume\"` in a `picture`, and `{name}` is a {what}"),
+                format!("only meshes follow `\"volume\"` in a `picture`, and `{name}` is {}", with_article(what)),
             )
             .with_label("drawn over the picture")
             .with_help(
@@ -544,6 +547,9 @@ impl ViewRange {
             ViewRange::LightDirection => {
                 said(d, "a shadow group's `light` must be a direction: finite numbers, not all zero".to_string())
             }
+            ViewRange::ImageSides => said(d, "an image's `right` and `down` must be the sides of a rectangle")
+                .with_label("zero, or parallel")
+                .with_note("`right` goes from the picture's top-left corner to its top-right one, `down` to its bottom-left one (mm)"),
         }
     }
 }
@@ -600,11 +606,20 @@ impl Twice {
                 .with_secondary(first, "first here"),
             Twice::MeshListed { name } => said(d, format!("the mesh `{name}` is listed twice")),
             Twice::ViewListed { name } => said(d, format!("the view `{name}` is listed twice")),
-            Twice::GroupNamed { name, first, what } => said(d, format!("a group and a {what} are named `{name}`"))
-                .with_label("a group with this name")
-                .with_secondary(first, format!("the {what}"))
-                .with_help("a group's children name meshes and groups alike: give it a name of its own"),
-            Twice::GroupListed { name } => said(d, format!("`{name}` is listed twice in the same list")),
+            Twice::NodeNamed { name, first, kind, what } if kind == what => {
+                said(d, format!("two {kind}s are named `{name}`"))
+                    .with_label(format!("second {kind} with this name"))
+                    .with_secondary(first, "first here")
+            }
+            Twice::NodeNamed { name, first, kind, what } => {
+                said(d, format!("{} and {} are named `{name}`", with_article(kind), with_article(what)))
+                    .with_label(format!("{} with this name", with_article(kind)))
+                    .with_secondary(first, format!("the {what}"))
+                    .with_help(format!(
+                        "a group's children name meshes, groups and images alike: give the {kind} a name of its own"
+                    ))
+            }
+            Twice::NodeListed { name } => said(d, format!("`{name}` is listed twice in the same list")),
         }
     }
 }
@@ -625,8 +640,8 @@ impl NoSuch {
             }
             NoSuch::Node { name, suggestion } => {
                 return maybe(
-                    said(d, format!("the scene has no mesh, group or slice view `{name}`"))
-                        .with_label("not a [[mesh]], [[group]] or [[view]] name"),
+                    said(d, format!("the scene has no mesh, group, image or slice view `{name}`"))
+                        .with_label("not a [[mesh]], [[group]], [[image]] or [[view]] name"),
                     suggestion,
                 );
             }
@@ -669,4 +684,10 @@ impl WrongType {
             }
         }
     }
+}
+
+/// `word` with its indefinite article.
+fn with_article(word: &str) -> String {
+    let article = if word.starts_with(['a', 'e', 'i', 'o', 'u']) { "an" } else { "a" };
+    format!("{article} {word}")
 }

@@ -71,6 +71,7 @@ pub const DEFAULT_SLICE_POSITION: f32 = 0.5;
 const RENDER_UNIFORMS: &[&str] = &["iso_value", "step_size", "max_samples", "jitter", "background"];
 
 mod errors;
+mod image;
 mod mesh;
 mod mistake;
 mod model;
@@ -81,6 +82,7 @@ mod tree;
 mod validate;
 mod view_render;
 
+pub use image::Image;
 pub use mesh::{Coordinates, DEFAULT_MESH_COLOR, Mesh, MeshSource, Point, SHAPES};
 use mistake::*;
 pub use model::*;

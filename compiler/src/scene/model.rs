@@ -34,6 +34,8 @@ pub struct Scene {
     pub meshes: Vec<Mesh>,
     /// `[[group]]` tables, in file order: the inner nodes of the views' renderer trees.
     pub groups: Vec<Group>,
+    /// `[[image]]` tables, in file order: picture files on rectangles, leaves of renderer trees.
+    pub images: Vec<Image>,
     /// `[render] memory` and `host_memory`: what bricked volumes may hold.
     pub memory: Memory,
     /// The directory that relative paths were resolved against.
@@ -461,6 +463,15 @@ pub enum Node {
     Group(usize),
     /// A slice view's picture on its plane in patient space (index into `Scene::views`).
     Plane(usize),
+    /// An `[[image]]` on its rectangle in patient space (index into `Scene::images`).
+    Image(usize),
+}
+
+impl Node {
+    /// Whether the node is a picture on a plane: a slice view's or an image's.
+    pub fn is_plane(self) -> bool {
+        matches!(self, Node::Plane(_) | Node::Image(_))
+    }
 }
 
 /// `[[group]]`: an inner node of renderer trees, which combines its children's pictures (colour
@@ -693,16 +704,16 @@ impl Scene {
     }
 
     /// The leaves under `view`'s volume, through its groups, each once, in the tree's order:
-    /// its meshes (indices into `Scene::meshes`) and the slice views on its planes (indices into
-    /// `Scene::views`).
-    pub fn leaves_under(&self, view: &View) -> (Vec<usize>, Vec<usize>) {
+    /// its meshes (indices into `Scene::meshes`) and its pictures on planes (slice views and
+    /// images, [`Node::Plane`] and [`Node::Image`]).
+    pub fn leaves_under(&self, view: &View) -> (Vec<usize>, Vec<Node>) {
         let (mut meshes, mut planes) = (Vec::new(), Vec::new());
         let mut stack: Vec<Node> = view.picture.under.iter().rev().copied().collect();
         let mut seen_groups = Vec::new();
         while let Some(node) = stack.pop() {
             match node {
                 Node::Mesh(i) if !meshes.contains(&i) => meshes.push(i),
-                Node::Plane(i) if !planes.contains(&i) => planes.push(i),
+                Node::Plane(_) | Node::Image(_) if !planes.contains(&node) => planes.push(node),
                 // Validation refuses cycles; a scene made by hand with one still ends.
                 Node::Group(g) if !seen_groups.contains(&g) => {
                     seen_groups.push(g);
@@ -717,7 +728,7 @@ impl Scene {
 
     /// `view`'s renderer tree in one line, for people (`vrsc pipeline`): groups as
     /// `NAME (KIND) [CHILDREN]` (an occlusion group's first child apart, `|`), slice views as
-    /// `NAME (plane)`, then `volume`, then what is drawn over it.
+    /// `NAME (plane)`, images as `NAME (image)`, then `volume`, then what is drawn over it.
     pub fn describe_picture(&self, view: &View) -> String {
         let mut parts: Vec<String> = view.picture.under.iter().map(|&n| self.describe_node(n, 0)).collect();
         parts.push("volume".into());
@@ -734,6 +745,7 @@ impl Scene {
         match node {
             Node::Mesh(i) => name(self.meshes.get(i).map(|m| &m.name)),
             Node::Plane(i) => format!("{} (plane)", name(self.views.get(i).map(|v| &v.name))),
+            Node::Image(i) => format!("{} (image)", name(self.images.get(i).map(|v| &v.name))),
             Node::Group(g) if depth < MAX_GROUP_DEPTH => {
                 let Some(group) = self.groups.get(g) else { return "?".into() };
                 let child = |n: &Node| self.describe_node(*n, depth + 1);

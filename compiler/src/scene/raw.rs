@@ -21,8 +21,10 @@ pub(super) struct RawScene {
     pub(super) meshes: Vec<Spanned<super::mesh::RawMesh>>,
     #[serde(default, rename = "group")]
     pub(super) groups: Vec<Spanned<RawGroup>>,
+    #[serde(default, rename = "image")]
+    pub(super) images: Vec<Spanned<super::image::RawImage>>,
 }
-pub(super) const SCENE_KEYS: &[&str] = &["render", "volume", "module", "uniforms", "view", "mesh", "group"];
+pub(super) const SCENE_KEYS: &[&str] = &["render", "volume", "module", "uniforms", "view", "mesh", "group", "image"];
 
 #[derive(Deserialize, Default, Clone)]
 #[serde(deny_unknown_fields)]

@@ -503,7 +503,7 @@ fn a_picture_is_a_tree_of_meshes_groups_and_planes() {
         (scene.groups[1].kind.clone(), &scene.groups[1].children[..]),
         (GroupKind::Depth, &[Node::Mesh(1), Node::Mesh(2)][..])
     );
-    assert_eq!(scene.leaves_under(view), (vec![0, 1, 2], vec![1]));
+    assert_eq!(scene.leaves_under(view), (vec![0, 1, 2], vec![Node::Plane(1)]));
     // Without `picture`, the lists make the same kind of tree; `show = "visible"` shows whole.
     let visible = format!(
         "{MINIMAL}\n{TREE}[[group]]\nname = \"g\"\nkind = \"occlusion\"\nshow = \"visible\"\nchildren = [\"organ\", \"tube\"]\n"
@@ -535,7 +535,12 @@ fn renderer_tree_mistakes_have_their_codes_and_spans() {
         (String::new(), "picture = [\"volume\", \"organ\", \"volume\"]\n", "E0722", "listed twice"),
         (group("g", "depth", "\"organ\""), "picture = [\"volume\", \"g\"]\n", "E0722", "`g` is a group"),
         (String::new(), "picture = [\"volume\"]\nmeshes = []\n", "E0706", "either `picture` or `meshes`"),
-        (String::new(), "picture = [\"organs\", \"volume\"]\n", "E0713", "no mesh, group or slice view `organs`"),
+        (
+            String::new(),
+            "picture = [\"organs\", \"volume\"]\n",
+            "E0713",
+            "no mesh, group, image or slice view `organs`",
+        ),
         (group("organ", "depth", "\"tube\""), "", "E0712", "a group and a mesh are named `organ`"),
         (group("g", "depth", "\"tube\", \"tube\""), "", "E0712", "`tube` is listed twice"),
         (group("g", "shadow", "\"tube\""), "", "E0704", "missing key `light` in a shadow group"),
@@ -551,6 +556,72 @@ fn renderer_tree_mistakes_have_their_codes_and_spans() {
         let found = errors(&scene);
         assert!(found.iter().any(|e| e.0 == code && e.3.contains(want)), "{want}: {found:?}");
     }
+}
+
+/// An `[[image]]` table named `name` on the 20 mm square at z = 5 facing up.
+fn image_table(name: &str) -> String {
+    format!(
+        "[[image]]\nname = \"{name}\"\npath = \"plan.png\"\norigin = [0.0, 20.0, 5.0]\nright = [20.0, 0.0, 0.0]\ndown = [0.0, -20.0, 0.0]\n\n"
+    )
+}
+
+#[test]
+fn an_image_is_a_leaf_on_its_rectangle() {
+    let scene = format!(
+        "{MINIMAL}picture = [\"g\", \"plan\", \"volume\"]\n\n{TREE}{}\
+         [[group]]\nname = \"g\"\nchildren = [\"organ\", \"plan\"]\n",
+        image_table("plan")
+    );
+    let (_, scene, warnings) = parse_reporting(&scene);
+    let scene = scene.unwrap_or_else(|| panic!("{warnings:?}"));
+    assert!(warnings.is_empty(), "{warnings:?}");
+    let view = &scene.views[0];
+    assert_eq!(view.picture, Picture { under: vec![Node::Group(0), Node::Image(0)], over: vec![] });
+    assert_eq!(scene.groups[0].children, [Node::Mesh(0), Node::Image(0)]);
+    // Each leaf once, in the tree's order.
+    assert_eq!(scene.leaves_under(view), (vec![0], vec![Node::Image(0)]));
+    assert_eq!(scene.describe_picture(view), "g (depth) [organ, plan (image)], plan (image), volume");
+    let image = &scene.images[0];
+    assert_eq!(image.file.resolved, std::path::Path::new("scenes/plan.png"));
+    assert_eq!(image.corners(), [[0.0, 20.0, 5.0], [20.0, 20.0, 5.0], [20.0, 0.0, 5.0], [0.0, 0.0, 5.0]]);
+}
+
+#[test]
+fn image_mistakes_have_their_codes() {
+    let view = |picture: &str| format!("{MINIMAL}picture = {picture}\n\n{TREE}");
+    let cases = [
+        (view("[\"plan\", \"volume\"]") + &image_table("organ"), "E0712", "an image and a mesh are named `organ`"),
+        (view("[\"plan\", \"volume\"]") + &image_table("plan") + &image_table("plan"), "E0712", "two images"),
+        (
+            view("[\"plan\", \"volume\"]")
+                + &image_table("plan")
+                + "[[group]]\nname = \"plan\"\nchildren = [\"tube\"]\n",
+            "E0712",
+            "a group and an image are named `plan`",
+        ),
+        (view("[\"volume\", \"plan\"]") + &image_table("plan"), "E0722", "`plan` is an image"),
+        (view("[\"plam\", \"volume\"]") + &image_table("plan"), "E0713", "image or slice view `plam`"),
+        (
+            view("[\"plan\", \"volume\"]") + &image_table("plan").replace("[0.0, -20.0, 0.0]", "[-40.0, 0.0, 0.0]"),
+            "E0708",
+            "the sides of a rectangle",
+        ),
+        (
+            view("[\"plan\", \"volume\"]") + &image_table("plan").replace("origin = [0.0, 20.0, 5.0]\n", ""),
+            "E0704",
+            "origin",
+        ),
+    ];
+    for (scene, code, want) in cases {
+        let found = errors(&scene);
+        assert!(found.iter().any(|e| e.0 == code && e.3.contains(want)), "{want}: {found:?}");
+    }
+    // A slice view has no depth to place a plane in.
+    let slice = format!("{TREE}{}", image_table("plan"))
+        .replace("axis = \"axial\"\n", "axis = \"axial\"\npicture = [\"plan\", \"volume\"]\n");
+    let (_, scene, warnings) = parse_reporting(&format!("{MINIMAL}\n{slice}"));
+    assert!(scene.is_some(), "{warnings:?}");
+    assert!(warnings.iter().any(|w| w.code.as_str() == "W0701" && w.message.contains("`plan`")), "{warnings:?}");
 }
 
 #[test]

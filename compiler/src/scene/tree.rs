@@ -3,8 +3,8 @@
 //! slice views (E0713), groups have children (E0720) and contain no cycle (E0721), and a picture
 //! lists its volume once with only meshes after it (E0722).
 //!
-//! Names of children resolve in this order: a mesh, a group (validation refuses a group named
-//! as a mesh), then a view. `"volume"` in a `picture` is the view's own volume.
+//! Names of children resolve in this order: a mesh, a group, an image (validation refuses a
+//! group or image named as a mesh or as each other), then a view. `"volume"` in a `picture` is the view's own volume.
 
 use super::raw::{RawGroup, RawLight, RawView};
 use super::*;
@@ -33,6 +33,7 @@ impl ViewLists {
 struct Names<'a> {
     meshes: &'a [Mesh],
     groups: &'a [Group],
+    images: &'a [Image],
     views: &'a [View],
 }
 
@@ -43,8 +44,9 @@ impl Names<'_> {
     fn find(&self, name: &str) -> Option<Node> {
         let mesh = || self.meshes.iter().position(|m| m.name.name == name).map(Node::Mesh);
         let group = || self.groups.iter().position(|g| g.name.name == name).map(Node::Group);
+        let image = || self.images.iter().position(|i| i.name.name == name).map(Node::Image);
         let view = || self.views.iter().position(|v| v.name.name == name).map(Node::Plane);
-        mesh().or_else(group).or_else(view)
+        mesh().or_else(group).or_else(image).or_else(view)
     }
 
     fn name(&self, node: Node) -> &str {
@@ -52,6 +54,7 @@ impl Names<'_> {
             Node::Mesh(i) => &self.meshes[i].name.name,
             Node::Group(i) => &self.groups[i].name.name,
             Node::Plane(i) => &self.views[i].name.name,
+            Node::Image(i) => &self.images[i].name.name,
         }
     }
 }
@@ -59,15 +62,20 @@ impl Names<'_> {
 impl Cx<'_> {
     /// `[[group]]` tables: their names and kinds, then their children (which may name groups
     /// further down), then the cycles among them.
-    pub(super) fn groups(&mut self, raw: Vec<Spanned<RawGroup>>, meshes: &[Mesh], views: &[View]) -> Vec<Group> {
+    pub(super) fn groups(
+        &mut self,
+        raw: Vec<Spanned<RawGroup>>,
+        (meshes, images): (&[Mesh], &[Image]),
+        views: &[View],
+    ) -> Vec<Group> {
         let mut groups: Vec<Group> = Vec::new();
         for g in &raw {
-            let group = self.group_head(g, (meshes, views), &groups);
+            let group = self.group_head(g, (meshes, images, views), &groups);
             groups.push(group);
         }
         let mut child_spans = Vec::with_capacity(raw.len());
         for (i, g) in raw.iter().enumerate() {
-            let names = Names { meshes, groups: &groups, views };
+            let names = Names { meshes, groups: &groups, images, views };
             let children = self.nodes(g.get_ref().children.get_ref(), &names, true);
             self.check_child_count(&groups[i], g.get_ref().children.get_ref().len(), self.span(&g.get_ref().children));
             groups[i].children = children.iter().map(|(node, _)| *node).collect();
@@ -78,15 +86,21 @@ impl Cx<'_> {
     }
 
     /// A group's name, kind, `show` and `opacity`; its children come later.
-    fn group_head(&mut self, g: &Spanned<RawGroup>, (meshes, views): (&[Mesh], &[View]), earlier: &[Group]) -> Group {
+    fn group_head(
+        &mut self,
+        g: &Spanned<RawGroup>,
+        (meshes, images, views): (&[Mesh], &[Image], &[View]),
+        earlier: &[Group],
+    ) -> Group {
         let span = self.span(g);
         let g = g.get_ref();
         let name = Ident { name: g.name.get_ref().clone(), span: self.span(&g.name) };
         if self.check_name(&name.name, name.span, "group") {
             let mesh = meshes.iter().find(|m| m.name.name == name.name).map(|m| (m.name.span, "mesh"));
             let group = earlier.iter().find(|o| o.name.name == name.name).map(|o| (o.name.span, "group"));
-            if let Some((first, what)) = mesh.or(group) {
-                self.report(name.span, Twice::GroupNamed { name: name.name.clone(), first, what });
+            let image = || images.iter().find(|i| i.name.name == name.name).map(|i| (i.name.span, "image"));
+            if let Some((first, what)) = mesh.or(group).or_else(image) {
+                self.report(name.span, Twice::NodeNamed { name: name.name.clone(), first, kind: "group", what });
             }
         }
         let kind = match g.kind.as_ref().map(|k| *k.get_ref()) {
@@ -192,8 +206,8 @@ impl Cx<'_> {
     }
 
     /// The nodes of a list, each with its span; unknown names (E0713) and names listed twice
-    /// (E0712) are left out. With `planes_allowed` false (a slice view's list) a slice view is
-    /// ignored (W0701).
+    /// (E0712) are left out. With `planes_allowed` false (a slice view's list) a slice view or
+    /// an image is ignored (W0701): a slice view has no depth to place a plane in.
     fn nodes(&mut self, list: &[Spanned<String>], names: &Names, planes_allowed: bool) -> Vec<(Node, Span)> {
         let mut out: Vec<(Node, Span)> = Vec::new();
         for item in list {
@@ -201,11 +215,11 @@ impl Cx<'_> {
             let Some(node) = self.node(item, names) else { continue };
             if out.iter().any(|(n, _)| *n == node) {
                 self.report(span, listed_twice(node, item.get_ref()));
-            } else if matches!(node, Node::Plane(_)) && !planes_allowed {
+            } else if matches!(node, Node::Plane(_) | Node::Image(_)) && !planes_allowed {
                 self.ignored_at(
                     span,
                     item.get_ref(),
-                    "in a slice view's picture (a raycast view shows slice views on their planes)",
+                    "in a slice view's picture (a raycast view shows slice views and images on their planes)",
                 );
             } else {
                 out.push((node, span));
@@ -228,9 +242,11 @@ impl Cx<'_> {
             None => {
                 let meshes = names.meshes.iter().map(|m| m.name.name.as_str());
                 let groups = names.groups.iter().map(|g| g.name.name.as_str());
+                let images = names.images.iter().map(|i| i.name.name.as_str());
                 let slices =
                     names.views.iter().filter(|v| v.kind.value == ViewKind::Slice).map(|v| v.name.name.as_str());
-                let suggestion = did_you_mean(name, meshes.chain(groups).chain(slices)).map(String::from);
+                let candidates = meshes.chain(groups).chain(images).chain(slices);
+                let suggestion = did_you_mean(name, candidates).map(String::from);
                 self.report(span, NoSuch::Node { name: name.clone(), suggestion });
                 None
             }
@@ -239,9 +255,14 @@ impl Cx<'_> {
 
     /// Each view's picture: its `picture` list, or the tree its `meshes` (every mesh without
     /// it), `planes` and `overlay` lists make.
-    pub(super) fn pictures(&mut self, views: &mut [View], lists: Vec<ViewLists>, meshes: &[Mesh], groups: &[Group]) {
+    pub(super) fn pictures(
+        &mut self,
+        views: &mut [View],
+        lists: Vec<ViewLists>,
+        (meshes, groups, images): (&[Mesh], &[Group], &[Image]),
+    ) {
         for (i, lists) in lists.into_iter().enumerate() {
-            let names = Names { meshes, groups, views };
+            let names = Names { meshes, groups, images, views };
             let picture = match &lists.picture {
                 Some(picture) => self.picture_list(picture, &lists, &names, views[i].kind.value),
                 None => self.picture_of_lists(&lists, &names, views, i),
@@ -281,8 +302,12 @@ impl Cx<'_> {
         for (node, span) in self.nodes(&after, names, true) {
             match node {
                 Node::Mesh(m) => over.push(m),
-                Node::Group(_) | Node::Plane(_) => {
-                    let what = if matches!(node, Node::Group(_)) { "group" } else { "slice view" };
+                Node::Group(_) | Node::Plane(_) | Node::Image(_) => {
+                    let what = match node {
+                        Node::Group(_) => "group",
+                        Node::Image(_) => "image",
+                        _ => "slice view",
+                    };
                     let name = names.name(node).to_string();
                     self.report(span, PictureVolume::AfterIt { name, what });
                 }
@@ -315,7 +340,7 @@ fn listed_twice(node: Node, name: &str) -> Twice {
     let name = name.to_string();
     match node {
         Node::Mesh(_) => Twice::MeshListed { name },
-        Node::Group(_) => Twice::GroupListed { name },
+        Node::Group(_) | Node::Image(_) => Twice::NodeListed { name },
         Node::Plane(_) => Twice::ViewListed { name },
     }
 }

@@ -115,9 +115,11 @@ impl Cx<'_> {
         let uniforms = self.uniforms(raw.uniforms, &render);
         let meshes = self.meshes(raw.meshes, &volumes);
         let (mut views, lists) = self.views(raw.views, shared.as_ref(), &render);
-        let groups = self.groups(raw.groups, &meshes, &views);
-        self.pictures(&mut views, lists, &meshes, &groups);
-        Scene { render, volumes, modules, uniforms, views, meshes, groups, memory, dir: self.dir.to_path_buf() }
+        let images = self.images(raw.images, &meshes);
+        let groups = self.groups(raw.groups, (&meshes, &images), &views);
+        self.pictures(&mut views, lists, (&meshes, &groups, &images));
+        let dir = self.dir.to_path_buf();
+        Scene { render, volumes, modules, uniforms, views, meshes, groups, images, memory, dir }
     }
 
     /// `[render]`: each key, or its default, checked in the table's order.

@@ -15,7 +15,7 @@ use crate::uniforms::Value;
 use crate::volume::Volume;
 use glam::{Mat4, Vec3, Vec4};
 use std::sync::Arc;
-use vrsc::scene::{self as vscene, MeshSource, Point, Scene, VolumeSource};
+use vrsc::scene::{self as vscene, MeshSource, Node, Point, Scene, VolumeSource};
 
 /// How far from a slice plane (mm) its mesh layer's depth range reaches on either side.
 const SLICE_DEPTH_REACH: f32 = 1000.0;
@@ -312,30 +312,50 @@ impl SceneRenderer {
     }
 
     /// Renders the slice views that view `index` shows on their planes (each into its own
-    /// output, recorded into `encoder` before the view) and hands their pictures to its mesh
-    /// layer.
+    /// output, recorded into `encoder` before the view) and hands their pictures, and the
+    /// images it shows, to its mesh layer. A view that shows images only takes them once.
     pub(super) fn encode_planes(
         &mut self,
         index: usize,
         encoder: &mut wgpu::CommandEncoder,
     ) -> Result<(), RuntimeError> {
-        let Some(planes) = self.views.get(index).map(|v| v.picture.planes.clone()).filter(|p| !p.is_empty()) else {
+        let Some(view) = self.views.get(index).filter(|v| !v.picture.planes.is_empty()) else {
             return Ok(());
         };
-        let Some(primary) = self.grids.first() else { return Ok(()) };
+        let planes = view.picture.planes.clone();
+        let images_only = planes.iter().all(|p| matches!(p, Node::Image(_)));
+        if images_only && view.picture.images_shown == self.images.generation {
+            return Ok(());
+        }
         let mut pictures = Vec::with_capacity(planes.len());
         // One entry per plane, in order: the mesh layer's tree finds them by place.
         for p in planes {
-            let Some(view) = self.views.get_mut(p) else {
-                pictures.push(None);
-                continue;
+            let picture = match p {
+                Node::Image(i) => self.images.pictures.get(i).cloned(),
+                Node::Plane(v) => self.encode_slice_picture(v, encoder)?,
+                Node::Mesh(_) | Node::Group(_) => None,
             };
-            super::apply_view_uniforms(view, &self.grids)?;
-            view.renderer.encode(&self.gpu, &self.resources, encoder)?;
-            pictures.push(plane_picture(view, primary));
+            pictures.push(picture);
         }
-        self.views[index].renderer.set_planes(pictures);
+        let view = &mut self.views[index];
+        view.renderer.set_planes(pictures);
+        view.picture.images_shown = if images_only { self.images.generation } else { 0 };
         Ok(())
+    }
+
+    /// Renders slice view `index` (into its own output, recorded into `encoder`) and gives its
+    /// picture on its plane; none where there is no such view or no primary volume.
+    fn encode_slice_picture(
+        &mut self,
+        index: usize,
+        encoder: &mut wgpu::CommandEncoder,
+    ) -> Result<Option<PlanePicture>, RuntimeError> {
+        let (Some(view), Some(primary)) = (self.views.get_mut(index), self.grids.first()) else {
+            return Ok(None);
+        };
+        super::apply_view_uniforms(view, &self.grids)?;
+        view.renderer.encode(&self.gpu, &self.resources, encoder)?;
+        Ok(plane_picture(view, primary))
     }
 }
 

@@ -1,7 +1,7 @@
 //! What a view shows besides its volume, from its renderer tree in the scene (`picture`): the
 //! tree its mesh layer draws, with depth groups flattened into their parents (the depth test
 //! combines them) and occlusion and shadow groups kept; the meshes its overlay draws; the slice
-//! views it shows on planes. Also the live opacity of occlusion groups.
+//! views and images it shows on planes. Also the live opacity of occlusion groups.
 
 use super::SceneRenderer;
 use crate::error::RuntimeError;
@@ -15,9 +15,12 @@ pub(crate) struct ViewPicture {
     pub tree: Vec<LayerNode>,
     /// The meshes drawn over the finished picture (indices into the scene's meshes).
     pub overlay: Vec<usize>,
-    /// The slice views shown on their planes, each once (indices into the scene's views); none
-    /// in a slice view.
-    pub planes: Vec<usize>,
+    /// The pictures shown on planes, each once: slice views ([`Node::Plane`], indices into the
+    /// scene's views) and images ([`Node::Image`]); none in a slice view.
+    pub planes: Vec<Node>,
+    /// The generation of the scene's images last handed to the mesh layer, when `planes` are
+    /// images only (they need not be handed again until they change); 0: not yet.
+    pub images_shown: u64,
 }
 
 impl ViewPicture {
@@ -27,17 +30,17 @@ impl ViewPicture {
             ViewKind::Slice => Vec::new(),
         };
         let tree = layer_nodes(scene, &view.picture.under, &planes, 0);
-        ViewPicture { tree, overlay: view.picture.over.clone(), planes }
+        ViewPicture { tree, overlay: view.picture.over.clone(), planes, images_shown: 0 }
     }
 }
 
 /// `nodes` as mesh-layer nodes; a plane not in `planes` is left out.
-fn layer_nodes(scene: &Scene, nodes: &[Node], planes: &[usize], depth: usize) -> Vec<LayerNode> {
+fn layer_nodes(scene: &Scene, nodes: &[Node], planes: &[Node], depth: usize) -> Vec<LayerNode> {
     let mut out = Vec::new();
     for node in nodes {
         match *node {
             Node::Mesh(i) => out.push(LayerNode::Mesh(i)),
-            Node::Plane(v) => out.extend(planes.iter().position(|&p| p == v).map(LayerNode::Plane)),
+            Node::Plane(_) | Node::Image(_) => out.extend(planes.iter().position(|p| p == node).map(LayerNode::Plane)),
             Node::Group(g) if depth < vscene::MAX_GROUP_DEPTH => {
                 let Some(group) = scene.groups.get(g) else { continue };
                 let children = |nodes: &[Node]| layer_nodes(scene, nodes, planes, depth + 1);
