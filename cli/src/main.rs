@@ -279,24 +279,27 @@ fn build(printer: &Printer, scene: &std::path::Path, dir: &std::path::Path, targ
     for view in &built.views {
         let Some(shader) = &view.shader else { continue };
         let json = serde_json::to_string_pretty(&shader.reflection).unwrap_or_default();
-        let mut outputs = vec![("wgsl", shader.wgsl.as_bytes().to_vec()), ("json", json.into_bytes())];
+        let mut outputs =
+            vec![("wgsl".to_string(), shader.wgsl.as_bytes().to_vec()), ("json".into(), json.into_bytes())];
         // A build with targets keeps the module of every view that composed.
         let module = view.ir.as_ref().and_then(|ir| ir.module.as_ref());
         for &target in targets {
             let Some(valid) = module else { break };
             match vrsc::compose::backends::translate(&valid.module, &valid.info, "main", target) {
-                Ok(bytes) => outputs.push((target.extension(), bytes)),
+                Ok(bytes) => outputs.push((target.extension().to_string(), bytes)),
                 Err(e) => {
                     let message = format!("view `{}`: naga's {} back end failed: {e}", view.name, target.name());
                     return printer.fail(Diagnostic::new(Code::Internal, Span::DUMMY, message));
                 }
             }
         }
-        // The filter pass beside the view's shader: VIEW.filters.wgsl and VIEW.filters.json.
-        if let Some(filter) = view.filter.as_ref().and_then(|f| f.shader.as_ref()) {
+        // The filter passes beside the view's shader: VIEW.filters.wgsl and .json for its own,
+        // VIEW.GROUP-K.filters.wgsl and .json for each filter of its tree.
+        for pass in view.filter_passes() {
+            let Some(filter) = &pass.shader else { continue };
             let json = serde_json::to_string_pretty(&filter.reflection).unwrap_or_default();
-            outputs.push(("filters.wgsl", filter.wgsl.as_bytes().to_vec()));
-            outputs.push(("filters.json", json.into_bytes()));
+            outputs.push((format!("{}.wgsl", pass.name), filter.wgsl.as_bytes().to_vec()));
+            outputs.push((format!("{}.json", pass.name), json.into_bytes()));
         }
         for (ext, bytes) in &outputs {
             let path = dir.join(format!("{}.{ext}", view.name));
@@ -304,7 +307,7 @@ fn build(printer: &Printer, scene: &std::path::Path, dir: &std::path::Path, targ
                 return printer.io_failure(&format!("cannot write `{}`: {e}", path.display()));
             }
         }
-        let extensions: Vec<&str> = outputs.iter().map(|(ext, _)| *ext).collect();
+        let extensions: Vec<&str> = outputs.iter().map(|(ext, _)| ext.as_str()).collect();
         eprintln!("wrote {}/{}.{{{}}}", dir.display(), view.name, extensions.join(","));
     }
     Outcome::Ok

@@ -125,7 +125,9 @@ codes! {
     SceneInput = "E0719", Error, "a volume, transfer function, phantom, mesh or image of the scene that cannot be read or made";
     TreeFewChildren = "E0720", Error, "a group of a renderer tree without children, or an occlusion group with one";
     TreeCycle = "E0721", Error, "a group of a renderer tree that contains itself";
-    TreePictureVolume = "E0722", Error, "a view's `picture` that lists its volume other than once, or a group or slice view after it";
+    TreePictureVolume = "E0722", Error, "a view's `picture` that lists its volume other than once, or a group, image or slice view after it";
+    TreeFilterFirst = "E0723", Error, "a filter as the first child of a group: nothing before it to filter";
+    TreeFilterGroupKind = "E0724", Error, "a filter among the children of an occlusion or shadow group";
     // Probes.
     ProbeUnknownField = "E0801", Error, "a probe of a state field that the view does not declare";
     ProbeUnshowable = "E0802", Error, "a probe of a field whose type an image cannot show (a matrix)";

@@ -433,6 +433,15 @@ impl SceneRenderer {
         self.grids.first().map(|g| (g.dims, g.grid_to_world))
     }
 
+    /// The shader of a filter pass of view `view`.
+    fn filter_shader(&self, view: &str, pass: &vrsc::compose::build::FilterOutput) -> Result<ViewShader, RuntimeError> {
+        let shader = pass
+            .shader
+            .as_ref()
+            .ok_or_else(|| RuntimeError::Invalid(format!("the filters of view `{view}` did not compose")))?;
+        ViewShader::new(shader.wgsl.clone(), shader.reflection.clone(), &self.path)
+    }
+
     fn set_views(&mut self, scene: &Scene, built: &BuiltScene) -> Result<(), RuntimeError> {
         // The views' notes are made again below (the volumes' stay).
         self.notices.retain(|n| !n.ends_with(CUT_RAYS));
@@ -447,13 +456,11 @@ impl SceneRenderer {
             let size = self.options.size.unwrap_or(view.size);
             let mut renderer = ViewRenderer::new(&self.gpu, &mut self.pipelines, shader, size)?;
             renderer.set_samples(self.options.samples);
-            if let Some(filter) = &output.filter {
-                let shader = filter.shader.as_ref().ok_or_else(|| {
-                    RuntimeError::Invalid(format!("the filters of view `{}` did not compose", output.name))
-                })?;
-                let shader = ViewShader::new(shader.wgsl.clone(), shader.reflection.clone(), &self.path)?;
-                renderer.set_filter(&self.gpu, &mut self.pipelines, Some(shader))?;
-            }
+            let filter = output.filter.as_ref().map(|f| self.filter_shader(&output.name, f)).transpose()?;
+            renderer.set_filter(&self.gpu, &mut self.pipelines, filter)?;
+            let tree_filters = output.tree_filters.iter().map(|(i, f)| Ok((*i, self.filter_shader(&output.name, f)?)));
+            let tree_filters = tree_filters.collect::<Result<_, RuntimeError>>()?;
+            renderer.set_tree_filters(&self.gpu, &mut self.pipelines, tree_filters)?;
             for (name, value) in &values {
                 if renderer.has_uniform(name)
                     && let Some(value) = renderer.uniform_value_from_json(name, &value.to_json())

@@ -28,6 +28,9 @@ pub struct ViewRenderer {
     layers: ViewLayers,
     /// The view's filter pass, run over its picture (its `filters`).
     filter: Option<FilterPass>,
+    /// The passes of the filters in its tree, by index among the scene's tree filters, run by
+    /// its mesh layer.
+    tree_filters: Vec<(usize, FilterPass)>,
 }
 
 /// What the mesh layer wrote for the nodes after it (nothing where the view reads no layer).
@@ -54,7 +57,7 @@ impl ViewRenderer {
     ) -> Result<ViewRenderer, RuntimeError> {
         let volume = VolumeLayer::new(gpu, cache, shader)?;
         let output = create_output(gpu, size)?;
-        Ok(ViewRenderer { output, size, volume, layers: ViewLayers::default(), filter: None })
+        Ok(ViewRenderer { output, size, volume, layers: ViewLayers::default(), filter: None, tree_filters: Vec::new() })
     }
 
     /// Whether the view is progressive: its picture is the mean of the frames rendered since it
@@ -85,43 +88,49 @@ impl ViewRenderer {
         self.size
     }
 
-    /// Sets a uniform by name, in the view's shader and in its filter pass (either may read
-    /// it); the value must have the uniform's type.
+    /// Its filter passes: its own, then those of its tree.
+    fn filter_passes(&self) -> impl Iterator<Item = &FilterPass> {
+        self.filter.iter().chain(self.tree_filters.iter().map(|(_, f)| f))
+    }
+
+    /// Sets a uniform by name, in the view's shader and in its filter passes (any may read it:
+    /// a name means one value); the value must have the uniform's type.
     pub fn set_uniform(&mut self, name: &str, value: impl Into<Value>) -> Result<(), RuntimeError> {
         let value = value.into();
-        if let Some(filter) = self.filter.as_mut().filter(|f| f.has_uniform(name)) {
-            filter.set_uniform(name, value.clone())?;
-            if !self.volume.uniforms().has(name) {
-                return Ok(());
-            }
+        let passes = self.filter.iter_mut().chain(self.tree_filters.iter_mut().map(|(_, f)| f));
+        let mut set = false;
+        for pass in passes.filter(|f| f.has_uniform(name)) {
+            pass.set_uniform(name, value.clone())?;
+            set = true;
+        }
+        if set && !self.volume.uniforms().has(name) {
+            return Ok(());
         }
         self.volume.set_uniform(name, value)
     }
 
-    /// Whether the shader or the filter pass reads uniform `name` (unreached uniforms are not in
+    /// Whether the shader or a filter pass reads uniform `name` (unreached uniforms are not in
     /// them).
     pub fn has_uniform(&self, name: &str) -> bool {
-        self.volume.uniforms().has(name) || self.filter.as_ref().is_some_and(|f| f.has_uniform(name))
+        self.volume.uniforms().has(name) || self.filter_passes().any(|f| f.has_uniform(name))
     }
 
-    /// The value a scene's JSON gives uniform `name` of the shader or the filter pass, if it fits
+    /// The value a scene's JSON gives uniform `name` of the shader or a filter pass, if it fits
     /// the uniform's type.
     pub fn uniform_value_from_json(&self, name: &str, json: &serde_json::Value) -> Option<Value> {
-        self.volume
-            .uniforms()
-            .value_from_json(name, json)
-            .or_else(|| self.filter.as_ref().and_then(|f| f.uniforms().value_from_json(name, json)))
+        let filters = || self.filter_passes().find_map(|f| f.uniforms().value_from_json(name, json));
+        self.volume.uniforms().value_from_json(name, json).or_else(filters)
     }
 
-    /// The current value of uniform `name`, of the shader or else of the filter pass.
+    /// The current value of uniform `name`, of the shader or else of a filter pass.
     pub fn uniform(&self, name: &str) -> Option<Value> {
-        self.volume.uniforms().get(name).or_else(|| self.filter.as_ref().and_then(|f| f.uniforms().get(name)))
+        self.volume.uniforms().get(name).or_else(|| self.filter_passes().find_map(|f| f.uniforms().get(name)))
     }
 
-    /// What the reflection says of uniform `name`, of the shader or else of the filter pass.
+    /// What the reflection says of uniform `name`, of the shader or else of a filter pass.
     pub fn uniform_info(&self, name: &str) -> Option<&crate::reflection::UniformInfo> {
-        let filter = || self.filter.as_ref().and_then(|f| f.shader().reflection.uniform(name));
-        self.volume.shader().reflection.uniform(name).or_else(filter)
+        let filters = || self.filter_passes().find_map(|f| f.shader().reflection.uniform(name));
+        self.volume.shader().reflection.uniform(name).or_else(filters)
     }
 
     /// Gives the view a filter pass (`None`: none), run after its picture.
@@ -135,11 +144,24 @@ impl ViewRenderer {
         Ok(())
     }
 
-    /// The reflections of the view's shaders: its own, then its filter pass's (what a panel
+    /// Gives the view the passes of the filters in its tree (by index among the scene's tree
+    /// filters), run by its mesh layer.
+    pub(crate) fn set_tree_filters(
+        &mut self,
+        gpu: &Gpu,
+        cache: &mut PipelineCache,
+        shaders: Vec<(usize, ViewShader)>,
+    ) -> Result<(), RuntimeError> {
+        let passes = shaders.into_iter().map(|(f, shader)| Ok((f, FilterPass::new(gpu, cache, shader)?)));
+        self.tree_filters = passes.collect::<Result<_, RuntimeError>>()?;
+        Ok(())
+    }
+
+    /// The reflections of the view's shaders: its own, then its filter passes' (what a panel
     /// lists the uniforms and functions of).
     pub fn reflections(&self) -> impl Iterator<Item = &crate::reflection::Reflection> {
-        let filter = self.filter.as_ref().map(|f| &*f.shader().reflection);
-        std::iter::once(&*self.volume.shader().reflection).chain(filter)
+        let filters = self.filter_passes().map(|f| &*f.shader().reflection);
+        std::iter::once(&*self.volume.shader().reflection).chain(filters)
     }
 
     /// The uniform values as they are now (what the next frame uploads).
@@ -251,7 +273,8 @@ impl ViewRenderer {
         let reads_layer = self.volume.reads_mesh_layer();
         let light_volumes = if reads_layer { self.volume.light_volumes(resources) } else { Vec::new() };
         let peeled = self.volume.reads_translucent_layers();
-        let mut under = UnderNode { layers: &mut self.layers, peeled, light_volumes: &light_volumes };
+        let filters = &mut self.tree_filters;
+        let mut under = UnderNode { layers: &mut self.layers, peeled, light_volumes: &light_volumes, filters };
         let under_access = (under.reads(), under.writes());
         if reads_layer {
             under.encode(frame, Written::default())?;

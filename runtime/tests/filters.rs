@@ -217,3 +217,35 @@ fn a_probe_reads_a_field_of_the_filter_pass() {
     let refused = renderer.render_probe(0, &at_sample).err().map(|e| e.to_string()).unwrap_or_default();
     assert!(refused.contains("filter.finish"), "{refused}");
 }
+
+/// A filter among a group's children filters the picture of the children before it, and only
+/// that: the ball in a group with `std::luminance` turns grey (Rec. 709 luma of its colour
+/// without the filter, within 1/255: the group's image is 8-bit before the filter and after
+/// it), while a box outside the group and the background stay exactly as they were.
+#[test]
+fn a_filter_in_a_group_filters_the_children_before_it_only() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let meshes = &SCENE[SCENE.find("[[mesh]]").expect("a mesh")..];
+    let scene = meshes.to_string()
+        + "\n[[mesh]]\nname = \"box\"\nshape = \"box\"\nmin = [2.0, 2.0, 2.0]\nmax = [9.0, 9.0, 30.0]\ncolor = [0.1, 0.3, 0.9]\n\n\
+           [[group]]\nname = \"grey\"\nchildren = [\"ball\", { filter = \"std::luminance\" }]\n";
+    let with = |picture: &str| format!("picture = {picture}");
+    let plain = render(dir.path(), &scene, &with(r#"["ball", "box", "volume"]"#));
+    let no_ball = render(dir.path(), &scene, &with(r#"["box", "volume"]"#));
+    let grouped = render(dir.path(), &scene, &with(r#"["grey", "box", "volume"]"#));
+    let (mut ball, mut rest, mut worst) = (0, 0, 0.0f64);
+    for ((p, n), g) in plain.pixels().zip(no_ball.pixels()).zip(grouped.pixels()) {
+        if p == n {
+            assert_eq!(p, g, "a pixel without the ball changed");
+            rest += 1;
+            continue;
+        }
+        let [r, gr, b, _] = p.0.map(f64::from);
+        let y = 0.2126 * r + 0.7152 * gr + 0.0722 * b;
+        assert!(g.0[0].abs_diff(g.0[1]) <= 1 && g.0[1].abs_diff(g.0[2]) <= 1, "grey: {:?}", g.0);
+        worst = worst.max((f64::from(g.0[1]) - y).abs());
+        ball += 1;
+    }
+    assert!(ball > 1000 && rest > 1000, "{ball} pixels of the ball, {rest} others");
+    assert!(worst <= 1.0 + 1e-3, "largest difference from Rec. 709 luma {worst}/255");
+}

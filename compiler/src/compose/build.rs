@@ -34,11 +34,24 @@ pub struct ViewOutput {
     pub ir: Option<ViewIr>,
     /// The view's filter pass, when it lists `filters`.
     pub filter: Option<FilterOutput>,
+    /// The passes of the filters in its tree, by index into `Scene::tree_filters`
+    /// ([`Scene::filters_under`]'s order): each over the picture of the children before it.
+    pub tree_filters: Vec<(usize, FilterOutput)>,
+}
+
+impl ViewOutput {
+    /// Its filter passes: the view's own, then those of the filters in its tree.
+    pub fn filter_passes(&self) -> impl Iterator<Item = &FilterOutput> {
+        self.filter.iter().chain(self.tree_filters.iter().map(|(_, f)| f))
+    }
 }
 
 /// A view's filter pass: its `filters` composed into the `filter.*` steps after the standard
 /// `std::filter_picture`, emitted as a compute shader that runs after the view's picture.
 pub struct FilterOutput {
+    /// What its files are named after the view's name: `filters` for the view's own pass,
+    /// `GROUP-K.filters` for a filter of its tree ([`Scene::tree_filter_label`]).
+    pub name: String,
     /// Where every function of the pass was placed, and its state and uniforms.
     pub composition: Composition,
     /// `None` when composing the pass reported errors.
@@ -177,11 +190,20 @@ pub fn compose_scene_with(
     // of a view's work only reads the map, so the views compose in parallel. (Parsing the files in
     // parallel too saved less than handing work to another thread costs here.)
     let lookups = load_lookups(&scene, &mut sources, &mut diags);
-    let loaded: Vec<(LoadedView, Option<LoadedView>)> = chosen
+    let loaded: Vec<LoadedPipelines> = chosen
         .iter()
         .map(|view| {
             let ray = load_view(&scene, view, extra, &mut sources, &mut parsed);
-            (ray, load_filters(view, extra, &mut sources, &mut parsed))
+            let filter = load_filters(&view.filters, extra, &mut sources, &mut parsed);
+            let tree_filters = scene
+                .filters_under(view)
+                .into_iter()
+                .filter_map(|f| {
+                    let module = std::slice::from_ref(scene.tree_filters.get(f)?);
+                    Some((f, load_filters(module, &[], &mut sources, &mut parsed)?))
+                })
+                .collect();
+            LoadedPipelines { ray, filter, tree_filters }
         })
         .collect();
     let context = ComposeContext { scene: &scene, sources: &sources, lookups: &lookups, keep };
@@ -212,9 +234,9 @@ pub fn compose_scene_with(
     BuiltScene { sources, diags, scene: Some(scene), views }
 }
 
-/// Whether a view composed: its shader, and its filter pass's when it has one.
+/// Whether a view composed: its shader, and its filter passes'.
 pub(crate) fn view_composed(view: &ViewOutput) -> bool {
-    view.shader.is_some() && view.filter.as_ref().is_none_or(|f| f.shader.is_some())
+    view.shader.is_some() && view.filter_passes().all(|f| f.shader.is_some())
 }
 
 /// The checks of a scene's values against its composed views (`every_view`: all of them, each
@@ -223,7 +245,7 @@ pub(crate) fn view_composed(view: &ViewOutput) -> bool {
 /// ([`super::cache`]) must pass again.
 pub(crate) fn check_against_views(scene: &Scene, views: &[ViewOutput], every_view: bool, diags: &mut Diagnostics) {
     // A filter pass's uniforms are the view's too: the scene sets them like any other.
-    let filters = views.iter().filter_map(|v| v.filter.as_ref().map(|f| &f.composition));
+    let filters = views.iter().flat_map(|v| v.filter_passes().map(|f| &f.composition));
     let compositions: Vec<&Composition> = views.iter().map(|v| &v.composition).chain(filters).collect();
     uniform_check::check_scene_uniforms(scene, &compositions, every_view, diags);
     let named: Vec<(&str, &Composition)> = views.iter().map(|v| (v.name.as_str(), &v.composition)).collect();
@@ -285,15 +307,23 @@ struct LoadedView {
 /// filtered colour.
 pub const FILTER_PICTURE: &str = "filter_picture";
 
-/// Loads a view's filter modules after [`FILTER_PICTURE`], then the `extra` modules of the
-/// filter pipeline (`None` for a view without filters).
+/// The modules of a view's pipelines, loaded: its ray pipeline, its filter pass, and the
+/// passes of the filters in its tree (by index into `Scene::tree_filters`).
+struct LoadedPipelines {
+    ray: LoadedView,
+    filter: Option<LoadedView>,
+    tree_filters: Vec<(usize, LoadedView)>,
+}
+
+/// Loads the modules of a filter pass, `filters`, after [`FILTER_PICTURE`], then the `extra`
+/// modules of the filter pipeline (`None` for no filters).
 fn load_filters(
-    view: &View,
+    filters: &[ModuleRef],
     extra: &[GeneratedModule],
     sources: &mut SourceMap,
     parsed: &mut ParsedFiles,
 ) -> Option<LoadedView> {
-    if view.filters.is_empty() {
+    if filters.is_empty() {
         return None;
     }
     let mut diags = Diagnostics::new();
@@ -303,7 +333,7 @@ fn load_filters(
         uses.push(ModuleUse { module, instances: None, span: Span::DUMMY });
     }
     let mut missing = Vec::new();
-    for module_ref in &view.filters {
+    for module_ref in filters {
         match load_module(&mut loader, module_ref) {
             Ok(module) => uses.push(module_use(module, module_ref)),
             Err(d) => missing.push(d),
@@ -464,10 +494,10 @@ fn run_jobs<T: Send>(jobs: Vec<Job<'_, T>>, first: usize) -> Vec<T> {
 fn compose_loaded_views(
     context: &ComposeContext<'_>,
     views: &[&View],
-    loaded: Vec<(LoadedView, Option<LoadedView>)>,
+    loaded: Vec<LoadedPipelines>,
 ) -> Vec<(ViewOutput, Diagnostics)> {
     let weight = |l: &LoadedView| -> usize { l.graph.modules.iter().map(|m| m.ast.items.len()).sum() };
-    let heaviest = loaded.iter().enumerate().max_by_key(|(_, (l, _))| weight(l)).map_or(0, |(i, _)| i);
+    let heaviest = loaded.iter().enumerate().max_by_key(|(_, l)| weight(&l.ray)).map_or(0, |(i, _)| i);
     let jobs = views
         .iter()
         .zip(loaded)
@@ -481,21 +511,20 @@ fn compose_loaded_views(
     run_jobs(jobs, heaviest)
 }
 
-/// Checks, places and emits one loaded view, and its filter pass.
-fn compose_loaded(
-    context: &ComposeContext<'_>,
-    view: &View,
-    (loaded, filters): (LoadedView, Option<LoadedView>),
-) -> (ViewOutput, Diagnostics) {
-    let (ray, mut diags) = compose_pipeline(context, view, loaded, PipelineKind::Ray);
-    let filter = filters.map(|filters| {
+/// Checks, places and emits one loaded view, its filter pass and those of its tree.
+fn compose_loaded(context: &ComposeContext<'_>, view: &View, loaded: LoadedPipelines) -> (ViewOutput, Diagnostics) {
+    let (ray, mut diags) = compose_pipeline(context, view, loaded.ray, PipelineKind::Ray);
+    let mut filter_pass = |filters: LoadedView, name: String| {
         let (pass, own) = compose_pipeline(context, view, filters, PipelineKind::Filter);
         own.iter().for_each(|d| diags.push(d.clone()));
         let (composition, shader, ir) = pass.into_parts(context.keep);
-        FilterOutput { composition, shader, ir }
-    });
+        FilterOutput { name, composition, shader, ir }
+    };
+    let filter = loaded.filter.map(|loaded| filter_pass(loaded, "filters".into()));
+    let label = |f: usize| format!("{}.filters", context.scene.tree_filter_label(f));
+    let tree_filters = loaded.tree_filters.into_iter().map(|(f, loaded)| (f, filter_pass(loaded, label(f)))).collect();
     let (composition, shader, ir) = ray.into_parts(context.keep);
-    (ViewOutput { name: view.name.name.clone(), composition, shader, ir, filter }, diags)
+    (ViewOutput { name: view.name.name.clone(), composition, shader, ir, filter, tree_filters }, diags)
 }
 
 /// One pipeline of a view, composed: its checked program, its composition, and its shader with

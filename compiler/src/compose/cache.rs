@@ -105,7 +105,7 @@ fn still_clean(parsed: &build::ParsedScene, scene: &Scene, built: &BuiltScene) -
 
 /// Everything of a scene that shapes its shaders: per view, its name and kind and the modules
 /// composed for it (standard ones with their instances, then the scene's and the view's, then
-/// its filters).
+/// its filters and the filters of its tree).
 pub fn structural_key(scene: &Scene) -> String {
     let mut key = String::new();
     for view in &scene.views {
@@ -122,6 +122,12 @@ pub fn structural_key(scene: &Scene) -> String {
         for module in &view.filters {
             key.push(' ');
             module_key(&mut key, module);
+        }
+        // So is each filter of its tree, which the runtime finds by its index.
+        key.push_str(" tree filters:");
+        for f in scene.filters_under(view) {
+            let _ = write!(key, " {f}=");
+            scene.tree_filters.get(f).inspect(|module| module_key(&mut key, module));
         }
         key.push('\n');
     }
@@ -227,6 +233,21 @@ mod tests {
         std::fs::write(&path, scene(0.25, "mip")).unwrap();
         let without = cache.build(&path).unwrap();
         assert!(without.hit && without.built.views[0].filter.is_none(), "the composition without filters again");
+        let tree = |filter: &str| {
+            scene(0.25, "mip")
+                + "picture = [\"g\", \"volume\"]\n\n[[mesh]]\nname = \"m\"\nshape = \"sphere\"\ncentre = [0.0, 0.0, 0.0]\nradius = 5.0\n\n\
+                   [[group]]\nname = \"g\"\nchildren = [\"m\""
+                + filter
+                + "]\n"
+        };
+        std::fs::write(&path, tree("")).unwrap();
+        assert!(!cache.build(&path).unwrap().hit, "meshes under the volume: another shader");
+        std::fs::write(&path, tree(", { filter = \"std::luminance\" }")).unwrap();
+        let filtered = cache.build(&path).unwrap();
+        assert!(!filtered.hit, "a filter in the tree is a shader of its own");
+        assert!(filtered.built.views[0].tree_filters.len() == 1 && build::view_composed(&filtered.built.views[0]));
+        std::fs::write(&path, scene(0.25, "mip")).unwrap();
+        assert!(cache.build(&path).unwrap().hit);
 
         std::fs::write(dir.path().join("dim.vrs"), MODULE.replace("0.5", "0.75")).unwrap();
         assert!(!cache.build(&path).unwrap().hit, "an edited module file is composed again");
@@ -234,6 +255,6 @@ mod tests {
         std::fs::write(&path, scene(0.25, "dvr").replace("[render]", "[render]\nshadnig = true")).unwrap();
         let invalid = cache.build(&path).unwrap();
         assert!(!invalid.hit && invalid.scene.is_none() && invalid.built.diags.has_errors());
-        assert_eq!(cache.stats(), CacheStats { hits: 2, misses: 5 });
+        assert_eq!(cache.stats(), CacheStats { hits: 3, misses: 7 });
     }
 }

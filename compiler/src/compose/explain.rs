@@ -170,10 +170,9 @@ impl super::build::ViewOutput {
             Some(ir) => self.composition.render_pipeline_map(&ir.program, sources),
             None => String::new(),
         };
-        if let Some(filter) = &self.filter
-            && let Some(ir) = &filter.ir
-        {
-            out.push_str("filters:\n");
+        for filter in self.filter_passes() {
+            let Some(ir) = &filter.ir else { continue };
+            out.push_str(&format!("{}:\n", filter.name));
             out.push_str(&filter.composition.render_pipeline_map(&ir.program, sources));
         }
         out

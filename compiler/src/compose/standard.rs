@@ -95,11 +95,14 @@ impl Scene {
         nodes.iter().any(|node| match node {
             Node::Mesh(_) => true,
             Node::Group(g) => self.groups.get(*g).is_some_and(|group| {
+                // Children a filter follows are drawn into the filter's own images.
+                let after_filters =
+                    group.children.iter().rposition(|c| matches!(c, Node::Filter(_))).map_or(0, |i| i + 1);
                 group.kind == GroupKind::Depth
                     && depth < MAX_GROUP_DEPTH
-                    && self.has_layer_mesh(&group.children, depth + 1)
+                    && self.has_layer_mesh(&group.children[after_filters..], depth + 1)
             }),
-            Node::Plane(_) | Node::Image(_) => false,
+            Node::Plane(_) | Node::Image(_) | Node::Filter(_) => false,
         })
     }
 }

@@ -34,6 +34,10 @@ impl Cx<'_> {
             let context = self.table_context(offset, key);
             return SceneError::from(Missing::Key { key: key.to_string(), table: context }).at(span);
         }
+        if raw.starts_with("data did not match any variant of untagged enum RawChild") {
+            let (found, expected) = ("an entry that is neither".into(), "names and `{ filter = \"PATH\" }`".into());
+            return SceneError::from(WrongType::Value { key: Some("children".into()), found, expected }).at(span);
+        }
         if let Some((found, expected)) = serde_mismatch(raw) {
             let key = self.key_before(offset);
             return SceneError::from(WrongType::Value { key, found, expected }).at(span);

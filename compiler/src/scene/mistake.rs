@@ -16,22 +16,50 @@ pub(super) enum SceneError {
     Missing(Missing),
     NoTable(NoTable),
     Conflict(Conflict),
-    SecondPrimary { first: Span },
+    SecondPrimary {
+        first: Span,
+    },
     RenderRange(RenderRange),
     ViewRange(ViewRange),
-    Memory { key: &'static str },
+    Memory {
+        key: &'static str,
+    },
     Empty(Empty),
     BadName(BadName),
     Twice(Twice),
     NoSuch(NoSuch),
-    PlaneNotSlice { name: String, kind: Span },
+    PlaneNotSlice {
+        name: String,
+        kind: Span,
+    },
     UnknownValue(UnknownValue),
     WrongType(WrongType),
-    TfCount { tfs: usize, channels: usize, list: Span },
-    UrlScheme { scheme: String },
-    TooFewChildren { group: String, kind: &'static str, needs: usize },
-    GroupCycle { path: Vec<String> },
+    TfCount {
+        tfs: usize,
+        channels: usize,
+        list: Span,
+    },
+    UrlScheme {
+        scheme: String,
+    },
+    TooFewChildren {
+        group: String,
+        kind: &'static str,
+        needs: usize,
+    },
+    GroupCycle {
+        path: Vec<String>,
+    },
     PictureVolume(PictureVolume),
+    /// E0723.
+    FilterFirst {
+        group: String,
+    },
+    /// E0724.
+    FilterInGroupKind {
+        group: String,
+        kind: &'static str,
+    },
 }
 
 /// E0722: the view's volume in its `picture`: listed once, with only meshes after it.
@@ -313,6 +341,8 @@ impl SceneError {
             SceneError::TooFewChildren { .. } => Code::TreeFewChildren,
             SceneError::GroupCycle { .. } => Code::TreeCycle,
             SceneError::PictureVolume(_) => Code::TreePictureVolume,
+            SceneError::FilterFirst { .. } => Code::TreeFilterFirst,
+            SceneError::FilterInGroupKind { .. } => Code::TreeFilterGroupKind,
         }
     }
 
@@ -367,6 +397,19 @@ impl SceneError {
                     .with_help("a renderer tree has no cycles: take one of these children out")
             }
             SceneError::PictureVolume(e) => e.words(d),
+            SceneError::FilterFirst { group } => {
+                said(d, format!("the first child of the group `{group}` is a filter, with nothing before it to filter"))
+                    .with_label("filters the children listed before it")
+                    .with_help("list the meshes or groups it filters before it")
+            }
+            SceneError::FilterInGroupKind { group, kind } => {
+                said(d, format!("a filter among the children of the {kind} group `{group}`"))
+                    .with_label(format!("{} group combines its children by its own rule", with_article(kind)))
+                    .with_note("filters belong to depth groups, where they filter the children listed before them")
+                    .with_help(format!(
+                        "filter this group's picture in a depth group around it: `children = [\"{group}\", {{ filter = ... }}]`"
+                    ))
+            }
         }
     }
 }

@@ -36,6 +36,8 @@ pub struct Scene {
     pub groups: Vec<Group>,
     /// `[[image]]` tables, in file order: picture files on rectangles, leaves of renderer trees.
     pub images: Vec<Image>,
+    /// The filters among groups' children, in file order ([`Node::Filter`] indexes them).
+    pub tree_filters: Vec<ModuleRef>,
     /// `[render] memory` and `host_memory`: what bricked volumes may hold.
     pub memory: Memory,
     /// The directory that relative paths were resolved against.
@@ -465,6 +467,10 @@ pub enum Node {
     Plane(usize),
     /// An `[[image]]` on its rectangle in patient space (index into `Scene::images`).
     Image(usize),
+    /// A filter among a depth group's children (`{ filter = "PATH" }`, index into
+    /// `Scene::tree_filters`): an image-space pass over the picture of the children listed
+    /// before it.
+    Filter(usize),
 }
 
 impl Node {
@@ -482,7 +488,7 @@ pub struct Group {
     pub name: Ident,
     /// `kind`, with `show` and `opacity`.
     pub kind: GroupKind,
-    /// `children`: meshes, groups and slice views, in order.
+    /// `children`: meshes, groups, images, slice views and (in depth groups) filters, in order.
     pub children: Vec<Node>,
     /// The whole table.
     pub span: Span,
@@ -692,9 +698,44 @@ impl Scene {
     }
 
     /// Every module the scene names, in order: its `[[module]]`s, then each view's `modules`
-    /// and `filters`.
+    /// and `filters`, then the filters among groups' children.
     pub fn module_refs(&self) -> impl Iterator<Item = &ModuleRef> {
-        self.modules.iter().chain(self.views.iter().flat_map(|v| v.modules.iter().chain(&v.filters)))
+        let views = self.views.iter().flat_map(|v| v.modules.iter().chain(&v.filters));
+        self.modules.iter().chain(views).chain(&self.tree_filters)
+    }
+
+    /// Where tree filter `f` is, for people and file names: `GROUP-K`, the group whose
+    /// children list it and its place among them (from 1).
+    pub fn tree_filter_label(&self, f: usize) -> String {
+        for group in &self.groups {
+            if let Some(k) = group.children.iter().position(|c| *c == Node::Filter(f)) {
+                return format!("{}-{}", group.name.name, k + 1);
+            }
+        }
+        format!("filter-{f}")
+    }
+
+    /// The filters in `view`'s tree under its volume (indices into `Scene::tree_filters`), each
+    /// once, in the tree's order; none in a slice view (its tree is outlined, not combined).
+    pub fn filters_under(&self, view: &View) -> Vec<usize> {
+        if view.kind.value != ViewKind::Raycast {
+            return Vec::new();
+        }
+        let mut out = Vec::new();
+        let mut stack: Vec<Node> = view.picture.under.iter().rev().copied().collect();
+        let mut seen_groups = Vec::new();
+        while let Some(node) = stack.pop() {
+            match node {
+                Node::Filter(f) if !out.contains(&f) => out.push(f),
+                Node::Group(g) if !seen_groups.contains(&g) => {
+                    seen_groups.push(g);
+                    let children = self.groups.get(g).map_or(&[][..], |g| &g.children[..]);
+                    stack.extend(children.iter().rev().copied());
+                }
+                _ => {}
+            }
+        }
+        out
     }
 
     /// Whether `view` has a mesh layer: meshes, groups, or slice views' pictures on their planes
@@ -746,6 +787,11 @@ impl Scene {
             Node::Mesh(i) => name(self.meshes.get(i).map(|m| &m.name)),
             Node::Plane(i) => format!("{} (plane)", name(self.views.get(i).map(|v| &v.name))),
             Node::Image(i) => format!("{} (image)", name(self.images.get(i).map(|v| &v.name))),
+            Node::Filter(f) => match self.tree_filters.get(f).map(|m| &m.source) {
+                Some(ModuleSource::Std(name)) => format!("filter std::{}", name.value),
+                Some(ModuleSource::File(file)) => format!("filter {}", file.given),
+                None => "filter ?".into(),
+            },
             Node::Group(g) if depth < MAX_GROUP_DEPTH => {
                 let Some(group) = self.groups.get(g) else { return "?".into() };
                 let child = |n: &Node| self.describe_node(*n, depth + 1);

@@ -186,10 +186,27 @@ pub(super) const VIEW_KEYS: &[&str] = &[
 pub(super) struct RawGroup {
     pub(super) name: Spanned<String>,
     pub(super) kind: Option<Spanned<GroupKindName>>,
-    pub(super) children: Spanned<Vec<Spanned<String>>>,
+    pub(super) children: Spanned<Vec<Spanned<RawChild>>>,
     pub(super) show: Option<Spanned<Show>>,
     pub(super) opacity: Option<Spanned<f32>>,
     pub(super) light: Option<Spanned<RawLight>>,
+}
+
+/// A group's child: a node's name, or a filter over the children before it.
+#[derive(Deserialize, Clone)]
+#[serde(untagged)]
+pub(super) enum RawChild {
+    Name(String),
+    Filter(RawFilterChild),
+}
+
+/// `{ filter = "PATH", instances = [...] }` among a group's children (without spans of its
+/// own: an untagged enum cannot hold them; the entry's span stands for its values).
+#[derive(Deserialize, Clone)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawFilterChild {
+    pub(super) filter: String,
+    pub(super) instances: Option<Vec<String>>,
 }
 
 /// A shadow group's `light`: a direction, or a light's name.

@@ -625,6 +625,37 @@ fn image_mistakes_have_their_codes() {
 }
 
 #[test]
+fn a_filter_among_a_depth_groups_children_filters_those_before_it() {
+    let groups = "[[group]]\nname = \"g\"\nchildren = [\"organ\", { filter = \"std::edges\" }, \"tube\", { filter = \"soft.vrs\", instances = [\"a\"] }]\n";
+    let scene = format!("{MINIMAL}picture = [\"g\", \"volume\"]\n\n{TREE}{groups}");
+    let (_, parsed, warnings) = parse_reporting(&scene);
+    let parsed = parsed.unwrap_or_else(|| panic!("{warnings:?}"));
+    assert_eq!(parsed.groups[0].children, [Node::Mesh(0), Node::Filter(0), Node::Mesh(1), Node::Filter(1)]);
+    assert_eq!(parsed.tree_filters.len(), 2);
+    assert!(matches!(&parsed.tree_filters[0].source, ModuleSource::Std(n) if n.value == "edges"));
+    assert!(matches!(&parsed.tree_filters[1].source, ModuleSource::File(f) if f.given == "soft.vrs"));
+    let instances: Vec<&str> = parsed.tree_filters[1].instances.iter().flatten().map(|i| i.name.as_str()).collect();
+    assert_eq!(instances, ["a"]);
+    assert_eq!(parsed.filters_under(&parsed.views[0]), [0, 1]);
+    assert_eq!((parsed.tree_filter_label(0), parsed.tree_filter_label(1)), ("g-2".into(), "g-4".into()));
+    assert_eq!(parsed.module_refs().count(), 2, "the filters are modules the scene names");
+    assert_eq!(
+        parsed.describe_picture(&parsed.views[0]),
+        "g (depth) [organ, filter std::edges, tube, filter soft.vrs], volume"
+    );
+    // A filter first, a filter in an occlusion group, an entry that is neither.
+    let first = groups.replace("[\"organ\", { filter", "[{ filter");
+    let found = errors(&format!("{MINIMAL}picture = [\"g\", \"volume\"]\n\n{TREE}{first}"));
+    assert!(found.iter().any(|e| e.0 == "E0723" && e.3.contains("first child of the group `g`")), "{found:?}");
+    let occlusion = groups.replace("name = \"g\"\n", "name = \"g\"\nkind = \"occlusion\"\n");
+    let found = errors(&format!("{MINIMAL}picture = [\"g\", \"volume\"]\n\n{TREE}{occlusion}"));
+    assert!(found.iter().any(|e| e.0 == "E0724" && e.3.contains("occlusion group `g`")), "{found:?}");
+    let neither = groups.replace("{ filter = \"std::edges\" }", "{ path = \"std::edges\" }");
+    let found = errors(&format!("{MINIMAL}picture = [\"g\", \"volume\"]\n\n{TREE}{neither}"));
+    assert!(found.iter().any(|e| e.0 == "E0716" && e.3.contains("`children` expects names and")), "{found:?}");
+}
+
+#[test]
 fn a_picture_describes_itself_in_one_line() {
     let groups = "[[group]]\nname = \"seen\"\nkind = \"occlusion\"\nchildren = [\"organ\", \"tube\"]\n\n\
                   [[group]]\nname = \"lit\"\nkind = \"shadow\"\nlight = [0.0, 0.0, 1.0]\nchildren = [\"seen\"]\n";

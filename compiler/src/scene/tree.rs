@@ -6,7 +6,7 @@
 //! Names of children resolve in this order: a mesh, a group, an image (validation refuses a
 //! group or image named as a mesh or as each other), then a view. `"volume"` in a `picture` is the view's own volume.
 
-use super::raw::{RawGroup, RawLight, RawView};
+use super::raw::{RawChild, RawGroup, RawLight, RawModule, RawView};
 use super::*;
 
 /// The lists of a `[[view]]` table that name nodes, resolved once every view, mesh and group
@@ -55,34 +55,77 @@ impl Names<'_> {
             Node::Group(i) => &self.groups[i].name.name,
             Node::Plane(i) => &self.views[i].name.name,
             Node::Image(i) => &self.images[i].name.name,
+            Node::Filter(_) => "a filter",
         }
     }
 }
 
 impl Cx<'_> {
     /// `[[group]]` tables: their names and kinds, then their children (which may name groups
-    /// further down), then the cycles among them.
+    /// further down), then the cycles among them; with the filters among their children.
     pub(super) fn groups(
         &mut self,
         raw: Vec<Spanned<RawGroup>>,
         (meshes, images): (&[Mesh], &[Image]),
         views: &[View],
-    ) -> Vec<Group> {
+    ) -> (Vec<Group>, Vec<ModuleRef>) {
         let mut groups: Vec<Group> = Vec::new();
         for g in &raw {
             let group = self.group_head(g, (meshes, images, views), &groups);
             groups.push(group);
         }
-        let mut child_spans = Vec::with_capacity(raw.len());
+        let (mut child_spans, mut filters) = (Vec::with_capacity(raw.len()), Vec::new());
         for (i, g) in raw.iter().enumerate() {
             let names = Names { meshes, groups: &groups, images, views };
-            let children = self.nodes(g.get_ref().children.get_ref(), &names, true);
-            self.check_child_count(&groups[i], g.get_ref().children.get_ref().len(), self.span(&g.get_ref().children));
+            let list = g.get_ref().children.get_ref();
+            let children = self.group_children(&groups[i], list, &names, &mut filters);
+            let listed = list.iter().filter(|c| matches!(c.get_ref(), RawChild::Name(_))).count();
+            self.check_child_count(&groups[i], listed, self.span(&g.get_ref().children));
             groups[i].children = children.iter().map(|(node, _)| *node).collect();
             child_spans.push(children.into_iter().map(|(_, span)| span).collect::<Vec<_>>());
         }
         self.check_cycles(&groups, &child_spans);
-        groups
+        (groups, filters)
+    }
+
+    /// A group's children, each with its span: the nodes its names name (as [`Cx::nodes`]) and
+    /// its filters (added to `filters`), E0723 for a filter first, E0724 for one in an
+    /// occlusion or shadow group.
+    fn group_children(
+        &mut self,
+        group: &Group,
+        list: &[Spanned<RawChild>],
+        names: &Names,
+        filters: &mut Vec<ModuleRef>,
+    ) -> Vec<(Node, Span)> {
+        let mut out = Vec::new();
+        for (k, child) in list.iter().enumerate() {
+            let span = self.span(child);
+            match child.get_ref() {
+                RawChild::Name(name) => self.add_node(&mut out, &Spanned::new(child.span(), name.clone()), names, true),
+                RawChild::Filter(f) => {
+                    let kind = match group.kind {
+                        GroupKind::Depth => None,
+                        GroupKind::Occlusion { .. } => Some("occlusion"),
+                        GroupKind::Shadow { .. } => Some("shadow"),
+                    };
+                    let name = group.name.name.clone();
+                    if let Some(kind) = kind {
+                        self.report(span, SceneError::FilterInGroupKind { group: name, kind });
+                    } else if k == 0 {
+                        self.report(span, SceneError::FilterFirst { group: name });
+                    }
+                    let range = child.span();
+                    let names =
+                        |list: &Vec<String>| list.iter().map(|i| Spanned::new(range.clone(), i.clone())).collect();
+                    let instances = f.instances.as_ref().map(|list| Spanned::new(range.clone(), names(list)));
+                    let raw = RawModule { path: Spanned::new(range.clone(), f.filter.clone()), instances };
+                    filters.push(self.module(Spanned::new(child.span(), raw)));
+                    out.push((Node::Filter(filters.len() - 1), span));
+                }
+            }
+        }
+        out
     }
 
     /// A group's name, kind, `show` and `opacity`; its children come later.
@@ -211,21 +254,27 @@ impl Cx<'_> {
     fn nodes(&mut self, list: &[Spanned<String>], names: &Names, planes_allowed: bool) -> Vec<(Node, Span)> {
         let mut out: Vec<(Node, Span)> = Vec::new();
         for item in list {
-            let span = self.span(item);
-            let Some(node) = self.node(item, names) else { continue };
-            if out.iter().any(|(n, _)| *n == node) {
-                self.report(span, listed_twice(node, item.get_ref()));
-            } else if matches!(node, Node::Plane(_) | Node::Image(_)) && !planes_allowed {
-                self.ignored_at(
-                    span,
-                    item.get_ref(),
-                    "in a slice view's picture (a raycast view shows slice views and images on their planes)",
-                );
-            } else {
-                out.push((node, span));
-            }
+            self.add_node(&mut out, item, names, planes_allowed);
         }
         out
+    }
+
+    /// The node `item` names, added to `out` unless it names nothing or is there already (as
+    /// [`Cx::nodes`] says).
+    fn add_node(&mut self, out: &mut Vec<(Node, Span)>, item: &Spanned<String>, names: &Names, planes_allowed: bool) {
+        let span = self.span(item);
+        let Some(node) = self.node(item, names) else { return };
+        if out.iter().any(|(n, _)| *n == node) {
+            self.report(span, listed_twice(node, item.get_ref()));
+        } else if node.is_plane() && !planes_allowed {
+            self.ignored_at(
+                span,
+                item.get_ref(),
+                "in a slice view's picture (a raycast view shows slice views and images on their planes)",
+            );
+        } else {
+            out.push((node, span));
+        }
     }
 
     /// The node `item` names: E0713 for no such name, E0714 for a raycast view.
@@ -302,7 +351,7 @@ impl Cx<'_> {
         for (node, span) in self.nodes(&after, names, true) {
             match node {
                 Node::Mesh(m) => over.push(m),
-                Node::Group(_) | Node::Plane(_) | Node::Image(_) => {
+                Node::Group(_) | Node::Plane(_) | Node::Image(_) | Node::Filter(_) => {
                     let what = match node {
                         Node::Group(_) => "group",
                         Node::Image(_) => "image",
@@ -340,7 +389,7 @@ fn listed_twice(node: Node, name: &str) -> Twice {
     let name = name.to_string();
     match node {
         Node::Mesh(_) => Twice::MeshListed { name },
-        Node::Group(_) | Node::Image(_) => Twice::NodeListed { name },
+        Node::Group(_) | Node::Image(_) | Node::Filter(_) => Twice::NodeListed { name },
         Node::Plane(_) => Twice::ViewListed { name },
     }
 }

@@ -116,10 +116,10 @@ impl Cx<'_> {
         let meshes = self.meshes(raw.meshes, &volumes);
         let (mut views, lists) = self.views(raw.views, shared.as_ref(), &render);
         let images = self.images(raw.images, &meshes);
-        let groups = self.groups(raw.groups, (&meshes, &images), &views);
+        let (groups, tree_filters) = self.groups(raw.groups, (&meshes, &images), &views);
         self.pictures(&mut views, lists, (&meshes, &groups, &images));
         let dir = self.dir.to_path_buf();
-        Scene { render, volumes, modules, uniforms, views, meshes, groups, images, memory, dir }
+        Scene { render, volumes, modules, uniforms, views, meshes, groups, images, tree_filters, memory, dir }
     }
 
     /// `[render]`: each key, or its default, checked in the table's order.

@@ -39,8 +39,8 @@ use peel::PeeledLayers;
 use pipelines::{COLOR_FORMAT, DEPTH_FORMAT, DEPTH_IMAGE_FORMAT, MeshPipelines};
 use shadow::ShadowMap;
 use std::sync::Arc;
+use tree::{FilterStep, LayerPass, LayerPlan, PassTarget};
 pub(crate) use tree::{LayerNode, ShadowLight, resolve_lights, set_hidden_opacity, visit};
-use tree::{LayerPass, LayerPlan, PassTarget};
 pub(crate) use view_layers::{OverNode, UnderNode, ViewLayers};
 
 /// A mesh on the GPU: interleaved positions and normals, and triangle indices.
@@ -99,7 +99,14 @@ pub(crate) struct LayerContent<'a> {
     pub light_volumes: &'a [(String, Arc<VolumeTexture>)],
     /// Patient space to the primary volume's normalized coordinates.
     pub world_to_volume: glam::Mat4,
+    /// What the tree's filters filter with (their uniforms): a change draws the layer again.
+    pub filters_key: u64,
 }
+
+/// Runs filter `filter` of the tree (its index among the scene's tree filters) in place over a
+/// part's colour image (`target`), with the part's images as what it reads (`picture_depth`).
+pub(crate) type RunFilter<'r> =
+    dyn FnMut(usize, &wgpu::TextureView, LayerViews<'_>, &mut wgpu::CommandEncoder) -> Result<(), RuntimeError> + 'r;
 
 impl LayerContent<'_> {
     /// The light volume of light `light`, if the view's volume casts shadows from it.
@@ -133,10 +140,12 @@ impl LayerImages {
     fn new(gpu: &Gpu, size: [u32; 2], what: &str) -> Result<LayerImages, RuntimeError> {
         let usage = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING;
         let doing = format!("creating a {}x{} {what}", size[0], size[1]);
-        let image = |label, format| Image2d { label, size, format, usage }.create(gpu, &doing);
-        let depth_buffer = image("mesh depth buffer", DEPTH_FORMAT)?;
-        let depth = image("mesh depth", DEPTH_IMAGE_FORMAT)?;
-        let color = image("mesh colour", COLOR_FORMAT)?;
+        let image = |label, format, usage| Image2d { label, size, format, usage }.create(gpu, &doing);
+        let depth_buffer = image("mesh depth buffer", DEPTH_FORMAT, usage)?;
+        let depth = image("mesh depth", DEPTH_IMAGE_FORMAT, usage)?;
+        // A filter of the tree filters a part's colour in place: it copies it, then writes it.
+        let filtered = wgpu::TextureUsages::STORAGE_BINDING | wgpu::TextureUsages::COPY_SRC;
+        let color = image("mesh colour", COLOR_FORMAT, usage | filtered)?;
         Ok(LayerImages {
             depth_buffer: depth_buffer.create_view(&Default::default()),
             depth_view: depth.create_view(&Default::default()),
@@ -237,13 +246,14 @@ impl MeshLayer {
     }
 
     /// Records the drawing of `content` into the layer's images, unless they already hold
-    /// exactly that picture (the tiles of one frame draw it once). `sampler` reads the pictures.
+    /// exactly that picture (the tiles of one frame draw it once). `sampler` reads the pictures;
+    /// `filter` runs the tree's filters.
     pub(crate) fn encode(
         &mut self,
         gpu: &Gpu,
         (pipelines, sampler): (Option<&MeshPipelines>, &wgpu::Sampler),
         encoder: &mut wgpu::CommandEncoder,
-        content: &LayerContent,
+        (content, filter): (&LayerContent, &mut RunFilter<'_>),
     ) -> Result<(), RuntimeError> {
         let key = layer_key(content, self.size());
         if self.drawn == Some(key) {
@@ -267,7 +277,7 @@ impl MeshLayer {
         if let Some(recorded) = recorded {
             self.encode_shadow_maps(gpu, recorded, encoder, &planned)?;
         }
-        self.encode_passes(gpu, recorded, encoder, &plan.passes, &planned)?;
+        self.encode_passes(gpu, (recorded, encoder), (&plan, &planned), filter)?;
         if let (Some(peeled), Some((pipelines, bind_group))) = (&mut self.peeled, recorded) {
             let first = planned.peeled_from;
             let translucent = (bind_group, &planned.draws[first..], first);
@@ -309,16 +319,16 @@ impl MeshLayer {
         Ok(())
     }
 
-    /// Records `passes`, each into its images (cleared) with its draws.
+    /// Records the passes of `plan`, each into its images (cleared) with its draws, each
+    /// filter right after the pass that drew what it filters.
     fn encode_passes(
         &self,
         gpu: &Gpu,
-        recorded: Option<(&MeshPipelines, &wgpu::BindGroup)>,
-        encoder: &mut wgpu::CommandEncoder,
-        passes: &[LayerPass],
-        planned: &PlannedDraws,
+        (recorded, encoder): (Option<(&MeshPipelines, &wgpu::BindGroup)>, &mut wgpu::CommandEncoder),
+        (plan, planned): (&LayerPlan, &PlannedDraws),
+        filter: &mut RunFilter<'_>,
     ) -> Result<(), RuntimeError> {
-        for (i, pass) in passes.iter().enumerate() {
+        for (i, pass) in plan.passes.iter().enumerate() {
             let images = match pass.target {
                 PassTarget::Layer => &self.images,
                 PassTarget::Context(g) => &self.groups[g][0],
@@ -337,8 +347,29 @@ impl MeshLayer {
                     draws::record(&mut render, by_pass, bind_group, (&planned.draws[range.clone()], range.start));
                 }
             })?;
+            for step in plan.filters.iter().filter(|s| s.after == i) {
+                self.encode_filter(step, encoder, filter)?;
+            }
         }
         Ok(())
+    }
+
+    /// Runs `step`'s filter over the context of its group slot, in place.
+    fn encode_filter(
+        &self,
+        step: &FilterStep,
+        encoder: &mut wgpu::CommandEncoder,
+        filter: &mut RunFilter<'_>,
+    ) -> Result<(), RuntimeError> {
+        let part = &self.groups[step.group][0];
+        let views = LayerViews {
+            depth: &part.depth_view,
+            color: &part.color_view,
+            translucent: None,
+            shadow_maps: &[],
+            followed: &[],
+        };
+        filter(step.filter, &part.color_view, views, encoder)
     }
 
     /// The draws of `plan`: its shadow maps' casters; then, per pass, its occlusion groups'
@@ -512,5 +543,6 @@ fn layer_key(content: &LayerContent, size: [u32; 2]) -> u64 {
     // new texture.
     bytes.extend(content.light_volumes.iter().flat_map(|(_, t)| Arc::as_ptr(t).addr().to_le_bytes()));
     bytes.extend(bytemuck::cast_slice(&content.world_to_volume.to_cols_array()));
+    bytes.extend(content.filters_key.to_le_bytes());
     xxhash_rust::xxh3::xxh3_64(&bytes)
 }

@@ -3,7 +3,9 @@
 //! occlusion group's two parts into images of their own, which the parent's pass combines
 //! before it draws its own leaves. Depth and shadow groups need no images: their leaves are
 //! drawn into their parent's pass, where the depth test combines them; a shadow group's
-//! meshes are drawn into its shadow map first and lit by its light.
+//! meshes are drawn into its shadow map first and lit by its light. A filter's children are
+//! drawn into images of their own too (an occlusion group's slot, the focus left empty), which
+//! the filter's compute pass filters in place before the parent's pass combines them.
 
 /// A node of a mesh layer's tree.
 #[derive(Clone, Debug, PartialEq)]
@@ -18,6 +20,9 @@ pub(crate) enum LayerNode {
     Occlusion { group: usize, hidden_opacity: f32, context: Vec<LayerNode>, focus: Vec<LayerNode> },
     /// A shadow group: `children` lit by a directional light, each mesh shadowing the others.
     Shadow { light: ShadowLight, children: Vec<LayerNode> },
+    /// A filter of a depth group (`filter`, its index among the scene's tree filters) over the
+    /// picture of `children`, the nodes listed before it.
+    Filtered { filter: usize, children: Vec<LayerNode> },
 }
 
 /// Where a shadow group's light is.
@@ -41,7 +46,7 @@ pub(crate) fn visit(tree: &[LayerNode], f: &mut dyn FnMut(&LayerNode)) {
                 visit(context, f);
                 visit(focus, f);
             }
-            LayerNode::Shadow { children, .. } => visit(children, f),
+            LayerNode::Shadow { children, .. } | LayerNode::Filtered { children, .. } => visit(children, f),
             LayerNode::Mesh(_) | LayerNode::Plane(_) => {}
         }
     }
@@ -56,7 +61,7 @@ fn visit_mut(tree: &mut [LayerNode], f: &mut dyn FnMut(&mut LayerNode)) {
                 visit_mut(context, f);
                 visit_mut(focus, f);
             }
-            LayerNode::Shadow { children, .. } => visit_mut(children, f),
+            LayerNode::Shadow { children, .. } | LayerNode::Filtered { children, .. } => visit_mut(children, f),
             LayerNode::Mesh(_) | LayerNode::Plane(_) => {}
         }
     }
@@ -78,9 +83,19 @@ pub(crate) enum PassTarget {
     /// The layer's own images, which the volume layer reads.
     Layer,
     /// The context (first child) or the focus (the others) of occlusion group `group`
-    /// (numbered in the order the plan meets them).
+    /// (numbered in the order the plan meets them); a filter's children are its context, its
+    /// focus is empty.
     Context(usize),
     Focus(usize),
+}
+
+/// A filter's pass in a plan: `filter` (its index among the scene's tree filters) over the
+/// context of group slot `group`, in place, right after pass `after` drew it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct FilterStep {
+    pub filter: usize,
+    pub group: usize,
+    pub after: usize,
 }
 
 /// A mesh as a pass draws it: `shadow`, the shadow group (index into [`LayerPlan::shadows`])
@@ -111,12 +126,13 @@ pub(crate) struct ShadowCast {
 }
 
 /// How a tree is drawn: its shadow maps first, then its passes (the layer's last), with
-/// `groups` occlusion groups' images.
+/// `groups` occlusion groups' (and filters') images, and its filters' passes between them.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub(crate) struct LayerPlan {
     pub shadows: Vec<ShadowCast>,
     pub passes: Vec<LayerPass>,
     pub groups: usize,
+    pub filters: Vec<FilterStep>,
 }
 
 impl LayerPlan {
@@ -131,7 +147,7 @@ impl LayerPlan {
     pub(crate) fn of_meshes(meshes: Vec<usize>) -> LayerPlan {
         let meshes = meshes.into_iter().map(|mesh| LitMesh { mesh, shadow: None }).collect();
         let pass = LayerPass { target: PassTarget::Layer, combines: Vec::new(), planes: Vec::new(), meshes };
-        LayerPlan { shadows: Vec::new(), passes: vec![pass], groups: 0 }
+        LayerPlan { shadows: Vec::new(), passes: vec![pass], groups: 0, filters: Vec::new() }
     }
 
     /// The pass into `target` of `nodes`, after those of its occlusion groups' parts.
@@ -162,6 +178,15 @@ impl LayerPlan {
                     };
                     self.shadows.push(ShadowCast { light, follows, meshes: meshes(children) });
                     self.collect(children, pass, Some(self.shadows.len() - 1));
+                }
+                LayerNode::Filtered { filter, children } => {
+                    let group = self.groups;
+                    self.groups += 1;
+                    self.pass(children, PassTarget::Context(group), shadow);
+                    self.filters.push(FilterStep { filter: *filter, group, after: self.passes.len() - 1 });
+                    // An empty focus: the combination is then the filtered context, at its depth.
+                    self.pass(&[], PassTarget::Focus(group), shadow);
+                    pass.combines.push((group, 1.0));
                 }
             }
         }
@@ -215,6 +240,24 @@ mod tests {
         assert_eq!((plan.passes[4].combines.clone(), plan.passes[4].planes.clone()), (vec![(0, 0.5)], vec![0]));
         assert_eq!(plan.passes[4].meshes, [lit(3)]);
         assert_eq!(meshes(&[LayerNode::Mesh(3), LayerNode::Plane(0)]), [3]);
+    }
+
+    #[test]
+    fn a_filter_runs_on_its_childrens_images_before_the_parent_combines_them() {
+        let inner = LayerNode::Filtered { filter: 4, children: vec![LayerNode::Mesh(0)] };
+        let outer = LayerNode::Filtered { filter: 7, children: vec![inner, LayerNode::Mesh(1)] };
+        let plan = LayerPlan::of(&[outer, LayerNode::Mesh(2)]);
+        use PassTarget::*;
+        let targets: Vec<PassTarget> = plan.passes.iter().map(|p| p.target).collect();
+        assert_eq!(targets, [Context(1), Focus(1), Context(0), Focus(0), Layer]);
+        assert_eq!(
+            plan.filters,
+            [FilterStep { filter: 4, group: 1, after: 0 }, FilterStep { filter: 7, group: 0, after: 2 }]
+        );
+        assert!(plan.passes[1].meshes.is_empty() && plan.passes[3].meshes.is_empty());
+        assert_eq!(plan.passes[2].combines, [(1, 1.0)]);
+        assert_eq!(plan.passes[4].combines, [(0, 1.0)]);
+        assert_eq!(plan.passes[4].meshes, [LitMesh { mesh: 2, shadow: None }]);
     }
 
     #[test]

@@ -5,8 +5,10 @@
 use super::pipelines::MeshPipelines;
 use super::{LayerCamera, LayerContent, LayerNode, LayerViews, MeshInstance, MeshLayer, Overlay, PlanePicture};
 use crate::error::RuntimeError;
+use crate::filter_pass::FilterPass;
 use crate::gpu::Gpu;
 use crate::node::{Buffer, Frame, PictureNode, Written};
+use crate::region::Region;
 use crate::resources::Resources;
 use crate::textures::VolumeTexture;
 use std::sync::Arc;
@@ -92,11 +94,12 @@ impl ViewLayers {
     }
 
     /// Records the mesh layer for a target of `size` pixels (drawn again only when what it shows
-    /// changed); `peeled`, its translucent meshes peeled for the volume layer.
+    /// changed); `peeled`, its translucent meshes peeled for the volume layer; `filters`, the
+    /// passes of the tree's filters.
     pub(crate) fn encode_under(
         &mut self,
         gpu: &Gpu,
-        resources: MeshResources,
+        (resources, filters): (MeshResources, TreeFilters<'_>),
         encoder: &mut wgpu::CommandEncoder,
         (size, peeled): ([u32; 2], bool),
     ) -> Result<(), RuntimeError> {
@@ -115,8 +118,17 @@ impl ViewLayers {
             planes_generation: self.planes_generation,
             light_volumes: resources.light_volumes,
             world_to_volume: self.world_to_volume,
+            filters_key: filters.key(),
         };
-        layer.encode(gpu, (resources.pipelines, resources.sampler), encoder, &content)
+        let TreeFilters { shared, passes } = filters;
+        let mut run = |filter: usize, target: &wgpu::TextureView, part: LayerViews<'_>, encoder: &mut _| {
+            let Some((_, pass)) = passes.iter_mut().find(|(f, _)| *f == filter) else { return Ok(()) };
+            let size = target.texture().size();
+            let region = Region::whole([size.width, size.height]);
+            let frame = &mut Frame { gpu, resources: shared, encoder, target, region };
+            pass.encode(frame, Written { mesh_layer: Some(part), planes_generation: 0 })
+        };
+        layer.encode(gpu, (resources.pipelines, resources.sampler), encoder, (&content, &mut run))
     }
 
     /// Records the overlay's meshes over `target` (after the volume layer's pass).
@@ -171,13 +183,36 @@ impl<'a> MeshResources<'a> {
     }
 }
 
+/// The passes of a tree's filters (by index among the scene's tree filters), and the scene's
+/// resources they bind.
+pub(crate) struct TreeFilters<'a> {
+    pub shared: &'a Resources,
+    pub passes: &'a mut [(usize, FilterPass)],
+}
+
+impl TreeFilters<'_> {
+    /// What the passes filter with now (their uniform values): the layer is drawn again when
+    /// it changes.
+    fn key(&self) -> u64 {
+        let bytes: Vec<u8> = self
+            .passes
+            .iter()
+            .flat_map(|(f, p)| f.to_le_bytes().into_iter().chain(p.uniforms().bytes().iter().copied()))
+            .collect();
+        xxhash_rust::xxh3::xxh3_64(&bytes)
+    }
+}
+
 /// The mesh layer under a view's volume, as a node of its picture: it writes the layer's depth
-/// and colour, its shadow maps and, `peeled`, its translucent layers.
+/// and colour, its shadow maps and, `peeled`, its translucent layers; its tree's filters run
+/// inside it.
 pub(crate) struct UnderNode<'a> {
     pub layers: &'a mut ViewLayers,
     pub peeled: bool,
     /// The light volumes of the lights the view's volume casts shadows from.
     pub light_volumes: &'a [(String, Arc<VolumeTexture>)],
+    /// The passes of the tree's filters.
+    pub filters: &'a mut [(usize, FilterPass)],
 }
 
 impl PictureNode for UnderNode<'_> {
@@ -196,7 +231,9 @@ impl PictureNode for UnderNode<'_> {
     fn encode(&mut self, frame: &mut Frame<'_, '_>, _: Written<'_>) -> Result<(), RuntimeError> {
         let size = frame.target.texture().size();
         let resources = MeshResources::of(frame.resources, self.light_volumes);
-        self.layers.encode_under(frame.gpu, resources, frame.encoder, ([size.width, size.height], self.peeled))
+        let filters = TreeFilters { shared: frame.resources, passes: self.filters };
+        let size = [size.width, size.height];
+        self.layers.encode_under(frame.gpu, (resources, filters), frame.encoder, (size, self.peeled))
     }
 }
 

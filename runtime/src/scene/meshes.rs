@@ -333,7 +333,7 @@ impl SceneRenderer {
             let picture = match p {
                 Node::Image(i) => self.images.pictures.get(i).cloned(),
                 Node::Plane(v) => self.encode_slice_picture(v, encoder)?,
-                Node::Mesh(_) | Node::Group(_) => None,
+                Node::Mesh(_) | Node::Group(_) | Node::Filter(_) => None,
             };
             pictures.push(picture);
         }

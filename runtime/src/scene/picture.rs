@@ -45,7 +45,7 @@ fn layer_nodes(scene: &Scene, nodes: &[Node], planes: &[Node], depth: usize) -> 
                 let Some(group) = scene.groups.get(g) else { continue };
                 let children = |nodes: &[Node]| layer_nodes(scene, nodes, planes, depth + 1);
                 match &group.kind {
-                    GroupKind::Depth => out.extend(children(&group.children)),
+                    GroupKind::Depth => out.extend(filtered(scene, &group.children, planes, depth + 1)),
                     GroupKind::Shadow { light } => {
                         let light = match light {
                             vscene::ShadowLight::Towards(v) => ShadowLight::Towards(*v),
@@ -66,7 +66,19 @@ fn layer_nodes(scene: &Scene, nodes: &[Node], planes: &[Node], depth: usize) -> 
                     }
                 }
             }
-            Node::Group(_) => {}
+            Node::Group(_) | Node::Filter(_) => {}
+        }
+    }
+    out
+}
+
+/// A depth group's children as mesh-layer nodes, each filter over the nodes before it.
+fn filtered(scene: &Scene, nodes: &[Node], planes: &[Node], depth: usize) -> Vec<LayerNode> {
+    let mut out = Vec::new();
+    for node in nodes {
+        match *node {
+            Node::Filter(filter) => out = vec![LayerNode::Filtered { filter, children: std::mem::take(&mut out) }],
+            _ => out.extend(layer_nodes(scene, std::slice::from_ref(node), planes, depth)),
         }
     }
     out
