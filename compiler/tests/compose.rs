@@ -216,3 +216,42 @@ fn light_volumes_and_surfaces_of_bricked_volumes_build() {
     let text = vrsc::diag::render_plain(&parsed.diags.sorted(), &parsed.sources);
     assert!(!parsed.diags.has_errors(), "{text}");
 }
+
+/// A filter among a group's children is a filter pass of every view whose tree holds it: each
+/// view composes it (its errors reported once), names it by its place, and explains it.
+#[test]
+fn filters_in_a_tree_compose_into_passes_of_their_own() {
+    let dir = tempfile::tempdir().expect("a folder");
+    let scene = "[[volume]]\nname = \"ct\"\nrole = \"primary\"\nphantom = \"head\"\n\n\
+        [[mesh]]\nname = \"ball\"\nshape = \"sphere\"\ncentre = [0.0, 0.0, 0.0]\nradius = 20.0\n\n\
+        [[group]]\nname = \"grey\"\nchildren = [\"ball\", { filter = \"std::luminance\" }, { filter = \"std::edges\" }]\n\n\
+        [[view]]\nname = \"a\"\nkind = \"raycast\"\npicture = [\"grey\", \"volume\"]\n\n\
+        [[view]]\nname = \"b\"\nkind = \"raycast\"\npicture = [\"grey\", \"volume\"]\n";
+    let path = dir.path().join("scene.toml");
+    std::fs::write(&path, scene).expect("scene written");
+    let built =
+        vrsc::compose::build::build_scene_keeping(&path, None, vrsc::compose::build::Keep::Ir).expect("readable");
+    assert!(!built.diags.has_errors(), "{:?}", built.diags.iter().map(|d| &d.message).collect::<Vec<_>>());
+    for view in &built.views {
+        let names: Vec<(usize, &str)> = view.tree_filters.iter().map(|(f, p)| (*f, p.name.as_str())).collect();
+        assert_eq!(names, [(0, "grey-2.filters"), (1, "grey-3.filters")]);
+        let explained = vrsc::compose::explain::explain_with_filters(view, &built.sources).expect("explained");
+        for place in ["grey-2", "grey-3"] {
+            let marker =
+                format!("// ===== the filter pass of view `{}` (the filter `{place}` of its tree) =====", view.name);
+            assert!(explained.contains(&marker), "{marker}");
+        }
+        assert!(explained.contains("fn luminance") && explained.contains("fn edges"));
+    }
+    // A filter module with an error: shown once, though both views compose it.
+    std::fs::write(
+        dir.path().join("bad.vrs"),
+        "pipeline bad in filter.apply {\n    state color: vec4f;\n    state.color = 1;\n}\n",
+    )
+    .expect("module written");
+    std::fs::write(&path, scene.replace("std::edges", "bad.vrs")).expect("scene written");
+    let built = vrsc::compose::build::build_scene(&path, None).expect("readable");
+    let shown = built.diags.sorted();
+    let errors: Vec<&str> = shown.iter().filter(|d| d.is_error()).map(|d| d.code.as_str()).collect();
+    assert_eq!(errors, ["E0301"]);
+}
