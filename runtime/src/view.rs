@@ -157,6 +157,12 @@ impl ViewRenderer {
         Ok(())
     }
 
+    /// The shaders of the passes of the filters in its tree (what [`Self::set_tree_filters`]
+    /// took).
+    pub(crate) fn tree_filter_shaders(&self) -> Vec<(usize, ViewShader)> {
+        self.tree_filters.iter().map(|(f, pass)| (*f, pass.shader().clone())).collect()
+    }
+
     /// The reflections of the view's shaders: its own, then its filter passes' (what a panel
     /// lists the uniforms and functions of).
     pub fn reflections(&self) -> impl Iterator<Item = &crate::reflection::Reflection> {

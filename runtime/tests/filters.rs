@@ -248,4 +248,16 @@ fn a_filter_in_a_group_filters_the_children_before_it_only() {
     }
     assert!(ball > 1000 && rest > 1000, "{ball} pixels of the ball, {rest} others");
     assert!(worst <= 1.0 + 1e-3, "largest difference from Rec. 709 luma {worst}/255");
+    // A probe reads the mesh layer as the view does: the ball's colour there is grey too.
+    let mut renderer = open(dir.path(), &scene, &with(r#"["grey", "box", "volume"]"#));
+    let probe = renderer.render_probe(0, &ProbeSpec::of("geometry_color")).expect("probe");
+    let mut grey = 0;
+    for ((x, y, p), n) in plain.enumerate_pixels().zip(no_ball.pixels()) {
+        let c = probe.values.at(x, y).expect("a @ray field has a value everywhere");
+        if p != n && c[3] > 0.99 {
+            assert!((c[0] - c[1]).abs() < 1.5 / 255.0 && (c[1] - c[2]).abs() < 1.5 / 255.0, "{c:?}");
+            grey += 1;
+        }
+    }
+    assert!(grey > 1000, "{grey} grey pixels of the probe");
 }

@@ -158,6 +158,9 @@ impl SceneRenderer {
         let mut renderer = ViewRenderer::new(&self.gpu, &mut self.pipelines, shader, view.renderer.size())?;
         let filter = variant.filter.map(|f| ViewShader::new(f.wgsl, f.reflection, &self.path)).transpose()?;
         renderer.set_filter(&self.gpu, &mut self.pipelines, filter)?;
+        // The tree's filters as the view has them: what the probe reads of the mesh layer is
+        // what the view's volume layer reads.
+        renderer.set_tree_filters(&self.gpu, &mut self.pipelines, view.renderer.tree_filter_shaders())?;
         let view = SceneView {
             name: view.name.clone(),
             renderer,
