@@ -1,6 +1,7 @@
-//! A view's filter pass (its `filters`, composed by the compiler into the `filter.*` steps): a
-//! compute pass after the view's picture, which reads a copy of the picture (`picture`) and the
-//! depth of the mesh layer (`picture_depth`) and writes the filtered picture over the target.
+//! A filter pass (a view's `filters`, or a filter of its tree, composed by the compiler into the
+//! `filter.*` steps): a compute pass that reads a copy of its target (`picture`: the view's
+//! picture, or a group's part in the mesh layer) and the depth under it (`picture_depth`) and
+//! writes the filtered picture over the target.
 //!
 //! The pass filters the region the view's dispatch rendered: a view drawn in tiles filters each
 //! tile after it is drawn, and its filters' neighbourhood reads across a tile's edge see the
@@ -17,6 +18,16 @@ use crate::textures::Image2d;
 use crate::uniforms::{UniformBlock, Value};
 use std::collections::HashMap;
 use std::sync::Arc;
+
+/// Where a filter pass runs in a view's picture.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum FilterAt {
+    /// Over the finished picture (the view's `filters`).
+    Picture,
+    /// In the mesh layer, over the part of a depth group before tree filter N (its index among
+    /// the scene's tree filters).
+    Tree(usize),
+}
 
 /// The compiled filter pass of a view, its uniforms, and the copy of the picture it reads.
 pub(crate) struct FilterPass {

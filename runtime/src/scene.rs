@@ -5,6 +5,7 @@
 
 use crate::bricks::Coarsening;
 use crate::error::RuntimeError;
+use crate::filter_pass::FilterAt;
 use crate::geometry::{self, Convention, OrbitCamera, ShaderPlane, SliceAxis, SlicePlane};
 use crate::gpu::Gpu;
 use crate::mesh_layer::resolve_lights;
@@ -456,11 +457,11 @@ impl SceneRenderer {
             let size = self.options.size.unwrap_or(view.size);
             let mut renderer = ViewRenderer::new(&self.gpu, &mut self.pipelines, shader, size)?;
             renderer.set_samples(self.options.samples);
-            let filter = output.filter.as_ref().map(|f| self.filter_shader(&output.name, f)).transpose()?;
-            renderer.set_filter(&self.gpu, &mut self.pipelines, filter)?;
-            let tree_filters = output.tree_filters.iter().map(|(i, f)| Ok((*i, self.filter_shader(&output.name, f)?)));
-            let tree_filters = tree_filters.collect::<Result<_, RuntimeError>>()?;
-            renderer.set_tree_filters(&self.gpu, &mut self.pipelines, tree_filters)?;
+            let at_picture = output.filter.iter().map(|f| (FilterAt::Picture, f));
+            let filters = at_picture.chain(output.tree_filters.iter().map(|(i, f)| (FilterAt::Tree(*i), f)));
+            let shaders = filters.map(|(at, f)| Ok((at, self.filter_shader(&output.name, f)?)));
+            let shaders = shaders.collect::<Result<_, RuntimeError>>()?;
+            renderer.set_filters(&self.gpu, &mut self.pipelines, shaders)?;
             for (name, value) in &values {
                 if renderer.has_uniform(name)
                     && let Some(value) = renderer.uniform_value_from_json(name, &value.to_json())

@@ -3,7 +3,7 @@
 
 use crate::bricks::BrickView;
 use crate::error::RuntimeError;
-use crate::filter_pass::FilterPass;
+use crate::filter_pass::{FilterAt, FilterPass};
 use crate::gpu::Gpu;
 use crate::mesh_layer::{LayerCamera, LayerNode, MeshLayer, OverNode, PlanePicture, UnderNode, ViewLayers};
 use crate::node::{Buffer, Frame, PictureNode, Written};
@@ -26,11 +26,9 @@ pub struct ViewRenderer {
     /// The mesh layer under the volume (for a view whose shader reads it), the overlay over it,
     /// and what they draw.
     layers: ViewLayers,
-    /// The view's filter pass, run over its picture (its `filters`).
-    filter: Option<FilterPass>,
-    /// The passes of the filters in its tree, by index among the scene's tree filters, run by
-    /// its mesh layer.
-    tree_filters: Vec<(usize, FilterPass)>,
+    /// Its filter passes and where each runs: over its picture (its `filters`), or in its
+    /// mesh layer (the filters of its tree).
+    filters: Vec<(FilterAt, FilterPass)>,
 }
 
 /// What the mesh layer wrote for the nodes after it (nothing where the view reads no layer).
@@ -57,7 +55,7 @@ impl ViewRenderer {
     ) -> Result<ViewRenderer, RuntimeError> {
         let volume = VolumeLayer::new(gpu, cache, shader)?;
         let output = create_output(gpu, size)?;
-        Ok(ViewRenderer { output, size, volume, layers: ViewLayers::default(), filter: None, tree_filters: Vec::new() })
+        Ok(ViewRenderer { output, size, volume, layers: ViewLayers::default(), filters: Vec::new() })
     }
 
     /// Whether the view is progressive: its picture is the mean of the frames rendered since it
@@ -88,16 +86,16 @@ impl ViewRenderer {
         self.size
     }
 
-    /// Its filter passes: its own, then those of its tree.
+    /// Its filter passes.
     fn filter_passes(&self) -> impl Iterator<Item = &FilterPass> {
-        self.filter.iter().chain(self.tree_filters.iter().map(|(_, f)| f))
+        self.filters.iter().map(|(_, f)| f)
     }
 
     /// Sets a uniform by name, in the view's shader and in its filter passes (any may read it:
     /// a name means one value); the value must have the uniform's type.
     pub fn set_uniform(&mut self, name: &str, value: impl Into<Value>) -> Result<(), RuntimeError> {
         let value = value.into();
-        let passes = self.filter.iter_mut().chain(self.tree_filters.iter_mut().map(|(_, f)| f));
+        let passes = self.filters.iter_mut().map(|(_, f)| f);
         let mut set = false;
         for pass in passes.filter(|f| f.has_uniform(name)) {
             pass.set_uniform(name, value.clone())?;
@@ -133,34 +131,21 @@ impl ViewRenderer {
         self.volume.shader().reflection.uniform(name).or_else(filters)
     }
 
-    /// Gives the view a filter pass (`None`: none), run after its picture.
-    pub(crate) fn set_filter(
+    /// Gives the view its filter passes (none: none), each run where it says.
+    pub(crate) fn set_filters(
         &mut self,
         gpu: &Gpu,
         cache: &mut PipelineCache,
-        shader: Option<ViewShader>,
+        shaders: Vec<(FilterAt, ViewShader)>,
     ) -> Result<(), RuntimeError> {
-        self.filter = shader.map(|shader| FilterPass::new(gpu, cache, shader)).transpose()?;
+        let passes = shaders.into_iter().map(|(at, shader)| Ok((at, FilterPass::new(gpu, cache, shader)?)));
+        self.filters = passes.collect::<Result<_, RuntimeError>>()?;
         Ok(())
     }
 
-    /// Gives the view the passes of the filters in its tree (by index among the scene's tree
-    /// filters), run by its mesh layer.
-    pub(crate) fn set_tree_filters(
-        &mut self,
-        gpu: &Gpu,
-        cache: &mut PipelineCache,
-        shaders: Vec<(usize, ViewShader)>,
-    ) -> Result<(), RuntimeError> {
-        let passes = shaders.into_iter().map(|(f, shader)| Ok((f, FilterPass::new(gpu, cache, shader)?)));
-        self.tree_filters = passes.collect::<Result<_, RuntimeError>>()?;
-        Ok(())
-    }
-
-    /// The shaders of the passes of the filters in its tree (what [`Self::set_tree_filters`]
-    /// took).
-    pub(crate) fn tree_filter_shaders(&self) -> Vec<(usize, ViewShader)> {
-        self.tree_filters.iter().map(|(f, pass)| (*f, pass.shader().clone())).collect()
+    /// The shaders of its filter passes, with where each runs (what [`Self::set_filters`] took).
+    pub(crate) fn filter_shaders(&self) -> Vec<(FilterAt, ViewShader)> {
+        self.filters.iter().map(|(at, pass)| (*at, pass.shader().clone())).collect()
     }
 
     /// The reflections of the view's shaders: its own, then its filter passes' (what a panel
@@ -279,7 +264,7 @@ impl ViewRenderer {
         let reads_layer = self.volume.reads_mesh_layer();
         let light_volumes = if reads_layer { self.volume.light_volumes(resources) } else { Vec::new() };
         let peeled = self.volume.reads_translucent_layers();
-        let filters = &mut self.tree_filters;
+        let filters = &mut self.filters;
         let mut under = UnderNode { layers: &mut self.layers, peeled, light_volumes: &light_volumes, filters };
         let under_access = (under.reads(), under.writes());
         if reads_layer {
@@ -291,7 +276,7 @@ impl ViewRenderer {
         );
         self.volume.encode(frame, written(&self.layers, reads_layer))?;
         OverNode(&mut self.layers).encode(frame, Written::default())?;
-        if let Some(filter) = &mut self.filter {
+        if let Some(filter) = self.filters.iter_mut().find(|(at, _)| *at == FilterAt::Picture).map(|(_, f)| f) {
             filter.encode(frame, written(&self.layers, reads_layer))?;
         }
         Ok(())
@@ -305,7 +290,7 @@ impl ViewRenderer {
             nodes.push(("mesh layer", reads, writes));
         }
         nodes.push(("volume layer", self.volume.reads(), self.volume.writes()));
-        if let Some(filter) = &self.filter {
+        for (_, filter) in self.filters.iter().filter(|(at, _)| *at == FilterAt::Picture) {
             nodes.push(("filters", filter.reads(), filter.writes()));
         }
         crate::node::unwritten_reads(&nodes).is_empty()

@@ -137,15 +137,17 @@ struct LayerImages {
 }
 
 impl LayerImages {
-    fn new(gpu: &Gpu, size: [u32; 2], what: &str) -> Result<LayerImages, RuntimeError> {
+    /// The images of a pass into the layer or (`part`) into a group's part, whose colour a filter
+    /// of the tree may filter in place (it copies it, then writes it).
+    fn new(gpu: &Gpu, size: [u32; 2], part: bool) -> Result<LayerImages, RuntimeError> {
+        let what = if part { "group part" } else { "mesh layer" };
         let usage = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING;
         let doing = format!("creating a {}x{} {what}", size[0], size[1]);
         let image = |label, format, usage| Image2d { label, size, format, usage }.create(gpu, &doing);
         let depth_buffer = image("mesh depth buffer", DEPTH_FORMAT, usage)?;
         let depth = image("mesh depth", DEPTH_IMAGE_FORMAT, usage)?;
-        // A filter of the tree filters a part's colour in place: it copies it, then writes it.
         let filtered = wgpu::TextureUsages::STORAGE_BINDING | wgpu::TextureUsages::COPY_SRC;
-        let color = image("mesh colour", COLOR_FORMAT, usage | filtered)?;
+        let color = image("mesh colour", COLOR_FORMAT, if part { usage | filtered } else { usage })?;
         Ok(LayerImages {
             depth_buffer: depth_buffer.create_view(&Default::default()),
             depth_view: depth.create_view(&Default::default()),
@@ -219,7 +221,7 @@ impl MeshLayer {
     /// meshes are peeled into layers rather than blended into its colour.
     pub(crate) fn new(gpu: &Gpu, size: [u32; 2], peeled: bool) -> Result<MeshLayer, RuntimeError> {
         Ok(MeshLayer {
-            images: LayerImages::new(gpu, size, "mesh layer")?,
+            images: LayerImages::new(gpu, size, false)?,
             groups: Vec::new(),
             shadow_maps: Vec::new(),
             followed: Vec::new(),
@@ -291,7 +293,7 @@ impl MeshLayer {
     /// shadow maps (kept once made).
     fn make_images(&mut self, gpu: &Gpu, plan: &LayerPlan) -> Result<(), RuntimeError> {
         while self.groups.len() < plan.groups {
-            let part = || LayerImages::new(gpu, self.size(), "occlusion group part");
+            let part = || LayerImages::new(gpu, self.size(), true);
             self.groups.push([part()?, part()?]);
         }
         while self.shadow_maps.len() < plan.shadows.len() {

@@ -5,7 +5,7 @@
 use super::pipelines::MeshPipelines;
 use super::{LayerCamera, LayerContent, LayerNode, LayerViews, MeshInstance, MeshLayer, Overlay, PlanePicture};
 use crate::error::RuntimeError;
-use crate::filter_pass::FilterPass;
+use crate::filter_pass::{FilterAt, FilterPass};
 use crate::gpu::Gpu;
 use crate::node::{Buffer, Frame, PictureNode, Written};
 use crate::region::Region;
@@ -122,7 +122,9 @@ impl ViewLayers {
         };
         let TreeFilters { shared, passes } = filters;
         let mut run = |filter: usize, target: &wgpu::TextureView, part: LayerViews<'_>, encoder: &mut _| {
-            let Some((_, pass)) = passes.iter_mut().find(|(f, _)| *f == filter) else { return Ok(()) };
+            let Some((_, pass)) = passes.iter_mut().find(|(at, _)| *at == FilterAt::Tree(filter)) else {
+                return Ok(());
+            };
             let size = target.texture().size();
             let region = Region::whole([size.width, size.height]);
             let frame = &mut Frame { gpu, resources: shared, encoder, target, region };
@@ -183,22 +185,23 @@ impl<'a> MeshResources<'a> {
     }
 }
 
-/// The passes of a tree's filters (by index among the scene's tree filters), and the scene's
-/// resources they bind.
+/// A view's filter passes (those of its tree run in the mesh layer), and the scene's resources
+/// they bind.
 pub(crate) struct TreeFilters<'a> {
     pub shared: &'a Resources,
-    pub passes: &'a mut [(usize, FilterPass)],
+    pub passes: &'a mut [(FilterAt, FilterPass)],
 }
 
 impl TreeFilters<'_> {
     /// What the passes filter with now (their uniform values): the layer is drawn again when
     /// it changes.
     fn key(&self) -> u64 {
-        let bytes: Vec<u8> = self
-            .passes
-            .iter()
-            .flat_map(|(f, p)| f.to_le_bytes().into_iter().chain(p.uniforms().bytes().iter().copied()))
-            .collect();
+        let tree = self.passes.iter().filter_map(|(at, p)| match at {
+            FilterAt::Tree(f) => Some((f, p)),
+            FilterAt::Picture => None,
+        });
+        let bytes: Vec<u8> =
+            tree.flat_map(|(f, p)| f.to_le_bytes().into_iter().chain(p.uniforms().bytes().iter().copied())).collect();
         xxhash_rust::xxh3::xxh3_64(&bytes)
     }
 }
@@ -211,8 +214,8 @@ pub(crate) struct UnderNode<'a> {
     pub peeled: bool,
     /// The light volumes of the lights the view's volume casts shadows from.
     pub light_volumes: &'a [(String, Arc<VolumeTexture>)],
-    /// The passes of the tree's filters.
-    pub filters: &'a mut [(usize, FilterPass)],
+    /// The view's filter passes (those of its tree run here).
+    pub filters: &'a mut [(FilterAt, FilterPass)],
 }
 
 impl PictureNode for UnderNode<'_> {

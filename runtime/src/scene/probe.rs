@@ -6,6 +6,7 @@
 use super::picture::ViewPicture;
 use super::{SceneRenderer, SceneView, apply_view_uniforms};
 use crate::error::RuntimeError;
+use crate::filter_pass::FilterAt;
 use crate::probe::{ComponentKind, ProbeFormat, ProbeValues};
 use crate::shader::ViewShader;
 use crate::view::ViewRenderer;
@@ -157,10 +158,12 @@ impl SceneRenderer {
         let shader = ViewShader::new(variant.shader.wgsl, variant.shader.reflection, &self.path)?;
         let mut renderer = ViewRenderer::new(&self.gpu, &mut self.pipelines, shader, view.renderer.size())?;
         let filter = variant.filter.map(|f| ViewShader::new(f.wgsl, f.reflection, &self.path)).transpose()?;
-        renderer.set_filter(&self.gpu, &mut self.pipelines, filter)?;
         // The tree's filters as the view has them: what the probe reads of the mesh layer is
         // what the view's volume layer reads.
-        renderer.set_tree_filters(&self.gpu, &mut self.pipelines, view.renderer.tree_filter_shaders())?;
+        let mut filters = view.renderer.filter_shaders();
+        filters.retain(|(at, _)| *at != FilterAt::Picture);
+        filters.extend(filter.map(|shader| (FilterAt::Picture, shader)));
+        renderer.set_filters(&self.gpu, &mut self.pipelines, filters)?;
         let view = SceneView {
             name: view.name.clone(),
             renderer,
