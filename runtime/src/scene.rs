@@ -104,12 +104,8 @@ pub struct SceneRenderer {
     probes: probe::ProbeCache,
     /// What the light volumes were computed from.
     derived: derived::Derived,
-    /// The scene's meshes as last made.
-    meshes: meshes::SceneMeshes,
-    /// The scene's images as last uploaded.
-    images: images::SceneImages,
-    /// The names of the scene's `[[group]]`s, which the views' trees index.
-    group_names: Vec<String>,
+    /// What the views' renderer trees are made of, shared by them.
+    tree: picture::TreeContent,
 }
 
 /// What [`SceneRenderer::apply`] changed.
@@ -184,9 +180,7 @@ impl SceneRenderer {
             notices: Vec::new(),
             probes: probe::ProbeCache::default(),
             derived: derived::Derived::default(),
-            meshes: meshes::SceneMeshes::default(),
-            images: images::SceneImages::default(),
-            group_names: Vec::new(),
+            tree: picture::TreeContent::default(),
         };
         renderer.load_scene_volumes(scene, progress)?;
         renderer.set_views(scene, built)?;
@@ -494,7 +488,7 @@ impl SceneRenderer {
             views.push(SceneView { name: output.name.clone(), renderer, camera, slice, convention, picture });
         }
         self.views = views;
-        self.group_names = scene.groups.iter().map(|g| g.name.name.clone()).collect();
+        self.tree.group_names = scene.groups.iter().map(|g| g.name.name.clone()).collect();
         Ok(())
     }
 }

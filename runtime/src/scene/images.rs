@@ -25,12 +25,12 @@ impl SceneRenderer {
     /// errors are errors here; `build` reports them first, at the path).
     pub(super) fn load_images(&mut self, scene: &Scene) -> Result<(), RuntimeError> {
         let key = format!("{:?}", scene.images);
-        if key == self.images.key {
+        if key == self.tree.images.key {
             return Ok(());
         }
         let pictures = scene.images.iter().map(|image| upload(&self.gpu, image)).collect::<Result<Vec<_>, _>>()?;
-        let generation = self.images.generation + 1;
-        self.images = SceneImages { key, pictures, generation };
+        let generation = self.tree.images.generation + 1;
+        self.tree.images = SceneImages { key, pictures, generation };
         self.resources.content_changed();
         Ok(())
     }

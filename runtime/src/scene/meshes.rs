@@ -37,7 +37,7 @@ impl SceneRenderer {
     pub(super) fn load_meshes(&mut self, scene: &Scene) -> Result<(), RuntimeError> {
         let key = format!("{:?}", scene.meshes);
         let planes = scene.views.iter().any(|v| !scene.leaves_under(v).1.is_empty());
-        if key == self.meshes.key
+        if key == self.tree.meshes.key
             && self.resources.meshes.len() == scene.meshes.len()
             && (!planes || self.resources.mesh_pipelines.is_some())
         {
@@ -57,20 +57,20 @@ impl SceneRenderer {
         }
         self.resources.meshes = instances;
         self.resources.meshes_changed();
-        self.meshes = SceneMeshes { tables: scene.meshes.clone(), followed, key };
+        self.tree.meshes = SceneMeshes { tables: scene.meshes.clone(), followed, key };
         Ok(())
     }
 
     /// Makes again each shape whose followed uniforms changed since it was made, keeping its
     /// colour, opacity and placement as they are now.
     pub(super) fn update_followed_meshes(&mut self) -> Result<(), RuntimeError> {
-        for i in 0..self.meshes.tables.len() {
-            let table = &self.meshes.tables[i];
+        for i in 0..self.tree.meshes.tables.len() {
+            let table = &self.tree.meshes.tables[i];
             if table.followed_uniforms().is_empty() {
                 continue;
             }
             let points = self.followed_values(table);
-            if points == self.meshes.followed[i] {
+            if points == self.tree.meshes.followed[i] {
                 continue;
             }
             let surface = mesh_surface(table, &points, &|_| Err(no_surface_volume()))?;
@@ -79,7 +79,7 @@ impl SceneRenderer {
             let now = &self.resources.meshes[i];
             (instance.color, instance.opacity, instance.model) = (now.color, now.opacity, now.model);
             self.resources.meshes[i] = instance;
-            self.meshes.followed[i] = points;
+            self.tree.meshes.followed[i] = points;
             self.resources.meshes_changed();
         }
         Ok(())
@@ -272,7 +272,7 @@ impl SceneRenderer {
     /// centre), with the uniform's value now: the first of a mesh is its tip or centre.
     pub fn mesh_handles(&self) -> Vec<MeshHandle> {
         let mut out = Vec::new();
-        for table in &self.meshes.tables {
+        for table in &self.tree.meshes.tables {
             for u in table.followed_uniforms() {
                 if let Some(p) = self.uniform_vec3(&u.value) {
                     out.push(MeshHandle { mesh: table.name.name.clone(), uniform: u.value.clone(), point: p.into() });
@@ -324,14 +324,14 @@ impl SceneRenderer {
         };
         let planes = view.picture.planes.clone();
         let images_only = planes.iter().all(|p| matches!(p, Node::Image(_)));
-        if images_only && view.picture.images_shown == self.images.generation {
+        if images_only && view.picture.images_shown == self.tree.images.generation {
             return Ok(());
         }
         let mut pictures = Vec::with_capacity(planes.len());
         // One entry per plane, in order: the mesh layer's tree finds them by place.
         for p in planes {
             let picture = match p {
-                Node::Image(i) => self.images.pictures.get(i).cloned(),
+                Node::Image(i) => self.tree.images.pictures.get(i).cloned(),
                 Node::Plane(v) => self.encode_slice_picture(v, encoder)?,
                 Node::Mesh(_) | Node::Group(_) | Node::Filter(_) => None,
             };
@@ -339,7 +339,7 @@ impl SceneRenderer {
         }
         let view = &mut self.views[index];
         view.renderer.set_planes(pictures);
-        view.picture.images_shown = if images_only { self.images.generation } else { 0 };
+        view.picture.images_shown = if images_only { self.tree.images.generation } else { 0 };
         Ok(())
     }
 

@@ -8,6 +8,15 @@ use crate::error::RuntimeError;
 use crate::mesh_layer::{LayerNode, ShadowLight, set_hidden_opacity, visit};
 use vrsc::scene::{self as vscene, GroupKind, Node, Scene, ViewKind};
 
+/// What the views' renderer trees are made of, shared by them: the scene's meshes as last made,
+/// its images as last uploaded, and the names of its groups (which the trees index).
+#[derive(Default)]
+pub(super) struct TreeContent {
+    pub(super) meshes: super::meshes::SceneMeshes,
+    pub(super) images: super::images::SceneImages,
+    pub(super) group_names: Vec<String>,
+}
+
 /// A view's picture as its renderer draws it.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub(crate) struct ViewPicture {
@@ -98,13 +107,13 @@ impl SceneRenderer {
         }
         found.sort_by_key(|(g, _)| *g);
         found.dedup_by_key(|(g, _)| *g);
-        found.into_iter().filter_map(|(g, k)| Some((self.group_names.get(g)?.clone(), k))).collect()
+        found.into_iter().filter_map(|(g, k)| Some((self.tree.group_names.get(g)?.clone(), k))).collect()
     }
 
     /// Shows what occlusion group `name` hides with `opacity` (clamped to [0, 1]) in every view,
     /// from the next frame; until the scene is loaded again.
     pub fn set_group_opacity(&mut self, name: &str, opacity: f32) -> Result<(), RuntimeError> {
-        let Some(group) = self.group_names.iter().position(|g| g == name) else {
+        let Some(group) = self.tree.group_names.iter().position(|g| g == name) else {
             return Err(RuntimeError::Invalid(format!("the scene has no group `{name}`")));
         };
         if !opacity.is_finite() {
