@@ -52,13 +52,12 @@ impl Cx<'_> {
             let span = self.span(&i);
             let i = i.into_inner();
             let name = Ident { name: i.name.get_ref().clone(), span: self.span(&i.name) };
-            let span_of_name = name.span;
             if self.check_name(&name.name, name.span, "image") {
                 let mesh = meshes.iter().find(|m| m.name.name == name.name).map(|m| (m.name.span, "mesh"));
                 let image = out.iter().find(|o| o.name.name == name.name).map(|o| (o.name.span, "image"));
                 if let Some((first, what)) = mesh.or(image) {
-                    let name = name.name.clone();
-                    self.report(span_of_name, Twice::NodeNamed { name, first, kind: "image", what });
+                    let twice = Twice::NodeNamed { name: name.name.clone(), first, kind: "image", what };
+                    self.report(name.span, twice);
                 }
             }
             let file = self.file_ref(&i.path, "path");
