@@ -289,7 +289,7 @@ def test_a_views_filter_pass_shows_in_its_map_uniforms_and_picture():
     scene = vrsc.Scene.load(os.path.join(ROOT, "examples", "liver", "scene.toml"))
     assert "filters:\nfilter.setup\n" in scene.pipeline("outlined")
     info = scene.uniforms["edge_threshold"]
-    assert info["type"] == "f32" and info["views"] == ["outlined"], info
+    assert info["type"] == "f32" and info["views"] == ["outlined", "organs_outlined"], info
     before = scene.render("outlined", size=(96, 96))
     scene["filter_mix"] = 0.0
     assert scene["filter_mix"] == 0.0
@@ -297,3 +297,15 @@ def test_a_views_filter_pass_shows_in_its_map_uniforms_and_picture():
     assert np.array_equal(plain, scene.render("hidden", size=(96, 96))), "no filters: the view `hidden`"
     assert not np.array_equal(before, plain)
     assert "// ===== the filter pass of view `outlined`" in scene.explain("outlined")
+
+
+def test_filters_in_a_group_show_in_the_map_and_filter_the_group_only():
+    scene = vrsc.Scene.load(os.path.join(ROOT, "examples", "liver", "scene.toml"))
+    pipeline = scene.pipeline("organs_outlined")
+    assert pipeline.startswith("picture: organs_outlined (depth) [organs, filter std::ssao, filter std::edges]")
+    assert "organs_outlined-2.filters:\nfilter.setup\n" in pipeline
+    assert "(the filter `organs_outlined-3` of its tree)" in scene.explain("organs_outlined")
+    lined = scene.render("organs_outlined", size=(96, 96))
+    scene["filter_mix"] = 0.0
+    assert np.array_equal(scene.render("organs_outlined", size=(96, 96)), scene.render("hidden", size=(96, 96)))
+    assert not np.array_equal(lined, scene.render("hidden", size=(96, 96)))
