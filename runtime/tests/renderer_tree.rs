@@ -154,11 +154,17 @@ const BALL: (Vec3, f32) = (Vec3::new(15.5, 15.5, 14.0), 5.0);
 
 /// Where the ray `origin + t dir` meets the sphere `(centre, radius)` in front of its origin.
 fn meets_ball(origin: Vec3, dir: Vec3) -> bool {
-    let (centre, radius) = BALL;
+    let (disc, b) = sphere_discriminant(origin, dir, BALL);
+    disc > 0.0 && -b + disc.sqrt() > 0.0
+}
+
+/// For the ray `origin + t dir` (`dir` a unit vector) and the sphere `(centre, radius)`: the
+/// discriminant of the intersection (positive: the line crosses the sphere; mm^2) and the ray's
+/// projection `b` on the way to the centre (the crossings lie at `t = -b +- sqrt(disc)`).
+fn sphere_discriminant(origin: Vec3, dir: Vec3, (centre, radius): (Vec3, f32)) -> (f32, f32) {
     let to = origin - centre;
     let b = to.dot(dir);
-    let disc = b * b - (to.length_squared() - radius * radius);
-    disc > 0.0 && -b + disc.sqrt() > 0.0
+    (b * b - (to.length_squared() - radius * radius), b)
 }
 
 /// What the pixel at `[x, y]` (in [0, 1]^2) shows: `None` for the ball or nothing, else whether
@@ -552,9 +558,7 @@ fn an_image_leaf_shows_its_pixels_on_its_rectangle_by_depth() {
         let ndc = |z| Vec3::new((px as f32 + 0.5) / 32.0 - 1.0, 1.0 - (py as f32 + 0.5) / 32.0, z);
         let near = clip_to_world.project_point3(ndc(0.0));
         let dir = (clip_to_world.project_point3(ndc(1.0)) - near).normalize();
-        let to_ball = near - Vec3::new(10.0, 22.0, 19.0);
-        let b = to_ball.dot(dir);
-        let ball = b * b - (to_ball.length_squared() - 2.5 * 2.5);
+        let (ball, _) = sphere_discriminant(near, dir, (Vec3::new(10.0, 22.0, 19.0), 2.5));
         if ball > 0.4 {
             assert!(pixel[0] > 20 && pixel[0].abs_diff(pixel[1]) <= 3 && pixel[1].abs_diff(pixel[2]) <= 3, "{pixel:?}");
             on_ball += 1;

@@ -721,17 +721,29 @@ impl Scene {
         if view.kind.value != ViewKind::Raycast {
             return Vec::new();
         }
+        let filter = |node| match node {
+            Node::Filter(f) => Some(f),
+            _ => None,
+        };
+        self.nodes_under(view).into_iter().filter_map(filter).collect()
+    }
+
+    /// Every node under `view`'s volume other than groups, through its groups, each once, in the
+    /// tree's order (depth first).
+    fn nodes_under(&self, view: &View) -> Vec<Node> {
         let mut out = Vec::new();
         let mut stack: Vec<Node> = view.picture.under.iter().rev().copied().collect();
         let mut seen_groups = Vec::new();
         while let Some(node) = stack.pop() {
             match node {
-                Node::Filter(f) if !out.contains(&f) => out.push(f),
+                // Validation refuses cycles; a scene made by hand with one still ends.
                 Node::Group(g) if !seen_groups.contains(&g) => {
                     seen_groups.push(g);
                     let children = self.groups.get(g).map_or(&[][..], |g| &g.children[..]);
                     stack.extend(children.iter().rev().copied());
                 }
+                Node::Group(_) => {}
+                _ if !out.contains(&node) => out.push(node),
                 _ => {}
             }
         }
@@ -748,23 +760,9 @@ impl Scene {
     /// its meshes (indices into `Scene::meshes`) and its pictures on planes (slice views and
     /// images, [`Node::Plane`] and [`Node::Image`]).
     pub fn leaves_under(&self, view: &View) -> (Vec<usize>, Vec<Node>) {
-        let (mut meshes, mut planes) = (Vec::new(), Vec::new());
-        let mut stack: Vec<Node> = view.picture.under.iter().rev().copied().collect();
-        let mut seen_groups = Vec::new();
-        while let Some(node) = stack.pop() {
-            match node {
-                Node::Mesh(i) if !meshes.contains(&i) => meshes.push(i),
-                Node::Plane(_) | Node::Image(_) if !planes.contains(&node) => planes.push(node),
-                // Validation refuses cycles; a scene made by hand with one still ends.
-                Node::Group(g) if !seen_groups.contains(&g) => {
-                    seen_groups.push(g);
-                    let children = self.groups.get(g).map_or(&[][..], |g| &g.children[..]);
-                    stack.extend(children.iter().rev().copied());
-                }
-                _ => {}
-            }
-        }
-        (meshes, planes)
+        let nodes = self.nodes_under(view);
+        let meshes = nodes.iter().filter_map(|n| if let Node::Mesh(i) = n { Some(*i) } else { None }).collect();
+        (meshes, nodes.into_iter().filter(|n| n.is_plane()).collect())
     }
 
     /// `view`'s renderer tree in one line, for people (`vrsc pipeline`): groups as
