@@ -18,6 +18,7 @@ use crate::textures::{TfTexture, VolumeTexture};
 use crate::uniforms::{UniformBlock, Value};
 use std::collections::HashMap;
 use std::sync::Arc;
+use vrsc::compose::MESH_SHADOW_MAP_PREFIX;
 use vrsc::compose::uniform_check::LIGHT_VOLUME_PREFIX;
 
 /// Frames a progressive view's picture holds when `ViewRenderer::render` returns it, unless
@@ -26,6 +27,22 @@ pub const DEFAULT_SAMPLES: u32 = 16;
 
 /// `std::mesh_shadow`'s uniform of light NAME's shadow clip space is this prefix and NAME.
 pub(crate) const MESH_SHADOW_CLIP_PREFIX: &str = "mesh_shadow_clip_";
+
+/// The lights whose light volume `shader`'s view needs (`VolumeLayer::light_volumes`), each
+/// once.
+pub(crate) fn shadowed_lights(shader: &ViewShader) -> impl Iterator<Item = &str> {
+    let mut seen: Vec<&str> = Vec::new();
+    shader.reflection.bindings.iter().filter_map(move |b| {
+        let light = match b.kind {
+            BindingKind::VolumeTexture => b.name.strip_prefix(LIGHT_VOLUME_PREFIX)?,
+            _ => b.name.strip_prefix(MESH_SHADOW_MAP_PREFIX)?,
+        };
+        (!seen.contains(&light)).then(|| {
+            seen.push(light);
+            light
+        })
+    })
+}
 
 /// A view's ray pipeline and its state.
 pub(crate) struct VolumeLayer {
@@ -153,14 +170,15 @@ impl VolumeLayer {
         self.shader.reflection.bindings.iter().any(|b| kinds.contains(&b.kind))
     }
 
-    /// The light volumes it binds (`shadow_volume_NAME`: the volume casts shadows from light
-    /// NAME), by light name: shadow groups that follow those lights take the volume's shadow.
+    /// The light volumes the view needs, by light name: those it binds (`shadow_volume_NAME`:
+    /// the volume casts shadows from light NAME) and those of the lights its shadow groups'
+    /// meshes shadow the volume from (`mesh_shadow_map_NAME`), so the volume shadows those
+    /// meshes back whatever its own `shadows`.
     pub(crate) fn light_volumes(&self, resources: &Resources) -> Vec<(String, Arc<VolumeTexture>)> {
-        let bound = self.shader.reflection.bindings.iter().filter(|b| b.kind == BindingKind::VolumeTexture);
-        bound
-            .filter_map(|b| {
-                let light = b.name.strip_prefix(LIGHT_VOLUME_PREFIX)?;
-                Some((light.to_string(), resources.volumes.get(&b.name)?.clone()))
+        shadowed_lights(&self.shader)
+            .filter_map(|light| {
+                let texture = resources.volumes.get(&format!("{LIGHT_VOLUME_PREFIX}{light}"))?;
+                Some((light.to_string(), texture.clone()))
             })
             .collect()
     }

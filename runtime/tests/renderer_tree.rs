@@ -417,7 +417,7 @@ fn open_tissue(dir: &Path, (file, inside): (&str, &dyn Fn(usize, usize) -> bool)
 
 /// An opaque shelf of tissue (the volume: x < 15.5 mm, 19.5 mm < z < 23.5 mm) over a floor in a
 /// shadow group that follows the light `key`, straight above; the view's volume casts shadows
-/// (`shadows = "volume"`).
+/// from light volumes (`shadows = "volume"`, which the test replaces by the other modes).
 const SHELF_SCENE: &str = r#"
 [render]
 compositing = "dvr"
@@ -458,16 +458,27 @@ picture = ["lit", "volume"]
 camera = { azimuth = 0.0, elevation = 12.0, distance = 2.2 }
 "#;
 
-/// The volume shadows the meshes of a shadow group that follows one of the lights it casts
-/// shadows from: the floor's top (lit straight from above: 0.3 + 0.7 of its white) is dark
+/// The volume shadows the meshes of a shadow group that follows a light it is shaded with,
+/// whatever its own `shadows` (from light volumes, rays, or none on itself): the floor's top (lit straight from above: 0.3 + 0.7 of its white) is dark
 /// (0.3) under the shelf and lit beside it, within 8/255 (the light volume is read
 /// trilinearly); pixels within 2 mm of the shelf's edge, and those the shelf covers, are left
 /// out.
 #[test]
 fn the_volume_shadows_a_shadow_groups_meshes_from_the_light_it_follows() {
+    for shadows in ["volume", "rays", "off"] {
+        let scene = SHELF_SCENE.replace(r#"shadows = "volume""#, &format!("shadows = {shadows:?}"));
+        let (dark, lit) = shelf_shadow_on_floor(&scene);
+        assert!(dark > 50 && lit > 50, "shadows = {shadows:?}: {dark} floor pixels under the shelf, {lit} beside it");
+        eprintln!("shadows = {shadows:?}: {dark} floor pixels in the shelf's shadow, {lit} lit, each as computed");
+    }
+}
+
+/// Renders the shelf `scene` and checks each floor pixel away from the shadow's edge; the
+/// numbers of pixels checked in the shadow and beside it.
+fn shelf_shadow_on_floor(scene: &str) -> (usize, usize) {
     let dir = tempfile::tempdir().expect("a folder");
     let shelf = |x: usize, z: usize| x < 16 && (20..24).contains(&z);
-    let mut renderer = open_tissue(dir.path(), ("shelf.nrrd", &shelf), SHELF_SCENE);
+    let mut renderer = open_tissue(dir.path(), ("shelf.nrrd", &shelf), scene);
     let image = renderer.render_all().expect("render").remove(0).1;
     let (dims, grid_to_world) = renderer.primary_grid().expect("a primary volume");
     let to_world = vrs_runtime::geometry::volume_to_world(dims, grid_to_world);
@@ -497,8 +508,7 @@ fn the_volume_shadows_a_shadow_groups_meshes_from_the_light_it_follows() {
         assert!((got - want).abs() <= 8.0, "pixel ({px}, {py}) {pixel:?} at {floor}: under the shelf {under}");
         if under { dark += 1 } else { lit += 1 }
     }
-    assert!(dark > 50 && lit > 50, "{dark} floor pixels under the shelf, {lit} beside it");
-    eprintln!("{dark} floor pixels in the shelf's shadow, {lit} lit, each as computed");
+    (dark, lit)
 }
 
 /// An image leaf: a picture of 4 x 2 cells of 8 x 8 pixels each (the sixth cell transparent)

@@ -1,7 +1,8 @@
 //! Resources made from the primary volume and its transfer function for the views that read
 //! them: the pre-integration tables of `std::preintegrate` (`tf_preint`) and
 //! `std::preintegrate_lighting` (`tf_preint_back`) and the light volumes
-//! of `std::shadow_volume` (`shadow_volume_NAME`). Each is made when some view binds it and made
+//! of `std::shadow_volume` (`shadow_volume_NAME`), which shadow groups' meshes read too. Each is
+//! made when some view binds it (or its shadow groups read it) and made
 //! again when what it was made from changes (the transfer function, a light's direction,
 //! `ref_step`); nothing is made for views that do not read it.
 
@@ -12,6 +13,7 @@ use crate::light_volume::{LightKey, LightVolumePass, Primary};
 use crate::textures::{TfTexture, VolumeTexture};
 use crate::tf::{self, TransferFunction, preintegrate::PreintegratedTable};
 use crate::uniforms::Value;
+use crate::volume_layer::shadowed_lights;
 use glam::Vec3;
 use std::collections::HashMap;
 use std::sync::Arc;
@@ -106,14 +108,22 @@ impl SceneRenderer {
         }
     }
 
-    /// Computes the light volume of every light some view reads one of, whose light direction,
+    /// Computes the light volume of every light some view needs one of (reads, or its shadow
+    /// groups' meshes do: `volume_layer::shadowed_lights`), whose light direction,
     /// `ref_step` or transfer function changed since it was computed (a few compares when
     /// nothing did: called before every frame).
     pub(super) fn update_light_volumes(&mut self) -> Result<(), RuntimeError> {
-        let names = bound_with_prefix(&self.views, LIGHT_VOLUME_PREFIX);
-        for name in names {
-            let light = &name[LIGHT_VOLUME_PREFIX.len()..];
-            let key = self.light_key(light);
+        let mut lights: Vec<String> = Vec::new();
+        for view in &self.views {
+            for light in shadowed_lights(view.renderer.shader()) {
+                if !lights.iter().any(|l| l == light) {
+                    lights.push(light.to_string());
+                }
+            }
+        }
+        for light in lights {
+            let key = self.light_key(&light);
+            let name = format!("{LIGHT_VOLUME_PREFIX}{light}");
             if self.derived.lights.get(&name) == Some(&key) && self.resources.volumes.contains_key(&name) {
                 continue;
             }
