@@ -39,14 +39,30 @@ fn assert_refused_exactly(refused: &BTreeSet<String>, expected: &BTreeSet<String
     );
 }
 
+// The matrices run as tests of about half a minute each on lavapipe, each on one core: halves
+// of one matrix are two tests, so that the test threads share them out.
+
 #[test]
-fn every_combination_renders_or_is_refused_at_build() {
+fn every_combination_renders_or_is_refused_at_build_first_half() {
+    every_combination_renders_or_is_refused_at_build(0);
+}
+
+#[test]
+fn every_combination_renders_or_is_refused_at_build_second_half() {
+    every_combination_renders_or_is_refused_at_build(1);
+}
+
+/// The cells of the volume roles' groups of parity `half`: every view-table cell composes the
+/// shader of its shared-table twin, which is in the same group.
+fn every_combination_renders_or_is_refused_at_build(half: usize) {
     let gpu = common::software_gpu();
-    let cells = Cell::all();
+    let all = Cell::all();
+    let groups: Vec<&[Cell]> = all.chunk_by(|a, b| a.roles == b.roles).skip(half).step_by(2).collect();
+    let cells: Vec<&Cell> = groups.iter().flat_map(|g| g.iter()).collect();
     let mut tally = Tally::default();
     // The shader of each cell written in the shared table, to compare the view-table cells with.
     let mut shared_shaders: HashMap<String, String> = HashMap::new();
-    for group in cells.chunk_by(|a, b| a.roles == b.roles) {
+    for group in groups {
         let dir = tempfile::tempdir().expect("a temporary folder");
         let path = dir.path().join("scene.toml");
         std::fs::write(&path, group[0].scene()).expect("scene written");
@@ -138,9 +154,20 @@ fn every_combination_with_bricked_volumes_renders_or_is_refused_at_build() {
 /// view kinds, shading and an additional volume renders or is refused by `build` (with an
 /// error at a scene value: shadows without shading), and no rendered pixel's colour is NaN.
 #[test]
-fn every_light_option_renders_or_is_refused_at_build() {
+fn every_light_option_renders_or_is_refused_at_build_alone() {
+    every_light_option_renders_or_is_refused_at_build(false);
+}
+
+#[test]
+fn every_light_option_renders_or_is_refused_at_build_with_an_additional_volume() {
+    every_light_option_renders_or_is_refused_at_build(true);
+}
+
+/// The light cells with an additional volume, or without.
+fn every_light_option_renders_or_is_refused_at_build(additional: bool) {
     let gpu = common::software_gpu();
-    let cells = LightCell::all();
+    let cells: Vec<LightCell> = LightCell::all().into_iter().filter(|c| c.additional == additional).collect();
+    assert!(!cells.is_empty(), "light cells with additional = {additional}");
     let (mut rendered, mut refused) = (0, BTreeSet::new());
     for group in cells.chunk_by(|a, b| a.additional == b.additional) {
         let dir = tempfile::tempdir().expect("a temporary folder");
