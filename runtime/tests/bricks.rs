@@ -3,7 +3,7 @@
 //! views whose planes lie on seams; every brick the rays need is loaded before `render_all`
 //! returns.
 
-mod common;
+use crate::common;
 
 use common::difference::{Difference, Tolerance};
 use std::collections::BTreeMap;

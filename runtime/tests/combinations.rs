@@ -8,7 +8,7 @@
 //! not), and exactly the light cells with shadows but no shading (`LightCell::refusal`); the set
 //! refused must equal the set stated. The cells come from `common::cells`.
 
-mod common;
+use crate::common;
 
 use common::cells::{Cell, LightCell, Lighting, MeshCell, Placement};
 use std::collections::{BTreeSet, HashMap};

@@ -5,7 +5,7 @@
 //! the standard writer of the flag removed by a user module (for MIP, which needs its flag, in
 //! favour of the per-sample selection it replaced).
 
-mod common;
+use crate::common;
 
 use std::path::Path;
 use vrs_runtime::{RenderOptions, SceneRenderer};

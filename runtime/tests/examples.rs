@@ -3,7 +3,7 @@
 //! example is copied to a temporary folder without its `data/`, so the clip-plane scenes use
 //! their fallback phantom and give the same images on every machine.
 
-mod common;
+use crate::common;
 
 use image::RgbaImage;
 use std::path::{Path, PathBuf};

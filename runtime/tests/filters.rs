@@ -2,7 +2,7 @@
 //! standard filters against what they promise, computed from the view's picture without
 //! filters and from the `geometry_depth` probe, and a user's filter in a standard one's place.
 
-mod common;
+use crate::common;
 
 use std::path::Path;
 use vrs_runtime::{ProbeAt, ProbeSpec, SceneRenderer};

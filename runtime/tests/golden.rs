@@ -9,7 +9,7 @@
 //! more. On a mismatch the actual image and a difference image are written to
 //! `target/golden-failures/`. `VRS_UPDATE_GOLDEN=1` writes new golden images instead.
 
-mod common;
+use crate::common;
 
 use common::{MIN_MATCHING, compare};
 use image::RgbaImage;

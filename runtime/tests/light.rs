@@ -3,7 +3,7 @@
 //! of known opacity), a faint opacity through a long path, and renders of bad input that stay
 //! finite.
 
-mod common;
+use crate::common;
 
 use std::path::{Path, PathBuf};
 use vrs_runtime::{ProbeAt, ProbeSpec, RenderOptions, SceneRenderer};

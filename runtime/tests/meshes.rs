@@ -2,7 +2,7 @@
 //! opacity along each ray is that of the path up to the surface), slice views outline where a
 //! mesh crosses their plane, and a view reads the mesh layer at any image size.
 
-mod common;
+use crate::common;
 
 use glam::{Mat4, Vec3};
 use std::path::Path;

@@ -2,7 +2,7 @@
 //! spacing, orientation and value range as the NIfTI headers say. Skipped, saying why, when the
 //! folder is absent (it is not part of the project).
 
-mod common;
+use crate::common;
 
 use std::path::Path;
 

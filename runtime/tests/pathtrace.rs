@@ -11,7 +11,7 @@
 //! Pixels are independent, so the picture's mean differs by at most 3 sqrt(M sum E[X] / N) /
 //! pixels.
 
-mod common;
+use crate::common;
 
 use image::RgbaImage;
 use std::path::Path;

@@ -5,7 +5,7 @@
 //! equally opaque through the same physical thickness whatever the voxel spacing along the ray,
 //! and as opaque as the opacity correction says.
 
-mod common;
+use crate::common;
 
 use common::write_nrrd;
 

@@ -2,7 +2,7 @@
 //! user sees when the MNI data is absent) has no terraces, measured as the mean absolute second
 //! difference of luminance over the lit surface.
 
-mod common;
+use crate::common;
 
 use image::RgbaImage;
 use vrs_runtime::{RenderOptions, SceneRenderer};

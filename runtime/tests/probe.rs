@@ -3,7 +3,7 @@
 //! GPU, and probe settings that change without a new pipeline. Golden images are
 //! `tests/golden/probe_SCENE__VIEW.FIELD.png`, compared as `golden.rs` says.
 
-mod common;
+use crate::common;
 
 use vrs_runtime::{ProbeAt, ProbeSpec, RenderOptions, SceneRenderer};
 

@@ -2,7 +2,7 @@
 //! child as the reference's rule says, against the pictures of each child alone; a shadow
 //! group's shadow falls where its light's rays meet the shadowing mesh.
 
-mod common;
+use crate::common;
 
 use glam::{Mat4, Vec3};
 use std::path::Path;

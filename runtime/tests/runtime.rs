@@ -2,7 +2,7 @@
 //! compiles in wgpu, precompiled views load (and stale pairs are refused), uniforms are typed,
 //! the pipeline cache spares recompiles, and bad input is an error, never a panic.
 
-mod common;
+use crate::common;
 
 use std::path::{Path, PathBuf};
 use vrs_runtime::{PipelineCache, RenderOptions, RuntimeError, SceneRenderer, ViewShader};

@@ -23,10 +23,10 @@
 //! case's outcome and mutations). A long campaign:
 //!
 //! ```text
-//! VRS_SCENE_FUZZ_CASES=5000 cargo test --release -p vrs-runtime --test scene_fuzz -- --nocapture
+//! VRS_SCENE_FUZZ_CASES=5000 cargo test --release -p vrs-runtime --test suite scene_fuzz -- --nocapture
 //! ```
 
-mod common;
+use crate::common;
 
 use common::cells::Cell;
 use std::fmt::Write as _;
@@ -1274,7 +1274,7 @@ impl Case {
     fn report(&self, error: &str) -> String {
         let mut text = format!(
             "seed {seed}: {error}\nrerun: VRS_SCENE_FUZZ_SEED={seed} VRS_SCENE_FUZZ_CASES=1 cargo test --release \
-             -p vrs-runtime --test scene_fuzz -- --nocapture\nprobe: {}\nmutations:\n",
+             -p vrs-runtime --test suite scene_fuzz -- --nocapture\nprobe: {}\nmutations:\n",
             self.probe,
             seed = self.seed
         );

@@ -3,7 +3,7 @@
 //! the rounding of the sample positions the jumps land on), and the rays take fewer samples;
 //! with DVR, an additional volume's content is never skipped, whatever its grid.
 
-mod common;
+use crate::common;
 
 use vrs_runtime::{RenderOptions, SceneRenderer};
 

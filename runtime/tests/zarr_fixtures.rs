@@ -3,7 +3,7 @@
 //! the same placement in patient space, and, rendered, the same picture as the twin in one
 //! texture (within 0.5/255 on average, the half-float pool's rounding).
 
-mod common;
+use crate::common;
 
 use std::path::{Path, PathBuf};
 

@@ -16,17 +16,21 @@ pub fn root() -> PathBuf {
 /// The software adapter (lavapipe), so images are the same on every machine. Never skips: a
 /// machine without it fails with the command that installs it (`.ci/run` runs that command).
 pub fn software_gpu() -> Gpu {
-    if std::env::var_os("XDG_RUNTIME_DIR").is_none() {
-        let dir = std::env::temp_dir().join("vrs-xdg");
-        let _ = std::fs::create_dir_all(&dir);
-        #[cfg(unix)]
-        {
-            use std::os::unix::fs::PermissionsExt;
-            let _ = std::fs::set_permissions(&dir, std::fs::Permissions::from_mode(0o700));
+    static RUNTIME_DIR: std::sync::Once = std::sync::Once::new();
+    RUNTIME_DIR.call_once(|| {
+        if std::env::var_os("XDG_RUNTIME_DIR").is_none() {
+            let dir = std::env::temp_dir().join("vrs-xdg");
+            let _ = std::fs::create_dir_all(&dir);
+            #[cfg(unix)]
+            {
+                use std::os::unix::fs::PermissionsExt;
+                let _ = std::fs::set_permissions(&dir, std::fs::Permissions::from_mode(0o700));
+            }
+            // SAFETY: the drivers read the environment (from C) only once a device exists, and
+            // every test makes its device here, after this: no thread reads it concurrently.
+            unsafe { std::env::set_var("XDG_RUNTIME_DIR", dir) };
         }
-        // SAFETY: set before any other thread of this test reads the environment.
-        unsafe { std::env::set_var("XDG_RUNTIME_DIR", dir) };
-    }
+    });
     Gpu::headless(AdapterChoice::Software).unwrap_or_else(|e| {
         panic!(
             "rendering tests need the software Vulkan driver (lavapipe): {e}\n\
