@@ -9,7 +9,7 @@ use super::*;
 pub struct Image {
     /// An identifier: a `picture` or a group's `children` name the image by it.
     pub name: Ident,
-    /// `path`: the picture file (PNG, JPEG, BMP, TIFF, ...), resolved against the scene file's
+    /// `path`: the picture file (PNG or JPEG), resolved against the scene file's
     /// directory.
     pub file: FileRef,
     /// `origin`: where the picture's top-left corner lies (mm).

@@ -67,11 +67,14 @@ fn upload(gpu: &Gpu, image: &vscene::Image) -> Result<PlanePicture, RuntimeError
     })
 }
 
-/// The file's pixels, RGBA with 8 bits a channel (any format the `image` crate reads, known by
-/// its contents); the error says why not, for `build` to report at the path.
+/// The file's pixels, RGBA with 8 bits a channel (a PNG or a JPEG, known by its contents);
+/// the error says why not, for `build` to report at the path.
 pub fn read_image(image: &vscene::Image) -> Result<image::RgbaImage, String> {
-    let file = &image.file;
-    let decoded = image::ImageReader::open(&file.resolved)
+    decode(&image.file.resolved)
+}
+
+fn decode(path: &std::path::Path) -> Result<image::RgbaImage, String> {
+    let decoded = image::ImageReader::open(path)
         .and_then(|reader| reader.with_guessed_format())
         .map_err(|e| e.to_string())?
         .decode()
@@ -86,5 +89,26 @@ fn premultiply(rgba: &mut image::RgbaImage) {
         for c in &mut pixel.0[..3] {
             *c = ((u16::from(*c) * a + 127) / 255) as u8;
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::decode;
+
+    /// A photograph is a JPEG: one (grey, known by its contents though named `.png`) decodes
+    /// to its grey within JPEG's error; a file of neither format is refused with the reason.
+    #[test]
+    fn a_jpeg_decodes_by_its_contents_and_text_is_refused() {
+        let dir = tempfile::tempdir().expect("a folder");
+        let grey = image::RgbImage::from_pixel(16, 8, image::Rgb([90, 90, 90]));
+        let path = dir.path().join("photo.png");
+        grey.save_with_format(&path, image::ImageFormat::Jpeg).expect("a JPEG written");
+        let decoded = decode(&path).expect("the JPEG decodes");
+        assert_eq!(decoded.dimensions(), (16, 8));
+        assert!(decoded.pixels().all(|p| p[0].abs_diff(90) <= 2 && p[3] == 255), "{:?}", decoded.get_pixel(0, 0));
+        let text = dir.path().join("notes.png");
+        std::fs::write(&text, "not a picture").expect("written");
+        assert!(decode(&text).is_err());
     }
 }
