@@ -32,7 +32,8 @@
 //!   [`scene::is_set_by_renderer`] names those the renderer sets every frame;
 //!   [`reflection`] describes a view's uniforms and functions.
 //! - **Cameras and slices**: [`OrbitCamera`], [`SlicePlane`], [`SliceAxis`], [`Convention`],
-//!   [`slice_edge_labels`], and [`geometry`]'s patient-space helpers ([`geometry::PatientBox`],
+//!   [`slice_edge_labels`], a slice view's image in patient space
+//!   ([`SceneRenderer::slice_geometry`], [`SliceGeometry`]), and [`geometry`]'s patient-space helpers ([`geometry::PatientBox`],
 //!   [`geometry::volume_to_world`]).
 //! - **Volumes**: [`volume::load`] and [`volume::header`] read files, [`volume::phantom()`] makes
 //!   test volumes, [`volume::VolumeFeed`] lets an application hand its own samples to a scene
@@ -101,7 +102,7 @@ pub use geometry::{Convention, OrbitCamera, SliceAxis, SlicePlane, slice_edge_la
 pub use gpu::{AdapterChoice, Gpu, GpuFault};
 pub use resources::Resources;
 #[cfg(feature = "compiler")]
-pub use scene::{Applied, ProbeAt, ProbeImage, ProbeSpec, RenderOptions, SceneRenderer, VolumeStatus};
+pub use scene::{Applied, ProbeAt, ProbeImage, ProbeSpec, RenderOptions, SceneRenderer, SliceGeometry, VolumeStatus};
 pub use shader::{PipelineCache, PipelineStats, ViewPipeline, ViewShader};
 pub use uniforms::Value;
 pub use view::{Region, ViewRenderer};

@@ -32,7 +32,7 @@ mod probe;
 mod tf_edit;
 pub use bricked::{BrickProgress, selection};
 pub use images::read_image;
-pub use meshes::{MeshHandle, mesh_surface};
+pub use meshes::{MeshHandle, SliceGeometry, mesh_surface};
 pub use probe::{ProbeAt, ProbeImage, ProbeSpec};
 pub use tf_edit::VolumeStatus;
 
@@ -494,13 +494,6 @@ impl SceneRenderer {
 }
 
 impl SceneRenderer {
-    /// The patient directions at the edges of slice view `index` as it is shown now,
-    /// `[left, right, top, bottom]` (see `SlicePlane::edge_labels`); `None` for a raycast view.
-    pub fn slice_edge_labels(&self, index: usize) -> Option<[&'static str; 4]> {
-        let view = self.views.get(index)?;
-        view.slice.map(|(plane, _)| plane.oriented(view.convention).edge_labels())
-    }
-
     /// Physical sampling where the scene leaves it open: `step_size` half the primary volume's
     /// smallest voxel spacing, `ref_step` (the distance transfer-function opacities are
     /// defined for) that spacing, and `max_samples` enough steps for the grid's longest chord, at

@@ -111,7 +111,7 @@ fn the_clip_plane_cuts_the_clipped_volume_and_spares_the_excluded_one() {
 /// The pixel of view `index` (a slice view of `size` pixels) where patient-space point `p` (mm)
 /// shows.
 fn slice_pixel(scene: &SceneRenderer, index: usize, p: [f32; 3], size: u32) -> (f32, f32) {
-    let ([x, y], _) = scene.world_to_slice_pixel(index, p.into()).expect("a slice view");
+    let ([x, y], _) = scene.slice_geometry(index).expect("a slice view").world_to_pixel(p.into());
     (x * size as f32, y * size as f32)
 }
 

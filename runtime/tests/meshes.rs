@@ -159,7 +159,7 @@ fn a_slice_outlines_where_a_needle_crosses_it() {
     ) + "\n[[view]]\nname = \"axial\"\nkind = \"slice\"\naxis = \"axial\"\nposition = 0.5\nsize = [128, 128]\n";
     let mut scene = open(dir.path(), &scene_text);
     let image = scene.render_all().expect("render").remove(1).1;
-    let ([cx, cy], off) = scene.world_to_slice_pixel(1, Vec3::new(10.0, 20.0, 15.5)).expect("a slice view");
+    let ([cx, cy], off) = scene.slice_geometry(1).expect("a slice view").world_to_pixel(Vec3::new(10.0, 20.0, 15.5));
     assert!(off.abs() < 1e-3, "the point lies on the plane ({off} mm off)");
     let px_per_mm = 128.0 / 32.0;
     let (cx, cy) = (cx * 128.0, cy * 128.0);

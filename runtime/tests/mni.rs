@@ -80,7 +80,7 @@ fn mni152_t1_projections_and_planes() {
         dir.join(FILES[0]).display()
     );
     let mut renderer = open(scene_dir.path(), &text);
-    assert_eq!(renderer.slice_edge_labels(3), Some(["L", "R", "S", "I"]));
+    assert_eq!(renderer.slice_geometry(3).map(|g| g.edge_labels()), Some(["L", "R", "S", "I"]));
     let failures = golden_failures(&mut renderer, "mni152_t1_modes__");
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }

@@ -297,7 +297,7 @@ fn slice_views_label_their_edges() {
     std::fs::write(&scene, text).unwrap();
     let options = RenderOptions { phantom_size: [8, 8, 8], ..RenderOptions::default() };
     let r = SceneRenderer::open(common::software_gpu(), &scene, options, &mut |_, _, _| {}).unwrap();
-    assert_eq!(r.slice_edge_labels(0), None);
-    assert_eq!(r.slice_edge_labels(1), Some(["R", "L", "A", "P"]));
-    assert_eq!(r.slice_edge_labels(2), Some(["L", "R", "S", "I"]));
+    assert!(r.slice_geometry(0).is_none());
+    assert_eq!(r.slice_geometry(1).map(|g| g.edge_labels()), Some(["R", "L", "A", "P"]));
+    assert_eq!(r.slice_geometry(2).map(|g| g.edge_labels()), Some(["L", "R", "S", "I"]));
 }

@@ -47,7 +47,7 @@ impl Marker {
 
 /// The markers of `handles` that fall in the image: `model_of` gives a mesh's placement,
 /// `to_pixel` a patient-space point's image coordinates and distance from the plane (the
-/// slice view's [`vrs_runtime::SceneRenderer::world_to_slice_pixel`]).
+/// slice view's [`vrs_runtime::SliceGeometry::world_to_pixel`]).
 pub fn markers(
     handles: &[MeshHandle],
     model_of: impl Fn(&str) -> Option<Mat4>,
@@ -107,7 +107,7 @@ pub struct HandleDrag {
 
 impl HandleDrag {
     /// Grabs `marker`; `to_world` is the view's image coordinates to the point on the plane
-    /// ([`vrs_runtime::SceneRenderer::slice_pixel_to_world`]). `None` when the plane or the
+    /// ([`vrs_runtime::SliceGeometry::pixel_to_world`]). `None` when the plane or the
     /// mesh's placement is degenerate.
     pub fn start(marker: &Marker, to_world: impl Fn(Vec2) -> Option<Vec3>) -> Option<HandleDrag> {
         let foot = to_world(marker.image)?;
@@ -139,7 +139,8 @@ pub fn slice_markers(live: &LiveScene, index: usize) -> Vec<Marker> {
         return Vec::new();
     }
     let model_of = |mesh: &str| renderer.meshes().iter().find(|m| m.name == mesh).map(|m| m.model);
-    markers(&live.mesh_handles(), model_of, |p| renderer.world_to_slice_pixel(index, p))
+    let geometry = renderer.slice_geometry(index);
+    markers(&live.mesh_handles(), model_of, |p| Some(geometry?.world_to_pixel(p)))
 }
 
 /// Grabs the marker of slice view `index` under `cursor` (image coordinates) on an image of
@@ -147,13 +148,15 @@ pub fn slice_markers(live: &LiveScene, index: usize) -> Vec<Marker> {
 pub fn grab(live: &LiveScene, index: usize, cursor: Vec2, size: Vec2) -> Option<HandleDrag> {
     let markers = slice_markers(live, index);
     let i = hit(&markers, cursor, size, GRAB_RADIUS)?;
-    HandleDrag::start(&markers[i], |p| live.renderer().slice_pixel_to_world(index, p.to_array()))
+    let geometry = live.renderer().slice_geometry(index);
+    HandleDrag::start(&markers[i], |p| Some(geometry?.pixel_to_world(p.to_array())))
 }
 
 /// Moves the dragged point under `cursor` (image coordinates of slice view `index`): sets its
 /// uniform, which moves the mesh and whatever else reads it. Returns the new value.
 pub fn drag_to(live: &mut LiveScene, index: usize, drag: &HandleDrag, cursor: Vec2) -> Result<Vec3, String> {
-    let to_world = |p: Vec2| live.renderer().slice_pixel_to_world(index, p.to_array());
+    let geometry = live.renderer().slice_geometry(index);
+    let to_world = |p: Vec2| Some(geometry?.pixel_to_world(p.to_array()));
     let value = drag.value_at(cursor, to_world).ok_or_else(|| format!("view {index} is not a slice"))?;
     live.set_uniform(&drag.uniform, Value::Float(value.to_array().to_vec())).map_err(|e| e.to_string())?;
     Ok(value)

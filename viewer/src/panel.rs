@@ -355,7 +355,7 @@ fn view_cell(
 /// The letters of the patient's directions at a slice view's edges and its position in its
 /// corner (nothing for a raycast view).
 fn paint_slice_labels(ui: &egui::Ui, live: &LiveScene, index: usize, image: Rect) {
-    if let Some([left, right, top, bottom]) = live.renderer().slice_edge_labels(index) {
+    if let Some([left, right, top, bottom]) = live.renderer().slice_geometry(index).map(|g| g.edge_labels()) {
         // The patient's directions at the image's edges (radiological or neurological).
         let font = egui::FontId::proportional(15.0);
         let colour = Color32::from_rgb(120, 220, 255);
@@ -480,7 +480,7 @@ const CROSSHAIR: Color32 = Color32::from_rgba_premultiplied(200, 180, 60, 160);
 /// (the crosshair); whether any moved.
 fn cross_at(live: &mut LiveScene, index: usize, pixel: glam::Vec2) -> bool {
     let (Some(point), Some(patient)) =
-        (live.renderer().slice_pixel_to_world(index, pixel.to_array()), primary_box(live))
+        (live.renderer().slice_geometry(index).map(|g| g.pixel_to_world(pixel.to_array())), primary_box(live))
     else {
         return false;
     };
@@ -509,7 +509,8 @@ fn primary_box(live: &LiveScene) -> Option<PatientBox> {
 
 /// Lines where the other slice views cut slice view `index`'s image.
 fn paint_cuts(ui: &egui::Ui, live: &LiveScene, index: usize, image: Rect) {
-    let corner = |x: f32, y: f32| live.renderer().slice_pixel_to_world(index, [x, y]);
+    let geometry = live.renderer().slice_geometry(index);
+    let corner = |x: f32, y: f32| Some(geometry?.pixel_to_world([x, y]));
     let (Some(top_left), Some(top_right), Some(bottom_left), Some(patient)) =
         (corner(0.0, 0.0), corner(1.0, 0.0), corner(0.0, 1.0), primary_box(live))
     else {

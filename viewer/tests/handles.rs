@@ -58,7 +58,7 @@ fn dragging_needle_a_in_the_axial_view_moves_its_zone_in_the_plane() {
     assert_eq!(vec3(&live, "zone_centre_a"), moved);
     // In the plane, at the depth it had: the axial plane's normal is the patient's z.
     assert!((moved.z - before.z).abs() < 1e-3, "{before} -> {moved}");
-    let (pixel, depth) = live.renderer().world_to_slice_pixel(axial, moved).unwrap();
+    let (pixel, depth) = live.renderer().slice_geometry(axial).unwrap().world_to_pixel(moved);
     assert!((Vec2::from(pixel) - target).length() < 1e-4, "the tip is under the cursor: {pixel:?}");
     assert!((depth - a.depth).abs() < 1e-3);
     // Radiological axial view: image right is the patient's left (-x), image down posterior (-y).

@@ -282,19 +282,42 @@ impl SceneRenderer {
         out
     }
 
-    /// The patient-space point (RAS mm) under `pixel` (image coordinates in [0, 1]^2, y down) of
-    /// slice view `index`; `None` for a raycast view.
-    pub fn slice_pixel_to_world(&self, index: usize, pixel: [f32; 2]) -> Option<Vec3> {
-        let (frame, _) = slice_frame(self.views.get(index)?, self.grids.first()?)?;
-        Some(frame.image_to_world.transform_point3(Vec3::new(pixel[0], pixel[1], 0.0)))
+    /// Where slice view `index`'s image lies in patient space as the view shows it now (its
+    /// plane, position, convention and size); `None` for a raycast view or a scene without a
+    /// primary volume.
+    pub fn slice_geometry(&self, index: usize) -> Option<SliceGeometry> {
+        let view = self.views.get(index)?;
+        let (frame, _) = slice_frame(view, self.grids.first()?)?;
+        let (plane, _) = view.slice?;
+        Some(SliceGeometry { frame, edge_labels: plane.oriented(view.convention).edge_labels() })
+    }
+}
+
+/// Where a slice view's image lies in patient space ([`SceneRenderer::slice_geometry`]): what
+/// a viewer maps the mouse through and labels the image's edges with. Image coordinates are
+/// in [0, 1]^2, y down; patient space is RAS, mm.
+#[derive(Clone, Copy, Debug)]
+pub struct SliceGeometry {
+    frame: SliceFrame,
+    edge_labels: [&'static str; 4],
+}
+
+impl SliceGeometry {
+    /// The patient-space point under `pixel`.
+    pub fn pixel_to_world(&self, pixel: [f32; 2]) -> Vec3 {
+        self.frame.image_to_world.transform_point3(Vec3::new(pixel[0], pixel[1], 0.0))
     }
 
-    /// Where `point` (patient space, mm) shows in slice view `index`: image coordinates in
-    /// [0, 1]^2 (y down) and its distance from the plane in mm; `None` for a raycast view.
-    pub fn world_to_slice_pixel(&self, index: usize, point: Vec3) -> Option<([f32; 2], f32)> {
-        let (frame, _) = slice_frame(self.views.get(index)?, self.grids.first()?)?;
-        let p = frame.world_to_image.transform_point3(point);
-        Some(([p.x, p.y], p.z))
+    /// Where `point` shows in the image, and its distance from the plane (mm).
+    pub fn world_to_pixel(&self, point: Vec3) -> ([f32; 2], f32) {
+        let p = self.frame.world_to_image.transform_point3(point);
+        ([p.x, p.y], p.z)
+    }
+
+    /// The patient directions at the image's edges, `[left, right, top, bottom]` (see
+    /// `SlicePlane::edge_labels`).
+    pub fn edge_labels(&self) -> [&'static str; 4] {
+        self.edge_labels
     }
 }
 
