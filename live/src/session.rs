@@ -635,14 +635,13 @@ impl LiveScene {
     /// scene without bricked volumes; skips the GPU when nothing was drawn or is on its way
     /// since streaming settled ([`Self::bricks_busy`]).
     pub fn stream_bricks(&mut self) -> Result<Option<BrickProgress>, RuntimeError> {
-        if !self.renderer.has_bricked() {
+        let Some(before) = self.renderer.brick_residency() else {
             self.bricks.clear();
             return Ok(None);
-        }
+        };
         if !self.bricks.busy() && self.bricks.last().is_some() {
             return Ok(self.bricks.last());
         }
-        let before = self.renderer.brick_residency();
         let progress = self.renderer.stream_bricks(false)?;
         if self.bricks.note(before, progress) {
             for name in self.view_names() {
@@ -661,7 +660,7 @@ impl LiveScene {
     /// back yet, a read-back under way, bricks loading or just placed. A viewer keeps drawing
     /// (after a short pause: the loaders do not wake it) while this holds.
     pub fn bricks_busy(&self) -> bool {
-        self.renderer.has_bricked() && self.bricks.busy()
+        self.renderer.brick_residency().is_some() && self.bricks.busy()
     }
 
     /// Renders every view at full quality and reads the images back (for `vrsc watch`).

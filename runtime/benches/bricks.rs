@@ -129,8 +129,7 @@ fn main() {
             renderer
         })
         .collect();
-    if let Some(bricked) = renderers.iter().find(|r| r.has_bricked()) {
-        let residency = bricked.brick_residency();
+    if let Some(residency) = renderers.iter().find_map(|r| r.brick_residency()) {
         println!(
             "bricks: {} resident, {} of one value, {} pending",
             residency.resident, residency.constant, residency.pending

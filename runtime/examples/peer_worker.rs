@@ -95,7 +95,7 @@ impl Worker {
         self.scenes.remove(name);
         let mut renderer =
             SceneRenderer::open(self.gpu.clone(), path, options, &mut |_, _, _| {}).map_err(|e| e.to_string())?;
-        if renderer.has_bricked() {
+        if renderer.brick_residency().is_some() {
             // Streams every brick the views need: timed frames find them resident.
             renderer.render_all().map_err(|e| e.to_string())?;
         }

@@ -103,7 +103,7 @@ fn bricked_and_single_texture_volumes_render_alike() {
     let dir = tempfile::tempdir().expect("temp dir");
     let (whole, _) = render(dir.path(), "whole.toml", &scene(false));
     let (bricked, renderer) = render(dir.path(), "bricked.toml", &scene(true));
-    let residency = renderer.brick_residency();
+    let residency = renderer.brick_residency().expect("bricked volumes");
     assert!(residency.resident > 0 && residency.pending == 0, "{residency:?}");
     assert!(renderer.notices.iter().any(|n| n.contains("bricks loaded for this picture")), "{:?}", renderer.notices);
     let mut failures = Vec::new();
@@ -209,7 +209,7 @@ camera = {{ azimuth = 35.0, elevation = 20.0, distance = 2.2 }}
             std::fs::write(&path, text).expect("scene written");
             let mut renderer = SceneRenderer::open(common::software_gpu(), &path, options.clone(), &mut |_, _, _| {})
                 .unwrap_or_else(|e| panic!("{what}, bricks = {bricks}: {e}"));
-            assert_eq!(renderer.has_bricked(), bricks);
+            assert_eq!(renderer.brick_residency().is_some(), bricks);
             pictures.push(renderer.render_all().unwrap_or_else(|e| panic!("{e}")).remove(0).1);
         }
         let difference = Difference::between(&pictures[0], &pictures[1]);
@@ -262,7 +262,7 @@ size = [384, 384]
 camera = { azimuth = -60.0, elevation = 20.0, distance = 1.6 }
 "#;
     let (images, renderer) = render(dir.path(), "scene.toml", text);
-    let residency = renderer.brick_residency();
+    let residency = renderer.brick_residency().expect("bricked volumes");
     println!("{residency:?}");
     assert!(images[0].1.pixels().any(|p| p.0[3] > 200), "the bone shows");
     assert_eq!(residency.pending, 0, "{residency:?}");

@@ -131,7 +131,7 @@ fn every_combination_with_bricked_volumes_renders_or_is_refused_at_build() {
             RenderOptions { size: Some([16, 16]), phantom_size: [24, 24, 24], samples: 1, ..RenderOptions::default() };
         let mut renderer = SceneRenderer::open(gpu.clone(), &path, options, &mut |_, _, _| {})
             .unwrap_or_else(|e| panic!("{} (bricked): {e}", group[0].describe()));
-        assert!(renderer.has_bricked(), "{}: no bricked volume", group[0].describe());
+        assert!(renderer.brick_residency().is_some(), "{}: no bricked volume", group[0].describe());
         for cell in group {
             std::fs::write(&path, bricked(cell)).expect("scene written");
             run_cell(&mut renderer, cell, &mut tally);

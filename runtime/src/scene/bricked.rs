@@ -233,11 +233,6 @@ pub struct BrickProgress {
 }
 
 impl SceneRenderer {
-    /// Whether the scene has bricked volumes.
-    pub fn has_bricked(&self) -> bool {
-        !self.resources.bricked.is_empty()
-    }
-
     /// After a frame: reads back what the rays of the frames so far asked of the bricked
     /// volumes, asks the loaders, and places the bricks that arrived since. With `wait` it waits
     /// for the read-back and for every brick asked for (what `render` does); without, nothing
@@ -285,10 +280,7 @@ impl SceneRenderer {
         render: impl Fn(&mut SceneRenderer) -> Result<Vec<(String, image::RgbaImage)>, RuntimeError>,
     ) -> Result<Vec<(String, image::RgbaImage)>, RuntimeError> {
         let mut images = render(self)?;
-        if !self.has_bricked() {
-            return Ok(images);
-        }
-        let before = self.brick_residency();
+        let Some(before) = self.brick_residency() else { return Ok(images) };
         for _ in 0..MAX_ROUNDS {
             let progress = self.stream_bricks(true)?;
             if progress.asked == 0 || progress.arrived == 0 {
@@ -296,7 +288,7 @@ impl SceneRenderer {
             }
             images = render(self)?;
         }
-        let after = self.brick_residency();
+        let after = self.brick_residency().unwrap_or_default();
         // One residency note (the last render's) and each source's message once, however
         // often the scene renders (`vrsc watch` renders on every edit).
         self.notices.retain(|n| !n.starts_with(LOADED_NOTE));
@@ -318,9 +310,11 @@ impl SceneRenderer {
         Ok(images)
     }
 
-    /// The residency of every bricked volume, summed.
-    pub fn brick_residency(&self) -> Residency {
-        self.resources.bricked.values().fold(Residency::default(), |acc, v| sum(acc, v.residency()))
+    /// The residency of every bricked volume, summed; `None` for a scene without bricked
+    /// volumes.
+    pub fn brick_residency(&self) -> Option<Residency> {
+        let bricked = self.resources.bricked.values();
+        bricked.map(|v| v.residency()).reduce(sum)
     }
 }
 
