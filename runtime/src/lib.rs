@@ -33,8 +33,8 @@
 //!   [`reflection`] describes a view's uniforms and functions.
 //! - **Cameras and slices**: [`OrbitCamera`], [`SlicePlane`], [`SliceAxis`], [`Convention`],
 //!   [`slice_edge_labels`], a slice view's image in patient space
-//!   ([`SceneRenderer::slice_geometry`], [`SliceGeometry`]), and [`geometry`]'s patient-space helpers ([`geometry::PatientBox`],
-//!   [`geometry::volume_to_world`]).
+//!   ([`SceneRenderer::slice_geometry`], [`SliceGeometry`]), and [`geometry`]'s patient-space
+//!   helpers ([`geometry::PatientBox`], [`geometry::volume_to_world`]).
 //! - **Volumes**: [`volume::load`] and [`volume::header`] read files, [`volume::phantom()`] makes
 //!   test volumes, [`volume::VolumeFeed`] lets an application hand its own samples to a scene
 //!   ([`RenderOptions::feeds`]); [`SceneRenderer::volumes`] and [`VolumeStatus`] show what is
