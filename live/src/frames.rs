@@ -101,7 +101,7 @@ impl ViewFrames {
 
     /// Drives the frames of every view (`views[i]` is view `i` of `live`): notes finished work
     /// and, when no view has work on the GPU, submits the most urgent next piece of any view
-    /// (see [`crate::schedule`]: first pictures of a new state, then the tiles of the view that
+    /// (see `crate::schedule`: first pictures of a new state, then the tiles of the view that
     /// settles soonest), so that
     /// each piece's measured time is its own. Never waits. Returns the view whose piece could
     /// not be encoded or submitted, with the error; its schedule may ask for it again.

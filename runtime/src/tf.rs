@@ -89,7 +89,7 @@ pub(crate) const CT_DOMAIN: [f32; 2] = [-1024.0, 3071.0];
 pub struct TransferFunction {
     /// The preset's name, the colormap's `Name`, or the file stem.
     pub(crate) name: String,
-    /// `TF_WIDTH` entries over `domain`, entry i made at [`entry_value`] of it: r, g, b and
+    /// `TF_WIDTH` entries over `domain`, entry i made at `entry_value` of it: r, g, b and
     /// straight alpha, each in [0, 1].
     pub rgba: Vec<[f32; 4]>,
     /// What the first and last entries stand for.
@@ -112,7 +112,7 @@ impl TransferFunction {
         TransferFunction { name: self.name.clone(), rgba, domain: TfDomain::Window }
     }
 
-    /// What the shader's `lookup` reads at the normalized value `x` (see [`texel_centre`]).
+    /// What the shader's `lookup` reads at the normalized value `x` (see `texel_centre`).
     pub fn sample(&self, x: f32) -> [f32; 4] {
         sample_rows(&self.rgba, x)
     }

@@ -299,8 +299,8 @@ impl ViewRenderer {
     /// Renders and reads the image back (straight alpha RGBA8).
     /// A view that meters its exposure renders twice: the first pass meters the picture the
     /// second one is exposed for. A progressive view first renders the frames its picture
-    /// lacks of [`Self::samples`] (one submission each, so that no submission runs long), and
-    /// then one more.
+    /// lacks of its samples ([`Self::set_samples`]; one submission each, so that no submission
+    /// runs long), and then one more.
     pub fn render(&mut self, gpu: &Gpu, resources: &Resources) -> Result<image::RgbaImage, RuntimeError> {
         if self.is_progressive() {
             let have = self.frames(self.size, resources);

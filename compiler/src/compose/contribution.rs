@@ -109,7 +109,7 @@ fn access(program: &hir::Program, placed: &PlacedFn) -> Access {
     out
 }
 
-/// The `@ray` fields (indices into [`Composition::fields`]) that some function of the sample
+/// The `@ray` fields (indices into `Composition::fields`) that some function of the sample
 /// loop writes: what a sample changes that outlives it (the rest is reset at each sample's
 /// start).
 pub fn ray_fields_written_per_sample(program: &hir::Program, comp: &Composition) -> Vec<usize> {

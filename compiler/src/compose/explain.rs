@@ -167,7 +167,7 @@ impl Composition {
 }
 
 impl super::build::ViewOutput {
-    /// The view's pipeline map ([`Composition::render_pipeline_map`]), then its filter pass's
+    /// The view's pipeline map (`Composition::render_pipeline_map`), then its filter pass's
     /// after a `filters:` line, for a view built with [`super::build::Keep::Ir`] (empty
     /// otherwise).
     pub fn render_maps(&self, sources: &SourceMap) -> String {

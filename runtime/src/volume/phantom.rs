@@ -2,7 +2,7 @@
 //!
 //! A phantom is a list of shapes painted in order over the box [-1, 1]^3 (x fastest, y down the
 //! image, z up), each with its own value: a later shape replaces what it covers. Edges are
-//! band-limited: a shape covers a voxel by the fraction a Gaussian of [`EDGE_SIGMA`] voxels
+//! band-limited: a shape covers a voxel by the fraction a Gaussian of `EDGE_SIGMA` voxels
 //! around the voxel's centre has inside the surface (of the approximate signed distance), as a
 //! scanner's point-spread function blurs a real edge. One-voxel edges (a smoothstep over one
 //! voxel, before) left the gradient, hence the shading normal, jumping at every voxel: lit

@@ -1,4 +1,4 @@
-//! A [`BrickSource`] over a Zarr v2 or v3 store, on disk or over HTTP(S), through the `zarrs`
+//! A [`crate::bricks::BrickSource`] over a Zarr v2 or v3 store, on disk or over HTTP(S), through the `zarrs`
 //! crate: one array, or an OME-Zarr image (NGFF v0.4 in `.zattrs`, v0.5 under `ome` in
 //! `zarr.json`) whose datasets stand in for the pyramid's levels.
 //!
@@ -21,7 +21,7 @@
 //!   [`BrickData::Constant`] without reading (a directory store's chunk files are listed once).
 //! - An unreadable chunk is an error of the bricks that need it, naming the chunk (the
 //!   residency draws them from the next coarser level); a level built from it takes the fill
-//!   value there, with a note ([`BrickSource::warnings`]).
+//!   value there, with a note ([`crate::bricks::BrickSource::warnings`]).
 
 mod dataset;
 mod http;
