@@ -1,7 +1,8 @@
 //! Remote Zarr stores through `vrsc render`: a store served over HTTP by a server on 127.0.0.1
 //! renders the same picture as from disk (also through a server that fails every other
 //! request, which the client retries); a server that stalls or fails gives a clear error in
-//! bounded time, never a hang; unknown schemes are refused at build.
+//! bounded time, never a hang (as does `https://` to a server without TLS); unknown schemes are
+//! refused at build.
 
 #[path = "support/loopback.rs"]
 mod loopback;
@@ -99,6 +100,14 @@ fn a_stalling_or_failing_server_is_a_clear_error_in_bounded_time() {
     let port = std::net::TcpListener::bind("127.0.0.1:0").expect("a port").local_addr().expect("addr").port();
     let (output, _) = render(dir.path(), "closed", &format!("http://127.0.0.1:{port}/store.zarr"), 0.5);
     assert!(!output.status.success() && text(&output).contains("store.zarr"), "{}", text(&output));
+    // `https://` to a server that speaks plain HTTP: the client's TLS stack starts, the
+    // handshake fails, and that is an error at the store's path (E0719, exit 1), not a panic (101).
+    let server = Server::start(fixtures(), Mode::Files);
+    let url = server.url("v2_blosc.zarr").replacen("http://", "https://", 1);
+    let (output, _) = render(dir.path(), "tls", &url, 0.5);
+    let said = text(&output);
+    assert_eq!(output.status.code(), Some(1), "{said}");
+    assert!(said.contains("E0719") && said.contains("v2_blosc.zarr") && !said.contains("panicked"), "{said}");
 }
 
 #[test]
