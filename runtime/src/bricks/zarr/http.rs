@@ -49,9 +49,19 @@ fn timeout() -> Duration {
     Duration::from_secs_f64(seconds.filter(|s| s.is_finite() && *s > 0.0).unwrap_or(30.0).min(3600.0))
 }
 
+/// Makes ring the process's TLS provider, unless one is installed already (by the
+/// application, or an earlier store): the HTTP client's rustls is built without one.
+fn install_tls_provider() {
+    if rustls::crypto::CryptoProvider::get_default().is_none() {
+        // An error means another thread installed one meanwhile, which serves as well.
+        let _ = rustls::crypto::ring::default_provider().install_default();
+    }
+}
+
 /// The store at `url` (`http://` or `https://`).
 pub(super) fn open(url: &str) -> Result<Arc<Store>, String> {
     check_scheme(url)?;
+    install_tls_provider();
     let request = timeout();
     let options = ClientOptions::new()
         .with_allow_http(true)
