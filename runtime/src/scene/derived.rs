@@ -44,17 +44,23 @@ pub(super) struct Derived {
     standin: Option<(u64, Arc<VolumeTexture>)>,
 }
 
-/// The names bound by some view that start with `prefix`, each once.
-fn bound_with_prefix(views: &[SceneView], prefix: &str) -> Vec<String> {
+/// What `of` names for some view, each once.
+fn each_once<'a, I: Iterator<Item = &'a str>>(views: &'a [SceneView], of: impl Fn(&'a SceneView) -> I) -> Vec<String> {
     let mut out: Vec<String> = Vec::new();
-    for view in views {
-        for b in &view.renderer.shader().reflection.bindings {
-            if b.name.starts_with(prefix) && !out.contains(&b.name) {
-                out.push(b.name.clone());
-            }
+    for name in views.iter().flat_map(of) {
+        if !out.iter().any(|n| n == name) {
+            out.push(name.to_string());
         }
     }
     out
+}
+
+/// The names bound by some view that start with `prefix`, each once.
+fn bound_with_prefix(views: &[SceneView], prefix: &str) -> Vec<String> {
+    each_once(views, |view| {
+        let bindings = view.renderer.shader().reflection.bindings.iter();
+        bindings.map(|b| b.name.as_str()).filter(|name| name.starts_with(prefix))
+    })
 }
 
 impl SceneRenderer {
@@ -113,15 +119,7 @@ impl SceneRenderer {
     /// `ref_step` or transfer function changed since it was computed (a few compares when
     /// nothing did: called before every frame).
     pub(super) fn update_light_volumes(&mut self) -> Result<(), RuntimeError> {
-        let mut lights: Vec<String> = Vec::new();
-        for view in &self.views {
-            for light in shadowed_lights(view.renderer.shader()) {
-                if !lights.iter().any(|l| l == light) {
-                    lights.push(light.to_string());
-                }
-            }
-        }
-        for light in lights {
+        for light in each_once(&self.views, |view| shadowed_lights(view.renderer.shader())) {
             let key = self.light_key(&light);
             let name = format!("{LIGHT_VOLUME_PREFIX}{light}");
             if self.derived.lights.get(&name) == Some(&key) && self.resources.volumes.contains_key(&name) {
