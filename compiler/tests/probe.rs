@@ -5,25 +5,18 @@
 mod common;
 
 use std::path::{Path, PathBuf};
-use vrsc::compose::build::{Keep, build_scene_keeping};
+use vrsc::compose::build::{Keep, ViewPass, build_scene_keeping};
 use vrsc::compose::probe::{self, DeclaredField};
 
 fn relative(scene: &Path) -> PathBuf {
     common::pathdiff(scene, &std::env::current_dir().expect("cwd"))
 }
 
-/// Every view of `scene` with the fields it declares.
+/// Every view of `scene` with the fields it declares, of its ray pipeline and its filter passes.
 fn view_fields(scene: &Path) -> Vec<(String, Vec<DeclaredField>)> {
     let built = build_scene_keeping(&relative(scene), None, Keep::Ir).expect("scene readable");
     assert!(!built.diags.has_errors(), "{}", vrsc::diag::render_plain(&built.diags.sorted(), &built.sources));
-    built
-        .views
-        .iter()
-        .map(|v| {
-            let ir = v.ir.as_ref().expect("kept");
-            (v.name.clone(), probe::declared_fields(&ir.program, &v.composition))
-        })
-        .collect()
+    built.views.iter().map(|v| (v.name.clone(), probe::view_fields(v))).collect()
 }
 
 #[test]
@@ -31,7 +24,7 @@ fn every_field_of_every_view_has_a_probe_variant() {
     let root = common::fixtures().join("../..");
     let mut scenes = common::scenes_under(&root.join("examples"));
     scenes.extend(common::scenes_under(&common::fixtures().join("render")));
-    let mut probed = 0;
+    let (mut probed, mut filter_fields) = (0, 0);
     for scene in scenes {
         for (view, fields) in view_fields(&scene) {
             for field in fields.iter().filter(|f| f.showable()) {
@@ -42,15 +35,25 @@ fn every_field_of_every_view_has_a_probe_variant() {
                 });
                 assert!(!built.diags.has_errors(), "{rendered}");
                 assert_eq!(&variant.layout.field, field);
-                let uniforms: Vec<&str> = variant.shader.reflection.uniforms.iter().map(|u| u.name.as_str()).collect();
-                for name in [probe::MODE_UNIFORM, probe::PASS_UNIFORM] {
-                    assert!(uniforms.contains(&name), "{view}.{}: no uniform {name}", field.name);
+                // The probe lies in the pass that declares the field: the ray pipeline with its
+                // mode, or a filter pass (read at `filter.finish`).
+                let (shader, wanted) = match (field.pass, &variant.filter) {
+                    (ViewPass::Ray, None) => (&variant.shader, &[probe::MODE_UNIFORM, probe::PASS_UNIFORM][..]),
+                    (ViewPass::Filter | ViewPass::TreeFilter(_), Some(filter)) => (filter, &[probe::PASS_UNIFORM][..]),
+                    (pass, filter) => {
+                        panic!("{view}.{}: a {pass:?} field with filter {}", field.name, filter.is_some())
+                    }
+                };
+                let uniforms: Vec<&str> = shader.reflection.uniforms.iter().map(|u| u.name.as_str()).collect();
+                for name in wanted {
+                    assert!(uniforms.contains(name), "{view}.{}: no uniform {name}", field.name);
                 }
+                filter_fields += usize::from(field.pass != ViewPass::Ray);
                 probed += 1;
             }
         }
     }
-    assert!(probed > 100, "only {probed} probes");
+    assert!(probed > 100 && filter_fields > 8, "only {probed} probes, {filter_fields} of filter passes");
 }
 
 #[test]

@@ -316,48 +316,76 @@ impl ViewRenderer {
             self.encode(gpu, resources, &mut encoder)?;
         }
         self.encode(gpu, resources, &mut encoder)?;
-        let [w, h] = self.size;
-        let padded_row = (w * 4).div_ceil(ROW_ALIGNMENT) * ROW_ALIGNMENT;
         let doing = format!("rendering view `{}`", self.volume.shader().reflection.view);
-        let readback = gpu.capture(&doing, || {
-            gpu.device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("readback"),
-                size: u64::from(padded_row) * u64::from(h),
-                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-                mapped_at_creation: false,
-            })
-        })?;
-        encoder.copy_texture_to_buffer(
-            self.output.as_image_copy(),
-            wgpu::TexelCopyBufferInfo {
-                buffer: &readback,
-                layout: wgpu::TexelCopyBufferLayout {
-                    offset: 0,
-                    bytes_per_row: Some(padded_row),
-                    rows_per_image: Some(h),
-                },
-            },
-            wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
-        );
-        gpu.capture(&doing, || gpu.queue.submit([encoder.finish()]))?;
-        let slice = readback.slice(..);
-        slice.map_async(wgpu::MapMode::Read, |_| {});
-        gpu.wait();
-        // Whatever escaped the captures (nothing should) fails the render rather than a panic.
-        if let Some(fault) = gpu.take_fault() {
-            return Err(fault.into());
-        }
-        let mapped =
-            slice.get_mapped_range().map_err(|e| RuntimeError::Invalid(format!("cannot read the image back: {e}")))?;
-        let mut pixels = Vec::with_capacity((w * h * 4) as usize);
-        for row in mapped.chunks(padded_row as usize) {
-            pixels.extend_from_slice(&row[..(w * 4) as usize]);
-        }
-        drop(mapped);
-        readback.unmap();
-        unpremultiply(&mut pixels);
-        image::RgbaImage::from_raw(w, h, pixels).ok_or_else(|| RuntimeError::Invalid("image size mismatch".into()))
+        read_back(gpu, encoder, &self.output, &doing)
     }
+
+    /// Renders the picture and reads back the colour of the part that filter `filter` of the
+    /// view's tree (its index among the scene's tree filters) filtered, as that filter left it
+    /// (straight alpha RGBA8): what a probe of the filter's fields reads. An error where the
+    /// frame ran no such filter (a slice view, whose tree has no groups).
+    pub(crate) fn render_filtered_part(
+        &mut self,
+        gpu: &Gpu,
+        resources: &Resources,
+        filter: usize,
+    ) -> Result<image::RgbaImage, RuntimeError> {
+        let mut encoder = gpu.device.create_command_encoder(&Default::default());
+        self.encode(gpu, resources, &mut encoder)?;
+        let view = &self.volume.shader().reflection.view;
+        let part = self.layers.mesh_layer().and_then(|layer| layer.filtered_part(filter)).ok_or_else(|| {
+            RuntimeError::Invalid(format!(
+                "view `{view}` runs no filter of its tree (a slice view's tree has no groups): nothing to probe"
+            ))
+        })?;
+        read_back(gpu, encoder, part, &format!("rendering a filtered part of view `{view}`"))
+    }
+}
+
+/// Submits `encoder` with a copy of `texture` (RGBA8, premultiplied) to a buffer, and reads the
+/// copy back as straight alpha; `doing` names the work in errors.
+fn read_back(
+    gpu: &Gpu,
+    mut encoder: wgpu::CommandEncoder,
+    texture: &wgpu::Texture,
+    doing: &str,
+) -> Result<image::RgbaImage, RuntimeError> {
+    let [w, h] = [texture.width(), texture.height()];
+    let padded_row = (w * 4).div_ceil(ROW_ALIGNMENT) * ROW_ALIGNMENT;
+    let readback = gpu.capture(doing, || {
+        gpu.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("readback"),
+            size: u64::from(padded_row) * u64::from(h),
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        })
+    })?;
+    encoder.copy_texture_to_buffer(
+        texture.as_image_copy(),
+        wgpu::TexelCopyBufferInfo {
+            buffer: &readback,
+            layout: wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(padded_row), rows_per_image: Some(h) },
+        },
+        wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
+    );
+    gpu.capture(doing, || gpu.queue.submit([encoder.finish()]))?;
+    let slice = readback.slice(..);
+    slice.map_async(wgpu::MapMode::Read, |_| {});
+    gpu.wait();
+    // Whatever escaped the captures (nothing should) fails the render rather than a panic.
+    if let Some(fault) = gpu.take_fault() {
+        return Err(fault.into());
+    }
+    let mapped =
+        slice.get_mapped_range().map_err(|e| RuntimeError::Invalid(format!("cannot read the image back: {e}")))?;
+    let mut pixels = Vec::with_capacity((w * h * 4) as usize);
+    for row in mapped.chunks(padded_row as usize) {
+        pixels.extend_from_slice(&row[..(w * 4) as usize]);
+    }
+    drop(mapped);
+    readback.unmap();
+    unpremultiply(&mut pixels);
+    image::RgbaImage::from_raw(w, h, pixels).ok_or_else(|| RuntimeError::Invalid("image size mismatch".into()))
 }
 
 /// A texture a view can render into (see `ViewRenderer::encode_into`): `Rgba8Unorm`, written

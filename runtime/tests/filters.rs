@@ -59,6 +59,9 @@ size = [96, 96]
 camera = { azimuth = 30.0, elevation = 35.0, distance = 2.2 }
 "#;
 
+/// A box beside `SCENE`'s ball, in front of part of it.
+const BOX: &str = "\n[[mesh]]\nname = \"box\"\nshape = \"box\"\nmin = [2.0, 2.0, 2.0]\nmax = [9.0, 9.0, 30.0]\ncolor = [0.1, 0.3, 0.9]\n";
+
 /// Writes the scene (`scene` after the volume; `SCENE`'s meshes and view when it is `SCENE`)
 /// into `dir` with its volume, its view given `extra` lines, and opens it.
 fn open(dir: &Path, scene: &str, extra: &str) -> SceneRenderer {
@@ -218,6 +221,43 @@ fn a_probe_reads_a_field_of_the_filter_pass() {
     assert!(refused.contains("filter.finish"), "{refused}");
 }
 
+/// The fields of a filter in a group are probed as `GROUP-K.FIELD`, read from the group's part
+/// right after the filter, whatever lies in front of it in the picture (a box outside the
+/// group): `picture_color` is the ball's part as drawn (the ball's pixels as a view of the ball
+/// alone shows them, transparent where it is not), `color` its Rec. 709 grey.
+#[test]
+fn a_probe_reads_a_field_of_a_filter_in_a_group() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let meshes = &SCENE[SCENE.find("[[mesh]]").expect("a mesh")..];
+    let scene = meshes.to_string()
+        + BOX
+        + "\n[[group]]\nname = \"grey\"\nchildren = [\"ball\", { filter = \"std::luminance\" }]\n";
+    let ball = render(dir.path(), &scene, r#"picture = ["ball", "volume"]"#);
+    let nothing = render(dir.path(), &scene, r#"picture = ["volume"]"#);
+    let mut renderer = open(dir.path(), &scene, r#"picture = ["grey", "box", "volume"]"#);
+    let fields = renderer.probe_fields(0).expect("fields");
+    assert!(fields.iter().any(|f| f.name == "grey-2.picture_color"), "{fields:?}");
+    let part = renderer.render_probe(0, &ProbeSpec::of("grey-2.picture_color")).expect("probe");
+    assert!(part.legend().contains("filter of the tree at filter.finish"), "{}", part.legend());
+    let grey = renderer.render_probe(0, &ProbeSpec::of("grey-2.color")).expect("probe");
+    let (mut inside, mut outside) = (0, 0);
+    for ((x, y, b), n) in ball.enumerate_pixels().zip(nothing.pixels()) {
+        let drawn = part.values.at(x, y).expect("a filter's field has a value at every pixel");
+        let filtered = grey.values.at(x, y).expect("a filter's field has a value at every pixel");
+        if b == n {
+            assert_eq!(drawn, &[0.0; 4][..], "({x}, {y}): the ball is not here");
+            outside += 1;
+            continue;
+        }
+        let want = b.0.map(|c| f64::from(c) / 255.0);
+        assert!(drawn.iter().zip(&want).all(|(d, w)| (d - w).abs() < 1e-6), "({x}, {y}): {drawn:?} for {want:?}");
+        let y709 = 0.2126 * want[0] + 0.7152 * want[1] + 0.0722 * want[2];
+        assert!(filtered[..3].iter().all(|c| (c - y709).abs() < 1e-5) && filtered[3] == want[3], "{filtered:?}");
+        inside += 1;
+    }
+    assert!(inside > 1000 && outside > 1000, "{inside} pixels of the ball, {outside} without it");
+}
+
 /// A filter among a group's children filters the picture of the children before it, and only
 /// that: the ball in a group with `std::luminance` turns grey (Rec. 709 luma of its colour
 /// without the filter, within 1/255: the group's image is 8-bit before the filter and after
@@ -227,8 +267,8 @@ fn a_filter_in_a_group_filters_the_children_before_it_only() {
     let dir = tempfile::tempdir().expect("temp dir");
     let meshes = &SCENE[SCENE.find("[[mesh]]").expect("a mesh")..];
     let scene = meshes.to_string()
-        + "\n[[mesh]]\nname = \"box\"\nshape = \"box\"\nmin = [2.0, 2.0, 2.0]\nmax = [9.0, 9.0, 30.0]\ncolor = [0.1, 0.3, 0.9]\n\n\
-           [[group]]\nname = \"grey\"\nchildren = [\"ball\", { filter = \"std::luminance\" }]\n";
+        + BOX
+        + "\n[[group]]\nname = \"grey\"\nchildren = [\"ball\", { filter = \"std::luminance\" }]\n";
     let with = |picture: &str| format!("picture = {picture}");
     let plain = render(dir.path(), &scene, &with(r#"["ball", "box", "volume"]"#));
     let no_ball = render(dir.path(), &scene, &with(r#"["box", "volume"]"#));

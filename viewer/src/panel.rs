@@ -33,6 +33,9 @@ pub struct ViewSlot {
     drag: Option<(HandleDrag, egui::Pos2)>,
     /// What the last export (E) said, and when: shown in the caption for a while.
     exported: Option<(Instant, String)>,
+    /// The fields the `show:` menu lists (name, type), and the hashes of the view's shaders
+    /// they were found for: composed again only when a shader changed.
+    fields: Option<(String, Vec<(String, String)>)>,
 }
 
 /// A probe shown in a view's place: the field, and its image once rendered.
@@ -46,7 +49,7 @@ pub struct ProbeView {
 
 impl ViewSlot {
     pub fn new(name: String, frames: ViewFrames) -> ViewSlot {
-        ViewSlot { name, frames, texture: None, probe: None, drag: None, exported: None }
+        ViewSlot { name, frames, texture: None, probe: None, drag: None, exported: None, fields: None }
     }
 
     /// The same view after a reload: the schedule starts again, the texture id and the probe
@@ -55,7 +58,7 @@ impl ViewSlot {
         let budget = self.frames.refiner().budget;
         let probe = self.probe.as_ref().map(|p| ProbeView { field: p.field.clone(), shown: None, error: None });
         let (frames, texture) = (ViewFrames::new(budget), self.texture.clone());
-        ViewSlot { name: name.to_string(), frames, texture, probe, drag: None, exported: None }
+        ViewSlot { name: name.to_string(), frames, texture, probe, drag: None, exported: None, fields: None }
     }
 
     /// Renders the probe again when the view changed and the user is not interacting (a probe
@@ -598,20 +601,41 @@ fn drag_handle(
 
 /// The field menu of a view: the picture, or any state field as a probe.
 fn probe_menu(ui: &mut egui::Ui, live: &LiveScene, slot: &mut ViewSlot, index: usize) {
-    let Some(view) = live.renderer().views().get(index) else { return };
-    let fields = &view.renderer.shader().reflection.state.fields;
     let current = slot.probe.as_ref().map_or("picture", |p| p.field.as_str()).to_string();
     egui::ComboBox::from_id_salt(("probe", index)).selected_text(format!("show: {current}")).show_ui(ui, |ui| {
         if ui.selectable_label(slot.probe.is_none(), "picture").clicked() {
             slot.probe = None;
         }
-        for f in fields {
-            let label = format!("{}: {}", f.name, f.ty);
-            if ui.selectable_label(current == f.name, label).clicked() {
-                slot.probe = Some(ProbeView { field: f.name.clone(), shown: None, error: None });
+        for (name, ty) in probe_fields(live, &mut slot.fields, index) {
+            if ui.selectable_label(current == *name, format!("{name}: {ty}")).clicked() {
+                slot.probe = Some(ProbeView { field: name.clone(), shown: None, error: None });
             }
         }
     });
+}
+
+/// The showable fields of view `index` (name, type), kept in `cache` while its shaders stay the
+/// same: every field its placed functions declare, of its ray pipeline and its filter passes
+/// (those of its tree's filters named `GROUP-K.FIELD`), found by composing the scene when the
+/// menu opens; where that fails, the fields its shader keeps.
+fn probe_fields<'c>(
+    live: &LiveScene,
+    cache: &'c mut Option<(String, Vec<(String, String)>)>,
+    index: usize,
+) -> &'c [(String, String)] {
+    let Some(view) = live.renderer().views().get(index) else { return &[] };
+    let key: Vec<&str> = view.renderer.reflections().map(|r| r.structural_hash.as_str()).collect();
+    let key = key.join(" ");
+    if cache.as_ref().is_none_or(|(k, _)| *k != key) {
+        let fields = match live.renderer().probe_fields(index) {
+            Ok(fields) => fields.iter().filter(|f| f.showable()).map(|f| (f.name.clone(), f.ty.to_string())).collect(),
+            Err(_) => {
+                view.renderer.shader().reflection.state.fields.iter().map(|f| (f.name.clone(), f.ty.clone())).collect()
+            }
+        };
+        *cache = Some((key, fields));
+    }
+    cache.as_ref().map_or(&[], |(_, fields)| fields.as_slice())
 }
 
 /// The quality of the picture and the time of the last piece of work, for the caption.

@@ -161,9 +161,30 @@ pub struct GeneratedModule {
     pub name: String,
     /// Its VRS source.
     pub text: String,
-    /// The pipeline it goes into: the view's ray pipeline, or its filter pass (placed after
-    /// its filters).
-    pub pipeline: PipelineKind,
+    /// The pass it goes into (in a filter pass, after its filters).
+    pub pass: ViewPass,
+}
+
+/// One of a view's passes: its ray pipeline, its own filter pass (its `filters`), or the pass of
+/// a filter in its tree (by index into `Scene::tree_filters`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ViewPass {
+    /// The ray pipeline (the view's shader).
+    Ray,
+    /// The view's own filter pass.
+    Filter,
+    /// The pass of tree filter N.
+    TreeFilter(usize),
+}
+
+impl ViewPass {
+    /// The pipeline the pass composes: the ray pipeline or a filter pipeline.
+    pub fn pipeline(self) -> PipelineKind {
+        match self {
+            ViewPass::Ray => PipelineKind::Ray,
+            ViewPass::Filter | ViewPass::TreeFilter(_) => PipelineKind::Filter,
+        }
+    }
 }
 
 /// [`compose_scene`], loading modules through `parsed` (whose overlay stands in for files on
@@ -194,13 +215,14 @@ pub fn compose_scene_with(
         .iter()
         .map(|view| {
             let ray = load_view(&scene, view, extra, &mut sources, &mut parsed);
-            let filter = load_filters(&view.filters, extra, &mut sources, &mut parsed);
+            let filter = load_filters(&view.filters, (extra, ViewPass::Filter), &mut sources, &mut parsed);
             let tree_filters = scene
                 .filters_under(view)
                 .into_iter()
                 .filter_map(|f| {
                     let module = std::slice::from_ref(scene.tree_filters.get(f)?);
-                    Some((f, load_filters(module, &[], &mut sources, &mut parsed)?))
+                    let extra = (extra, ViewPass::TreeFilter(f));
+                    Some((f, load_filters(module, extra, &mut sources, &mut parsed)?))
                 })
                 .collect();
             LoadedPipelines { ray, filter, tree_filters }
@@ -316,10 +338,10 @@ struct LoadedPipelines {
 }
 
 /// Loads the modules of a filter pass, `filters`, after [`FILTER_PICTURE`], then the `extra`
-/// modules of the filter pipeline (`None` for no filters).
+/// modules of that pass (`None` for no filters).
 fn load_filters(
     filters: &[ModuleRef],
-    extra: &[GeneratedModule],
+    (extra, pass): (&[GeneratedModule], ViewPass),
     sources: &mut SourceMap,
     parsed: &mut ParsedFiles,
 ) -> Option<LoadedView> {
@@ -339,16 +361,16 @@ fn load_filters(
             Err(d) => missing.push(d),
         }
     }
-    load_generated(&mut loader, extra, PipelineKind::Filter, &mut uses);
+    load_generated(&mut loader, extra, pass, &mut uses);
     let (graph, files) = loader.finish_keeping_files();
     *parsed = files;
     missing.into_iter().for_each(|d| diags.push(d));
     Some(LoadedView { graph, uses, diags })
 }
 
-/// Loads the generated modules of pipeline `kind` as roots, placed in the order given.
-fn load_generated(loader: &mut Loader<'_>, extra: &[GeneratedModule], kind: PipelineKind, uses: &mut Vec<ModuleUse>) {
-    for generated in extra.iter().filter(|g| g.pipeline == kind) {
+/// Loads the generated modules of `pass` as roots, placed in the order given.
+fn load_generated(loader: &mut Loader<'_>, extra: &[GeneratedModule], pass: ViewPass, uses: &mut Vec<ModuleUse>) {
+    for generated in extra.iter().filter(|g| g.pass == pass) {
         let module = loader.load_root_source(&generated.name, generated.text.clone(), None);
         uses.push(ModuleUse { module, instances: None, span: Span::DUMMY });
     }
@@ -389,7 +411,7 @@ fn load_view(
             Err(d) => missing.push(d),
         }
     }
-    load_generated(&mut loader, extra, PipelineKind::Ray, &mut uses);
+    load_generated(&mut loader, extra, ViewPass::Ray, &mut uses);
     let (graph, files) = loader.finish_keeping_files();
     *parsed = files;
     missing.into_iter().for_each(|d| diags.push(d));

@@ -17,7 +17,7 @@
 //! `docs/reference.md` ("Probes") states what a radiologist sees; `vrs_runtime::probe` decodes
 //! the passes and colours the image.
 
-use super::build::{self, BuiltScene, GeneratedModule, Keep, ViewOutput, ViewShader};
+use super::build::{self, BuiltScene, GeneratedModule, Keep, ViewOutput, ViewPass, ViewShader};
 use super::instantiate::subst;
 use super::ir::Composition;
 use crate::diag::{Code, Diagnostic, Diagnostics};
@@ -85,15 +85,17 @@ impl ProbeAt {
 /// emitted struct or left out because nothing reads it).
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct DeclaredField {
-    /// The field's name, instantiated (`color_gm`, not `color_$`).
+    /// The name a probe asks for: the field's name, instantiated (`color_gm`, not `color_$`);
+    /// for a field of a filter in the view's tree, after the filter's label and a dot
+    /// (`organs-2.picture_color`), since every filter pass declares the standard ones.
     pub name: String,
     /// The field's declared type.
     pub ty: Type,
     /// `@ray`: lives for the whole ray.
     pub ray: bool,
-    /// The pipeline whose functions declare it: the view's raycaster or its filter pass (whose
-    /// fields all live for the pixel; a probe reads them at `filter.finish`).
-    pub pipeline: PipelineKind,
+    /// The pass whose functions declare it: the view's raycaster, or a filter pass (whose fields
+    /// all live for the pixel; a probe reads them at `filter.finish`).
+    pub pass: ViewPass,
 }
 
 impl DeclaredField {
@@ -101,39 +103,63 @@ impl DeclaredField {
     pub fn showable(&self) -> bool {
         matches!(self.ty, Type::Scalar(_) | Type::Vector { .. })
     }
+
+    /// The field's name in its pass's state struct ([`Self::name`] without a filter's label; a
+    /// state field's name has no dot).
+    pub fn state_name(&self) -> &str {
+        self.name.rsplit('.').next().unwrap_or(&self.name)
+    }
 }
 
 /// Every field the placed functions of `comp` declare, in the order of their first declaration
-/// along the pipeline, with template names instantiated.
+/// along the pipeline, with template names instantiated (a filter pipeline's as the view's own
+/// filter pass's).
 pub fn declared_fields(program: &hir::Program, comp: &Composition) -> Vec<DeclaredField> {
+    let pass = match comp.kind {
+        PipelineKind::Ray => ViewPass::Ray,
+        PipelineKind::Filter => ViewPass::Filter,
+    };
     let mut out: Vec<DeclaredField> = Vec::new();
-    add_declared_fields(&mut out, program, comp);
+    add_declared_fields(&mut out, (program, comp), (pass, ""));
     out
 }
 
 /// The fields of a view built with [`Keep::Ir`]: its ray pipeline's ([`declared_fields`]), then
 /// those of its filter pass that the ray pipeline does not declare (a name both declare is the
-/// ray pipeline's).
+/// ray pipeline's), then those of each filter in its tree, named after the filter
+/// ([`DeclaredField::name`]).
 pub fn view_fields(view: &ViewOutput) -> Vec<DeclaredField> {
     let mut out = Vec::new();
     if let Some(ir) = &view.ir {
-        add_declared_fields(&mut out, &ir.program, &view.composition);
+        add_declared_fields(&mut out, (&ir.program, &view.composition), (ViewPass::Ray, ""));
     }
     if let Some(filter) = &view.filter
         && let Some(ir) = &filter.ir
     {
-        add_declared_fields(&mut out, &ir.program, &filter.composition);
+        add_declared_fields(&mut out, (&ir.program, &filter.composition), (ViewPass::Filter, ""));
+    }
+    for (f, filter) in &view.tree_filters {
+        let Some(ir) = &filter.ir else { continue };
+        let label = filter.name.strip_suffix(".filters").unwrap_or(&filter.name);
+        let prefix = format!("{label}.");
+        add_declared_fields(&mut out, (&ir.program, &filter.composition), (ViewPass::TreeFilter(*f), &prefix));
     }
     out
 }
 
-fn add_declared_fields(out: &mut Vec<DeclaredField>, program: &hir::Program, comp: &Composition) {
+/// Adds the fields `comp`'s functions declare, as fields of `pass` named after `prefix`, that
+/// `out` does not hold yet.
+fn add_declared_fields(
+    out: &mut Vec<DeclaredField>,
+    (program, comp): (&hir::Program, &Composition),
+    (pass, prefix): (ViewPass, &str),
+) {
     for placed in comp.steps.iter().flat_map(|s| &s.functions) {
         let Some(function) = program.pipelines.get(placed.pipeline) else { continue };
         for decl in &function.state {
-            let name = subst(&decl.name, placed.instance.as_deref());
+            let name = format!("{prefix}{}", subst(&decl.name, placed.instance.as_deref()));
             if !out.iter().any(|f| f.name == name) {
-                out.push(DeclaredField { name, ty: decl.ty, ray: decl.ray, pipeline: comp.kind });
+                out.push(DeclaredField { name, ty: decl.ty, ray: decl.ray, pass });
             }
         }
     }
@@ -166,8 +192,9 @@ pub struct ProbeVariant {
     pub layout: ProbeLayout,
     /// The view's shader, with the probe module placed in it for a field of the ray pipeline.
     pub shader: ViewShader,
-    /// For a field of the filter pass, the pass with the probe module placed in it (`None`: the
-    /// probe renders without the view's filter pass).
+    /// For a field of a filter pass (the view's own or a filter's of its tree, as the field's
+    /// [`DeclaredField::pass`] says), that pass with the probe module placed in it (`None`: a
+    /// field of the ray pipeline, which the probe renders without the view's own filter pass).
     pub filter: Option<ViewShader>,
     /// The generated VRS module.
     pub source: String,
@@ -268,7 +295,7 @@ pub fn compose_probe(built: BuiltScene, field: &str) -> ProbeBuild {
     };
     let words = found.ty.components() as u32;
     let layout = ProbeLayout { view, field: found, words, passes: pass_count(words), opacity };
-    let source = match layout.field.pipeline {
+    let source = match layout.field.pass.pipeline() {
         PipelineKind::Ray => probe_source(&layout),
         PipelineKind::Filter => filter_probe_source(&layout),
     };
@@ -298,8 +325,8 @@ fn compose_variant(
     source: String,
     mut diags: Diagnostics,
 ) -> ProbeBuild {
-    let pipeline = layout.field.pipeline;
-    let module = GeneratedModule { name: format!("<probe of {}>", layout.field.name), text: source.clone(), pipeline };
+    let pass = layout.field.pass;
+    let module = GeneratedModule { name: format!("<probe of {}>", layout.field.name), text: source.clone(), pass };
     let built = build::compose_scene_with(
         build::ParsedScene { sources, scene: Some(scene), diags: Diagnostics::new() },
         Some(&layout.view),
@@ -310,15 +337,20 @@ fn compose_variant(
     // The view's own warnings were reported with the view; only the variant's errors are new
     // (a name of the generated module that the view already uses differently).
     built.diags.iter().filter(|d| d.is_error()).cloned().for_each(|d| diags.push(d));
+    // A probe of the ray pipeline shows its value without the filter pass; one of a filter
+    // pass needs that pass's variant.
     let (shader, filter) = match built.views.into_iter().next() {
-        Some(view) => (view.shader, view.filter.and_then(|f| f.shader)),
+        Some(view) => {
+            let filter = match pass {
+                ViewPass::Ray => Some(None),
+                ViewPass::Filter => view.filter.and_then(|f| f.shader).map(Some),
+                ViewPass::TreeFilter(t) => {
+                    view.tree_filters.into_iter().find(|(f, _)| *f == t).and_then(|(_, f)| f.shader).map(Some)
+                }
+            };
+            (view.shader, filter)
+        }
         None => (None, None),
-    };
-    // A probe of the ray pipeline shows its value without the filter pass; one of the filter
-    // pass needs the pass's variant.
-    let filter = match pipeline {
-        PipelineKind::Ray => Some(None),
-        PipelineKind::Filter => filter.map(Some),
     };
     let variant = match (shader, filter) {
         (Some(shader), Some(filter)) if !diags.has_errors() => Some(ProbeVariant { layout, shader, filter, source }),
@@ -331,13 +363,13 @@ fn compose_variant(
 /// `filter.finish` writes the field's value as it is there, in the passes of `std::probe`.
 pub fn filter_probe_source(layout: &ProbeLayout) -> String {
     let f = &layout.field;
-    let (name, ty) = (&f.name, f.ty);
+    let (name, ty) = (f.state_name(), f.ty);
     let lifetime = if f.ray { "@ray " } else { "" };
     let mut out = String::new();
     let _ = writeln!(
         out,
-        "// The probe of `{name}` in the filter pass of view `{}`, generated by vrsc (compose/probe.rs).",
-        layout.view
+        "// The probe of `{}` in a filter pass of view `{}`, generated by vrsc (compose/probe.rs).",
+        f.name, layout.view
     );
     out.push_str("import std::probe;\n\n");
     let mut output = Decls::default();
@@ -357,7 +389,7 @@ pub fn filter_probe_source(layout: &ProbeLayout) -> String {
 /// `ray.finish` (see the module documentation).
 pub fn probe_source(layout: &ProbeLayout) -> String {
     let f = &layout.field;
-    let (name, ty) = (&f.name, f.ty);
+    let (name, ty) = (f.state_name(), f.ty);
     let lifetime = if f.ray { "@ray " } else { "" };
     let default_mode = ProbeAt::default_for(f.ray).mode();
     let mut out = String::new();
@@ -516,12 +548,8 @@ mod tests {
 
     #[test]
     fn a_typo_gets_the_closest_field() {
-        let fields = [DeclaredField {
-            name: "gradient".into(),
-            ty: Type::vec(3, Scalar::F32),
-            ray: false,
-            pipeline: PipelineKind::Ray,
-        }];
+        let fields =
+            [DeclaredField { name: "gradient".into(), ty: Type::vec(3, Scalar::F32), ray: false, pass: ViewPass::Ray }];
         let d = unknown_field("gradiant", &[("3d", Span::DUMMY, &fields)]);
         assert_eq!(d.code, Code::ProbeUnknownField);
         assert!(d.notes.iter().any(|n| n.contains("did you mean `gradient`")), "{:?}", d.notes);

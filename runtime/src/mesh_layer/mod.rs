@@ -174,6 +174,8 @@ pub struct MeshLayer {
     followed: Vec<FollowedShadow>,
     /// The translucent surfaces peeled into layers, for a volume layer that reads them.
     peeled: Option<PeeledLayers>,
+    /// The filters of the tree as last drawn, each with the group slot it filters.
+    filters: Vec<FilterStep>,
     /// What the images hold, so tiles and unchanged frames draw nothing again.
     drawn: Option<u64>,
     buffer: DrawBuffer,
@@ -226,6 +228,7 @@ impl MeshLayer {
             shadow_maps: Vec::new(),
             followed: Vec::new(),
             peeled: if peeled { Some(PeeledLayers::new(gpu, size)?) } else { None },
+            filters: Vec::new(),
             drawn: None,
             buffer: DrawBuffer::default(),
         })
@@ -280,6 +283,7 @@ impl MeshLayer {
             self.encode_shadow_maps(gpu, recorded, encoder, &planned)?;
         }
         self.encode_passes(gpu, (recorded, encoder), (&plan, &planned), filter)?;
+        self.filters = if recorded.is_some() { plan.filters.clone() } else { Vec::new() };
         if let (Some(peeled), Some((pipelines, bind_group))) = (&mut self.peeled, recorded) {
             let first = planned.peeled_from;
             let translucent = (bind_group, &planned.draws[first..], first);
@@ -287,6 +291,14 @@ impl MeshLayer {
         }
         self.drawn = Some(key);
         Ok(())
+    }
+
+    /// The colour image of the part that filter `filter` of the tree (its index among the
+    /// scene's tree filters) filtered when the layer was last drawn, as the filter left it
+    /// (nothing draws into it after the filter); none where it ran no such filter.
+    pub(crate) fn filtered_part(&self, filter: usize) -> Option<&wgpu::Texture> {
+        let step = self.filters.iter().find(|step| step.filter == filter)?;
+        self.groups.get(step.group).map(|[context, _]| &context.color)
     }
 
     /// The images `plan` draws into besides the layer's own: its occlusion groups' parts and its

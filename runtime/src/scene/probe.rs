@@ -11,9 +11,9 @@ use crate::probe::{ComponentKind, ProbeFormat, ProbeValues};
 use crate::shader::ViewShader;
 use crate::view::ViewRenderer;
 use std::collections::HashMap;
+use vrsc::compose::build::ViewPass;
 pub use vrsc::compose::probe::ProbeAt;
 use vrsc::compose::probe::{self as cprobe, DeclaredField, ProbeLayout};
-use vrsc::steps::PipelineKind;
 use vrsc::types::{Scalar, Type};
 
 /// What to probe: a state field of the view, and where along the ray (`None`: a `@ray` field
@@ -42,7 +42,7 @@ pub struct ProbeImage {
     pub(crate) field: String,
     pub(crate) ty: String,
     pub(crate) ray: bool,
-    pub(crate) pipeline: PipelineKind,
+    pub(crate) pass: ViewPass,
     /// Where the value was read.
     pub(crate) at: ProbeAt,
     /// The coloured image (straight alpha; transparent where a pixel has no value).
@@ -54,10 +54,11 @@ pub struct ProbeImage {
 impl ProbeImage {
     /// Two lines for people: what the probe is, then how to read it (range and mapping).
     pub fn legend(&self) -> String {
-        let (lifetime, at) = match self.pipeline {
-            PipelineKind::Filter => ("field of the filter pass", "at filter.finish".to_string()),
-            PipelineKind::Ray if self.ray => ("@ray field", self.at.describe()),
-            PipelineKind::Ray => ("sample field", self.at.describe()),
+        let (lifetime, at) = match self.pass {
+            ViewPass::Filter => ("field of the filter pass", "at filter.finish".to_string()),
+            ViewPass::TreeFilter(_) => ("field of a filter of the tree", "at filter.finish".to_string()),
+            ViewPass::Ray if self.ray => ("@ray field", self.at.describe()),
+            ViewPass::Ray => ("sample field", self.at.describe()),
         };
         format!("{}.{}: {} {lifetime} {at}\n{}", self.view, self.field, self.ty, self.values.legend())
     }
@@ -133,8 +134,13 @@ impl SceneRenderer {
         probe.view.renderer.set_planes(view.renderer.planes().to_vec());
         let mut passes = Vec::with_capacity(probe.layout.passes as usize);
         for pass in 0..probe.layout.passes {
-            probe.view.renderer.set_uniform(cprobe::PASS_UNIFORM, pass)?;
-            passes.push(probe.view.renderer.render(&self.gpu, &self.resources)?);
+            let r = &mut probe.view.renderer;
+            r.set_uniform(cprobe::PASS_UNIFORM, pass)?;
+            // A filter of the tree writes into its group's part, which is read right after it.
+            passes.push(match field.pass {
+                ViewPass::TreeFilter(f) => r.render_filtered_part(&self.gpu, &self.resources, f)?,
+                ViewPass::Ray | ViewPass::Filter => r.render(&self.gpu, &self.resources)?,
+            });
         }
         let values = ProbeValues::decode(format(&probe.layout)?, &passes).map_err(RuntimeError::Invalid)?;
         Ok(ProbeImage {
@@ -142,7 +148,7 @@ impl SceneRenderer {
             field: field.name.clone(),
             ty: field.ty.to_string(),
             ray: field.ray,
-            pipeline: field.pipeline,
+            pass: field.pass,
             at,
             image: values.to_image(),
             values,
@@ -158,11 +164,16 @@ impl SceneRenderer {
         let shader = ViewShader::new(variant.shader.wgsl, variant.shader.reflection, &self.path)?;
         let mut renderer = ViewRenderer::new(&self.gpu, &mut self.pipelines, shader, view.renderer.size())?;
         let filter = variant.filter.map(|f| ViewShader::new(f.wgsl, f.reflection, &self.path)).transpose()?;
-        // The tree's filters as the view has them: what the probe reads of the mesh layer is
-        // what the view's volume layer reads.
+        // The tree's filters as the view has them (what the probe reads of the mesh layer is
+        // what the view's volume layer reads), the probed pass replaced by its variant; the
+        // view's own pass only where it is probed.
+        let probed = match variant.layout.field.pass {
+            ViewPass::TreeFilter(f) => FilterAt::Tree(f),
+            ViewPass::Ray | ViewPass::Filter => FilterAt::Picture,
+        };
         let mut filters = view.renderer.filter_shaders();
-        filters.retain(|(at, _)| *at != FilterAt::Picture);
-        filters.extend(filter.map(|shader| (FilterAt::Picture, shader)));
+        filters.retain(|(at, _)| *at != FilterAt::Picture && *at != probed);
+        filters.extend(filter.map(|shader| (probed, shader)));
         renderer.set_filters(&self.gpu, &mut self.pipelines, filters)?;
         let view = SceneView {
             name: view.name.clone(),
@@ -180,20 +191,20 @@ impl SceneRenderer {
 /// Where a probe reads `field` unless told: a field of the filter pass at `filter.finish`
 /// ([`ProbeAt::Finish`]), else as [`ProbeAt::default_for`] its lifetime says.
 fn default_at(field: &cprobe::DeclaredField) -> ProbeAt {
-    match field.pipeline {
-        PipelineKind::Filter => ProbeAt::Finish,
-        PipelineKind::Ray => ProbeAt::default_for(field.ray),
+    match field.pass {
+        ViewPass::Filter | ViewPass::TreeFilter(_) => ProbeAt::Finish,
+        ViewPass::Ray => ProbeAt::default_for(field.ray),
     }
 }
 
 /// Whether the probe can read its field `at` that place.
 fn check_at(layout: &ProbeLayout, at: ProbeAt) -> Result<(), RuntimeError> {
     let field = &layout.field.name;
-    if layout.field.pipeline == PipelineKind::Filter {
+    if layout.field.pass != ViewPass::Ray {
         return match at {
             ProbeAt::Finish => Ok(()),
             _ => Err(RuntimeError::Invalid(format!(
-                "`{field}` is a field of the filter pass of view `{}`, which runs once per pixel: \
+                "`{field}` is a field of a filter pass of view `{}`, which runs once per pixel: \
                  it is read at filter.finish, not at a sample",
                 layout.view
             ))),
