@@ -258,6 +258,27 @@ fn a_probe_reads_a_field_of_a_filter_in_a_group() {
     assert!(inside > 1000 && outside > 1000, "{inside} pixels of the ball, {outside} without it");
 }
 
+/// Depth is written only where colour is: a filter in a group that clears its part's colour
+/// (a user's filter) clears the part's depth with it, so the volume's rays no longer end at the
+/// ball (the `geometry_depth` probe is 1 everywhere, as without the ball).
+#[test]
+fn a_filter_that_clears_colour_clears_depth_with_it() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let erase = "/// Clears the part.\npipeline erase in filter.apply {\n    state color: vec4f;\n\n    state.color = vec4f(0.0);\n}\n";
+    std::fs::write(dir.path().join("erase.vrs"), erase).expect("module written");
+    let meshes = &SCENE[SCENE.find("[[mesh]]").expect("a mesh")..];
+    let scene =
+        meshes.to_string() + "\n[[group]]\nname = \"gone\"\nchildren = [\"ball\", { filter = \"erase.vrs\" }]\n";
+    let mut shown = open(dir.path(), &scene, r#"picture = ["ball", "volume"]"#);
+    let drawn = shown.render_probe(0, &ProbeSpec::of("geometry_depth")).expect("probe");
+    let covered = drawn.values.pixels.iter().flatten().filter(|d| d[0] < 1.0).count();
+    assert!(covered > 1000, "the ball covers {covered} pixels");
+    let mut erased = open(dir.path(), &scene, r#"picture = ["gone", "volume"]"#);
+    let depth = erased.render_probe(0, &ProbeSpec::of("geometry_depth")).expect("probe");
+    let left = depth.values.pixels.iter().flatten().filter(|d| d[0] < 1.0).count();
+    assert_eq!(left, 0, "pixels that kept the cleared ball's depth");
+}
+
 /// A filter among a group's children filters the picture of the children before it, and only
 /// that: the ball in a group with `std::luminance` turns grey (Rec. 709 luma of its colour
 /// without the filter, within 1/255: the group's image is 8-bit before the filter and after

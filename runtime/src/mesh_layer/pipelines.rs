@@ -226,14 +226,16 @@ struct Combined {
 
 // Where the context's opaque surface lies in front of the focus, the focus shows through it
 // with the group's hidden opacity (`draw.color.a`); elsewhere the focus lies over the context.
-// Either way the nearer opaque surface is the group's depth.
+// Either way the nearer opaque surface is the group's depth. A part's depth counts only where
+// it has colour: a filter that cleared a surface's colour clears its depth with it (depth is
+// written only where colour is).
 @fragment
 fn fs_combine(@builtin(position) clip: vec4<f32>) -> Combined {
     let pixel = vec2<i32>(clip.xy);
     let context = textureLoad(context_color, pixel, 0);
     let focus = textureLoad(focus_color, pixel, 0);
-    let near = textureLoad(context_depth, pixel, 0).x;
-    let far = textureLoad(focus_depth, pixel, 0).x;
+    let near = select(1.0, textureLoad(context_depth, pixel, 0).x, context.a > 0.0);
+    let far = select(1.0, textureLoad(focus_depth, pixel, 0).x, focus.a > 0.0);
     let k = select(1.0, draw.color.a, near < far);
     let color = k * focus + (1.0 - k * focus.a) * context;
     let depth = min(near, far);
