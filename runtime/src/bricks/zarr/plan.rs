@@ -140,19 +140,24 @@ pub(super) fn resample(
             .collect()
     };
     let (wx, wy, wz) = (windows(0), windows(1), windows(2));
+    // Row by row: each output row of voxels sums its windows of the rows its (z, y) window
+    // covers, in one buffer, reading each row once and in order (the sums as a voxel-by-voxel
+    // loop adds them: z, then y, then x).
     let mut out = Vec::with_capacity(wx.len() * wy.len() * wz.len());
+    let mut sums = vec![0.0f64; wx.len()];
     for &(z0, z1) in &wz {
         for &(y0, y1) in &wy {
-            for &(x0, x1) in &wx {
-                let mut sum = 0.0f64;
-                for z in z0..z1 {
-                    for y in y0..y1 {
-                        let row = (z * ssize[1] + y) * ssize[0];
-                        sum += values[row + x0..row + x1].iter().map(|&v| v as f64).sum::<f64>();
+            sums.fill(0.0);
+            for z in z0..z1 {
+                for y in y0..y1 {
+                    let row = &values[(z * ssize[1] + y) * ssize[0]..][..ssize[0]];
+                    for (sum, &(x0, x1)) in sums.iter_mut().zip(&wx) {
+                        *sum += row[x0..x1].iter().map(|&v| f64::from(v)).sum::<f64>();
                     }
                 }
-                out.push((sum / ((z1 - z0) * (y1 - y0) * (x1 - x0)) as f64) as f32);
             }
+            let zy = (z1 - z0) * (y1 - y0);
+            out.extend(sums.iter().zip(&wx).map(|(sum, &(x0, x1))| (sum / (zy * (x1 - x0)) as f64) as f32));
         }
     }
     out
@@ -191,6 +196,42 @@ mod tests {
         // A translated dataset is read from the voxel its translation puts first.
         let shifted = [placed([1.0; 3], [0.0; 3]), placed([2.0; 3], [-4.0; 3])];
         assert_eq!(plan_levels(2, &shifted)[1], LevelPlan::Read { dataset: 1, ratio: [1, 1, 1], offset: [2, 2, 2] });
+    }
+
+    /// The separable sums give each level voxel the mean of its window's box, in 3D, with
+    /// uneven ratios, an offset and a box clamped at the dataset's edge.
+    #[test]
+    fn resampling_is_the_mean_of_each_voxels_box() {
+        let (slo, shi) = ([1, 0, 2], [8, 6, 7]);
+        let size = [7usize, 6, 5];
+        let values: Vec<f32> = (0..size.iter().product::<usize>()).map(|i| ((i * 37) % 101) as f32 * 0.5).collect();
+        let (lo, hi, ratio, offset) = ([0, 0, 1], [4, 3, 3], [2, 2, 4], [1, 0, -2]);
+        let out = resample(values.clone(), (slo, shi), (lo, hi), ratio, offset, Coarsening::Mean);
+        let mut want = Vec::new();
+        for z in lo[2]..hi[2] {
+            for y in lo[1]..hi[1] {
+                for x in lo[0]..hi[0] {
+                    let p = [x, y, z];
+                    let range = |a: usize| {
+                        let start =
+                            (p[a] as i64 * ratio[a] as i64 + offset[a] - slo[a] as i64).clamp(0, size[a] as i64);
+                        let end = (start + ratio[a] as i64).clamp(0, size[a] as i64);
+                        start as usize..end as usize
+                    };
+                    let (mut sum, mut n) = (0.0f64, 0);
+                    for k in range(2) {
+                        for j in range(1) {
+                            for i in range(0) {
+                                sum += f64::from(values[(k * size[1] + j) * size[0] + i]);
+                                n += 1;
+                            }
+                        }
+                    }
+                    want.push((sum / f64::from(n)) as f32);
+                }
+            }
+        }
+        assert_eq!(out, want);
     }
 
     #[test]
