@@ -9,6 +9,7 @@ use crate::error::RuntimeError;
 use crate::mesh_layer::LayerViews;
 use crate::reflection::{BindingInfo, BindingKind, Reflection};
 use crate::resources::Resources;
+use std::collections::HashMap;
 use vrsc::compose::MESH_SHADOW_MAP_PREFIX;
 
 /// What a binding of each kind is in the layout.
@@ -111,13 +112,23 @@ pub(crate) struct DispatchResources<'a> {
     pub picture: Option<&'a wgpu::TextureView>,
 }
 
+/// The brick pools a dispatch binds, by binding name, as they are now (a pool grows between
+/// frames).
+pub(crate) type BrickPools = HashMap<String, wgpu::TextureView>;
+
+/// The pools of the bricked volumes `reflection` binds.
+pub(crate) fn brick_pools(reflection: &Reflection, shared: &Resources) -> BrickPools {
+    let pools = reflection.bindings.iter().filter(|b| b.kind == BindingKind::BrickPool);
+    pools.filter_map(|b| Some((b.name.clone(), shared.bricked.get(&b.name)?.pool_view()))).collect()
+}
+
 /// The entries of group `group` for one dispatch: the same bindings, in the same order, as
 /// [`layout_entries`]. A volume or transfer function the view reads but the scene did not load
 /// is an error naming it.
 pub(crate) fn group_entries<'a>(
     reflection: &'a Reflection,
     group: u32,
-    shared: &'a Resources,
+    (shared, pools): (&'a Resources, &'a BrickPools),
     own: &DispatchResources<'a>,
 ) -> Result<Vec<wgpu::BindGroupEntry<'a>>, RuntimeError> {
     let missing = |what: &str, name: &str| {
@@ -153,7 +164,9 @@ pub(crate) fn group_entries<'a>(
                     None => &shared.tfs.get(&b.name).ok_or_else(|| missing("transfer function", &b.name))?.view,
                 }),
                 BindingKind::VolumeSampler | BindingKind::TfSampler => wgpu::BindingResource::Sampler(&shared.sampler),
-                BindingKind::BrickPool => wgpu::BindingResource::TextureView(&bricked()?.pool_view),
+                BindingKind::BrickPool => wgpu::BindingResource::TextureView(
+                    pools.get(&b.name).ok_or_else(|| missing("bricked volume", &b.name))?,
+                ),
                 BindingKind::PageTable => bricked()?.pages.as_entire_binding(),
                 BindingKind::BrickRequests => bricked()?.requests.as_entire_binding(),
                 BindingKind::MeshShadowMap => {

@@ -79,8 +79,9 @@ pub(crate) fn dispatch(
     let gpu = frame.gpu;
     let doing = format!("binding the {label} of view `{}`", reflection.view);
     let mut groups = Vec::with_capacity(pipeline.groups.len());
+    let pools = crate::bindings::brick_pools(reflection, frame.resources);
     for (group, layout) in (0u32..).zip(&pipeline.groups) {
-        let entries = crate::bindings::group_entries(reflection, group, frame.resources, own)?;
+        let entries = crate::bindings::group_entries(reflection, group, (frame.resources, &pools), own)?;
         let made = gpu.capture(&doing, || {
             gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some(&reflection.view),

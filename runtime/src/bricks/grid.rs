@@ -4,6 +4,7 @@
 //! [`BrickSource`] getters over them, written once for every [`GridSource`].
 
 use glam::Mat4;
+use std::sync::OnceLock;
 
 use super::lazy_levels::LazyLevels;
 use super::pyramid::check_brick;
@@ -20,8 +21,9 @@ pub(super) struct SourceGrid {
     pub(super) levels: Vec<Level>,
     /// Level-0 voxel index -> world position (mm, RAS+).
     pub(super) grid_to_world: Mat4,
-    /// The value range estimated at open (`[0, 0]` until then).
-    pub(super) range: [f32; 2],
+    /// The value range: estimated at open, or when first asked for
+    /// ([`GridSource::range_on_demand`]).
+    pub(super) range: OnceLock<[f32; 2]>,
     /// Builds the levels not read from the source from the level below.
     pub(super) lazy: LazyLevels,
 }
@@ -31,7 +33,7 @@ impl SourceGrid {
     /// building coarse levels through a cache of `cache_bytes`; its range is set once the
     /// source can read bricks.
     pub(super) fn new(name: String, levels: Vec<Level>, grid_to_world: Mat4, cache_bytes: u64) -> SourceGrid {
-        SourceGrid { name, levels, grid_to_world, range: [0.0, 0.0], lazy: LazyLevels::new(cache_bytes) }
+        SourceGrid { name, levels, grid_to_world, range: OnceLock::new(), lazy: LazyLevels::new(cache_bytes) }
     }
 
     /// An error about the source: `message` after its name.
@@ -47,6 +49,13 @@ pub(super) trait GridSource: Send + Sync {
 
     /// Brick `brick` of level `level`, both known to exist ([`BrickSource::read`]).
     fn read_brick(&self, level: usize, brick: [u32; 3]) -> Result<BrickData, BrickError>;
+
+    /// The value range when it is first asked for, where the source did not estimate it at
+    /// open (a store leaves it until then: its estimate reads coarse bricks, which nothing
+    /// needs before the first picture).
+    fn range_on_demand(&self) -> [f32; 2] {
+        [0.0, 0.0]
+    }
 
     /// [`BrickSource::warnings`]: none unless the source keeps some.
     fn notes(&self) -> Vec<String> {
@@ -64,7 +73,7 @@ impl<S: GridSource> BrickSource for S {
     }
 
     fn range(&self) -> [f32; 2] {
-        self.grid().range
+        *self.grid().range.get_or_init(|| self.range_on_demand())
     }
 
     fn read(&self, level: usize, brick: [u32; 3]) -> Result<BrickData, BrickError> {

@@ -53,14 +53,15 @@ impl MappedSource {
     pub(crate) fn new(raw: &RawData, cache_bytes: u64) -> Result<MappedSource, BrickError> {
         let name = raw.file.file_name().map_or_else(|| raw.file.display().to_string(), |n| n.to_string_lossy().into());
         let map = map_samples(raw).map_err(|m| BrickError(format!("{name}: {m}")))?;
-        let mut source = MappedSource {
+        let source = MappedSource {
             grid: SourceGrid::new(name, levels_for(raw.info.dims), raw.info.grid_to_world, cache_bytes),
             map,
             sample: raw.sample,
             big_endian: raw.big_endian,
             scaling: raw.info.scaling,
         };
-        source.grid.range = source.estimate_range()?;
+        let range = source.estimate_range()?;
+        source.grid.range.get_or_init(|| range);
         Ok(source)
     }
 

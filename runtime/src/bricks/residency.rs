@@ -5,7 +5,12 @@
 //! what rays asked for on loader threads (from the host cache when it is there), and places
 //! arrived bricks in their own slots when the pool has one for every brick, else in free or
 //! least recently used slots (`BrickedVolume::receive`). The coarsest level is loaded first and never evicted, so every
-//! ray finds an answer.
+//! ray finds an answer. The pool starts with the layers of slots the coarsest level and
+//! [`INITIAL_POOL_BYTES`] need, and grows once, to the slots the budget gives, when a brick
+//! arrives for a slot beyond it: a device clears a texture before its first write, and
+//! clearing the whole budget before the first picture held it up (half a second for 1 GiB on
+//! a software device). Growing once (not doubling) keeps what the device holds during the copy
+//! within the budget plus the first pool.
 
 use std::collections::{HashMap, HashSet};
 use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
@@ -41,6 +46,9 @@ const UPLOADS_PER_SUBMIT: usize = 16;
 
 /// Bytes of one slot of the pool (half floats).
 pub(crate) const SLOT_BYTES: u64 = (STORED as u64).pow(3) * 2;
+
+/// What the pool holds at first besides the coarsest level (106 slots).
+const INITIAL_POOL_BYTES: u64 = 64 << 20;
 
 /// How a view looks at its bricked volumes this frame: what picks the level of a sample.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -96,17 +104,73 @@ struct State {
     failed: HashSet<u32>,
 }
 
+/// The brick pool's texture, `layers` layers of slots deep (z).
+struct Pool {
+    texture: wgpu::Texture,
+    view: wgpu::TextureView,
+    layers: u32,
+}
+
+impl Pool {
+    /// A pool of `slots[0] x slots[1] x layers` slots, cleared by the device before its first
+    /// write; `name` names the volume in errors.
+    fn new(gpu: &Gpu, name: &str, slots: [u32; 3], layers: u32) -> Result<Pool, RuntimeError> {
+        let size = [slots[0], slots[1], layers].map(|n| n * STORED);
+        let texture = gpu.capture(&format!("creating the brick pool of volume `{name}`"), || {
+            gpu.device.create_texture(&wgpu::TextureDescriptor {
+                label: Some("brick pool"),
+                size: wgpu::Extent3d { width: size[0], height: size[1], depth_or_array_layers: size[2] },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D3,
+                format: wgpu::TextureFormat::R16Float,
+                usage: wgpu::TextureUsages::TEXTURE_BINDING
+                    | wgpu::TextureUsages::COPY_DST
+                    | wgpu::TextureUsages::COPY_SRC,
+                view_formats: &[],
+            })
+        })?;
+        Ok(Pool { view: texture.create_view(&Default::default()), texture, layers })
+    }
+
+    /// Texels per axis.
+    fn dims(&self) -> [u32; 3] {
+        let size = self.texture.size();
+        [size.width, size.height, size.depth_or_array_layers]
+    }
+
+    /// Grows the pool to `layers` layers, its slots copied (after the uploads queued so far).
+    fn grow(&mut self, gpu: &Gpu, name: &str, slots: [u32; 3], layers: u32) -> Result<(), RuntimeError> {
+        let grown = Pool::new(gpu, name, slots, layers)?;
+        let mut encoder = gpu.device.create_command_encoder(&Default::default());
+        let [w, h, d] = self.dims();
+        let extent = wgpu::Extent3d { width: w, height: h, depth_or_array_layers: d };
+        encoder.copy_texture_to_texture(self.texture.as_image_copy(), grown.texture.as_image_copy(), extent);
+        gpu.capture(&format!("growing the brick pool of volume `{name}`"), || gpu.queue.submit([encoder.finish()]))?;
+        *self = grown;
+        Ok(())
+    }
+}
+
+/// The layers of slots a pool of `slots` starts with: room for the coarsest level's `pinned`
+/// bricks (the first slots) and [`INITIAL_POOL_BYTES`].
+fn initial_layers(slots: [u32; 3], pinned: u64) -> u32 {
+    let wanted = pinned + INITIAL_POOL_BYTES / SLOT_BYTES;
+    let layer = u64::from(slots[0] * slots[1]);
+    wanted.div_ceil(layer).clamp(1, u64::from(slots[2])) as u32
+}
+
 /// A bricked volume's GPU objects and residency.
 pub(crate) struct BrickedVolume {
     pub name: String,
     levels: Vec<Level>,
+    /// Slots per axis of the pool as large as the budget lets it grow.
     slots: [u32; 3],
-    pool_dims: [u32; 3],
     pub grid_to_world: Mat4,
     /// The primary volume's normalized coordinates to this volume's.
     pub primary_to: Mat4,
-    pool: wgpu::Texture,
-    pub pool_view: wgpu::TextureView,
+    /// The pool as large as it is now (locked after `state` where both are).
+    pool: Mutex<Pool>,
     pub pages: wgpu::Buffer,
     pub requests: wgpu::Buffer,
     readback: wgpu::Buffer,
@@ -157,25 +221,11 @@ impl BrickedVolume {
         let max_3d = gpu.device.limits().max_texture_dimension_3d;
         let slots = pool_slots(budgets.0, bricks, max_3d)
             .ok_or_else(|| invalid(format!("a memory budget of {} MiB holds no brick", budgets.0 >> 20)))?;
-        let pool_dims = slots.map(|n| n * STORED);
         let count = slots.iter().product::<u32>();
         let own_slots = bricks <= u64::from(count);
+        let coarsest = levels.last().map_or(1, Level::brick_count);
+        let pool = Pool::new(gpu, name, slots, initial_layers(slots, coarsest))?;
         let doing = format!("creating the brick pool of volume `{name}`");
-        let texture = |label: &str, size: [u32; 3], format| {
-            gpu.capture(&doing, || {
-                gpu.device.create_texture(&wgpu::TextureDescriptor {
-                    label: Some(label),
-                    size: wgpu::Extent3d { width: size[0], height: size[1], depth_or_array_layers: size[2] },
-                    mip_level_count: 1,
-                    sample_count: 1,
-                    dimension: wgpu::TextureDimension::D3,
-                    format,
-                    usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
-                    view_formats: &[],
-                })
-            })
-        };
-        let pool = texture("brick pool", pool_dims, wgpu::TextureFormat::R16Float)?;
         let words = entries;
         let buffer = |label: &str, usage| {
             gpu.capture(&doing, || {
@@ -212,10 +262,8 @@ impl BrickedVolume {
             loader: Loader::new(source, window, budgets.1 - super::cache_bytes(budgets.1)),
             levels,
             slots,
-            pool_dims,
             primary_to,
-            pool_view: pool.create_view(&Default::default()),
-            pool,
+            pool: Mutex::new(pool),
             pages,
             requests,
             readback,
@@ -232,6 +280,11 @@ impl BrickedVolume {
     /// The source the bricks are read from.
     pub(crate) fn source(&self) -> &Arc<dyn BrickSource> {
         self.loader.source()
+    }
+
+    /// The pool's texture as it is now (it grows as bricks arrive), for a dispatch to bind.
+    pub(crate) fn pool_view(&self) -> wgpu::TextureView {
+        lock(&self.pool).view.clone()
     }
 
     /// The levels, finest first.
@@ -288,7 +341,7 @@ impl BrickedVolume {
         let f = |x: f32| x.to_bits();
         words.extend([f(dims.x), f(dims.y), f(dims.z), f(self.levels.len() as f32)]);
         words.extend([f(eye.x), f(eye.y), f(eye.z), f(angle * angle)]);
-        let pool = self.pool_dims.map(|n| 1.0 / n as f32);
+        let pool = lock(&self.pool).dims().map(|n| 1.0 / n as f32);
         words.extend([f(pool[0]), f(pool[1]), f(pool[2]), f(BRICK as f32)]);
         let finest = self.floor.load(Ordering::Relaxed).min(self.levels.len() as u32 - 1);
         words.extend([f(footprint * footprint), f(finest as f32), f(APRON as f32), 0]);
@@ -413,7 +466,7 @@ impl BrickedVolume {
                 }
                 Ok(Normalized::Voxels(voxels)) => match self.slot_for(&mut state, entry) {
                     Some(slot) => {
-                        self.upload(gpu, slot, &voxels);
+                        self.upload(gpu, slot, &voxels)?;
                         uploads += 1;
                         if uploads.is_multiple_of(UPLOADS_PER_SUBMIT) {
                             // Let the staged bricks go to the pool before staging more: the
@@ -470,15 +523,16 @@ impl BrickedVolume {
     }
 
     /// Brick `entry`'s own slot when the pool has one for every brick: its place in the pyramid
-    /// (level by level, x fastest). So where a brick lands in the pool, and the rounding of its
-    /// pool coordinates, does not depend on the order the loader threads finish in, and a
-    /// picture repeats exactly (with slots taken in arrival order, early ray termination
-    /// flipped at a few pixels from run to run, up to 5/255).
+    /// (level by level, the coarsest first, so that the first slots hold it; x fastest). So
+    /// where a brick lands in the pool, and the rounding of its pool coordinates, does not
+    /// depend on the order the loader threads finish in, and a picture repeats exactly (with
+    /// slots taken in arrival order, early ray termination flipped at a few pixels from run to
+    /// run, up to 5/255).
     fn own_slot(&self, entry: u32) -> u32 {
         let (level, [x, y, z]) = self.brick_of(entry);
-        let before: u64 = self.levels[..level].iter().map(Level::brick_count).sum();
+        let coarser: u64 = self.levels[level + 1..].iter().map(Level::brick_count).sum();
         let [w, h, _] = self.levels[level].bricks;
-        (before + u64::from(x + w * (y + h * z))) as u32
+        (coarser + u64::from(x + w * (y + h * z))) as u32
     }
 
     /// Slot `slot`'s position in the pool, in slots.
@@ -501,12 +555,18 @@ impl BrickedVolume {
         x + sx * (y + sy * z)
     }
 
-    /// Writes a brick's half floats into its slot.
-    fn upload(&self, gpu: &Gpu, slot: u32, voxels: &[half::f16]) {
-        let origin = self.slot_position(slot).map(|n| n * STORED);
+    /// Writes a brick's half floats into its slot, growing the pool to all the budget's slots
+    /// first when it does not reach the slot yet.
+    fn upload(&self, gpu: &Gpu, slot: u32, voxels: &[half::f16]) -> Result<(), RuntimeError> {
+        let position = self.slot_position(slot);
+        let mut pool = lock(&self.pool);
+        if position[2] >= pool.layers {
+            pool.grow(gpu, &self.name, self.slots, self.slots[2])?;
+        }
+        let origin = position.map(|n| n * STORED);
         gpu.queue.write_texture(
             wgpu::TexelCopyTextureInfo {
-                texture: &self.pool,
+                texture: &pool.texture,
                 mip_level: 0,
                 origin: wgpu::Origin3d { x: origin[0], y: origin[1], z: origin[2] },
                 aspect: wgpu::TextureAspect::All,
@@ -515,6 +575,7 @@ impl BrickedVolume {
             wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(STORED * 2), rows_per_image: Some(STORED) },
             wgpu::Extent3d { width: STORED, height: STORED, depth_or_array_layers: STORED },
         );
+        Ok(())
     }
 
     fn level_of(&self, entry: u32) -> usize {
@@ -645,6 +706,82 @@ mod tests {
             let count = slots.iter().map(|&n| n as u64).product::<u64>();
             assert!(count >= wanted && count <= wanted + wanted / 16 + 2, "{wanted}: {slots:?}");
         }
+    }
+
+    /// A pool starts with the layers the coarsest level and [`INITIAL_POOL_BYTES`] need, within
+    /// its slots.
+    #[test]
+    fn a_pool_starts_small() {
+        let initial = INITIAL_POOL_BYTES / SLOT_BYTES;
+        assert_eq!(initial, 106);
+        assert_eq!(initial_layers([12, 12, 13], 1), 1);
+        assert_eq!(initial_layers([4, 4, 100], 1), 7);
+        assert_eq!(initial_layers([4, 4, 100], 200), 20);
+        assert_eq!(initial_layers([4, 4, 3], 1), 3);
+    }
+
+    /// Growing a pool keeps what its slots hold, and the slots past its old end take bricks.
+    #[test]
+    fn a_growing_pool_keeps_its_slots() {
+        let gpu = Gpu::headless(crate::AdapterChoice::Software).expect("the software adapter (lavapipe)");
+        let slots = [2, 1, 4];
+        let mut pool = Pool::new(&gpu, "grown", slots, 1).expect("a pool");
+        let brick = |value: f32| vec![half::f16::from_f32(value); (STORED as usize).pow(3)];
+        let write = |pool: &Pool, slot: [u32; 3], value: f32| {
+            gpu.queue.write_texture(
+                wgpu::TexelCopyTextureInfo {
+                    texture: &pool.texture,
+                    mip_level: 0,
+                    origin: wgpu::Origin3d { x: slot[0] * STORED, y: slot[1] * STORED, z: slot[2] * STORED },
+                    aspect: wgpu::TextureAspect::All,
+                },
+                bytemuck::cast_slice(&brick(value)),
+                wgpu::TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(STORED * 2),
+                    rows_per_image: Some(STORED),
+                },
+                wgpu::Extent3d { width: STORED, height: STORED, depth_or_array_layers: STORED },
+            );
+        };
+        write(&pool, [1, 0, 0], 1.5);
+        pool.grow(&gpu, "grown", slots, 3).expect("grown");
+        assert_eq!(pool.layers, 3);
+        assert_eq!(pool.dims(), [2 * STORED, STORED, 3 * STORED]);
+        write(&pool, [0, 0, 2], 2.5);
+        let texels = read_pool(&gpu, &pool);
+        let at = |[x, y, z]: [u32; 3]| texels[((z * pool.dims()[1] + y) * pool.dims()[0] + x) as usize].to_f32();
+        assert_eq!(at([STORED + 3, 5, 7]), 1.5, "the slot written before growing");
+        assert_eq!(at([3, 5, 2 * STORED + 7]), 2.5, "a slot of the new layers");
+        assert_eq!(at([3, 5, 7]), 0.0, "a slot never written");
+    }
+
+    /// Every texel of `pool`, x fastest.
+    fn read_pool(gpu: &Gpu, pool: &Pool) -> Vec<half::f16> {
+        let [w, h, d] = pool.dims();
+        let row = (w * 2).div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
+        let buffer = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+            label: None,
+            size: u64::from(row * h * d),
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let mut encoder = gpu.device.create_command_encoder(&Default::default());
+        encoder.copy_texture_to_buffer(
+            pool.texture.as_image_copy(),
+            wgpu::TexelCopyBufferInfo {
+                buffer: &buffer,
+                layout: wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(row), rows_per_image: Some(h) },
+            },
+            wgpu::Extent3d { width: w, height: h, depth_or_array_layers: d },
+        );
+        gpu.queue.submit([encoder.finish()]);
+        buffer.slice(..).map_async(wgpu::MapMode::Read, |_| {});
+        gpu.wait();
+        let mapped = buffer.slice(..).get_mapped_range().expect("mapped");
+        let rows =
+            mapped.chunks(row as usize).flat_map(|r| bytemuck::cast_slice::<u8, half::f16>(&r[..(w * 2) as usize]));
+        rows.copied().collect()
     }
 
     #[test]

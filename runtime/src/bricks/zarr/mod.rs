@@ -125,27 +125,16 @@ impl ZarrSource {
         Self::open_at(&StoreLocation::Path(path.to_path_buf()), &ZarrSelection::default(), 256 << 20)
     }
 
-    /// Opens the store at `location`, showing what `selection` picks, with `cache_bytes` for the
-    /// sums of finer bricks that built levels are averaged from. Reads the metadata and a few
-    /// coarse bricks for the value range.
-    pub fn open_at(
-        location: &StoreLocation,
-        selection: &ZarrSelection,
-        cache_bytes: u64,
-    ) -> Result<ZarrSource, BrickError> {
-        let mut source = Self::open_metadata(location, selection, cache_bytes)?;
-        source.grid.range = source.estimate_range();
-        Ok(source)
-    }
-
     /// Checks that the store at `location` can be shown as `selection` picks it, from its
     /// metadata alone (no voxel is read): what `vrsc build` asks of a store.
     pub fn check_at(location: &StoreLocation, selection: &ZarrSelection) -> Result<(), BrickError> {
-        Self::open_metadata(location, selection, 0).map(|_| ())
+        Self::open_at(location, selection, 0).map(|_| ())
     }
 
-    /// [`ZarrSource::open_at`] without the value range (`[0, 0]`).
-    fn open_metadata(
+    /// Opens the store at `location`, showing what `selection` picks, with `cache_bytes` for the
+    /// sums of finer bricks that built levels are averaged from. Reads the metadata only: the
+    /// value range ([`BrickSource::range`]) reads a few coarse bricks when first asked for.
+    pub fn open_at(
         location: &StoreLocation,
         selection: &ZarrSelection,
         cache_bytes: u64,
@@ -431,6 +420,10 @@ impl ZarrSource {
 impl GridSource for ZarrSource {
     fn grid(&self) -> &SourceGrid {
         &self.grid
+    }
+
+    fn range_on_demand(&self) -> [f32; 2] {
+        self.estimate_range()
     }
 
     fn read_brick(&self, level: usize, brick: [u32; 3]) -> Result<BrickData, BrickError> {
