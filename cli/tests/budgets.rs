@@ -15,7 +15,8 @@ use std::time::{Duration, Instant};
 /// box with the apron of f32 values per read, up to 16 dataset voxels per level voxel), the
 /// chunks zarrs decodes for them, up to 16 bricks staged for the pool (9 MiB), and the ranges
 /// learnt for empty-space skipping (a 128 x 128 x 64 grid, 9 MiB, with its copies for the
-/// occupancy pass, about 12 MiB at the peak).
+/// occupancy pass, about 12 MiB at the peak), and while a brick pool grows, its first one (64 MiB
+/// and the coarsest level) beside the whole one for one copy.
 /// Measured (2026-12-06, 2 cores, lavapipe; fixed cost 130 MiB): 64 MiB budgets peak at 350 MiB
 /// (fov 30) and 405 MiB (fov 8), 92 and 147 MiB over fixed cost + host budget + pool;
 /// 512 MiB budgets at 819 and 1006 MiB, under the bound.
@@ -123,11 +124,12 @@ fn budgets_bound_the_peak_memory_of_a_render() {
 /// opening (the full pass over level 0 that builds the coarsest level, the shader), the
 /// preview the viewer's schedule renders first, one full frame with what is resident then,
 /// and the frames until every brick the rays ask for is there.
-/// Measured (2026-12-07, 2 cores, lavapipe): adapter 0.2 s, open 2.1-2.3 s, the 64x64 preview
-/// at 2.7-2.9 s, the full picture at 3.5-3.7 s, settled at 5.3-5.5 s. About 0.5 s of the
-/// preview is wgpu zeroing the 1 GiB brick pool before its first write (0.07 s with a 128 MiB
-/// pool); creating the pool before the pass over level 0, so that the two overlap, moved that
-/// time into the opening on two cores (open 2.7-2.8 s, preview at 2.8-2.9 s), and was not kept.
+/// Measured (2026-12-07, 2 cores, lavapipe, three runs): adapter 0.04 s, open 1.19-1.22 s,
+/// the 64x64 preview at 1.36-1.39 s, the full picture at 1.99-2.03 s, settled at 3.41-3.47 s.
+/// Before the pool started small (it grows to the budget when a brick needs it: the device
+/// clears a texture before its first write, 0.5 s for 1 GiB) and before a store's value range
+/// was left until asked for (64 coarse bricks read at open, on one thread): open 1.8-2.0 s,
+/// preview at 2.4-3.0 s, full picture at 3.1-3.7 s, settled at 4.5-5.1 s.
 /// A measurement, ignored by default: `cargo test --release -p vrsc-cli --test budgets --
 /// --ignored --nocapture first_picture`.
 #[test]
