@@ -5,7 +5,7 @@
 //! phantom scene's peak, measured first) plus the loader threads' decode buffers; and the tight
 //! budget settles its picture within twice the time the loose one takes. A measurement
 //! (ignored by default: it writes a 1 GiB store and renders four times); run with
-//! `cargo test --release -p vrsc-cli --test budgets -- --ignored --nocapture`.
+//! `cargo test --release -p vrsc-cli --test suite budgets:: -- --ignored --nocapture`.
 
 use std::path::Path;
 use std::process::Command;
@@ -130,7 +130,7 @@ fn budgets_bound_the_peak_memory_of_a_render() {
 /// clears a texture before its first write, 0.5 s for 1 GiB) and before a store's value range
 /// was left until asked for (64 coarse bricks read at open, on one thread): open 1.8-2.0 s,
 /// preview at 2.4-3.0 s, full picture at 3.1-3.7 s, settled at 4.5-5.1 s.
-/// A measurement, ignored by default: `cargo test --release -p vrsc-cli --test budgets --
+/// A measurement, ignored by default: `cargo test --release -p vrsc-cli --test suite budgets:: --
 /// --ignored --nocapture first_picture`.
 #[test]
 #[ignore = "a measurement: writes a 1 GiB store and renders it"]

@@ -4,14 +4,12 @@
 //! bounded time, never a hang (as does `https://` to a server without TLS); unknown schemes are
 //! refused at build.
 
-#[path = "support/loopback.rs"]
-mod loopback;
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use std::time::{Duration, Instant};
 
-use loopback::{Mode, Server};
+use crate::support::loopback::{Mode, Server};
 
 fn fixtures() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/fixtures/zarr").canonicalize().expect("fixtures")
