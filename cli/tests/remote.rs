@@ -4,7 +4,6 @@
 //! bounded time, never a hang (as does `https://` to a server without TLS); unknown schemes are
 //! refused at build.
 
-
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use std::time::{Duration, Instant};

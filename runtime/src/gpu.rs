@@ -148,7 +148,8 @@ impl Gpu {
         gpu.adapter = format!("{} ({:?})", info.name, info.backend);
         if info.device_type == wgpu::DeviceType::Cpu && info.backend == wgpu::Backend::Gl {
             // Said wherever the adapter is printed: the picture may be wrong here.
-            gpu.adapter += " — Mesa's OpenGL software driver, on which light volumes came out wrong; \
+            gpu.adapter += " — Mesa's OpenGL software driver, on which scenes with meshes cannot render \
+                            (OpenGL ES renders into no r32float image) and light volumes came out wrong; \
                             vrsc is tested on lavapipe (apt-get install mesa-vulkan-drivers)";
         }
         gpu.software = info.device_type == wgpu::DeviceType::Cpu;

@@ -953,7 +953,9 @@ impl Body {
         let last = self.binary(Bo::Subtract, dims, one);
         let texel =
             self.expr(E::Math { fun: naga::MathFunction::Min, arg: texel, arg1: Some(last), arg2: None, arg3: None });
-        let level = self.literal(naga::Literal::U32(0));
+        // A signed level: naga's GLSL out writes it into the bounds check's `textureSize`,
+        // which takes an `int` (OpenGL refused the shader with `0u`).
+        let level = self.literal(naga::Literal::I32(0));
         let array_index = load.layer.map(|layer| self.literal(naga::Literal::U32(layer)));
         let texel = self.expr(E::ImageLoad { image, coordinate: texel, array_index, sample: None, level: Some(level) });
         let value = if load.components == 1 { self.component(texel, 0) } else { texel };
