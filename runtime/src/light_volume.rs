@@ -7,7 +7,7 @@
 use crate::error::RuntimeError;
 use crate::gpu::Gpu;
 use crate::pass_bindings::{ComputePass, PassBindings, Slot, ty};
-use crate::textures::{TfTexture, VolumeTexture};
+use crate::textures::{Image3d, TfTexture, VolumeTexture};
 use glam::{Mat4, Vec3};
 
 /// The largest side of a light volume, in texels.
@@ -103,18 +103,9 @@ impl LightVolumePass {
     pub(crate) fn compute(&self, gpu: &Gpu, primary: &Primary, key: &LightKey) -> Result<VolumeTexture, RuntimeError> {
         let dims = primary.texture.dims.map(|d| d.clamp(1, MAX_SIDE));
         let doing = "computing a light volume";
-        let texture = gpu.capture(doing, || {
-            gpu.device.create_texture(&wgpu::TextureDescriptor {
-                label: Some("light volume"),
-                size: wgpu::Extent3d { width: dims[0], height: dims[1], depth_or_array_layers: dims[2] },
-                mip_level_count: 1,
-                sample_count: 1,
-                dimension: wgpu::TextureDimension::D3,
-                format: wgpu::TextureFormat::Rgba16Float,
-                usage: wgpu::TextureUsages::STORAGE_BINDING | wgpu::TextureUsages::TEXTURE_BINDING,
-                view_formats: &[],
-            })
-        })?;
+        let usage = wgpu::TextureUsages::STORAGE_BINDING | wgpu::TextureUsages::TEXTURE_BINDING;
+        let image = Image3d { label: "light volume", size: dims, format: wgpu::TextureFormat::Rgba16Float, usage };
+        let texture = image.create(gpu, doing)?;
         let view = texture.create_view(&Default::default());
         let params = march(primary.volume_to_world, dims, key);
         gpu.capture(doing, || {

@@ -210,18 +210,9 @@ impl<'g> TextureWriter<'g> {
                 "volume `{name}`: a {w}x{h}x{d} grid exceeds this device's 3D texture limit of {max} per axis"
             )));
         }
-        let texture = gpu.capture(&format!("creating the {w}x{h}x{d} texture of volume `{name}`"), || {
-            gpu.device.create_texture(&wgpu::TextureDescriptor {
-                label: Some(name),
-                size: wgpu::Extent3d { width: w, height: h, depth_or_array_layers: d },
-                mip_level_count: 1,
-                sample_count: 1,
-                dimension: wgpu::TextureDimension::D3,
-                format: wgpu::TextureFormat::R16Float,
-                usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
-                view_formats: &[],
-            })
-        })?;
+        let usage = wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST;
+        let image = Image3d { label: name, size: info.dims, format: wgpu::TextureFormat::R16Float, usage };
+        let texture = image.create(gpu, &format!("creating the {w}x{h}x{d} texture of volume `{name}`"))?;
         let slice = w as usize * h as usize;
         let capacity = SLAB_TEXELS.max(slice) + slice;
         Ok(TextureWriter {
@@ -416,20 +407,47 @@ impl Image2d<'_> {
     /// Creates an array of `layers` such images.
     pub(crate) fn create_layers(&self, gpu: &Gpu, doing: &str, layers: u32) -> Result<wgpu::Texture, RuntimeError> {
         let [w, h] = self.size;
-        let texture = gpu.capture(doing, || {
-            gpu.device.create_texture(&wgpu::TextureDescriptor {
-                label: Some(self.label),
-                size: wgpu::Extent3d { width: w.max(1), height: h.max(1), depth_or_array_layers: layers.max(1) },
-                mip_level_count: 1,
-                sample_count: 1,
-                dimension: wgpu::TextureDimension::D2,
-                format: self.format,
-                usage: self.usage,
-                view_formats: &[],
-            })
-        })?;
-        Ok(texture)
+        let size = [w, h, layers];
+        create_texture(gpu, doing, (self.label, size, wgpu::TextureDimension::D2), (self.format, self.usage))
     }
+}
+
+/// A 3D texture of one mip level: a volume, a brick pool, a light volume.
+pub(crate) struct Image3d<'a> {
+    pub label: &'a str,
+    pub size: [u32; 3],
+    pub format: wgpu::TextureFormat,
+    pub usage: wgpu::TextureUsages,
+}
+
+impl Image3d<'_> {
+    /// Creates it, its errors captured as those of `doing`; a zero side is one texel.
+    pub(crate) fn create(&self, gpu: &Gpu, doing: &str) -> Result<wgpu::Texture, RuntimeError> {
+        create_texture(gpu, doing, (self.label, self.size, wgpu::TextureDimension::D3), (self.format, self.usage))
+    }
+}
+
+/// A texture of one mip level and one sample, `size` texels (a zero side is one texel).
+fn create_texture(
+    gpu: &Gpu,
+    doing: &str,
+    (label, size, dimension): (&str, [u32; 3], wgpu::TextureDimension),
+    (format, usage): (wgpu::TextureFormat, wgpu::TextureUsages),
+) -> Result<wgpu::Texture, RuntimeError> {
+    let [width, height, depth_or_array_layers] = size.map(|n| n.max(1));
+    let texture = gpu.capture(doing, || {
+        gpu.device.create_texture(&wgpu::TextureDescriptor {
+            label: Some(label),
+            size: wgpu::Extent3d { width, height, depth_or_array_layers },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension,
+            format,
+            usage,
+            view_formats: &[],
+        })
+    })?;
+    Ok(texture)
 }
 
 /// Trilinear filtering, clamped at the edges: how every volume and transfer function is read.

@@ -24,6 +24,7 @@ use super::{APRON, BRICK, BrickSource, Level, MAX_BRICKS, STORED, lock, table_en
 use crate::error::RuntimeError;
 use crate::gpu::Gpu;
 use crate::occupancy::BrickRanges;
+use crate::textures::Image3d;
 
 /// Page-table entry kinds (the top two bits), as the lookup reads them.
 const MISSING: u32 = 0;
@@ -116,20 +117,10 @@ impl Pool {
     /// write; `name` names the volume in errors.
     fn new(gpu: &Gpu, name: &str, slots: [u32; 3], layers: u32) -> Result<Pool, RuntimeError> {
         let size = [slots[0], slots[1], layers].map(|n| n * STORED);
-        let texture = gpu.capture(&format!("creating the brick pool of volume `{name}`"), || {
-            gpu.device.create_texture(&wgpu::TextureDescriptor {
-                label: Some("brick pool"),
-                size: wgpu::Extent3d { width: size[0], height: size[1], depth_or_array_layers: size[2] },
-                mip_level_count: 1,
-                sample_count: 1,
-                dimension: wgpu::TextureDimension::D3,
-                format: wgpu::TextureFormat::R16Float,
-                usage: wgpu::TextureUsages::TEXTURE_BINDING
-                    | wgpu::TextureUsages::COPY_DST
-                    | wgpu::TextureUsages::COPY_SRC,
-                view_formats: &[],
-            })
-        })?;
+        let usage =
+            wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST | wgpu::TextureUsages::COPY_SRC;
+        let image = Image3d { label: "brick pool", size, format: wgpu::TextureFormat::R16Float, usage };
+        let texture = image.create(gpu, &format!("creating the brick pool of volume `{name}`"))?;
         Ok(Pool { view: texture.create_view(&Default::default()), texture, layers })
     }
 
