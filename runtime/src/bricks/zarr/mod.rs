@@ -133,7 +133,7 @@ impl ZarrSource {
 
     /// Opens the store at `location`, showing what `selection` picks, with `cache_bytes` for the
     /// sums of finer bricks that built levels are averaged from. Reads the metadata only: the
-    /// value range ([`BrickSource::range`]) reads a few coarse bricks when first asked for.
+    /// value range ([`crate::bricks::BrickSource::range`]) reads a few coarse bricks when first asked for.
     pub fn open_at(
         location: &StoreLocation,
         selection: &ZarrSelection,
