@@ -62,6 +62,13 @@ camera = { azimuth = 30.0, elevation = 35.0, distance = 2.2 }
 /// A box beside `SCENE`'s ball, in front of part of it.
 const BOX: &str = "\n[[mesh]]\nname = \"box\"\nshape = \"box\"\nmin = [2.0, 2.0, 2.0]\nmax = [9.0, 9.0, 30.0]\ncolor = [0.1, 0.3, 0.9]\n";
 
+/// `SCENE`'s meshes, then `more` (more meshes), then a group `group` of the ball and the filter
+/// `filter` after it.
+fn with_group(group: &str, filter: &str, more: &str) -> String {
+    let meshes = &SCENE[SCENE.find("[[mesh]]").expect("a mesh")..];
+    format!("{meshes}{more}\n[[group]]\nname = \"{group}\"\nchildren = [\"ball\", {{ filter = \"{filter}\" }}]\n")
+}
+
 /// Writes the scene (`scene` after the volume; `SCENE`'s meshes and view when it is `SCENE`)
 /// into `dir` with its volume, its view given `extra` lines, and opens it.
 fn open(dir: &Path, scene: &str, extra: &str) -> SceneRenderer {
@@ -228,10 +235,7 @@ fn a_probe_reads_a_field_of_the_filter_pass() {
 #[test]
 fn a_probe_reads_a_field_of_a_filter_in_a_group() {
     let dir = tempfile::tempdir().expect("temp dir");
-    let meshes = &SCENE[SCENE.find("[[mesh]]").expect("a mesh")..];
-    let scene = meshes.to_string()
-        + BOX
-        + "\n[[group]]\nname = \"grey\"\nchildren = [\"ball\", { filter = \"std::luminance\" }]\n";
+    let scene = with_group("grey", "std::luminance", BOX);
     let ball = render(dir.path(), &scene, r#"picture = ["ball", "volume"]"#);
     let nothing = render(dir.path(), &scene, r#"picture = ["volume"]"#);
     let mut renderer = open(dir.path(), &scene, r#"picture = ["grey", "box", "volume"]"#);
@@ -266,9 +270,7 @@ fn a_filter_that_clears_colour_clears_depth_with_it() {
     let dir = tempfile::tempdir().expect("temp dir");
     let erase = "/// Clears the part.\npipeline erase in filter.apply {\n    state color: vec4f;\n\n    state.color = vec4f(0.0);\n}\n";
     std::fs::write(dir.path().join("erase.vrs"), erase).expect("module written");
-    let meshes = &SCENE[SCENE.find("[[mesh]]").expect("a mesh")..];
-    let scene =
-        meshes.to_string() + "\n[[group]]\nname = \"gone\"\nchildren = [\"ball\", { filter = \"erase.vrs\" }]\n";
+    let scene = with_group("gone", "erase.vrs", "");
     let mut shown = open(dir.path(), &scene, r#"picture = ["ball", "volume"]"#);
     let drawn = shown.render_probe(0, &ProbeSpec::of("geometry_depth")).expect("probe");
     let covered = drawn.values.pixels.iter().flatten().filter(|d| d[0] < 1.0).count();
@@ -286,10 +288,7 @@ fn a_filter_that_clears_colour_clears_depth_with_it() {
 #[test]
 fn a_filter_in_a_group_filters_the_children_before_it_only() {
     let dir = tempfile::tempdir().expect("temp dir");
-    let meshes = &SCENE[SCENE.find("[[mesh]]").expect("a mesh")..];
-    let scene = meshes.to_string()
-        + BOX
-        + "\n[[group]]\nname = \"grey\"\nchildren = [\"ball\", { filter = \"std::luminance\" }]\n";
+    let scene = with_group("grey", "std::luminance", BOX);
     let with = |picture: &str| format!("picture = {picture}");
     let plain = render(dir.path(), &scene, &with(r#"["ball", "box", "volume"]"#));
     let no_ball = render(dir.path(), &scene, &with(r#"["box", "volume"]"#));

@@ -60,6 +60,14 @@ pub struct FilterOutput {
     pub ir: Option<ViewIr>,
 }
 
+impl FilterOutput {
+    /// The label of a filter of the view's tree (`GROUP-K`, what its name starts with); `None`
+    /// for the view's own pass.
+    pub fn tree_label(&self) -> Option<&str> {
+        self.name.strip_suffix(".filters")
+    }
+}
+
 /// The shader of a view: WGSL text and reflection.
 pub struct ViewShader {
     /// The whole WGSL module: the view's entry point and everything it calls.

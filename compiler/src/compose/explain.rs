@@ -32,7 +32,7 @@ pub fn explain_with_filters(view: &ViewOutput, sources: &SourceMap) -> Option<St
     let mut out = explain(view, sources)?;
     for pass in view.filter_passes() {
         let Some(filters) = explain_filters(pass, sources) else { continue };
-        let what = match pass.name.strip_suffix(".filters") {
+        let what = match pass.tree_label() {
             Some(place) => format!("the filter `{place}` of its tree"),
             None => "its `filters`".into(),
         };

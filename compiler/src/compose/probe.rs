@@ -140,8 +140,7 @@ pub fn view_fields(view: &ViewOutput) -> Vec<DeclaredField> {
     }
     for (f, filter) in &view.tree_filters {
         let Some(ir) = &filter.ir else { continue };
-        let label = filter.name.strip_suffix(".filters").unwrap_or(&filter.name);
-        let prefix = format!("{label}.");
+        let prefix = format!("{}.", filter.tree_label().unwrap_or(&filter.name));
         add_declared_fields(&mut out, (&ir.program, &filter.composition), (ViewPass::TreeFilter(*f), &prefix));
     }
     out

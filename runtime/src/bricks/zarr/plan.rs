@@ -198,7 +198,7 @@ mod tests {
         assert_eq!(plan_levels(2, &shifted)[1], LevelPlan::Read { dataset: 1, ratio: [1, 1, 1], offset: [2, 2, 2] });
     }
 
-    /// The separable sums give each level voxel the mean of its window's box, in 3D, with
+    /// The row sums give each level voxel the mean of its window's box, in 3D, with
     /// uneven ratios, an offset and a box clamped at the dataset's edge.
     #[test]
     fn resampling_is_the_mean_of_each_voxels_box() {
