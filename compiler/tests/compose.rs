@@ -180,6 +180,42 @@ fn bricked_volumes_sample_through_their_lookup() {
     assert!(explained.contains(note), "{explained}");
 }
 
+/// A sample that reads a bricked volume's segment asks whether it read outside it right after
+/// the last function that reads one, and is taken back in the `@ray` fields written before
+/// that question only: unshaded DVR asks right after `sample_primary` and saves nothing, while
+/// a `@ray` field written before the read is saved and given back.
+#[test]
+fn a_sample_asks_for_a_missed_segment_right_after_its_read() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let main_of = |module: Option<&str>| {
+        let mut scene = "[render]\ncompositing = \"dvr\"\nmemory = \"512 MiB\"\n\n\
+                         [[volume]]\nname = \"head\"\nrole = \"primary\"\nphantom = \"head\"\nbricks = true\n\n\
+                         [[view]]\nname = \"3d\"\nkind = \"raycast\"\n"
+            .to_string();
+        if let Some(module) = module {
+            std::fs::write(dir.path().join("count.vrs"), module).expect("write module");
+            scene.push_str("\n[[module]]\npath = \"count.vrs\"\n");
+        }
+        std::fs::write(dir.path().join("scene.toml"), scene).expect("write scene");
+        let built = vrsc::compose::build::build_scene(&dir.path().join("scene.toml"), None).expect("scene readable");
+        assert!(!built.diags.has_errors(), "{}", vrsc::diag::render_plain(&built.diags.sorted(), &built.sources));
+        let wgsl = built.views[0].shader.as_ref().expect("a shader").wgsl.clone();
+        wgsl[wgsl.find("fn main(").expect("the entry point")..].to_string()
+    };
+    let main = main_of(None);
+    let read = main.find("sample_primary_in_segment((&state));").expect("the segment read");
+    let asked = main[read..].find("volume_segment_missed()").expect("the question") + read;
+    assert!(!main[read..asked].contains("classify_primary"), "asked after classification: {main}");
+    assert!(!main.contains("saved."), "a @ray field saved that nothing before the question writes: {main}");
+
+    let count = "pipeline count before sampling.primary {\n    @ray state looks: f32 = 0.0;\n    \
+                 state.looks = state.looks + 1.0;\n}\n";
+    let main = main_of(Some(count));
+    assert!(main.contains("saved.looks = "), "{main}");
+    assert!(main.contains("state.looks = "), "{main}");
+    assert!(!main.contains("saved.accum"), "{main}");
+}
+
 /// `[render] memory` takes sizes with units; nonsense is an error at the key.
 #[test]
 fn memory_budgets_are_sizes() {

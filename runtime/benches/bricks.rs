@@ -58,7 +58,12 @@ fn scene(volume: &str, size: u32, shading: bool, variant: &Variant) -> String {
     let Variant { bricks, skipping, .. } = variant;
     let compositing = compositing();
     let no_ert = flag("VRS_BENCH_NO_ERT");
-    let uniforms = if no_ert { "[uniforms]\nert_threshold = 2.0\n\n" } else { "" };
+    let ert = std::env::var("VRS_BENCH_ERT").ok();
+    let uniforms = match (no_ert, ert) {
+        (true, _) => "[uniforms]\nert_threshold = 2.0\n\n".to_string(),
+        (false, Some(ert)) => format!("[uniforms]\nert_threshold = {ert}\n\n"),
+        (false, None) => String::new(),
+    };
     let lookup = variant.lookup.as_ref().map(|file| format!("lookup = {file:?}\n")).unwrap_or_default();
     format!(
         "[render]\ncompositing = {compositing:?}\nshading = {shading}\njitter = 1.0\nempty_space_skipping = {skipping}\n\n\
@@ -135,20 +140,34 @@ fn main() {
             residency.resident, residency.constant, residency.pending
         );
     }
-    let mut times = vec![Vec::new(); variants.len()];
+    // Each round's frames of each row, rows taking turns: a row's ratio to another is also taken
+    // round by round (the median of the per-round ratios), which a machine whose speed drifts
+    // over a run moves less than the ratio of the medians.
+    let mut rounds_of = vec![Vec::new(); variants.len()];
     for _ in 0..rounds {
-        for (renderer, times) in renderers.iter_mut().zip(&mut times) {
-            times.extend(frame_times(renderer, frames));
+        for (renderer, rounds_of) in renderers.iter_mut().zip(&mut rounds_of) {
+            rounds_of.push(median(frame_times(renderer, frames)));
         }
     }
-    let medians: Vec<f64> = times.into_iter().map(median).collect();
+    let medians: Vec<f64> = rounds_of.iter().map(|r| median(r.clone())).collect();
     if only.is_some() {
         println!("{}: {:.1} ms", variants[0].name, medians[0]);
         return;
     }
+    let paired =
+        |row: usize, base: usize| median(rounds_of[row].iter().zip(&rounds_of[base]).map(|(a, b)| a / b).collect());
+    println!("row, median frame time, over row 0 (ratio of medians; median of per-round ratios)");
     for (row, (variant, ms)) in variants.iter().zip(&medians).enumerate() {
-        println!("{row:>2} {:<40} {ms:8.1} ms {:6.3}x", variant.name, ms / medians[0]);
+        println!("{row:>2} {:<40} {ms:8.1} ms {:6.3}x {:6.3}x", variant.name, ms / medians[0], paired(row, 0));
     }
-    println!("bricked over single texture: {:.3}x (target <= 1.15)", medians[1] / medians[0]);
-    println!("bricked over single texture, both skipping: {:.3}x (target <= 1.15)", medians[3] / medians[2]);
+    println!(
+        "bricked over single texture: {:.3}x, per round {:.3}x (target <= 1.15)",
+        medians[1] / medians[0],
+        paired(1, 0)
+    );
+    println!(
+        "bricked over single texture, both skipping: {:.3}x, per round {:.3}x (target <= 1.15)",
+        medians[3] / medians[2],
+        paired(3, 2)
+    );
 }

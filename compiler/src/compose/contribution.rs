@@ -109,15 +109,16 @@ fn access(program: &hir::Program, placed: &PlacedFn) -> Access {
     out
 }
 
-/// The `@ray` fields (indices into `Composition::fields`) that some function of the sample
-/// loop writes: what a sample changes that outlives it (the rest is reset at each sample's
-/// start).
-pub fn ray_fields_written_per_sample(program: &hir::Program, comp: &Composition) -> Vec<usize> {
-    let mut written: Vec<usize> = Step::ALL
-        .iter()
-        .filter(|s| s.is_sample_step())
-        .flat_map(|&s| comp.step(s).iter())
-        .flat_map(|placed| access(program, placed).writes)
+/// The `@ray` fields (indices into `Composition::fields`) that the sample functions `fns`
+/// write: what they change that outlives the sample (the rest is reset at each sample's start).
+pub fn ray_fields_written_by(
+    program: &hir::Program,
+    comp: &Composition,
+    fns: impl IntoIterator<Item = SampleFn>,
+) -> Vec<usize> {
+    let mut written: Vec<usize> = fns
+        .into_iter()
+        .flat_map(|(step, i)| access(program, &comp.step(step)[i]).writes)
         .filter(|&f| comp.fields[f].ray)
         .collect();
     written.sort_unstable();

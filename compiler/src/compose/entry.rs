@@ -58,9 +58,10 @@
 //!         i = i + 1u;
 //!         loop {
 //!             if i >= uniforms.max_samples || state.terminate { break; }
-//!             saved.F = state.F; saved_i = i; missed = false; // @ray fields the loop writes
-//!             reset_sample(&state);
-//!             /* start .. end functions' segment variants; after each group that reads one: */
+//!             saved.F = state.F; saved_i = i; missed = false; // @ray fields written before
+//!             reset_sample(&state);                           // the last check
+//!             /* start .. end functions' segment variants; in each group of them, right after
+//!                the last that reads a segment: */
 //!             missed = volume_segment_missed();
 //!             if missed { state.F = saved.F; i = saved_i; break; }
 //!             continuing { i = i + 1u; }
@@ -422,18 +423,17 @@ enum Segments<'a> {
     /// Full lookups, each sample opening the segments (the volumes' `segment_start`).
     Open(&'a [Handle<naga::Function>]),
     /// Reads of the segments: each sample saved before it runs, and taken back (then left for a
-    /// full lookup) where it read outside a segment (the volumes' `segment_missed`, asked
-    /// after each of `samples`, `contributing` and `sample_end` that reads a segment).
-    Read(&'a [Handle<naga::Function>], &'a Saved, Groups),
+    /// full lookup) where it read outside a segment (the volumes' `segment_missed`, asked in
+    /// each group of functions right after the last that reads a segment: [`SegmentVariants::checks`]).
+    Read(&'a [Handle<naga::Function>], &'a Saved, [Option<usize>; 3]),
 }
 
-/// Which of the groups of sample functions (`samples`, `contributing`, `sample_end`) read a
-/// segment.
+/// The groups of a sample's functions, in the order of [`SegmentVariants::checks`].
 #[derive(Clone, Copy)]
-struct Groups {
-    samples: bool,
-    contributing: bool,
-    sample_end: bool,
+enum Group {
+    Samples = 0,
+    Contributing = 1,
+    End = 2,
 }
 
 /// The locals of the segment march: the state and sample count before the sample, and whether
@@ -482,15 +482,7 @@ impl Loops<'_> {
             samples: &segment.samples,
             contributing: &segment.contributing,
             sample_end: &segment.sample_end,
-            segments: Segments::Read(
-                &missed,
-                saved,
-                Groups {
-                    samples: segment.samples != plan.samples,
-                    contributing: segment.contributing != plan.contributing,
-                    sample_end: segment.sample_end != plan.sample_end,
-                },
-            ),
+            segments: Segments::Read(&missed, saved, segment.checks),
         };
         let mut outer = naga::Block::new();
         self.sample(b, &mut outer, &opening);
@@ -510,10 +502,7 @@ impl Loops<'_> {
         let done = sample_loop_done(b, plan, self.state, self.counter);
         b.exit_if(block, done, S::Break);
         self.start(b, block, it);
-        for &f in it.samples {
-            b.call(block, f, self.state);
-        }
-        self.take_back_if_missed(b, block, it, |g| g.samples);
+        self.run(b, block, it, Group::Samples);
         match (&plan.gate, self.kept) {
             (Some(EntryGate::Once { flag, saved, .. }), Some(kept)) => {
                 b.keep_selected(block, self.state, kept, (*flag, saved))
@@ -521,9 +510,7 @@ impl Loops<'_> {
             // The sample that opens segments is one sample: the next ones read them.
             (Some(EntryGate::Each { flag }), _) if matches!(it.segments, Segments::Open(_)) => {
                 let mut accept = naga::Block::new();
-                for &f in it.contributing {
-                    b.call(&mut accept, f, self.state);
-                }
+                self.run(b, &mut accept, it, Group::Contributing);
                 let contributes = load_member(b, self.state, *flag);
                 b.push(block, S::If { condition: contributes, accept, reject: naga::Block::new() });
             }
@@ -531,15 +518,30 @@ impl Loops<'_> {
                 if let Some(EntryGate::Each { flag }) = gate {
                     self.skip_non_contributing(b, block, it, *flag);
                 }
-                for &f in it.contributing {
-                    b.call(block, f, self.state);
-                }
+                self.run(b, block, it, Group::Contributing);
             }
         }
-        for &f in it.sample_end {
+        self.run(b, block, it, Group::End);
+    }
+
+    /// Calls the functions of `group` on the state; reading segments, asks right after the last
+    /// that reads one whether the sample read outside a segment (and takes it back if so).
+    fn run(&self, b: &mut Body, block: &mut naga::Block, it: &Iteration<'_>, group: Group) {
+        let functions = match group {
+            Group::Samples => it.samples,
+            Group::Contributing => it.contributing,
+            Group::End => it.sample_end,
+        };
+        let check = match it.segments {
+            Segments::Read(_, _, checks) => checks[group as usize],
+            _ => None,
+        };
+        for (k, &f) in functions.iter().enumerate() {
             b.call(block, f, self.state);
+            if check == Some(k + 1) {
+                self.take_back_if_missed(b, block, it);
+            }
         }
-        self.take_back_if_missed(b, block, it, |g| g.contributing || g.sample_end);
     }
 
     /// The start of a sample: `reset_sample(&state);`, after `saved.F = state.F; saved_i = i;
@@ -562,20 +564,10 @@ impl Loops<'_> {
 
     /// Reading segments: `missed = A_segment_missed() | B_segment_missed() ..; if missed {
     /// state.F = saved.F; i = saved_i; break; }` (every volume's flag is read, which clears it).
-    /// Nothing where `reads` says the functions just called read no segment.
-    fn take_back_if_missed(
-        &self,
-        b: &mut Body,
-        block: &mut naga::Block,
-        it: &Iteration<'_>,
-        reads: fn(Groups) -> bool,
-    ) {
-        let Segments::Read(missed_fns, saved, groups) = it.segments else {
+    fn take_back_if_missed(&self, b: &mut Body, block: &mut naga::Block, it: &Iteration<'_>) {
+        let Segments::Read(missed_fns, saved, _) = it.segments else {
             return;
         };
-        if !reads(groups) {
-            return;
-        }
         let mut any = None;
         for &function in missed_fns {
             let result = b.expr(E::CallResult(function));
@@ -610,18 +602,12 @@ impl Loops<'_> {
         let mut skipping = naga::Block::new();
         let contributes = load_member(b, self.state, member);
         b.exit_if(&mut skipping, contributes, S::Break);
-        for &f in it.sample_end {
-            b.call(&mut skipping, f, self.state);
-        }
-        self.take_back_if_missed(b, &mut skipping, it, |g| g.sample_end);
+        self.run(b, &mut skipping, it, Group::End);
         increment(b, &mut skipping, self.counter);
         let done = sample_loop_done(b, self.plan, self.state, self.counter);
         b.exit_if(&mut skipping, done, S::Break);
         self.start(b, &mut skipping, it);
-        for &f in it.samples {
-            b.call(&mut skipping, f, self.state);
-        }
-        self.take_back_if_missed(b, &mut skipping, it, |g| g.samples);
+        self.run(b, &mut skipping, it, Group::Samples);
         b.push(block, S::Loop { body: skipping, continuing: naga::Block::new(), break_if: None });
         // Left for a sample read outside a segment: that sample is taken again.
         if let Segments::Read(_, saved, _) = it.segments {

@@ -23,9 +23,30 @@ pub struct SegmentVariants {
     pub samples: Vec<Handle<naga::Function>>,
     pub contributing: Vec<Handle<naga::Function>>,
     pub sample_end: Vec<Handle<naga::Function>>,
+    /// In each of `samples`, `contributing` and `sample_end`: after how many of its functions
+    /// the entry point asks whether the sample read outside a segment (one past the last that
+    /// reads one), `None` where none does. Asked right after the read, a sample that missed
+    /// runs no more than it must before it is taken back.
+    pub checks: [Option<usize>; 3],
     /// The `State` members a sample that read outside a segment is taken back in: the `@ray`
-    /// fields the sample loop writes (the entry point sets them after `variants`).
+    /// fields written by the functions that run before its last check (the view sets them
+    /// after `variants`, from [`SegmentVariants::read_before_last_check`]).
     pub saved: Vec<u32>,
+}
+
+impl SegmentVariants {
+    /// How many functions of each group run up to the last check, in the order of `checks`:
+    /// every function of the groups before the last that checks, and that group's up to its
+    /// check. What they write is what a taken-back sample must restore.
+    pub fn read_before_last_check(&self) -> [usize; 3] {
+        let lengths = [self.samples.len(), self.contributing.len(), self.sample_end.len()];
+        let last = self.checks.iter().rposition(Option::is_some);
+        std::array::from_fn(|g| match last {
+            Some(l) if g < l => lengths[g],
+            Some(l) if g == l => self.checks[l].unwrap_or(0),
+            _ => 0,
+        })
+    }
 }
 
 /// The variants of `samples`, `contributing` and `sample_end` in `module` for the bricked
@@ -44,20 +65,20 @@ pub fn variants(
     let mut rewriter = Rewriter { module, variants: reads };
     let mut variant_of =
         |fns: &[Handle<naga::Function>]| -> Vec<_> { fns.iter().map(|&f| rewriter.variant(f)).collect() };
-    let variants = SegmentVariants {
-        samples: variant_of(samples),
-        contributing: variant_of(contributing),
-        sample_end: variant_of(sample_end),
+    let variants = [variant_of(samples), variant_of(contributing), variant_of(sample_end)];
+    let originals = [samples, contributing, sample_end];
+    let checks: [Option<usize>; 3] = std::array::from_fn(|g| {
+        variants[g].iter().zip(originals[g]).rposition(|(variant, original)| variant != original).map(|k| k + 1)
+    });
+    let [samples, contributing, sample_end] = variants;
+    checks.iter().any(Option::is_some).then_some(SegmentVariants {
+        samples,
+        contributing,
+        sample_end,
         volumes,
+        checks,
         saved: Vec::new(),
-    };
-    let all = [samples, contributing, sample_end].concat();
-    let changed = [&variants.samples, &variants.contributing, &variants.sample_end]
-        .into_iter()
-        .flatten()
-        .zip(&all)
-        .any(|(variant, original)| variant != original);
-    changed.then_some(variants)
+    })
 }
 
 /// The calls of a function that were turned: whether any was, and the call results whose
