@@ -134,11 +134,15 @@ fn main() {
             renderer
         })
         .collect();
-    if let Some(residency) = renderers.iter().find_map(|r| r.brick_residency()) {
-        println!(
-            "bricks: {} resident, {} of one value, {} pending",
-            residency.resident, residency.constant, residency.pending
-        );
+    // Each bricked row's residency: a lookup that asks for no bricks (one that writes no
+    // requests) renders from the coarsest level alone, which is cheaper and not comparable.
+    for (row, renderer) in renderers.iter().enumerate() {
+        if let Some(residency) = renderer.brick_residency() {
+            println!(
+                "row {row} bricks: {} resident, {} of one value, {} pending",
+                residency.resident, residency.constant, residency.pending
+            );
+        }
     }
     // Each round's frames of each row, rows taking turns: a row's ratio to another is also taken
     // round by round (the median of the per-round ratios), which a machine whose speed drifts
