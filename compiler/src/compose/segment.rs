@@ -30,7 +30,7 @@ pub struct SegmentVariants {
     pub checks: [Option<usize>; 3],
     /// The `State` members a sample that read outside a segment is taken back in: the `@ray`
     /// fields written by the functions that run before its last check (the view sets them
-    /// after `variants`, from [`SegmentVariants::read_before_last_check`]).
+    /// after `variants`, from [`SegmentVariants::run_before_last_check`]).
     pub saved: Vec<u32>,
 }
 
@@ -38,7 +38,7 @@ impl SegmentVariants {
     /// How many functions of each group run up to the last check, in the order of `checks`:
     /// every function of the groups before the last that checks, and that group's up to its
     /// check. What they write is what a taken-back sample must restore.
-    pub fn read_before_last_check(&self) -> [usize; 3] {
+    pub fn run_before_last_check(&self) -> [usize; 3] {
         let lengths = [self.samples.len(), self.contributing.len(), self.sample_end.len()];
         let last = self.checks.iter().rposition(Option::is_some);
         std::array::from_fn(|g| match last {

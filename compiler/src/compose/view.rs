@@ -86,7 +86,7 @@ pub fn emit(
         .collect();
     let segment = segment::variants(&mut b.module, &bricked_fns, [&samples, &contributing, &sample_end]).map(|s| {
         let groups = [&schedule.always, &schedule.contributing, &schedule.end];
-        let before_check = groups.iter().zip(s.read_before_last_check()).flat_map(|(g, n)| g[..n].iter().copied());
+        let before_check = groups.iter().zip(s.run_before_last_check()).flat_map(|(g, n)| g[..n].iter().copied());
         let saved = contribution::ray_fields_written_by(program, comp, before_check).into_iter();
         segment::SegmentVariants { saved: saved.map(|f| f as u32).collect(), ..s }
     });
