@@ -7,6 +7,9 @@
 //! read and found invisible). Target: bricked over single texture at most 1.15x at 512^2, either
 //! way.
 //!
+//! A row's time is the median over rounds of each round's median frame; its ratio to row 0 is
+//! printed twice: as the ratio of the medians and as the median of the per-round ratios.
+//!
 //! The volume is the MNI152 T1 of `../shared/data` when it is there, else the built-in head
 //! phantom at 256^3 (said in the output). Run: `cargo bench -p vrs-runtime --bench bricks`;
 //! settings: `VRS_BENCH_SIZE` (512), `VRS_BENCH_ROUNDS` (4), `VRS_BENCH_FRAMES` (2),
@@ -14,7 +17,8 @@
 //! intensity projection), `VRS_BENCH_LOOKUP` (lookup files, comma
 //! separated: a bricked row each with the scene's `lookup = FILE`, to weigh one's own lookup
 //! against the standard one), `VRS_BENCH_NO_ERT` (1: no early ray termination, so every ray
-//! takes the same samples whatever a lookup answers), `VRS_BENCH_ONLY` (a row's number: time
+//! takes the same samples whatever a lookup answers), `VRS_BENCH_ERT` (the early termination
+//! threshold; 0.99 unless set), `VRS_BENCH_ONLY` (a row's number: time
 //! that row alone, for instruction counts: `bash scripts/bench-instructions.sh bricks ROWS`).
 
 #[path = "timing.rs"]
